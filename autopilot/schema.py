@@ -1,0 +1,181 @@
+"""Declarative parameters: frozen dataclasses whose fields carry unit, range and source.
+
+Every parameter of the project (vessel model, GNC gains, daemon settings) is
+declared once with :func:`param`; :func:`load` builds the dataclass from a
+mapping (parsed YAML) and refuses unknown keys, missing keys, wrong types,
+NaN and out-of-range values with a message that names the key and the
+allowed range, before anything is used.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+__all__ = ["ConfigError", "param", "load", "load_yaml", "to_dict", "describe"]
+
+
+class ConfigError(ValueError):
+    """A configuration or parameter value that cannot be accepted."""
+
+
+def param(
+    default: Any = dataclasses.MISSING,
+    *,
+    unit: str = "-",
+    lo: float | None = None,
+    hi: float | None = None,
+    source: str = "",
+    doc: str = "",
+    choices: tuple[str, ...] | None = None,
+    default_factory: Any = dataclasses.MISSING,
+) -> Any:
+    """A dataclass field with its unit, inclusive range [lo, hi], source and meaning."""
+    meta = {"unit": unit, "lo": lo, "hi": hi, "source": source, "doc": doc, "choices": choices}
+    if default_factory is not dataclasses.MISSING:
+        return dataclasses.field(default_factory=default_factory, metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def _range_text(meta: Mapping[str, Any]) -> str:
+    lo, hi = meta.get("lo"), meta.get("hi")
+    unit = meta.get("unit", "-")
+    lo_s = "-inf" if lo is None else f"{lo:g}"
+    hi_s = "inf" if hi is None else f"{hi:g}"
+    return f"[{lo_s}, {hi_s}] {unit}".rstrip()
+
+
+def _check_number(key: str, value: Any, want: type, meta: Mapping[str, Any]) -> float | int:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{key}: expected a number in {_range_text(meta)}, got {value!r}")
+    if want is int and not float(value).is_integer():
+        raise ConfigError(f"{key}: expected an integer in {_range_text(meta)}, got {value!r}")
+    if not math.isfinite(value):
+        raise ConfigError(f"{key}: {value!r} is not a finite number; allowed range {_range_text(meta)}")
+    lo, hi = meta.get("lo"), meta.get("hi")
+    if (lo is not None and value < lo) or (hi is not None and value > hi):
+        raise ConfigError(f"{key}: {value!r} is outside the allowed range {_range_text(meta)}")
+    return int(value) if want is int else float(value)
+
+
+def _convert(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
+    origin = typing.get_origin(tp)
+    args = typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        inner = [a for a in args if a is not type(None)]
+        return _convert(key, value, inner[0], meta)
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{key}: expected a mapping of {tp.__name__} settings, got {value!r}")
+        return load(tp, value, where=f"{key}.")
+    if tp is float or tp is int:
+        return _check_number(key, value, tp, meta)
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{key}: expected true or false, got {value!r}")
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{key}: expected a string, got {value!r}")
+        choices = meta.get("choices")
+        if choices and value not in choices:
+            raise ConfigError(f"{key}: {value!r} is not one of {', '.join(choices)}")
+        return value
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"{key}: expected a list, got {value!r}")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(f"{key}[{i}]", v, args[0], meta) for i, v in enumerate(value))
+        if len(value) != len(args):
+            raise ConfigError(f"{key}: expected a list of {len(args)} values, got {len(value)}")
+        return tuple(_convert(f"{key}[{i}]", v, a, meta) for i, (v, a) in enumerate(zip(value, args)))
+    if tp is Any:
+        return value
+    raise ConfigError(f"{key}: unsupported parameter type {tp!r}")  # pragma: no cover - programming error
+
+
+def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "") -> Any:
+    """Build the frozen dataclass ``cls`` from ``data``, checking every key.
+
+    Missing keys take the field's default when it has one; a key without
+    a default must be present. ``where`` prefixes key names in messages.
+    """
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"{where or cls.__name__}: expected a mapping, got {type(data).__name__}")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        raise ConfigError(
+            f"{where}{unknown[0]}: unknown key (allowed: {', '.join(sorted(fields))})"
+        )
+    kwargs: dict[str, Any] = {}
+    for name, f in fields.items():
+        key = f"{where}{name}"
+        if name not in data:
+            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                raise ConfigError(f"{key}: missing required key ({f.metadata.get('doc', '')} {_range_text(f.metadata)})".replace("( ", "("))
+            continue
+        kwargs[name] = _convert(key, data[name], hints[name], f.metadata)
+    try:
+        obj = cls(**kwargs)
+    except ConfigError:
+        raise
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"{where or cls.__name__}: {exc}") from exc
+    return obj
+
+
+def load_yaml(cls: type, path: str | Path) -> Any:
+    """Load ``cls`` from a YAML file; syntax errors become :class:`ConfigError` naming the file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML ({exc})") from exc
+    try:
+        return load(cls, data)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from exc
+
+
+def to_dict(obj: Any) -> Any:
+    """Plain YAML-able data of a parameter dataclass (tuples become lists)."""
+    if dataclasses.is_dataclass(obj):
+        return {f.name: to_dict(getattr(obj, f.name)) for f in dataclasses.fields(obj) if f.init}
+    if isinstance(obj, (tuple, list)):
+        return [to_dict(v) for v in obj]
+    return obj
+
+
+def describe(cls: type) -> list[dict[str, Any]]:
+    """One row per field: name, unit, range, default, source, meaning (for docs and --help)."""
+    rows = []
+    for f in dataclasses.fields(cls):
+        default = None if f.default is dataclasses.MISSING else f.default
+        rows.append(
+            {
+                "name": f.name,
+                "unit": f.metadata.get("unit", "-"),
+                "range": _range_text(f.metadata),
+                "default": default,
+                "source": f.metadata.get("source", ""),
+                "doc": f.metadata.get("doc", ""),
+            }
+        )
+    return rows

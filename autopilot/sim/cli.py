@@ -1,0 +1,132 @@
+"""``autopilot model``: check, calibrate, manoeuvre, nomoto."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from autopilot.schema import ConfigError
+
+
+def register(sub) -> None:
+    p = sub.add_parser("model", help="vessel model: check against the measured table, calibrate, manoeuvres, Nomoto")
+    msub = p.add_subparsers(dest="model_command", metavar="ACTION")
+    msub.required = True
+
+    c = msub.add_parser("check", help="simulate the 20 measured rows to steady state and compare")
+    c.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
+    c.add_argument("--json", action="store_true", help="print one JSON object")
+    c.set_defaults(func=cmd_check)
+
+    k = msub.add_parser("calibrate", help="fit the default set to the measured table and write it")
+    k.add_argument("--base", help="starting set (default: config/vessel-thesis.yaml)")
+    k.add_argument("--out", help="output YAML (default: config/vessel.yaml)")
+    k.set_defaults(func=cmd_calibrate)
+
+    m = msub.add_parser("manoeuvre", help="simulate a standard manoeuvre: speed, zigzag, spin, or letters such as AF, BD, Fb")
+    m.add_argument("name")
+    m.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
+    m.add_argument("--duration-s", type=float, default=None)
+    m.add_argument("--plot", help="write a PNG of the manoeuvre")
+    m.add_argument("--json", action="store_true")
+    m.set_defaults(func=cmd_manoeuvre)
+
+    n = msub.add_parser("nomoto", help="second-order Nomoto model at a speed (SPEC 3)")
+    n.add_argument("--speed", type=float, required=True, help="forward speed (m/s)")
+    n.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
+    n.add_argument("--json", action="store_true")
+    n.set_defaults(func=cmd_nomoto)
+
+
+def _params(path):
+    from autopilot.sim.params import default_params_path, load_params
+
+    return load_params(path or default_params_path())
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from autopilot.sim.steady import check_table
+
+    params = _params(args.params)
+    result = check_table(params)
+    if args.json:
+        print(json.dumps({"params": params.name, "rows": [r.as_dict() for r in result.rows], **result.summary()}))
+        return 0
+    print(f"parameter set: {params.name}")
+    print(f"{'row':4} {'T_P':>7} {'T_S':>7} {'U meas':>8} {'U sim':>8} {'err':>7}   {'r meas':>8} {'r sim':>8} {'err':>7}")
+    for r in result.rows:
+        d = r.as_dict()
+        u_err = f"{100 * r.speed_rel_error:6.1f}%" if r.row.speed_m_s else "      -"
+        r_err = f"{100 * r.yaw_rate_rel_error:6.1f}%" if r.row.yaw_rate_rad_s else "      -"
+        print(
+            f"{d['name']:4} {d['thrust_port_n']:7.2f} {d['thrust_stbd_n']:7.2f} {d['u_meas']:8.4f} {d['u_sim']:8.4f} {u_err}"
+            f"   {d['r_meas']:8.4f} {d['r_sim']:8.4f} {r_err}"
+        )
+    s = result.summary()
+    print(f"straight/reverse rows, worst speed error: {100 * s['straight_speed_max_rel_error']:.2f} %")
+    print(f"turning rows, RMS relative error: speed {100 * s['turn_speed_rms_rel_error']:.1f} %, yaw rate {100 * s['turn_yaw_rate_rms_rel_error']:.1f} %")
+    print(f"turning rows, yaw-rate sign right every time: {'yes' if s['turn_yaw_rate_sign_correct'] else 'NO'}")
+    return 0
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from autopilot.sim.calibrate import calibrate, write_params
+    from autopilot.sim.params import default_params_path, load_params, thesis_params_path
+    from autopilot.sim.steady import check_table
+
+    base = load_params(args.base or thesis_params_path())
+    fitted = calibrate(base)
+    out = Path(args.out) if args.out else default_params_path()
+    write_params(fitted, out)
+    s = check_table(fitted).summary()
+    print(f"wrote {out}")
+    print(json.dumps(s))
+    return 0
+
+
+def cmd_manoeuvre(args: argparse.Namespace) -> int:
+    from autopilot.sim import manoeuvres
+
+    params = _params(args.params)
+    try:
+        result = manoeuvres.run(params, args.name, duration_s=args.duration_s)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from exc
+    if args.plot:
+        manoeuvres.plot(result, args.plot)
+    if args.json:
+        print(json.dumps({"name": result.name, **result.figures}))
+    else:
+        print(f"{result.name}: " + ", ".join(f"{k} = {v}" for k, v in result.figures.items()))
+        if args.plot:
+            print(f"plot: {args.plot}")
+    return 0
+
+
+def cmd_nomoto(args: argparse.Namespace) -> int:
+    from autopilot.sim.nomoto import nomoto
+
+    params = _params(args.params)
+    try:
+        model = nomoto(params, args.speed)
+    except ValueError as exc:
+        raise ConfigError(f"--speed: {exc}") from exc
+    fields = {
+        "speed_m_s": model.speed_m_s,
+        "K_rad_s_per_n": model.gain_rad_s_per_n,
+        "K_nd": model.gain_nd,
+        "T1_s": model.t1_s,
+        "T2_s": model.t2_s,
+        "T3_s": model.t3_s,
+        "course_stable": model.course_stable,
+    }
+    if args.json:
+        print(json.dumps(fields))
+    else:
+        print(f"Nomoto model of {params.name} at {args.speed} m/s (P = T_P - T_S in N):")
+        print(f"  K  = {model.gain_rad_s_per_n:.5g} (rad/s)/N   (K' = {model.gain_nd:.5g})")
+        print(f"  T1 = {model.t1_s:.4g} s\n  T2 = {model.t2_s:.4g} s\n  T3 = {model.t3_s:.4g} s")
+        if not model.course_stable:
+            print("  course-unstable: T1 < 0")
+    return 0

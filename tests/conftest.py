@@ -1,0 +1,25 @@
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+@pytest.fixture(scope="session")
+def repo() -> Path:
+    return REPO
+
+
+def run_cli(*args: str, check: bool = True, timeout: float = 300, **kw):
+    """Run the installed ``autopilot`` entry point as a user would (python -m, same interpreter)."""
+    import subprocess
+
+    proc = subprocess.run(
+        [sys.executable, "-m", "autopilot", *args], capture_output=True, text=True, timeout=timeout, cwd=REPO, **kw
+    )
+    if check and proc.returncode != 0:
+        raise AssertionError(f"autopilot {' '.join(args)} exited {proc.returncode}:\n{proc.stdout}\n{proc.stderr}")
+    return proc

@@ -1,0 +1,64 @@
+"""Nomoto model against the full model, and the standard manoeuvres (issue 2 items 6-7)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from autopilot.sim import load_params, simulate
+from autopilot.sim.manoeuvres import run
+from autopilot.sim.nomoto import nomoto
+from autopilot.sim.params import default_params_path
+from tests.conftest import run_cli
+
+
+@pytest.fixture(scope="module")
+def params():
+    return load_params(default_params_path())
+
+
+@pytest.mark.parametrize("speed_m_s", [0.5, 1.5, 3.0])
+def test_nomoto_small_signal_yaw_response_matches_full_model(params, speed_m_s):
+    """A 0.02 N differential step about straight running: agreement within 5 % of the peak yaw rate."""
+    model = nomoto(params, speed_m_s)
+    assert model.course_stable
+    common = params.resistance_linear_n_s_m * speed_m_s / (1 - params.thrust_deduction) / 2
+    delta = 0.02
+    t = np.arange(0.0, 6 * model.t1_s, 0.05)
+    out = simulate(params, t, np.full(t.size, common + delta / 2), np.full(t.size, common - delta / 2), x0=(0, 0, 0, speed_m_s, 0, 0))
+    ref = model.step_response_rad_s(t, delta)
+    err = np.max(np.abs(out["r_rad_s"] - ref)) / np.max(np.abs(ref))
+    assert err < 0.05, err
+
+
+def test_nomoto_cli_prints_the_four_constants():
+    data = json.loads(run_cli("model", "nomoto", "--speed", "1.5", "--json").stdout)
+    assert set(data) >= {"K_rad_s_per_n", "T1_s", "T2_s", "T3_s"}
+    assert data["T1_s"] > data["T2_s"] > 0
+    proc = run_cli("model", "nomoto", "--speed", "-1", check=False)
+    assert proc.returncode == 2 and "--speed" in proc.stderr
+
+
+def test_turning_tests_follow_the_table_signs(params):
+    af = run(params, "AF").figures
+    fb = run(params, "Fb").figures
+    assert af["steady_yaw_rate_rad_s"] < 0 < fb["steady_yaw_rate_rad_s"]
+    assert af["turning_diameter_m"] > 0
+
+
+def test_spin_stays_on_the_spot(params):
+    spin = run(params, "spin").figures
+    assert spin["steady_speed_m_s"] < 0.01 and spin["steady_yaw_rate_rad_s"] > 0
+
+
+def test_zigzag_switches_and_overshoots(params):
+    z = run(params, "zigzag").figures
+    assert len(z["overshoot_deg"]) >= 2 and all(o > 0 for o in z["overshoot_deg"])
+
+
+def test_manoeuvre_plot_and_bad_name(tmp_path):
+    png = tmp_path / "af.png"
+    run_cli("model", "manoeuvre", "AF", "--plot", str(png))
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    proc = run_cli("model", "manoeuvre", "XYZ", check=False)
+    assert proc.returncode == 2 and "two command letters" in proc.stderr
