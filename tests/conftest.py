@@ -23,3 +23,14 @@ def run_cli(*args: str, check: bool = True, timeout: float = 300, **kw):
     if check and proc.returncode != 0:
         raise AssertionError(f"autopilot {' '.join(args)} exited {proc.returncode}:\n{proc.stdout}\n{proc.stderr}")
     return proc
+
+
+def _shared_dir() -> Path:
+    """../shared beside the checkout (as CI lays it out), else the workplace's copy."""
+    for candidate in (REPO.parent / "shared", Path("/work/shared")):
+        if (candidate / "nmea").is_dir():
+            return candidate
+    return REPO.parent / "shared"
+
+
+SHARED = _shared_dir()

@@ -1,0 +1,132 @@
+"""``autopilot nmea PORT_OR_FILE [--json]``: print what the compass says, like gpspipe.
+
+For wiring the SC-30: reads a serial port (or a pty, or a recorded ``.log``
+file), validates and decodes every line with the driver's own decoder, and
+prints one line per decoded sentence; with ``--json`` one JSON object per
+line with ``t_s, lat_deg, lon_deg, heading_deg, rot_deg_min, sog_kn,
+cog_deg, fix_quality, source`` (plus ``talker``, ``valid``, ``pitch_deg``,
+``roll_deg``, ``utc``). The line counters go to stderr at the end.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+import sys
+
+from autopilot.schema import ConfigError
+
+_FIELDS = ("lat_deg", "lon_deg", "heading_deg", "rot_deg_min", "sog_kn", "cog_deg", "fix_quality")
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "nmea",
+        help="print decoded NMEA from a serial port or a capture file (SC-30 wiring check)",
+        description="Decode NMEA 0183 from a serial port / pty or a recorded file and print each update.",
+    )
+    p.add_argument("source", metavar="PORT_OR_FILE", help="serial device (e.g. /dev/sc30) or NMEA log file")
+    p.add_argument("--json", action="store_true", help="one JSON object per decoded sentence")
+    p.add_argument("--baud", type=int, default=4800, help="baud rate of a serial port (default 4800; SC-30: 4800 or 38400)")
+    p.add_argument("--count", type=int, default=0, help="stop after this many decoded sentences (0 = no limit)")
+    p.add_argument("--timeout", type=float, default=0.0, help="serial: stop after this many seconds without data (0 = never)")
+    p.set_defaults(func=run_nmea)
+
+
+def update_record(u, t_s: float) -> dict:
+    """The JSON object of one update."""
+    valid = u.heading_valid if u.heading_valid is not None else u.status_valid
+    rec = {"t_s": round(t_s, 6)}
+    rec.update({k: getattr(u, k) for k in _FIELDS})
+    rec.update(
+        source=u.sentence,
+        talker=u.talker,
+        valid=valid,
+        pitch_deg=u.pitch_deg,
+        roll_deg=u.roll_deg,
+        utc=u.utc.isoformat() if u.utc is not None else None,
+    )
+    return rec
+
+
+def _text(rec: dict) -> str:
+    parts = [f"{rec['t_s']:10.3f}", f"{rec['talker']:>2}{rec['source']:<10}"]
+    for k in (*_FIELDS, "pitch_deg", "roll_deg", "utc"):
+        if rec[k] is not None:
+            parts.append(f"{k}={rec[k]}")
+    if rec["valid"] is not None:
+        parts.append("valid" if rec["valid"] else "INVALID")
+    return " ".join(parts)
+
+
+def run_nmea(args) -> int:
+    from autopilot.clock import Clock
+    from autopilot.drivers.nmea import NmeaStreamDecoder
+
+    if args.count < 0 or args.timeout < 0:
+        raise ConfigError("--count and --timeout must be >= 0")
+    try:
+        mode = os.stat(args.source).st_mode
+    except OSError as exc:
+        raise ConfigError(f"{args.source}: {exc.strerror}") from None
+    clock = Clock()
+    decoder = NmeaStreamDecoder()
+    printed = 0
+
+    def emit(data: bytes) -> bool:
+        nonlocal printed
+        t_s = clock.now_s()
+        for u in decoder.feed(data):
+            rec = update_record(u, t_s)
+            print(json.dumps(rec) if args.json else _text(rec), flush=True)
+            printed += 1
+            if args.count and printed >= args.count:
+                return False
+        return True
+
+    try:
+        if stat.S_ISCHR(mode):
+            _read_port(args, emit)
+        else:
+            with open(args.source, "rb") as f:
+                for line in f:
+                    if line.startswith(b"#"):  # comment header of gpsd-style captures
+                        continue
+                    if not emit(line):
+                        break
+    except KeyboardInterrupt:
+        pass
+    finally:
+        print(f"nmea: {json.dumps(decoder.stats.as_dict())}", file=sys.stderr)
+    return 0
+
+
+def _read_port(args, emit) -> None:
+    import serial
+
+    if args.baud <= 0:
+        raise ConfigError(f"--baud: {args.baud} must be > 0")
+    try:
+        port = serial.Serial(args.source, baudrate=args.baud, timeout=0.2)
+    except (serial.SerialException, OSError, ValueError) as exc:
+        raise ConfigError(f"{args.source}: cannot open: {exc}") from None
+    print(f"nmea: reading {args.source} at {args.baud} baud", file=sys.stderr, flush=True)
+    idle_s = 0.0
+    try:
+        while True:
+            try:
+                data = port.read(max(1, port.in_waiting))  # returns as soon as bytes arrive
+            except (serial.SerialException, OSError) as exc:
+                print(f"nmea: {args.source}: port lost: {exc}", file=sys.stderr)
+                return
+            if not data:
+                idle_s += 0.2
+                if args.timeout and idle_s >= args.timeout:
+                    return
+                continue
+            idle_s = 0.0
+            if not emit(data):
+                return
+    finally:
+        port.close()

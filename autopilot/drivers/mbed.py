@@ -1,0 +1,217 @@
+"""Mbed thruster-board driver: send one command per cycle, match acknowledgements, reconnect.
+
+Protocol in docs/mbed-protocol.md (codec: :mod:`autopilot.drivers.mbed_protocol`).
+:meth:`MbedDriver.send` never blocks and never raises for a transport
+problem: a command that cannot be written returns -1 and is counted, and the
+firmware's own stop timeout (0.5 s) stops the motors while the link is down.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections import OrderedDict
+from typing import Any
+
+from autopilot.clock import Clock
+from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, Ack, ProtocolError, decode_ack, encode_command
+from autopilot.drivers.serial_link import EventCallback, SerialLink
+
+__all__ = ["MbedDriver"]
+
+_MAX_PENDING = 256  # commands awaiting an ack; older ones are counted missing
+
+
+class MbedDriver:
+    """Commands to the Mbed on ``port_path``; counts acks missing after ``ack_timeout_s``."""
+
+    def __init__(
+        self,
+        port_path: str,
+        *,
+        baudrate: int = 115200,
+        clock: Clock,
+        reconnect_min_s: float = 0.2,
+        reconnect_max_s: float = 5.0,
+        on_event: EventCallback | None = None,
+        ack_timeout_s: float = 0.3,
+    ) -> None:
+        self._clock = clock
+        self.ack_timeout_s = float(ack_timeout_s)
+        self._link = SerialLink(
+            port_path,
+            baudrate=baudrate,
+            clock=clock,
+            on_bytes=self._on_bytes,
+            reconnect_min_s=reconnect_min_s,
+            reconnect_max_s=reconnect_max_s,
+            on_event=on_event,
+            name="mbed",
+        )
+        self._seq = -1
+        self._pending: OrderedDict[int, float] = OrderedDict()  # seq -> send time (Clock s)
+        self._waiters: dict[int, list[asyncio.Future[bool]]] = {}
+        self._acked_recent: OrderedDict[int, bool] = OrderedDict()  # seq -> applied (OK)
+        self._buf = bytearray()
+        self._overflow = False
+        self._ack_missing = 0
+        self._consecutive_missing = 0
+        self.last_ack_seq: int | None = None
+        self.last_ack: Ack | None = None
+        self.last_ack_rx_s: float | None = None
+        self.sent = 0
+        self.send_failures = 0
+        self.acks_ok = 0
+        self.acks_rejected = 0
+        self.acks_late = 0
+        self.bad_lines = 0
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def port_path(self) -> str:
+        return self._link.port_path
+
+    @property
+    def connected(self) -> bool:
+        return self._link.connected
+
+    @property
+    def ack_missing(self) -> int:
+        """Commands not acknowledged (OK) within ``ack_timeout_s``, cumulative."""
+        self._expire(self._clock.now_s())
+        return self._ack_missing
+
+    @property
+    def consecutive_missing(self) -> int:
+        """Missing acks since the last command acknowledged in time."""
+        self._expire(self._clock.now_s())
+        return self._consecutive_missing
+
+    @property
+    def stats(self) -> dict[str, int]:
+        return dict(
+            sent=self.sent,
+            send_failures=self.send_failures,
+            acks_ok=self.acks_ok,
+            acks_rejected=self.acks_rejected,
+            acks_late=self.acks_late,
+            ack_missing=self.ack_missing,
+            bad_lines=self.bad_lines,
+            reconnects=self._link.losses,
+            opens=self._link.opens,
+        )
+
+    # ------------------------------------------------------------------ lifecycle
+    async def run(self) -> None:
+        await self._link.run()
+
+    async def close(self) -> None:
+        await self._link.close()
+        for futs in self._waiters.values():
+            for f in futs:
+                if not f.done():
+                    f.set_result(False)
+        self._waiters.clear()
+
+    # ------------------------------------------------------------------ commands
+    def send(self, duty_port_pct: float, reverse_port: bool, duty_stbd_pct: float, reverse_stbd: bool) -> int:
+        """Encode and write one command; its seq, or -1 (counted) if it could not be written.
+
+        Raises :class:`ProtocolError` only for a duty outside 0-100 % (a caller bug).
+        """
+        now_s = self._clock.now_s()
+        self._expire(now_s)
+        seq = (self._seq + 1) % 65536
+        line = encode_command(seq, duty_port_pct, reverse_port, duty_stbd_pct, reverse_stbd)
+        self._seq = seq
+        if not self._link.write(line):
+            self.send_failures += 1
+            return -1
+        self.sent += 1
+        self._pending.pop(seq, None)
+        self._pending[seq] = now_s
+        self._acked_recent.pop(seq, None)
+        while len(self._pending) > _MAX_PENDING:
+            self._pending.popitem(last=False)
+            self._count_missing()
+        return seq
+
+    async def wait_ack(self, seq: int, timeout_s: float) -> bool:
+        """True when ``seq`` is acknowledged OK within ``timeout_s`` (Clock seconds)."""
+        if seq < 0:
+            return False
+        if seq in self._acked_recent:
+            return self._acked_recent[seq]
+        fut: asyncio.Future[bool] = asyncio.get_running_loop().create_future()
+        self._waiters.setdefault(seq, []).append(fut)
+        try:
+            return await asyncio.wait_for(fut, self._clock.to_wall_s(timeout_s))
+        except asyncio.TimeoutError:
+            return False
+        finally:
+            futs = self._waiters.get(seq)
+            if futs and fut in futs:
+                futs.remove(fut)
+                if not futs:
+                    del self._waiters[seq]
+
+    # ------------------------------------------------------------------ acks
+    def _count_missing(self) -> None:
+        self._ack_missing += 1
+        self._consecutive_missing += 1
+
+    def _expire(self, now_s: float) -> None:
+        while self._pending:
+            seq, t_s = next(iter(self._pending.items()))
+            if now_s - t_s <= self.ack_timeout_s:
+                break
+            self._pending.popitem(last=False)
+            self._count_missing()
+
+    def _on_bytes(self, data: bytes) -> None:
+        now_s = self._clock.now_s()
+        self._buf += data
+        while True:
+            nl = self._buf.find(b"\n")
+            if nl < 0:
+                break
+            line = bytes(self._buf[:nl])
+            del self._buf[: nl + 1]
+            if self._overflow:
+                self._overflow = False
+                continue
+            self._line(line, now_s)
+        if len(self._buf) > MAX_LINE_CHARS + 2:
+            self._buf.clear()
+            self._overflow = True
+            self.bad_lines += 1
+
+    def _line(self, line: bytes, now_s: float) -> None:
+        try:
+            ack = decode_ack(line)
+        except ProtocolError:
+            self.bad_lines += 1
+            return
+        if ack is None:
+            return
+        self._expire(now_s)
+        self.last_ack, self.last_ack_rx_s = ack, now_s
+        if ack.seq not in self._pending:
+            self.acks_late += 1  # already counted missing (or not ours): the count stands
+        elif ack.ok:
+            del self._pending[ack.seq]
+            self.acks_ok += 1
+            self.last_ack_seq = ack.seq
+            self._consecutive_missing = 0
+        else:
+            del self._pending[ack.seq]
+            self.acks_rejected += 1
+            self._count_missing()
+        self._acked_recent[ack.seq] = ack.ok
+        while len(self._acked_recent) > _MAX_PENDING:
+            self._acked_recent.popitem(last=False)
+        for fut in self._waiters.pop(ack.seq, []):
+            if not fut.done():
+                fut.set_result(ack.ok)
+
+    def describe(self) -> dict[str, Any]:
+        return dict(path=self.port_path, connected=self.connected, **self.stats)

@@ -1,0 +1,485 @@
+"""NMEA 0183 codec for the Furuno SC-30 satellite compass: bytes in, updates out, no I/O.
+
+SPEC section 10: the SC-30 speaks HDT/THS/ROT/``$PFEC,GPatt``/``$PFEC,GPhve``
+at 10 Hz and GGA/RMC/VTG/GLL/ZDA at 1 Hz, any talker (GP, HE, GN ...).
+Standard sentences go through pynmea2 with ``check=True``; THS and Furuno's
+``$PFEC`` sentences are unknown to pynmea2 1.19 and are decoded here.
+
+Every field is converted by this module, not by pynmea2: pynmea2 hands back
+the raw string for a field it cannot convert and reports an empty latitude
+as 0.0, either of which would put a boat at the equator. A number must look
+like ``[+-]digits[.digits]``: ``nan``, ``inf`` and exponents are refused.
+
+:class:`NmeaStreamDecoder` takes arbitrary byte chunks, keeps partial lines
+between calls, and counts and drops every line it cannot accept. It never
+raises, whatever the bytes (fuzzed in ``benchmarks/fuzz_nmea.py``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import re
+from dataclasses import dataclass, field
+
+import pynmea2
+
+__all__ = [
+    "NmeaError",
+    "ChecksumError",
+    "SentenceError",
+    "NmeaUpdate",
+    "NmeaStats",
+    "NmeaStreamDecoder",
+    "decode_line",
+    "checksum",
+    "make_sentence",
+    "MAX_LINE_CHARS",
+]
+
+# IEC 61162-1 caps a sentence at 82 characters, but real receivers exceed it
+# (high-precision GGA, proprietary PSTI lines in the shared captures are ~100).
+MAX_LINE_CHARS = 200
+
+_NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)\Z")
+_HEX2 = re.compile(r"[0-9A-Fa-f]{2}\Z")
+# printable ASCII without the NMEA reserved delimiters $ ! * (and \ for TAG blocks)
+_BODY = re.compile(r"[\x20-\x7e]*\Z")
+_ADDRESS = re.compile(r"(?:[A-Z0-9]{2}[A-Z]{3}|P[A-Z0-9]{3,5})\Z")
+
+# sentences pynmea2 knows and we decode from its field list
+_PYNMEA2_TYPES = frozenset({"GGA", "RMC", "VTG", "HDT", "HDM", "ROT", "ZDA", "GLL", "XDR"})
+
+
+class NmeaError(ValueError):
+    """A line that is not an acceptable NMEA sentence."""
+
+
+class ChecksumError(NmeaError):
+    """Missing, malformed or wrong ``*hh`` checksum."""
+
+
+class SentenceError(NmeaError):
+    """A correctly checksummed sentence whose framing or fields are invalid."""
+
+
+@dataclass(frozen=True)
+class NmeaUpdate:
+    """What one sentence says. Fields the sentence does not carry stay None.
+
+    ``heading_valid``: HDT/THS/PFEC_GPatt carried a usable true heading
+    (empty HDT field or THS mode other than A/E is invalid).
+    ``status_valid``: the sentence's own validity flag (GGA quality > 0,
+    RMC/GLL status A and mode not N, VTG mode not N, ROT status A,
+    GPhve status A).
+    """
+
+    sentence: str
+    talker: str
+    lat_deg: float | None = None
+    lon_deg: float | None = None
+    fix_quality: int | None = None
+    heading_deg: float | None = None
+    heading_valid: bool | None = None
+    ths_mode: str | None = None
+    rot_deg_min: float | None = None
+    sog_kn: float | None = None
+    cog_deg: float | None = None
+    pitch_deg: float | None = None
+    roll_deg: float | None = None
+    utc: _dt.datetime | None = None
+    status_valid: bool | None = None
+    heading_mag_deg: float | None = None  # HDM, magnetic: never used as heading
+    heave_m: float | None = None  # PFEC_GPhve
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def checksum(body: str) -> str:
+    """XOR of the characters between ``$`` and ``*``, as two upper-case hex digits."""
+    c = 0
+    for ch in body.encode("ascii"):
+        c ^= ch
+    return f"{c:02X}"
+
+
+def make_sentence(body: str) -> str:
+    """``$body*hh\\r\\n`` for a body without ``$`` (used by the simulated SC-30 and tests)."""
+    return f"${body}*{checksum(body)}\r\n"
+
+
+def _num(s: str, what: str, lo: float | None = None, hi: float | None = None) -> float | None:
+    """A number field: None if empty, SentenceError if malformed or out of [lo, hi]."""
+    if s == "":
+        return None
+    if not _NUMBER.match(s):
+        raise SentenceError(f"{what}: not a number: {s!r}")
+    x = float(s)
+    if (lo is not None and x < lo) or (hi is not None and x > hi):
+        raise SentenceError(f"{what}: {x} outside [{lo}, {hi}]")
+    return x
+
+
+def _heading(s: str, what: str = "heading") -> float | None:
+    h = _num(s, what, 0.0, 360.0)
+    return None if h is None else h % 360.0
+
+
+def _angle(ddmm: str, hemi: str, deg_digits: int, limit: float, what: str) -> float | None:
+    """``ddmm.mmmm`` / ``dddmm.mmmm`` + hemisphere to signed decimal degrees."""
+    if ddmm == "" and hemi == "":
+        return None
+    if ddmm == "" or hemi == "":
+        raise SentenceError(f"{what}: value {ddmm!r} with hemisphere {hemi!r}")
+    if not _NUMBER.match(ddmm) or ddmm[0] in "+-" or len(ddmm.split(".")[0]) != deg_digits + 2:
+        raise SentenceError(f"{what}: malformed {ddmm!r}")
+    deg = int(ddmm[:deg_digits])
+    minutes = float(ddmm[deg_digits:])
+    if minutes >= 60.0:
+        raise SentenceError(f"{what}: minutes {minutes} >= 60")
+    value = deg + minutes / 60.0
+    if value > limit:
+        raise SentenceError(f"{what}: {value} beyond {limit}")
+    pos, neg = ("N", "S") if deg_digits == 2 else ("E", "W")
+    if hemi == pos:
+        return value
+    if hemi == neg:
+        return -value
+    raise SentenceError(f"{what}: hemisphere {hemi!r}")
+
+
+def _latlon(f: list[str], i: int) -> tuple[float | None, float | None]:
+    lat = _angle(f[i], f[i + 1], 2, 90.0, "latitude")
+    lon = _angle(f[i + 2], f[i + 3], 3, 180.0, "longitude")
+    if (lat is None) != (lon is None):
+        raise SentenceError("latitude and longitude must both be present or both empty")
+    return lat, lon
+
+
+def _time(s: str) -> _dt.time | None:
+    if s == "":
+        return None
+    m = re.match(r"(\d\d)(\d\d)(\d\d)(?:\.(\d{1,6}))?\Z", s)
+    if not m:
+        raise SentenceError(f"time: malformed {s!r}")
+    hh, mm, ss = int(m[1]), int(m[2]), int(m[3])
+    us = int((m[4] or "0").ljust(6, "0"))
+    try:
+        return _dt.time(hh, mm, min(ss, 59), us, tzinfo=_dt.timezone.utc)
+    except ValueError as exc:
+        raise SentenceError(f"time: {exc}") from None
+
+
+def _date(day: int, month: int, year: int) -> _dt.date:
+    try:
+        return _dt.date(year, month, day)
+    except (ValueError, OverflowError) as exc:
+        raise SentenceError(f"date: {exc}") from None
+
+
+def _field(f: list[str], i: int) -> str:
+    return f[i] if i < len(f) else ""
+
+
+def _need(f: list[str], n: int, name: str) -> None:
+    if len(f) < n:
+        raise SentenceError(f"{name}: {len(f)} fields, need {n}")
+
+
+# --------------------------------------------------------------------------- sentences
+
+
+def _gga(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 6, "GGA")
+    lat, lon = _latlon(f, 1)
+    _time(f[0])
+    q = f[5]
+    if q == "":
+        quality = 0
+    elif q.isdigit() and len(q) == 1:
+        quality = int(q)
+    else:
+        raise SentenceError(f"GGA fix quality: {q!r}")
+    return NmeaUpdate("GGA", t, lat_deg=lat, lon_deg=lon, fix_quality=quality, status_valid=quality > 0)
+
+
+def _rmc(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 9, "RMC")
+    tm = _time(f[0])
+    if f[1] not in ("A", "V"):
+        raise SentenceError(f"RMC status: {f[1]!r}")
+    lat, lon = _latlon(f, 2)
+    sog = _num(f[6], "RMC speed", 0.0, 1000.0)
+    cog = _heading(f[7], "RMC course")
+    utc = None
+    if f[8] != "":
+        if not re.match(r"\d{6}\Z", f[8]):
+            raise SentenceError(f"RMC date: {f[8]!r}")
+        d = _date(int(f[8][:2]), int(f[8][2:4]), 2000 + int(f[8][4:]))
+        if tm is not None:
+            utc = _dt.datetime.combine(d, tm)
+    mode = _field(f, 11)
+    valid = f[1] == "A" and mode != "N"
+    return NmeaUpdate("RMC", t, lat_deg=lat, lon_deg=lon, sog_kn=sog, cog_deg=cog, utc=utc, status_valid=valid)
+
+
+def _gll(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 6, "GLL")
+    lat, lon = _latlon(f, 0)
+    _time(f[4])
+    if f[5] not in ("A", "V"):
+        raise SentenceError(f"GLL status: {f[5]!r}")
+    return NmeaUpdate("GLL", t, lat_deg=lat, lon_deg=lon, status_valid=f[5] == "A" and _field(f, 6) != "N")
+
+
+def _vtg(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 1, "VTG")
+    cog = _heading(f[0], "VTG course")
+    # NMEA 2.3 layout: course,T,course_mag,M,sog_kn,N,sog_kmh,K[,mode]
+    sog = _num(_field(f, 4), "VTG speed", 0.0, 1000.0)
+    mode = _field(f, 8)
+    return NmeaUpdate("VTG", t, cog_deg=cog, sog_kn=sog, status_valid=mode != "N")
+
+
+def _hdt(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 1, "HDT")
+    h = _heading(f[0])
+    return NmeaUpdate("HDT", t, heading_deg=h, heading_valid=h is not None)
+
+
+def _hdm(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 1, "HDM")
+    return NmeaUpdate("HDM", t, heading_mag_deg=_heading(f[0]))
+
+
+def _ths(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 2, "THS")
+    h = _heading(f[0])
+    mode = f[1]
+    if mode not in ("A", "E", "M", "S", "V"):
+        raise SentenceError(f"THS mode: {mode!r}")
+    # A autonomous, E estimated (dead reckoning through a short GNSS outage) are usable;
+    # M manual, S simulator, V not valid are not a heading to steer by.
+    return NmeaUpdate("THS", t, heading_deg=h, ths_mode=mode, heading_valid=h is not None and mode in ("A", "E"))
+
+
+def _rot(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 2, "ROT")
+    rot = _num(f[0], "ROT", -10000.0, 10000.0)
+    if f[1] not in ("A", "V"):
+        raise SentenceError(f"ROT status: {f[1]!r}")
+    return NmeaUpdate("ROT", t, rot_deg_min=rot, status_valid=f[1] == "A" and rot is not None)
+
+
+def _zda(t: str, f: list[str]) -> NmeaUpdate:
+    _need(f, 4, "ZDA")
+    tm = _time(f[0])
+    utc = None
+    if f[1] and f[2] and f[3]:
+        if not (re.match(r"\d\d\Z", f[1]) and re.match(r"\d\d\Z", f[2]) and re.match(r"\d{4}\Z", f[3])):
+            raise SentenceError(f"ZDA date: {f[1:4]!r}")
+        d = _date(int(f[1]), int(f[2]), int(f[3]))
+        if tm is not None:
+            utc = _dt.datetime.combine(d, tm)
+    return NmeaUpdate("ZDA", t, utc=utc, status_valid=utc is not None)
+
+
+def _xdr(t: str, f: list[str]) -> NmeaUpdate | None:
+    """Transducer quadruplets; only angular PTCH/PITCH/ROLL are used (pypilot, others)."""
+    pitch = roll = None
+    for i in range(0, len(f) - 3, 4):
+        kind, value, unit, name = f[i : i + 4]
+        if kind == "A" and unit == "D":
+            if name.upper() in ("PTCH", "PITCH"):
+                pitch = _num(value, "XDR pitch", -180.0, 180.0)
+            elif name.upper() == "ROLL":
+                roll = _num(value, "XDR roll", -180.0, 180.0)
+    if pitch is None and roll is None:
+        return None
+    return NmeaUpdate("XDR", t, pitch_deg=pitch, roll_deg=roll)
+
+
+def _pfec(f: list[str]) -> NmeaUpdate | None:
+    """Furuno ``$PFEC,GPatt,yaw,pitch,roll`` and ``$PFEC,GPhve,heave_m,status``."""
+    kind = _field(f, 0)
+    if kind == "GPatt":
+        _need(f, 4, "PFEC,GPatt")
+        h = _heading(f[1], "GPatt yaw")
+        pitch = _num(f[2], "GPatt pitch", -90.0, 90.0)
+        roll = _num(f[3], "GPatt roll", -180.0, 180.0)
+        return NmeaUpdate("PFEC_GPatt", "P", heading_deg=h, heading_valid=h is not None, pitch_deg=pitch, roll_deg=roll)
+    if kind == "GPhve":
+        _need(f, 2, "PFEC,GPhve")
+        heave = _num(f[1], "GPhve heave", -100.0, 100.0)
+        status = _field(f, 2)
+        return NmeaUpdate("PFEC_GPhve", "P", heave_m=heave, status_valid=status == "A" and heave is not None)
+    return None  # AIcmd and other Furuno proprietary sentences: not ours
+
+
+_DECODERS = {
+    "GGA": _gga,
+    "RMC": _rmc,
+    "GLL": _gll,
+    "VTG": _vtg,
+    "HDT": _hdt,
+    "HDM": _hdm,
+    "THS": _ths,
+    "ROT": _rot,
+    "ZDA": _zda,
+    "XDR": _xdr,
+}
+
+
+def decode_line(line: str) -> NmeaUpdate | None:
+    """Decode one sentence (``$...*hh``, optional CR/LF around it).
+
+    Returns None for a valid sentence we do not use (GSA, AIS, PSTI, ...).
+    Raises :class:`ChecksumError` for a missing/wrong checksum and
+    :class:`SentenceError` for bad framing or field values.
+    """
+    s = line.strip("\r\n")
+    if not s.startswith("$"):
+        raise SentenceError("does not start with '$'")
+    star = s.rfind("*")
+    if star < 0:
+        raise ChecksumError("no '*hh' checksum")
+    body, given = s[1:star], s[star + 1 :]
+    if not _HEX2.match(given):
+        raise ChecksumError(f"malformed checksum {given!r}")
+    if not _BODY.match(body) or any(c in body for c in "$!*\\"):
+        raise SentenceError("reserved or non-printable character in sentence")
+    if given.upper() != checksum(body):
+        raise ChecksumError(f"checksum {given.upper()} != {checksum(body)}")
+    fields = body.split(",")
+    address = fields[0]
+    if not _ADDRESS.match(address):
+        raise SentenceError(f"bad address field {address!r}")
+    if address.startswith("P"):
+        return _pfec(fields[1:]) if address == "PFEC" else None
+    talker, kind = address[:2], address[2:]
+    decoder = _DECODERS.get(kind)
+    if decoder is None:
+        return None
+    if kind in _PYNMEA2_TYPES:
+        # pynmea2 with check=True is the reference for framing of standard sentences;
+        # its field values are re-converted strictly below.
+        try:
+            msg = pynmea2.parse(f"${body}*{given}", check=True)
+        except pynmea2.ChecksumError as exc:
+            raise ChecksumError(str(exc)) from None
+        except Exception as exc:  # pynmea2 raises several kinds on odd input
+            raise SentenceError(f"pynmea2: {exc}") from None
+        data = list(msg.data)
+    else:
+        data = fields[1:]
+    return decoder(talker, data)
+
+
+# --------------------------------------------------------------------------- stream
+
+
+@dataclass
+class NmeaStats:
+    """Line counters of a :class:`NmeaStreamDecoder`.
+
+    ``dropped`` = every rejected line (checksum, garbage, invalid fields,
+    too long, non-ASCII); ``unknown`` valid sentences we do not use are not
+    rejected and not in ``dropped``.
+    """
+
+    lines_ok: int = 0
+    checksum_errors: int = 0
+    garbage: int = 0
+    invalid: int = 0
+    unknown: int = 0
+    too_long: int = 0
+    non_ascii: int = 0
+
+    @property
+    def dropped(self) -> int:
+        return self.checksum_errors + self.garbage + self.invalid + self.too_long + self.non_ascii
+
+    def as_dict(self) -> dict[str, int]:
+        d = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        d["dropped"] = self.dropped
+        return d
+
+
+@dataclass
+class NmeaStreamDecoder:
+    """Bytes in (any chunking), updates out; counts and drops what it cannot accept.
+
+    Lines end at LF (CR is stripped). A line is resynchronised at its first
+    ``$``; bytes before it (the tail of a sentence cut by a reconnect) make
+    no difference unless no ``$`` follows, then the line counts as garbage.
+    A line longer than ``max_line_chars`` is discarded up to its LF, so a
+    stream without newlines cannot grow memory.
+    """
+
+    max_line_chars: int = MAX_LINE_CHARS
+    stats: NmeaStats = field(default_factory=NmeaStats)
+    _buf: bytearray = field(default_factory=bytearray, repr=False)
+    _overflow: bool = field(default=False, repr=False)
+
+    def feed(self, data: bytes) -> list[NmeaUpdate]:
+        """Decode every complete line in ``data`` (plus what was held back). Never raises."""
+        out: list[NmeaUpdate] = []
+        try:
+            self._buf += data
+            start = 0
+            while True:
+                nl = self._buf.find(b"\n", start)
+                if nl < 0:
+                    break
+                line = bytes(self._buf[start:nl])
+                start = nl + 1
+                if self._overflow:
+                    self._overflow = False  # the tail of an overlong line: already counted
+                    continue
+                update = self._line(line)
+                if update is not None:
+                    out.append(update)
+            del self._buf[:start]
+            if len(self._buf) > self.max_line_chars:
+                if not self._overflow:
+                    self.stats.too_long += 1
+                self._overflow = True
+                self._buf.clear()
+        except Exception:  # pragma: no cover - defensive: the loop must survive anything
+            self._buf.clear()
+            self.stats.garbage += 1
+        return out
+
+    def _line(self, raw: bytes) -> NmeaUpdate | None:
+        raw = raw.strip(b"\r")
+        if not raw:
+            return None
+        if len(raw) > self.max_line_chars:
+            self.stats.too_long += 1
+            return None
+        dollar = raw.find(b"$")
+        if dollar < 0:
+            self.stats.garbage += 1
+            return None
+        raw = raw[dollar:]
+        try:
+            text = raw.decode("ascii")
+        except UnicodeDecodeError:
+            self.stats.non_ascii += 1
+            return None
+        try:
+            update = decode_line(text)
+        except ChecksumError:
+            self.stats.checksum_errors += 1
+            return None
+        except SentenceError:
+            self.stats.invalid += 1
+            return None
+        except Exception:
+            self.stats.invalid += 1
+            return None
+        if update is None:
+            self.stats.unknown += 1
+            return None
+        self.stats.lines_ok += 1
+        return update

@@ -1,0 +1,183 @@
+"""Furuno SC-30 satellite compass driver: serial NMEA in, latest stamped navigation data out.
+
+Each quantity is kept with the sentence it came from, the Clock time it was
+received and its validity (fix quality, THS mode, A/V status); the daemon
+decides when it is stale. Heading comes only from true-heading sentences,
+in priority THS > HDT > PFEC_GPatt (SPEC section 10: THS replaces HDT on
+later firmware); course over ground is never copied into the heading: the
+daemon may fall back to it explicitly and log that it did.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+from autopilot.clock import Clock
+from autopilot.drivers.nmea import NmeaStreamDecoder, NmeaUpdate
+from autopilot.drivers.serial_link import EventCallback, SerialLink
+
+__all__ = ["Stamped", "NavData", "SC30Driver", "HEADING_PRIORITY", "SC30_BAUDRATES"]
+
+SC30_BAUDRATES = (4800, 38400)  # SPEC section 10
+HEADING_PRIORITY = ("THS", "HDT", "PFEC_GPatt")
+
+
+@dataclass(frozen=True)
+class Stamped:
+    """A received value, when it was received (Clock s), the sentence it came from, its validity."""
+
+    value: Any
+    t_s: float
+    source: str
+    valid: bool
+
+
+@dataclass
+class NavData:
+    """Latest value of each quantity (None until first received)."""
+
+    heading_deg: Stamped | None = None
+    position: Stamped | None = None  # value (lat_deg, lon_deg) or None when the sentence had none
+    fix_quality: Stamped | None = None
+    rot_deg_min: Stamped | None = None
+    sog_kn: Stamped | None = None
+    cog_deg: Stamped | None = None
+    attitude: Stamped | None = None  # value (pitch_deg, roll_deg)
+    utc: Stamped | None = None
+
+    @staticmethod
+    def _age(s: Stamped | None, now_s: float) -> float:
+        return math.inf if s is None else now_s - s.t_s
+
+    def heading_age_s(self, now_s: float) -> float:
+        return self._age(self.heading_deg, now_s)
+
+    def position_age_s(self, now_s: float) -> float:
+        return self._age(self.position, now_s)
+
+
+class SC30Driver:
+    """Reads the SC-30 on ``port_path`` and keeps :attr:`nav` up to date.
+
+    ``heading_window_s``: a lower-priority heading sentence is used only when
+    no higher-priority one arrived within this time (so a compass sending
+    THS and HDT is steered by THS, and HDT takes over if THS stops).
+    ``garbage_burst_lines``: more rejected lines than this within 1 s emit
+    one ``nmea_garbage`` event (at most one per second).
+    """
+
+    def __init__(
+        self,
+        port_path: str,
+        *,
+        baudrate: int = 4800,
+        clock: Clock,
+        reconnect_min_s: float = 0.2,
+        reconnect_max_s: float = 5.0,
+        on_event: EventCallback | None = None,
+        heading_window_s: float = 0.5,
+        garbage_burst_lines: int = 5,
+    ) -> None:
+        self._clock = clock
+        self._decoder = NmeaStreamDecoder()
+        self._link = SerialLink(
+            port_path,
+            baudrate=baudrate,
+            clock=clock,
+            on_bytes=self._on_bytes,
+            reconnect_min_s=reconnect_min_s,
+            reconnect_max_s=reconnect_max_s,
+            on_event=on_event,
+            name="sc30",
+        )
+        self.nav = NavData()
+        self.last_heading_rx_s: float | None = None
+        self.updates = 0
+        self._heading_window_s = float(heading_window_s)
+        self._by_source: dict[str, Stamped] = {}
+        self._burst_lines = int(garbage_burst_lines)
+        self._rejects: deque[float] = deque()
+        self._last_burst_event_s = -math.inf
+        self._dropped_seen = 0
+
+    # ------------------------------------------------------------------ public
+    @property
+    def port_path(self) -> str:
+        return self._link.port_path
+
+    @property
+    def connected(self) -> bool:
+        return self._link.connected
+
+    @property
+    def stats(self) -> dict[str, int]:
+        """Decoder line counters plus link counters (``reconnects`` = losses of the port)."""
+        d = self._decoder.stats.as_dict()
+        d.update(
+            reconnects=self._link.losses,
+            opens=self._link.opens,
+            open_failures=self._link.open_failures,
+            bytes_in=self._link.bytes_in,
+            updates=self.updates,
+        )
+        return d
+
+    async def run(self) -> None:
+        await self._link.run()
+
+    async def close(self) -> None:
+        await self._link.close()
+
+    # ------------------------------------------------------------------ decoding
+    def _on_bytes(self, data: bytes) -> None:
+        now_s = self._clock.now_s()
+        for u in self._decoder.feed(data):
+            self.apply(u, now_s)
+        self._check_garbage(now_s)
+
+    def _check_garbage(self, now_s: float) -> None:
+        dropped = self._decoder.stats.dropped
+        new = dropped - self._dropped_seen
+        self._dropped_seen = dropped
+        for _ in range(min(new, self._burst_lines + 1)):
+            self._rejects.append(now_s)
+        while self._rejects and self._rejects[0] < now_s - 1.0:
+            self._rejects.popleft()
+        if len(self._rejects) > self._burst_lines and now_s - self._last_burst_event_s >= 1.0:
+            self._last_burst_event_s = now_s
+            self._link.emit("nmea_garbage", rejected_lines=len(self._rejects), window_s=1.0, stats=self.stats)
+
+    def apply(self, u: NmeaUpdate, now_s: float) -> None:
+        """Fold one decoded sentence into :attr:`nav` (public so a file replay can use it)."""
+        self.updates += 1
+        nav = self.nav
+        src = u.sentence
+        if src in HEADING_PRIORITY:
+            self.last_heading_rx_s = now_s
+            self._by_source[src] = Stamped(u.heading_deg, now_s, src, bool(u.heading_valid))
+            nav.heading_deg = self._best_heading(now_s)
+        if u.lat_deg is not None or (src in ("GGA", "RMC", "GLL") and u.status_valid is False):
+            pos = None if u.lat_deg is None else (u.lat_deg, u.lon_deg)
+            nav.position = Stamped(pos, now_s, src, bool(u.status_valid) and pos is not None)
+        if u.fix_quality is not None:
+            nav.fix_quality = Stamped(u.fix_quality, now_s, src, u.fix_quality > 0)
+        if u.rot_deg_min is not None or src == "ROT":
+            nav.rot_deg_min = Stamped(u.rot_deg_min, now_s, src, bool(u.status_valid))
+        if u.sog_kn is not None:
+            nav.sog_kn = Stamped(u.sog_kn, now_s, src, bool(u.status_valid))
+        if u.cog_deg is not None:
+            nav.cog_deg = Stamped(u.cog_deg, now_s, src, bool(u.status_valid))
+        if u.pitch_deg is not None or u.roll_deg is not None:
+            nav.attitude = Stamped((u.pitch_deg, u.roll_deg), now_s, src, True)
+        if u.utc is not None:
+            nav.utc = Stamped(u.utc, now_s, src, True)
+
+    def _best_heading(self, now_s: float) -> Stamped | None:
+        for src in HEADING_PRIORITY:
+            s = self._by_source.get(src)
+            if s is not None and now_s - s.t_s <= self._heading_window_s:
+                return s
+        return None

@@ -1,0 +1,200 @@
+"""A serial port opened by path, read through the event loop, reopened when it vanishes.
+
+Shared transport of the SC-30 and Mbed drivers (SPEC section 10): pyserial
+opens the port non-blocking (never blocking I/O in the loop), bytes arrive
+through ``loop.add_reader`` and go to ``on_bytes``. A USB device that
+vanishes makes ``read`` fail with EIO/ENXIO (or return EOF): the link then
+closes the port, reports ``port_lost`` and tries to reopen the path with
+exponential back-off (``reconnect_min_s`` doubling to ``reconnect_max_s``),
+for as long as it runs. Nothing but CancelledError leaves :meth:`run`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import errno
+import os
+from collections.abc import Callable
+from typing import Any
+
+import serial
+
+from autopilot.clock import Clock
+
+__all__ = ["SerialLink", "EventCallback"]
+
+EventCallback = Callable[..., Any]
+
+_READ_CHUNK = 65536
+
+
+class SerialLink:
+    """One serial port, reconnecting. ``on_bytes(data)`` runs in the event loop."""
+
+    def __init__(
+        self,
+        port_path: str,
+        *,
+        baudrate: int,
+        clock: Clock,
+        on_bytes: Callable[[bytes], None],
+        reconnect_min_s: float = 0.2,
+        reconnect_max_s: float = 5.0,
+        on_event: EventCallback | None = None,
+        name: str = "serial",
+    ) -> None:
+        if not (0 < reconnect_min_s <= reconnect_max_s):
+            raise ValueError("need 0 < reconnect_min_s <= reconnect_max_s")
+        self.port_path = port_path
+        self.baudrate = int(baudrate)
+        self.name = name
+        self._clock = clock
+        self._on_bytes = on_bytes
+        self._on_event = on_event
+        self._min_s = float(reconnect_min_s)
+        self._max_s = float(reconnect_max_s)
+        self._serial: serial.Serial | None = None
+        self._fd: int | None = None
+        self._lost: asyncio.Event | None = None
+        self._closing = False
+        self._failure_announced = False
+        self.opens = 0
+        self.losses = 0
+        self.open_failures = 0
+        self.write_errors = 0
+        self.bytes_in = 0
+
+    # ------------------------------------------------------------------ state
+    @property
+    def connected(self) -> bool:
+        return self._fd is not None
+
+    def emit(self, event: str, **fields: Any) -> None:
+        """Call the user's event callback; its failure must not stop the link."""
+        if self._on_event is None:
+            return
+        try:
+            self._on_event(event, device=self.name, **fields)
+        except Exception:  # noqa: BLE001 - a logging bug must not stop the thrusters' link
+            pass
+
+    # ------------------------------------------------------------------ loop
+    async def run(self) -> None:
+        """Open, read until lost, reopen with back-off; until :meth:`close` or cancellation."""
+        backoff_s = self._min_s
+        try:
+            while not self._closing:
+                try:
+                    opened = self._open()
+                except Exception as exc:  # noqa: BLE001 - any open failure means "retry later"
+                    opened = False
+                    self.open_failures += 1
+                    if not self._failure_announced:  # once per outage, not every retry
+                        self._failure_announced = True
+                        self.emit("port_open_failed", path=self.port_path, error=str(exc))
+                if not opened:
+                    await self._clock.sleep(backoff_s)
+                    backoff_s = min(2.0 * backoff_s, self._max_s)
+                    continue
+                backoff_s = self._min_s
+                self._failure_announced = False
+                assert self._lost is not None
+                await self._lost.wait()
+                reason = getattr(self._lost, "reason", "")
+                self._teardown()
+                if self._closing:
+                    break
+                self.losses += 1
+                self.emit("port_lost", path=self.port_path, error=reason)
+                await self._clock.sleep(backoff_s)
+        finally:
+            self._teardown()
+
+    async def close(self) -> None:
+        self._closing = True
+        if self._lost is not None:
+            self._lost.set()
+        self._teardown()
+
+    def _open(self) -> bool:
+        ser = serial.Serial(baudrate=self.baudrate, timeout=0, write_timeout=0)
+        ser.port = self.port_path
+        ser.open()  # POSIX pyserial opens with O_NONBLOCK
+        try:
+            ser.reset_input_buffer()  # bytes queued while nobody listened are stale
+        except Exception:  # noqa: BLE001
+            pass
+        fd = ser.fileno()
+        loop = asyncio.get_running_loop()
+        self._serial, self._fd = ser, fd
+        self._lost = asyncio.Event()
+        loop.add_reader(fd, self._readable)
+        self.opens += 1
+        self.emit("port_opened", path=self.port_path, baudrate=self.baudrate)
+        return True
+
+    def _teardown(self) -> None:
+        fd, ser = self._fd, self._serial
+        self._fd = self._serial = None
+        if fd is not None:
+            try:
+                asyncio.get_running_loop().remove_reader(fd)
+            except Exception:  # noqa: BLE001 - loop already closed
+                pass
+        if ser is not None:
+            try:
+                ser.close()
+            except Exception:  # noqa: BLE001 - closing a vanished device may fail; it is gone anyway
+                pass
+
+    def _mark_lost(self, reason: str) -> None:
+        if self._fd is not None:
+            try:
+                asyncio.get_running_loop().remove_reader(self._fd)
+            except Exception:  # noqa: BLE001
+                pass
+        if self._lost is not None and not self._lost.is_set():
+            self._lost.reason = reason  # type: ignore[attr-defined]
+            self._lost.set()
+
+    def _readable(self) -> None:
+        fd = self._fd
+        if fd is None:
+            return
+        try:
+            data = os.read(fd, _READ_CHUNK)
+        except BlockingIOError:
+            return
+        except OSError as exc:
+            self._mark_lost(f"{errno.errorcode.get(exc.errno, exc.errno)}: {exc.strerror}")
+            return
+        if not data:
+            self._mark_lost("EOF")
+            return
+        self.bytes_in += len(data)
+        try:
+            self._on_bytes(data)
+        except Exception as exc:  # noqa: BLE001 - decoders do not raise; this is a last guard
+            self.emit("driver_error", error=repr(exc))
+
+    # ------------------------------------------------------------------ write
+    def write(self, data: bytes) -> bool:
+        """Write without blocking; False (and counted) if not connected or the write fails."""
+        fd = self._fd
+        if fd is None:
+            return False
+        try:
+            n = os.write(fd, data)
+            if n < len(data):
+                n += os.write(fd, data[n:])
+            if n < len(data):
+                self.write_errors += 1
+                return False
+            return True
+        except BlockingIOError:
+            self.write_errors += 1
+            return False
+        except OSError as exc:
+            self.write_errors += 1
+            self._mark_lost(f"{errno.errorcode.get(exc.errno, exc.errno)}: {exc.strerror}")
+            return False

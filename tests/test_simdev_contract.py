@@ -1,0 +1,273 @@
+"""The real drivers against the simulated devices, through real pseudo-terminals opened by path."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import os
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from autopilot.clock import Clock
+from autopilot.drivers.mbed import MbedDriver
+from autopilot.drivers.mbed_protocol import encode_command
+from autopilot.drivers.nmea import make_sentence
+from autopilot.drivers.sc30 import SC30Driver
+from autopilot.geo import latlon_to_local
+from autopilot.gnc.thrust_curve import ThrustCurve
+from autopilot.sim import default_params_path, load_params
+from autopilot.simdev import SimRig
+
+ORIGIN = (35.0, 139.0)
+PSI0_RAD = 1.0
+
+
+@pytest.fixture(scope="module")
+def params():
+    return load_params(default_params_path())
+
+
+async def until(cond, timeout_wall_s=5.0):
+    """Wait (wall time, bounded) until ``cond()``; the assertion is on cond, not on the time."""
+    for _ in range(int(timeout_wall_s / 0.01)):
+        if cond():
+            return True
+        await asyncio.sleep(0.01)
+    return cond()
+
+
+class Bench:
+    """A rig plus both drivers, all in one event loop."""
+
+    def __init__(self, params, tmp_path, *, speedup=4.0, **rig_kwargs):
+        self.clock = Clock(speedup=speedup)
+        self.events = []
+        self.rig = SimRig(
+            params,
+            self.clock,
+            directory=tmp_path,
+            x0=[0, 0, PSI0_RAD, 0, 0, 0],
+            origin_lat_deg=ORIGIN[0],
+            origin_lon_deg=ORIGIN[1],
+            **rig_kwargs,
+        )
+        kw = dict(clock=self.clock, reconnect_min_s=0.1, reconnect_max_s=0.4, on_event=self._event)
+        self.sc30 = SC30Driver(self.rig.sc30_path, baudrate=self.rig.sc30.baudrate, **kw)
+        self.mbed = MbedDriver(self.rig.mbed_path, **kw)
+        self.tasks = []
+
+    def _event(self, name, **fields):
+        self.events.append((name, fields))
+
+    def count(self, name, device):
+        return sum(1 for n, f in self.events if n == name and f.get("device") == device)
+
+    async def __aenter__(self):
+        await self.rig.start()
+        loop = asyncio.get_running_loop()
+        self.tasks = [loop.create_task(self.sc30.run()), loop.create_task(self.mbed.run())]
+        assert await until(lambda: self.sc30.connected and self.mbed.connected)
+        return self
+
+    async def __aexit__(self, *exc):
+        await self.sc30.close()
+        await self.mbed.close()
+        for t in self.tasks:
+            t.cancel()
+        await asyncio.gather(*self.tasks, return_exceptions=True)
+        # the run() tasks must have ended only by cancellation or close, never by an exception
+        for t in self.tasks:
+            assert t.cancelled() or t.exception() is None
+        await self.rig.stop()
+
+
+def test_heading_and_position_match_the_boat(params, tmp_path):
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            headings = []
+            for _ in range(15):
+                assert await until(lambda: b.sc30.nav.heading_deg is not None)
+                headings.append(b.sc30.nav.heading_deg.value)
+                await b.clock.sleep(0.2)
+            assert await until(lambda: b.sc30.nav.position is not None and b.sc30.nav.fix_quality is not None)
+            nav = b.sc30.nav
+            return headings, nav, b.rig.boat.state.copy(), b.sc30.stats
+
+    headings, nav, state, stats = asyncio.run(main())
+    # boat at rest: heading = psi0 within 5 sigma of the 0.1 deg noise plus the 0.05 deg quantisation
+    assert_allclose(headings, math.degrees(PSI0_RAD), atol=5 * 0.1 + 0.05)
+    assert all(round(h * 10) == pytest.approx(h * 10, abs=1e-9) for h in headings)  # 0.1 deg resolution
+    assert nav.heading_deg.valid and nav.heading_deg.source == "HDT"
+    assert nav.fix_quality.value == 1 and nav.position.valid
+    north_m, east_m = latlon_to_local(*nav.position.value, *ORIGIN)
+    assert_allclose([north_m, east_m], state[:2], atol=5 * 0.3)
+    assert stats["checksum_errors"] == 0 and stats["dropped"] == 0
+
+
+def test_turning_boat_heading_tracks_state(params, tmp_path):
+    """Full thrust on port only: the boat turns to starboard; decoded heading follows the model."""
+
+    async def main():
+        async with Bench(params, tmp_path, heading_noise_deg=0.0, sc30_baudrate=38400) as b:
+            # hold the thrust with commands so the firmware timeout does not stop it
+            errors = []
+            for _ in range(30):
+                b.mbed.send(100.0, False, 0.0, False)
+                await b.clock.sleep(0.1)
+                h = b.sc30.nav.heading_deg
+                if h is not None and b.clock.now_s() - h.t_s < 0.2:
+                    # compare with the boat now; the sentence is at most ~0.2 s old
+                    rate_deg_s = abs(math.degrees(b.rig.boat.state[5]))
+                    err = abs((h.value - b.rig.boat.heading_deg + 180) % 360 - 180)
+                    errors.append((err, rate_deg_s))
+            return errors, b.rig.boat.state.copy(), b.sc30.nav
+
+    errors, state, nav = asyncio.run(main())
+    assert state[5] > 0.05  # turning to starboard (SPEC section 2), so the comparison means something
+    assert len(errors) >= 20
+    for err, rate in errors:
+        assert err <= rate * 0.3 + 0.1
+    assert nav.rot_deg_min.value > 0 and nav.attitude is not None
+
+
+def test_mbed_commands_acked_and_applied(params, tmp_path):
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            results = []
+            for i in range(10):
+                seq = b.mbed.send(10.0 * i, i % 2 == 1, 5.0 * i, False)
+                results.append((seq, await b.mbed.wait_ack(seq, 1.0)))
+                await b.clock.sleep(0.05)
+            return results, b.rig.mbed.commands, b.mbed, b.rig.boat
+
+    results, commands, drv, boat = asyncio.run(main())
+    assert [s for s, _ in results] == list(range(10))
+    assert all(ok for _, ok in results)
+    assert [(c[1], c[2], c[3], c[4], c[5]) for c in commands] == [
+        (i, 10.0 * i, i % 2 == 1, 5.0 * i, False) for i in range(10)
+    ]
+    assert drv.ack_missing == 0 and drv.consecutive_missing == 0 and drv.last_ack_seq == 9
+    tc = ThrustCurve()
+    assert_allclose([boat.thrust_port_n, boat.thrust_stbd_n], [tc.thrust_n(90.0, True), tc.thrust_n(45.0, False)])
+
+
+def test_mbed_stops_motors_after_timeout_despite_bad_lines(params, tmp_path):
+    async def main():
+        async with Bench(params, tmp_path, speedup=2.0) as b:
+            seq = b.mbed.send(50.0, False, 50.0, False)
+            assert await b.mbed.wait_ack(seq, 1.0)
+            t_cmd = b.rig.mbed.last_valid_s
+            # garbage, a bad checksum and an out-of-range command must not extend the timeout
+            bad = encode_command(7, 50.0, False, 50.0, False)
+            b.mbed._link.write(b"garbage\r\n" + bad[:-5] + b"00\r\n" + b"$MBCMD,8,F,150.0,F,0.0*00\r\n")
+            b.mbed._link.write(make_sentence("MBCMD,9,F,150.0,F,0.0").encode())  # valid frame: REJ
+            assert await until(lambda: not b.rig.mbed.thrusting)
+            return t_cmd, b.rig.mbed, b.rig.boat
+
+    t_cmd, sim, boat = asyncio.run(main())
+    t_stop = sim.first_stop_after(t_cmd)
+    assert sim.thrust_log[-1][-1] == "timeout"
+    assert t_stop - t_cmd >= 0.5  # never earlier than the contract's 0.5 s
+    assert t_stop - t_cmd < 0.5 + 0.3  # and promptly after it
+    assert sim.bad_lines == 3 and sim.rejected == 1
+    assert boat.thrust_port_n == 0 and boat.thrust_stbd_n == 0
+
+
+def test_silent_mbed_counts_missing_acks(params, tmp_path):
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            b.rig.mbed.silent = True
+            seqs = []
+            for _ in range(5):
+                seqs.append(b.mbed.send(20.0, False, 20.0, False))
+                await b.clock.sleep(0.1)
+            await b.clock.sleep(0.4)
+            missing = (b.mbed.ack_missing, b.mbed.consecutive_missing)
+            b.rig.mbed.silent = False
+            seq = b.mbed.send(0.0, False, 0.0, False)
+            ok = await b.mbed.wait_ack(seq, 1.0)
+            return missing, ok, b.mbed.consecutive_missing, len(b.rig.mbed.commands)
+
+    missing, ok, consecutive_after, n_commands = asyncio.run(main())
+    assert missing == (5, 5)
+    assert ok and consecutive_after == 0
+    assert n_commands == 6  # a silent firmware still obeys
+
+
+def test_unplug_replug_reconnects_both(params, tmp_path):
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            assert await until(lambda: b.sc30.nav.heading_deg is not None)
+            b.rig.sc30.unplug()
+            b.rig.mbed.unplug()
+            assert not os.path.exists(b.rig.sc30_path)
+            assert await until(lambda: not b.sc30.connected and not b.mbed.connected)
+            assert b.mbed.send(10.0, False, 10.0, False) == -1
+            await b.clock.sleep(1.0)  # several failed reopen attempts
+            b.rig.sc30.replug()
+            b.rig.mbed.replug()
+            assert await until(lambda: b.sc30.connected and b.mbed.connected)
+            t_back = b.clock.now_s()
+            assert await until(lambda: b.sc30.nav.heading_deg.t_s > t_back)
+            seq = b.mbed.send(10.0, False, 10.0, False)
+            ok = await b.mbed.wait_ack(seq, 1.0)
+            return ok, b
+
+    ok, b = asyncio.run(main())
+    assert ok
+    for dev in ("sc30", "mbed"):
+        assert b.count("port_lost", dev) == 1
+        assert b.count("port_opened", dev) == 2
+        assert b.count("port_open_failed", dev) == 1  # announced once per outage, not per retry
+    assert b.sc30.stats["reconnects"] == 1 and b.mbed.stats["send_failures"] == 1
+
+
+def test_split_corrupt_and_random_bytes_are_counted_not_raised(params, tmp_path):
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            assert await until(lambda: b.sc30.nav.heading_deg is not None)
+            b.rig.sc30.split = True
+            n0 = b.sc30.stats["updates"]
+            await b.clock.sleep(1.5)
+            split_updates = b.sc30.stats["updates"] - n0
+            b.rig.sc30.split = False
+            b.rig.sc30.corrupt_next(5)
+            await b.clock.sleep(1.0)
+            corrupt_errors = b.sc30.stats["checksum_errors"]
+            rng = np.random.default_rng(1)
+            b.rig.sc30.inject(rng.integers(0, 256, 10_000, dtype=np.uint8).tobytes())
+            await b.clock.sleep(1.5)
+            t_after = b.clock.now_s()
+            assert await until(lambda: b.sc30.nav.heading_deg.t_s > t_after)
+            assert b.sc30.connected  # 10 kB of noise is data, not a lost port
+            return split_updates, corrupt_errors, b
+
+    split_updates, corrupt_errors, b = asyncio.run(main())
+    assert split_updates >= 10  # fragments reassembled into whole sentences
+    assert corrupt_errors == 5
+    stats = b.sc30.stats
+    assert stats["dropped"] > 5
+    assert b.count("nmea_garbage", "sc30") >= 1
+    assert b.sc30.nav.heading_deg.valid
+
+
+def test_fault_flags_reach_the_driver(params, tmp_path):
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            assert await until(lambda: b.sc30.nav.fix_quality is not None and b.sc30.nav.heading_deg is not None)
+            b.rig.sc30.fix_lost = True
+            b.rig.sc30.heading_invalid = True
+            t = b.clock.now_s()
+            assert await until(lambda: b.sc30.nav.fix_quality.t_s > t + 0.5 and b.sc30.nav.heading_deg.t_s > t)
+            lost = (b.sc30.nav.fix_quality.value, b.sc30.nav.position.valid, b.sc30.nav.heading_deg.valid)
+            b.rig.sc30.heading_dropout = True
+            await b.clock.sleep(0.5)
+            t_drop = b.clock.now_s()
+            await b.clock.sleep(0.5)
+            return lost, b.sc30.nav.heading_age_s(b.clock.now_s()), b.clock.now_s() - t_drop
+
+    lost, age_s, since_s = asyncio.run(main())
+    assert lost == (0, False, False)
+    assert age_s >= since_s  # no heading sentence since the dropout
