@@ -187,3 +187,19 @@ def test_simulate_refuses_bad_inputs(params):
         simulate(params, np.array([0.0, 0.0]), np.zeros(2), np.zeros(2))
     with pytest.raises(ValueError, match="dt_s"):
         simulate(params, t, np.zeros(t.size), np.zeros(t.size), dt_s=0)
+
+
+def test_calibrated_boat_at_rest_is_not_spun_by_a_beam_current():
+    """0.2 m/s abeam must not turn the boat faster than its thrusters could counter (calibration override)."""
+    params = load_params(default_params_path())
+    t = _times(120)
+    zeros = np.zeros(t.size)
+    out = simulate(params, t, zeros, zeros, current=(0.2, 90.0))
+    max_moment_nm = (1 - params.moment_deduction) * params.y_p_m * 2 * params.max_thrust_n
+    assert np.max(np.abs(out["r_rad_s"])) < 0.02
+    # and the thrusters can hold any heading against it: the hull moment stays well below theirs
+    from autopilot.sim.model import make_rhs
+
+    rhs = make_rhs(params, Environment(current_speed_m_s=0.2, current_towards_deg=90.0))
+    dr = rhs(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)[5]
+    assert abs(dr * params.inertia_z_kg_m2) < 0.25 * max_moment_nm
