@@ -1,0 +1,273 @@
+"""``autopilot evaluate``: closed-loop simulation of missions x guidance laws x conditions.
+
+Model (``autopilot.sim.step``, RK4 at ``dt_s`` = 0.05 s) + the full GNC stack
+(``autopilot.gnc.Autopilot`` at 10 Hz, thrust held between cycles), no
+serial, simulated time. The boat starts at the mission's home (the local
+origin), heading north, at rest. Each run gives a scorecard:
+
+- completed: the autopilot reached the last waypoint within the time limit;
+- closest_approach_m: per waypoint, the smallest distance of the simulated
+  track to it over the whole run (from the trajectory, not the autopilot's
+  own bookkeeping);
+- xte_rms_m / xte_max_m: cross-track error from the leg being followed;
+- time_s: time to complete (or the time limit);
+- energy_ns: integral of |T_port| + |T_stbd| dt;
+- saturation_pct: share of control cycles in which the allocator saturated;
+- circled: the heading turned through more than 360 deg while steering to
+  one waypoint (a boat circling a waypoint it cannot hit).
+
+Conditions: ``calm``; ``current_n/e/s/w``: 0.2 m/s flowing FROM that side;
+``sinusoidal``: file 003 Eq 7 force (A = B = 10 N, 0.628 rad/s, at 45 deg);
+``wind``: 5 m/s from the north-east.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from autopilot.schema import ConfigError
+
+MISSIONS_DIR = Path(__file__).resolve().parent.parent / "config" / "missions"
+GNC_RATE_HZ = 10.0
+SIM_DT_S = 0.05
+
+
+def conditions() -> dict:
+    """Condition name -> autopilot.sim.Environment."""
+    from autopilot.sim import Environment, SinusoidalDisturbance
+
+    def current_from(from_deg: float) -> Environment:
+        return Environment(current_speed_m_s=0.2, current_towards_deg=(from_deg + 180.0) % 360.0)
+
+    return {
+        "calm": Environment(),
+        "current_n": current_from(0.0),
+        "current_e": current_from(90.0),
+        "current_s": current_from(180.0),
+        "current_w": current_from(270.0),
+        "sinusoidal": Environment(sinusoidal=SinusoidalDisturbance()),
+        "wind": Environment(wind_speed_m_s=5.0, wind_from_deg=45.0),
+    }
+
+
+CONDITION_NAMES = ("calm", "current_n", "current_e", "current_s", "current_w", "sinusoidal", "wind")
+
+
+@dataclass
+class RunResult:
+    mission: str
+    guidance: str
+    condition: str
+    completed: bool
+    closest_approach_m: list[float]
+    xte_rms_m: float
+    xte_max_m: float
+    time_s: float
+    energy_ns: float
+    saturation_pct: float
+    circled: bool
+    trace: dict = field(default_factory=dict, repr=False)
+
+    def as_json(self) -> dict:
+        return {
+            "mission": self.mission,
+            "guidance": self.guidance,
+            "condition": self.condition,
+            "completed": self.completed,
+            "closest_approach_m": [round(c, 3) for c in self.closest_approach_m],
+            "xte_rms_m": round(self.xte_rms_m, 3),
+            "xte_max_m": round(self.xte_max_m, 3),
+            "time_s": round(self.time_s, 2),
+            "energy_ns": round(self.energy_ns, 1),
+            "saturation_pct": round(self.saturation_pct, 2),
+            "circled": self.circled,
+        }
+
+
+def time_limit_s(waypoints_ne_m, speed_m_s: float) -> float:
+    """Generous limit: three times the polyline length at the wanted speed, plus two minutes."""
+    length = 0.0
+    prev = (0.0, 0.0)
+    for n, e in waypoints_ne_m:
+        length += math.hypot(n - prev[0], e - prev[1])
+        prev = (n, e)
+    return 120.0 + 3.0 * length / max(speed_m_s, 0.1)
+
+
+def run_closed_loop(
+    params,
+    waypoints_ne_m,
+    *,
+    config=None,
+    speeds_m_s=None,
+    env=None,
+    external_force=None,
+    t_max_s: float | None = None,
+    dt_s: float = SIM_DT_S,
+    rate_hz: float = GNC_RATE_HZ,
+    record: bool = False,
+    mission: str = "",
+    condition: str = "",
+):
+    """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`."""
+    import numpy as np
+
+    from autopilot.gnc import Autopilot, GncConfig, NavInput
+    from autopilot.sim import step
+
+    config = config or GncConfig()
+    wps = [(float(n), float(e)) for n, e in waypoints_ne_m]
+    ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, boat_length_m=params.length_m)
+    if t_max_s is None:
+        t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s)
+    substeps = max(1, round(1.0 / (rate_hz * dt_s)))
+    dt_ctrl = substeps * dt_s
+    x = np.zeros(6)
+    t = 0.0
+    closest = [math.inf] * len(wps)
+    xte_sq = xte_max = energy = 0.0
+    n_cycles = n_sat = 0
+    turned_rad = 0.0
+    target = 0
+    circled = False
+    completed_at = None
+    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s")}
+    while t < t_max_s:
+        n_m, e_m, psi, u, v, r = (float(c) for c in x)
+        nav = NavInput(north_m=n_m, east_m=e_m, psi_rad=psi, speed_m_s=math.hypot(u, v), yaw_rate_rad_s=r, course_rad=psi + math.atan2(v, u) if (u or v) else psi)
+        out = ap.step(nav, dt_ctrl)
+        n_cycles += 1
+        if out.saturation:
+            n_sat += 1
+        if not out.complete:
+            xte_sq += out.xte_m * out.xte_m
+            xte_max = max(xte_max, abs(out.xte_m))
+        if out.wp_index != target:
+            target, turned_rad = out.wp_index, 0.0
+        if record:
+            for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", out.xte_m), ("speed_m_s", nav.speed_m_s)):
+                tr[k].append(val)
+        if out.complete and completed_at is None:
+            completed_at = t
+        if completed_at is not None and config.guidance.final_action == "stop":
+            break
+        for _ in range(substeps):
+            x = step(params, x, out.thrust_port_n, out.thrust_stbd_n, dt_s, t_s=t, env=env, external_force=external_force)
+            t += dt_s
+            energy += (abs(out.thrust_port_n) + abs(out.thrust_stbd_n)) * dt_s
+            for k, (wn, we) in enumerate(wps):
+                d = math.hypot(float(x[0]) - wn, float(x[1]) - we)
+                if d < closest[k]:
+                    closest[k] = d
+        if not out.complete:
+            turned_rad += float(x[5]) * dt_ctrl
+            if abs(turned_rad) > 2.0 * math.pi:
+                circled = True
+    return RunResult(
+        mission=mission,
+        guidance=config.guidance.law,
+        condition=condition,
+        completed=completed_at is not None,
+        closest_approach_m=closest,
+        xte_rms_m=math.sqrt(xte_sq / max(n_cycles, 1)),
+        xte_max_m=xte_max,
+        time_s=completed_at if completed_at is not None else t,
+        energy_ns=energy,
+        saturation_pct=100.0 * n_sat / max(n_cycles, 1),
+        circled=circled,
+        trace={**tr, "waypoints": wps} if record else {},
+    )
+
+
+def shipped_missions() -> list[Path]:
+    """The missions of config/missions (not the format examples)."""
+    return sorted(p for p in MISSIONS_DIR.glob("*.yaml"))
+
+
+def evaluate(mission_paths, laws, condition_names, *, params=None, base_config=None, record: bool = False):
+    """Every mission x law x condition; yields RunResult."""
+    from autopilot.gnc import GncConfig
+    from autopilot.mission import load_mission
+    from autopilot.sim import default_params_path, load_params
+
+    params = params or load_params(default_params_path())
+    base_config = base_config or GncConfig()
+    envs = conditions()
+    for path in mission_paths:
+        m = load_mission(path)
+        for law in laws:
+            cfg = replace(base_config, guidance=replace(base_config.guidance, law=law))
+            for cond in condition_names:
+                yield run_closed_loop(
+                    params, m.waypoints_ne_m, config=cfg, speeds_m_s=m.speeds_m_s, env=envs[cond],
+                    record=record, mission=m.name, condition=cond,
+                )
+
+
+def format_row(r: RunResult) -> str:
+    ca = " ".join(f"{c:4.2f}" for c in r.closest_approach_m)
+    return (
+        f"{r.mission:<14} {r.guidance:<12} {r.condition:<10} {'yes' if r.completed else 'NO ':<4} "
+        f"{r.xte_rms_m:6.2f} {r.xte_max_m:6.2f} {r.time_s:7.1f} {r.energy_ns:8.0f} {r.saturation_pct:5.1f} "
+        f"{'CIRCLED' if r.circled else '-':<7} {ca}"
+    )
+
+
+HEADER = (
+    f"{'mission':<14} {'guidance':<12} {'condition':<10} {'done':<4} {'xteRMS':>6} {'xteMAX':>6} "
+    f"{'time_s':>7} {'energyNs':>8} {'sat%':>5} {'circle':<7} closest approach per waypoint (m)"
+)
+
+
+def _cmd(args: argparse.Namespace) -> int:
+    from autopilot.gnc import GUIDANCE_LAWS, GncConfig
+    from autopilot.schema import load_yaml
+    from autopilot.sim import default_params_path, load_params
+
+    missions = [Path(p) for p in args.mission] if args.mission else shipped_missions()
+    laws = args.guidance or list(GUIDANCE_LAWS)
+    conds = args.condition or list(CONDITION_NAMES)
+    for law in laws:
+        if law not in GUIDANCE_LAWS:
+            raise ConfigError(f"--guidance: unknown law {law!r} (known: {', '.join(GUIDANCE_LAWS)})")
+    for c in conds:
+        if c not in CONDITION_NAMES:
+            raise ConfigError(f"--condition: unknown condition {c!r} (known: {', '.join(CONDITION_NAMES)})")
+    params = load_params(args.vessel or default_params_path())
+    base = load_yaml(GncConfig, args.config) if args.config else GncConfig()
+    if args.plot:
+        Path(args.plot).mkdir(parents=True, exist_ok=True)
+    if not args.json:
+        print(HEADER)
+    for r in evaluate(missions, laws, conds, params=params, base_config=base, record=bool(args.plot)):
+        if args.json:
+            print(json.dumps(r.as_json()))
+        else:
+            print(format_row(r))
+        sys.stdout.flush()
+        if args.plot:
+            from autopilot.gnc.plots import plot_run
+
+            plot_run(r, Path(args.plot) / f"{r.mission}-{r.guidance}-{r.condition}.png")
+    return 0
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "evaluate",
+        help="closed-loop simulation scorecard: missions x guidance laws x conditions",
+        description=__doc__.split("\n\n")[1] if __doc__ else None,
+    )
+    p.add_argument("--json", action="store_true", help="one JSON object per run")
+    p.add_argument("--mission", action="append", metavar="FILE", help="mission file (any supported format); default: config/missions/*.yaml")
+    p.add_argument("--guidance", action="append", metavar="NAME", help="fuzzy, los, proportional (default: all)")
+    p.add_argument("--condition", action="append", metavar="NAME", help=f"{', '.join(CONDITION_NAMES)} (default: all)")
+    p.add_argument("--plot", metavar="DIR", help="draw the thesis figures of each run into DIR")
+    p.add_argument("--config", metavar="FILE", help="GNC configuration YAML (GncConfig keys)")
+    p.add_argument("--vessel", metavar="FILE", help="vessel parameters (default: config/vessel.yaml)")
+    p.set_defaults(func=_cmd)

@@ -1,0 +1,137 @@
+"""The double-loop autopilot (thesis ch. 7-8): guidance -> heading PID -> thrust allocation.
+
+    nav (position, heading, speed, yaw rate) --> guidance law --> psi_d, speed
+    psi_d, psi, r                            --> PID (Eq 7.1)  --> tau_order
+    speed                                    --> Fig 8.2 table --> tau_com
+    tau_com, tau_order                       --> Eq 8.5-8.6, saturation --> T_port, T_stbd --> PWM
+
+Pure: the caller (daemon, simulator, evaluation) supplies the navigation
+data and the time step; nothing here reads a clock or a device.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from autopilot.gnc.allocation import Allocator, common_thrust_n
+from autopilot.gnc.config import GncConfig
+from autopilot.gnc.pid import HeadingPid
+from autopilot.gnc.registry import make_guidance
+from autopilot.gnc.thrust_curve import ThrustCurve
+
+
+@dataclass(frozen=True)
+class NavInput:
+    """What the autopilot needs to know each cycle (SI, local frame)."""
+
+    north_m: float
+    east_m: float
+    psi_rad: float  # heading from north, clockwise
+    speed_m_s: float  # speed over ground
+    yaw_rate_rad_s: float  # > 0 turning to starboard
+    course_rad: float  # course over ground (may equal psi when unknown)
+
+
+@dataclass(frozen=True)
+class ControlOutput:
+    """One cycle's command and the reasons for it (the GNC fields of a log `cycle` line)."""
+
+    wp_index: int
+    tcpa_nd: float | None
+    dcpa_nd: float | None
+    cdh: float | None
+    psi_d_rad: float
+    heading_error_rad: float
+    xte_m: float
+    speed_cmd_m_s: float
+    pid_p_n: float
+    pid_i_n: float
+    pid_d_n: float
+    tau_com_n: float
+    tau_order_n: float
+    thrust_port_n: float
+    thrust_stbd_n: float
+    pwm_port_pct: float
+    pwm_stbd_pct: float
+    sat_port: bool
+    sat_stbd: bool
+    saturation: tuple[str, ...]
+    reached_index: int | None
+    closest_approach_m: float | None
+    complete: bool
+
+
+class Autopilot:
+    """Guidance + PID + allocation for one route. ``step`` once per control cycle."""
+
+    def __init__(
+        self,
+        config: GncConfig,
+        waypoints_ne_m,
+        *,
+        speeds_m_s=None,
+        boat_length_m: float = 3.96,
+        thrust_curve: ThrustCurve = ThrustCurve(),
+        start_index: int = 0,
+    ) -> None:
+        self.config = config
+        self.guidance = make_guidance(
+            config.guidance, waypoints_ne_m, speeds_m_s=speeds_m_s, boat_length_m=boat_length_m, start_index=start_index
+        )
+        self.pid = HeadingPid(config.pid)
+        self.allocator = Allocator(config.allocation, thrust_curve)
+
+    @property
+    def wp_index(self) -> int:
+        """Index of the waypoint being steered to."""
+        return self.guidance.index
+
+    @property
+    def complete(self) -> bool:
+        """The last waypoint has been reached."""
+        return self.guidance.complete
+
+    def reset_integrator(self) -> None:
+        """Zero the heading integral (after a failsafe, before resuming)."""
+        self.pid.reset()
+
+    def step(self, nav: NavInput, dt_s: float) -> ControlOutput:
+        """One control cycle: navigation data and the time since the last cycle -> command."""
+        if not (math.isfinite(nav.north_m) and math.isfinite(nav.east_m) and math.isfinite(nav.psi_rad)):
+            raise ValueError("NavInput position and heading must be finite")
+        g = self.guidance.update(nav, dt_s)
+        terms = self.pid.terms(g.psi_d_rad, nav.psi_rad, nav.yaw_rate_rad_s)
+        if g.thrust_off:
+            self.pid.reset()
+            alloc = self.allocator.allocate(0.0, 0.0)
+            p_n = i_n = d_n = 0.0
+        else:
+            p_n, i_n, d_n = terms.p_n, terms.i_n, terms.d_n
+            alloc = self.allocator.allocate(common_thrust_n(g.speed_cmd_m_s), p_n + i_n + d_n)
+            self.pid.integrate(terms.heading_error_rad, dt_s, saturated=bool(alloc.saturation))
+        return ControlOutput(
+            wp_index=g.wp_index,
+            tcpa_nd=g.tcpa_nd,
+            dcpa_nd=g.dcpa_nd,
+            cdh=g.cdh,
+            psi_d_rad=g.psi_d_rad,
+            heading_error_rad=terms.heading_error_rad,
+            xte_m=g.xte_m,
+            speed_cmd_m_s=g.speed_cmd_m_s,
+            pid_p_n=p_n,
+            pid_i_n=i_n,
+            pid_d_n=d_n,
+            tau_com_n=alloc.tau_com_n,
+            tau_order_n=alloc.tau_order_n,
+            thrust_port_n=alloc.thrust_port_n,
+            thrust_stbd_n=alloc.thrust_stbd_n,
+            pwm_port_pct=alloc.pwm_port_pct,
+            pwm_stbd_pct=alloc.pwm_stbd_pct,
+            sat_port=alloc.sat_port,
+            sat_stbd=alloc.sat_stbd,
+            saturation=alloc.saturation,
+            reached_index=g.reached_index,
+            closest_approach_m=g.closest_approach_m,
+            complete=g.complete,
+        )

@@ -1,0 +1,209 @@
+"""What every guidance law shares: the route, the waypoint index, the speed plan, the end.
+
+A guidance law only answers, for the boat's state and the current target
+waypoint, "which heading do I want, and is this waypoint passed?"
+(:meth:`WaypointGuidance._steer`). This base class keeps the bookkeeping that
+must be the same for every law so that laws can be compared fairly:
+
+- waypoint ``i`` is reached when the law says it is passed, or when the boat
+  is within ``capture_radius_m`` of it (the boat on top of the waypoint: the
+  bearing is undefined there);
+- the closest approach to the target waypoint is tracked and reported when it
+  is reached;
+- the wanted speed: per-leg speed or the default, slowed in large heading
+  errors (``turn_speed_floor_nd``) and on the approach to the last waypoint;
+- the last waypoint: ``stop`` (zero thrust, mission complete) or ``hold``
+  (station keeping within ``hold_radius_m``).
+- the signed cross-track error from the current leg (+ = starboard of it);
+  the first leg starts where the boat was at the first step.
+
+Pure: numbers in, numbers out; plain Python floats on the per-step path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from autopilot.gnc.autopilot import NavInput
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_pi_f(angle_rad: float) -> float:
+    """Scalar wrap to (-pi, pi], plain float (autopilot.geo.wrap_pi is numpy, slower per call)."""
+    a = math.fmod(angle_rad + math.pi, TWO_PI)
+    if a <= 0.0:
+        a += TWO_PI
+    return a - math.pi
+
+
+@dataclass(frozen=True)
+class Steer:
+    """A law's answer for one cycle."""
+
+    psi_d_rad: float
+    passed: bool
+    speed_factor_nd: float = 1.0
+    tcpa_nd: float | None = None
+    dcpa_nd: float | None = None
+    cdh: float | None = None
+
+
+@dataclass(frozen=True)
+class GuidanceOutput:
+    """Guidance result of one cycle (fed to heading control and allocation)."""
+
+    wp_index: int
+    psi_d_rad: float
+    speed_cmd_m_s: float
+    xte_m: float
+    tcpa_nd: float | None
+    dcpa_nd: float | None
+    cdh: float | None
+    reached_index: int | None
+    closest_approach_m: float | None
+    complete: bool
+    thrust_off: bool  # stop: command zero thrust (mission complete, or holding inside the radius)
+
+
+class WaypointGuidance:
+    """Route bookkeeping shared by every law; subclasses implement :meth:`_steer`."""
+
+    law_name = "base"
+
+    def __init__(
+        self,
+        config: Any,  # autopilot.gnc.config.GuidanceConfig
+        waypoints_ne_m: Any,
+        *,
+        speeds_m_s: Any = None,
+        boat_length_m: float = 3.96,
+        start_index: int = 0,
+    ) -> None:
+        wps = [(float(p[0]), float(p[1])) for p in waypoints_ne_m]
+        if not wps:
+            raise ValueError("a route needs at least one waypoint")
+        if any(not (math.isfinite(n) and math.isfinite(e)) for n, e in wps):
+            raise ValueError("waypoints must be finite numbers")
+        if not 0 <= start_index < len(wps):
+            raise ValueError(f"start_index {start_index} outside 0..{len(wps) - 1}")
+        if not boat_length_m > 0:
+            raise ValueError("boat_length_m must be > 0")
+        speeds = list(speeds_m_s) if speeds_m_s is not None else [None] * len(wps)
+        if len(speeds) != len(wps):
+            raise ValueError("speeds_m_s must have one entry (or None) per waypoint")
+        self.config = config
+        self.waypoints = wps
+        self.speeds = [None if s is None else float(s) for s in speeds]
+        self.boat_length_m = float(boat_length_m)
+        self.index = start_index
+        self.complete = False
+        self._closest_m = math.inf
+        self._leg_start: tuple[float, float] | None = (
+            wps[start_index - 1] if start_index > 0 else None
+        )
+        self._armed = False  # laws that switch on "passed abeam" only do so once the target was ahead
+        self.reset()
+
+    # ---------------------------------------------------------------- law hooks
+    def reset(self) -> None:
+        """Forget the law's internal state (integrals); called on waypoint switches too."""
+
+    def _steer(self, nav: NavInput, dt_s: float, i: int) -> Steer:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    # ---------------------------------------------------------------- helpers
+    def leg(self, i: int) -> tuple[tuple[float, float], tuple[float, float]]:
+        """Start and end of the leg to waypoint i (start = previous waypoint or where the boat began)."""
+        start = self._leg_start if self._leg_start is not None else self.waypoints[i]
+        return start, self.waypoints[i]
+
+    def _xte_m(self, north_m: float, east_m: float, i: int) -> float:
+        (n0, e0), (n1, e1) = self.leg(i)
+        dn, de = n1 - n0, e1 - e0
+        length = math.hypot(dn, de)
+        if length < 1e-9:
+            return 0.0
+        # starboard normal of the leg direction (cos chi, sin chi) is (-sin chi, cos chi)
+        return ((north_m - n0) * (-de) + (east_m - e0) * dn) / length
+
+    def _speed_m_s(self, i: int, distance_m: float, heading_error_rad: float, factor: float) -> float:
+        cfg = self.config
+        v = self.speeds[i] if self.speeds[i] is not None else cfg.default_speed_m_s
+        if cfg.turn_speed_floor_nd < 1.0:
+            v *= max(cfg.turn_speed_floor_nd, math.cos(heading_error_rad))
+        if i == len(self.waypoints) - 1 and cfg.arrival_slowdown_m > 0.0:
+            v = min(v, max(cfg.min_speed_m_s, v * distance_m / cfg.arrival_slowdown_m))
+        return v * factor
+
+    # ---------------------------------------------------------------- main
+    def update(self, nav: NavInput, dt_s: float) -> GuidanceOutput:
+        """One guidance cycle."""
+        if self._leg_start is None:
+            self._leg_start = (nav.north_m, nav.east_m)
+        if self.complete:
+            return self._after_end(nav)
+        i = self.index
+        wn, we = self.waypoints[i]
+        d_m = math.hypot(wn - nav.north_m, we - nav.east_m)
+        if d_m < self._closest_m:
+            self._closest_m = d_m
+        xte = self._xte_m(nav.north_m, nav.east_m, i)
+        steer = self._steer(nav, dt_s, i)
+        reached = d_m <= self.config.capture_radius_m or steer.passed
+        if reached:
+            closest = self._closest_m
+            self._closest_m = math.inf
+            self._armed = False
+            self._leg_start = self.waypoints[i]
+            self.reset()
+            if i == len(self.waypoints) - 1:
+                self.complete = True
+                out = self._after_end(nav)
+                return GuidanceOutput(
+                    wp_index=i, psi_d_rad=out.psi_d_rad, speed_cmd_m_s=out.speed_cmd_m_s, xte_m=xte,
+                    tcpa_nd=steer.tcpa_nd, dcpa_nd=steer.dcpa_nd, cdh=steer.cdh,
+                    reached_index=i, closest_approach_m=closest, complete=True, thrust_off=out.thrust_off,
+                )
+            self.index = i + 1
+            # steer to the new target in the same cycle: no cycle without a valid command
+            nxt = self.update(nav, 0.0)
+            return GuidanceOutput(
+                wp_index=nxt.wp_index, psi_d_rad=nxt.psi_d_rad, speed_cmd_m_s=nxt.speed_cmd_m_s,
+                xte_m=nxt.xte_m, tcpa_nd=nxt.tcpa_nd, dcpa_nd=nxt.dcpa_nd, cdh=nxt.cdh,
+                reached_index=i, closest_approach_m=closest, complete=False, thrust_off=False,
+            )
+        err = wrap_pi_f(steer.psi_d_rad - nav.psi_rad)
+        speed = self._speed_m_s(i, d_m, err, steer.speed_factor_nd)
+        return GuidanceOutput(
+            wp_index=i, psi_d_rad=wrap_pi_f(steer.psi_d_rad), speed_cmd_m_s=speed, xte_m=xte,
+            tcpa_nd=steer.tcpa_nd, dcpa_nd=steer.dcpa_nd, cdh=steer.cdh,
+            reached_index=None, closest_approach_m=None, complete=False, thrust_off=False,
+        )
+
+    def _after_end(self, nav: NavInput) -> GuidanceOutput:
+        """Past the last waypoint: stop, or hold station on it."""
+        i = len(self.waypoints) - 1
+        wn, we = self.waypoints[i]
+        dn, de = wn - nav.north_m, we - nav.east_m
+        d_m = math.hypot(dn, de)
+        xte = self._xte_m(nav.north_m, nav.east_m, i)
+        cfg = self.config
+        if cfg.final_action == "stop" or d_m <= cfg.hold_radius_m:
+            return GuidanceOutput(
+                wp_index=i, psi_d_rad=nav.psi_rad, speed_cmd_m_s=0.0, xte_m=xte, tcpa_nd=None,
+                dcpa_nd=None, cdh=None, reached_index=None, closest_approach_m=None, complete=True,
+                thrust_off=True,
+            )
+        # hold: creep back towards the waypoint, slower the closer it is
+        psi_d = math.atan2(de, dn)
+        err = wrap_pi_f(psi_d - nav.psi_rad)
+        v = min(cfg.default_speed_m_s, max(cfg.min_speed_m_s, cfg.default_speed_m_s * d_m / max(cfg.arrival_slowdown_m, 1e-6)))
+        v *= max(0.0, math.cos(err))  # turn on the spot first when it is behind
+        return GuidanceOutput(
+            wp_index=i, psi_d_rad=psi_d, speed_cmd_m_s=v, xte_m=xte, tcpa_nd=None, dcpa_nd=None,
+            cdh=None, reached_index=None, closest_approach_m=None, complete=True, thrust_off=False,
+        )

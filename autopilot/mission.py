@@ -1,0 +1,313 @@
+"""Missions: waypoint files in four formats, checked and converted to the local frame.
+
+Formats (chosen by file extension):
+
+- ``.yaml`` / ``.yml``: ``name`` (optional), ``frame: local`` (``north_m``,
+  ``east_m``) or ``frame: latlon`` (``lat_deg``, ``lon_deg``), optional
+  ``origin: {lat_deg, lon_deg}`` and ``home: {lat_deg, lon_deg}``, and
+  ``waypoints``: a list of mappings with those keys and an optional
+  ``speed_m_s`` for the leg to that waypoint (or of bare ``[north, east]``
+  pairs in the local frame).
+- ``.csv``: a header naming ``north_m,east_m`` or ``lat_deg,lon_deg``, plus
+  optional ``speed_m_s``; ``#`` starts a comment line.
+- ``.waypoints``: Mission Planner's "QGC WPL 110" text format; row 0 is home;
+  MAV_CMD_NAV_WAYPOINT (16) rows are waypoints, MAV_CMD_DO_CHANGE_SPEED (178)
+  sets the speed of the following legs; other commands are refused.
+- ``.plan``: QGroundControl JSON; ``mission.plannedHomePosition`` is home,
+  ``SimpleItem`` waypoints (16) and speed changes (178) as above;
+  ``mission.cruiseSpeed`` is the default speed of legs.
+
+Latitude/longitude are converted to local (north_m, east_m) around an
+origin: the file's home if it has one (the simulated boat starts there,
+heading north, at rest), else the file's ``origin``, else the origin given
+by the caller. A local-frame mission's origin is where the boat starts.
+
+Refused, with a message naming the file, the waypoint (1-based) and the
+problem: no waypoints, non-numbers or NaN, latitude outside +-90 or
+longitude outside +-180, a waypoint farther than ``max_range_m`` from the
+origin, two consecutive identical waypoints, a speed that is not > 0.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from autopilot.geo import latlon_to_local
+from autopilot.schema import ConfigError
+
+MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
+DUPLICATE_TOLERANCE_M = 0.01
+NAV_WAYPOINT = 16
+DO_CHANGE_SPEED = 178
+
+
+class MissionError(ConfigError):
+    """A mission file that cannot be flown as written."""
+
+
+@dataclass(frozen=True)
+class Mission:
+    """A checked route in the local frame."""
+
+    name: str
+    waypoints_ne_m: np.ndarray  # (N, 2): north_m, east_m
+    speeds_m_s: tuple  # one per waypoint: the speed of the leg to it, None = default
+    home_latlon: tuple[float, float] | None
+    origin_lat_deg: float | None
+    origin_lon_deg: float | None
+
+
+@dataclass(frozen=True)
+class _RawPoint:
+    a: Any  # north_m or lat_deg
+    b: Any  # east_m or lon_deg
+    speed: Any = None
+
+
+def _num(where: str, what: str, value: Any) -> float:
+    if isinstance(value, bool):
+        raise MissionError(f"{where}: {what} is not a number ({value!r})")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise MissionError(f"{where}: {what} is not a number ({value!r})") from None
+    if not math.isfinite(x):
+        raise MissionError(f"{where}: {what} is {value!r}, not a finite number")
+    return x
+
+
+def _finish(
+    path: Path,
+    name: str,
+    points: list[_RawPoint],
+    *,
+    latlon: bool,
+    home: tuple[Any, Any] | None,
+    origin: tuple[float | None, float | None],
+    max_range_m: float,
+) -> Mission:
+    if not points:
+        raise MissionError(f"{path}: the mission has no waypoints")
+    home_ll = None
+    if home is not None:
+        home_ll = (_num(f"{path}: home", "latitude", home[0]), _num(f"{path}: home", "longitude", home[1]))
+        _check_latlon(f"{path}: home", *home_ll)
+    if latlon:
+        if home_ll is not None:
+            o_lat, o_lon = home_ll  # home is the local origin
+        elif origin[0] is not None and origin[1] is not None:
+            o_lat, o_lon = float(origin[0]), float(origin[1])
+        else:
+            raise MissionError(
+                f"{path}: waypoints are latitude/longitude but there is no home or origin to convert them "
+                "around (add 'origin' to the file or configure origin_lat_deg/origin_lon_deg)"
+            )
+        _check_latlon(f"{path}: origin", o_lat, o_lon)
+    else:
+        o_lat, o_lon = origin
+        if home_ll is not None and (o_lat is None or o_lon is None):
+            o_lat, o_lon = home_ll
+    ne: list[tuple[float, float]] = []
+    speeds: list[float | None] = []
+    for k, p in enumerate(points, start=1):
+        where = f"{path}: waypoint {k}"
+        a = _num(where, "latitude" if latlon else "north_m", p.a)
+        b = _num(where, "longitude" if latlon else "east_m", p.b)
+        if latlon:
+            _check_latlon(where, a, b)
+            n, e = latlon_to_local(a, b, o_lat, o_lon)
+        else:
+            n, e = a, b
+        dist = math.hypot(n, e)
+        if dist > max_range_m:
+            raise MissionError(f"{where}: {dist:.0f} m from the origin, farther than the allowed range {max_range_m:g} m")
+        if ne and math.hypot(n - ne[-1][0], e - ne[-1][1]) < DUPLICATE_TOLERANCE_M:
+            raise MissionError(f"{where}: same position as waypoint {k - 1} (duplicate consecutive waypoint)")
+        speed = None
+        if p.speed is not None:
+            speed = _num(where, "speed_m_s", p.speed)
+            if not 0.0 < speed <= MAX_SPEED_M_S:
+                raise MissionError(f"{where}: speed {speed:g} m/s outside (0, {MAX_SPEED_M_S:g}] m/s")
+        ne.append((n, e))
+        speeds.append(speed)
+    return Mission(
+        name=name,
+        waypoints_ne_m=np.asarray(ne, dtype=float),
+        speeds_m_s=tuple(speeds),
+        home_latlon=home_ll,
+        origin_lat_deg=o_lat,
+        origin_lon_deg=o_lon,
+    )
+
+
+def _check_latlon(where: str, lat: float, lon: float) -> None:
+    if not -90.0 <= lat <= 90.0:
+        raise MissionError(f"{where}: latitude {lat:g} outside -90..90 deg")
+    if not -180.0 <= lon <= 180.0:
+        raise MissionError(f"{where}: longitude {lon:g} outside -180..180 deg")
+
+
+# ------------------------------------------------------------------------- YAML
+_YAML_KEYS = {"name", "frame", "origin", "home", "waypoints", "description"}
+
+
+def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise MissionError(f"{path}: not valid YAML ({exc})") from exc
+    if not isinstance(data, dict):
+        raise MissionError(f"{path}: expected a mapping with 'waypoints'")
+    unknown = sorted(set(data) - _YAML_KEYS)
+    if unknown:
+        raise MissionError(f"{path}: {unknown[0]}: unknown key (allowed: {', '.join(sorted(_YAML_KEYS))})")
+    frame = data.get("frame", "local")
+    if frame not in ("local", "latlon"):
+        raise MissionError(f"{path}: frame: {frame!r} is not 'local' or 'latlon'")
+    latlon = frame == "latlon"
+    keys = ("lat_deg", "lon_deg") if latlon else ("north_m", "east_m")
+    wps = data.get("waypoints")
+    if wps is None:
+        raise MissionError(f"{path}: the mission has no waypoints")
+    if not isinstance(wps, list):
+        raise MissionError(f"{path}: waypoints: expected a list")
+    points = []
+    for k, w in enumerate(wps, start=1):
+        if isinstance(w, dict):
+            extra = sorted(set(w) - {*keys, "speed_m_s", "name"})
+            if extra:
+                raise MissionError(f"{path}: waypoint {k}: unknown key {extra[0]!r} (allowed: {', '.join(keys)}, speed_m_s, name)")
+            missing = [key for key in keys if key not in w]
+            if missing:
+                raise MissionError(f"{path}: waypoint {k}: missing {missing[0]}")
+            points.append(_RawPoint(w[keys[0]], w[keys[1]], w.get("speed_m_s")))
+        elif isinstance(w, (list, tuple)) and len(w) in (2, 3):
+            points.append(_RawPoint(*w))
+        else:
+            raise MissionError(f"{path}: waypoint {k}: expected a mapping with {keys[0]}, {keys[1]} or a [{keys[0]}, {keys[1]}] pair")
+
+    def _ll(key: str):
+        v = data.get(key)
+        if v is None:
+            return None
+        if not isinstance(v, dict) or set(v) != {"lat_deg", "lon_deg"}:
+            raise MissionError(f"{path}: {key}: expected {{lat_deg: ..., lon_deg: ...}}")
+        return v["lat_deg"], v["lon_deg"]
+
+    home = _ll("home")
+    file_origin = _ll("origin")
+    if file_origin is not None:
+        o = (_num(f"{path}: origin", "latitude", file_origin[0]), _num(f"{path}: origin", "longitude", file_origin[1]))
+        origin = o if origin[0] is None else origin
+    return _finish(path, str(data.get("name") or path.stem), points, latlon=latlon, home=home, origin=origin, max_range_m=max_range_m)
+
+
+# ------------------------------------------------------------------------- CSV
+def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise MissionError(f"{path}: the mission has no waypoints")
+    reader = csv.DictReader(io.StringIO("\n".join(lines)))
+    cols = [c.strip() for c in (reader.fieldnames or [])]
+    reader.fieldnames = cols
+    if {"north_m", "east_m"} <= set(cols):
+        keys, latlon = ("north_m", "east_m"), False
+    elif {"lat_deg", "lon_deg"} <= set(cols):
+        keys, latlon = ("lat_deg", "lon_deg"), True
+    else:
+        raise MissionError(f"{path}: header must name north_m,east_m or lat_deg,lon_deg (got {','.join(cols)})")
+    points = []
+    for row in reader:
+        speed = (row.get("speed_m_s") or "").strip() or None
+        points.append(_RawPoint((row.get(keys[0]) or "").strip(), (row.get(keys[1]) or "").strip(), speed))
+    return _finish(path, path.stem, points, latlon=latlon, home=None, origin=origin, max_range_m=max_range_m)
+
+
+# ------------------------------------------------------------------------- Mission Planner
+def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    if not lines or not lines[0].startswith("QGC WPL 110"):
+        raise MissionError(f"{path}: not a Mission Planner file (first line must be 'QGC WPL 110')")
+    home = None
+    points: list[_RawPoint] = []
+    speed = None
+    for row_no, ln in enumerate(lines[1:]):
+        f = ln.split("\t") if "\t" in ln else ln.split()
+        if len(f) != 12:
+            raise MissionError(f"{path}: row {row_no}: expected 12 fields, got {len(f)}")
+        try:
+            cmd = int(float(f[3]))
+        except ValueError:
+            raise MissionError(f"{path}: row {row_no}: command {f[3]!r} is not a number") from None
+        if row_no == 0:
+            home = (f[8], f[9])
+        elif cmd == NAV_WAYPOINT:
+            points.append(_RawPoint(f[8], f[9], speed))
+        elif cmd == DO_CHANGE_SPEED:
+            speed = f[5]
+        else:
+            raise MissionError(f"{path}: row {row_no}: command {cmd} not supported (only waypoint 16 and change speed 178)")
+    return _finish(path, path.stem, points, latlon=True, home=home, origin=origin, max_range_m=max_range_m)
+
+
+# ------------------------------------------------------------------------- QGroundControl
+def _parse_plan(path: Path, text: str, origin, max_range_m: float) -> Mission:
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise MissionError(f"{path}: not valid JSON ({exc})") from exc
+    mission = data.get("mission") if isinstance(data, dict) else None
+    if not isinstance(mission, dict):
+        raise MissionError(f"{path}: no 'mission' section (is it a QGroundControl .plan?)")
+    home = mission.get("plannedHomePosition")
+    if home is not None:
+        if not isinstance(home, list) or len(home) < 2:
+            raise MissionError(f"{path}: plannedHomePosition: expected [lat, lon, alt]")
+        home = (home[0], home[1])
+    speed = mission.get("cruiseSpeed")
+    speed = speed if speed else None
+    points: list[_RawPoint] = []
+    for k, item in enumerate(mission.get("items") or [], start=1):
+        if not isinstance(item, dict) or item.get("type") != "SimpleItem":
+            raise MissionError(f"{path}: item {k}: only SimpleItem is supported (got {item.get('type') if isinstance(item, dict) else item!r})")
+        cmd, params = item.get("command"), item.get("params") or []
+        if cmd == NAV_WAYPOINT:
+            if len(params) < 6:
+                raise MissionError(f"{path}: item {k}: waypoint needs 7 params")
+            points.append(_RawPoint(params[4], params[5], speed))
+        elif cmd == DO_CHANGE_SPEED:
+            speed = params[1] if len(params) > 1 else None
+        else:
+            raise MissionError(f"{path}: item {k}: command {cmd} not supported (only waypoint 16 and change speed 178)")
+    return _finish(path, path.stem, points, latlon=True, home=home, origin=origin, max_range_m=max_range_m)
+
+
+_PARSERS = {".yaml": _parse_yaml, ".yml": _parse_yaml, ".csv": _parse_csv, ".waypoints": _parse_wpl, ".plan": _parse_plan}
+
+
+def load_mission(
+    path,
+    *,
+    origin_lat_deg: float | None = None,
+    origin_lon_deg: float | None = None,
+    max_range_m: float = 2000.0,
+) -> Mission:
+    """Read, check and convert a mission file (format from its extension)."""
+    path = Path(path)
+    parser = _PARSERS.get(path.suffix.lower())
+    if parser is None:
+        raise MissionError(f"{path}: unknown mission format {path.suffix!r} (known: {', '.join(_PARSERS)})")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise MissionError(f"{path}: cannot read ({exc.strerror})") from exc
+    return parser(path, text, (origin_lat_deg, origin_lon_deg), max_range_m)

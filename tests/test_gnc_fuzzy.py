@@ -1,0 +1,145 @@
+"""Fuzzy engine and fuzzy guidance (thesis ch. 6): hand-computed cases."""
+
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from autopilot.gnc import GncConfig, NavInput
+from autopilot.gnc.fuzzy import tri, uniform_partition
+from autopilot.gnc.fuzzy_guidance import RULE_TABLE, SETS, FuzzyConfig, FuzzyGuidance, cdh, cdh_engine, cpa_geometry
+
+L = 4.0
+
+
+@pytest.mark.parametrize(
+    "wp, tcpa, dcpa",
+    [
+        ((20.0, 0.0), 5.0, 0.0),  # dead ahead: 20 m = 5 boat lengths along the bow
+        ((0.0, 20.0), 0.0, 5.0),  # abeam to starboard
+        ((0.0, -20.0), 0.0, 5.0),  # abeam to port
+        ((-20.0, 0.0), -5.0, 0.0),  # behind
+        ((3.0, 4.0), 3.0 / L, 4.0 / L),  # 3-4-5 triangle
+    ],
+)
+def test_cpa_geometry_heading_north(wp, tcpa, dcpa):
+    d, theta, alpha, t_nd, d_nd = cpa_geometry(0.0, 0.0, 0.0, wp[0], wp[1], L)
+    assert_allclose(d, math.hypot(*wp))
+    assert_allclose([t_nd, d_nd], [tcpa, dcpa], atol=1e-12)
+
+
+def test_tri_shapes():
+    assert_allclose(tri([0, 0.5, 1, 1.5, 2], 0, 1, 2), [0, 0.5, 1, 0.5, 0])
+    assert_allclose(tri([0, 0.5, 1], 0, 0, 1), [1, 0.5, 0])  # left shoulder
+
+
+@pytest.mark.parametrize("i", range(5))
+@pytest.mark.parametrize("j", range(5))
+def test_rule_table_at_set_peaks(i, j):
+    """At the peak of DCPA' set i and TCPA' set j exactly one rule fires fully: CDH = its set's centre."""
+    cfg = FuzzyConfig()
+    d = cfg.dcpa_max_nd * i / 4
+    t = cfg.tcpa_max_nd * j / 4
+    want = SETS.index(RULE_TABLE[i][j]) / 4
+    assert_allclose(float(cdh(t, d, cfg)), want, atol=1e-9)
+    eng = cdh_engine(cfg.tcpa_max_nd, cfg.dcpa_max_nd, cfg.defuzz_points)
+    assert_allclose(eng.evaluate_scalar(d, t), want, atol=1e-9)
+
+
+def test_rule_table_corners_and_shape():
+    assert RULE_TABLE[0][0] == "LA" and RULE_TABLE[0][4] == "SA" and RULE_TABLE[4][0] == "SA" and RULE_TABLE[4][4] == "SA"
+    cfg = FuzzyConfig()
+    assert float(cdh(10 * cfg.tcpa_max_nd, 10 * cfg.dcpa_max_nd, cfg)) == pytest.approx(0.0, abs=1e-12)  # beyond the universe: LA
+
+
+def test_scalar_and_vector_paths_agree():
+    cfg = FuzzyConfig(tcpa_max_nd=2.3, dcpa_max_nd=1.7)
+    rng = np.random.default_rng(1)
+    t = rng.uniform(-0.5, 3.0, 200)
+    d = rng.uniform(0.0, 2.0, 200)
+    eng = cdh_engine(cfg.tcpa_max_nd, cfg.dcpa_max_nd, cfg.defuzz_points)
+    scalar = [eng.evaluate_scalar(dd, tt) for tt, dd in zip(t, d)]
+    assert_allclose(eng.evaluate(d, t), scalar, atol=1e-12)
+
+
+def test_cdh_decreases_with_distance():
+    cfg = FuzzyConfig()
+    t = np.linspace(0, cfg.tcpa_max_nd, 50)
+    c = cdh(t, 0.0, cfg)
+    assert np.all(np.diff(c) <= 1e-12) and c[0] == pytest.approx(1.0) and c[-1] == pytest.approx(0.0)
+
+
+def test_uniform_partition_extend():
+    parts = uniform_partition(0.0, 1.0, 5, extend=True)
+    assert parts[0] == (-0.25, 0.0, 0.25) and parts[-1] == (0.75, 1.0, 1.25)
+
+
+def nav(n, e, psi_deg, speed=1.0):
+    psi = math.radians(psi_deg)
+    return NavInput(north_m=n, east_m=e, psi_rad=psi, speed_m_s=speed, yaw_rate_rad_s=0.0, course_rad=psi)
+
+
+def guidance(wps, **fuzzy):
+    cfg = GncConfig().guidance
+    if fuzzy:
+        from dataclasses import replace
+
+        cfg = replace(cfg, fuzzy=replace(cfg.fuzzy, **fuzzy))
+    return FuzzyGuidance(cfg, wps, boat_length_m=L)
+
+
+def test_far_waypoint_steers_to_it_only():
+    g = guidance([(100.0, 0.0), (100.0, 100.0)])
+    out = g.update(nav(0, 0, 0), 0.1)
+    assert out.cdh == pytest.approx(0.0) and out.psi_d_rad == pytest.approx(0.0)
+
+
+def test_blend_wraps_across_north():
+    """psi_1 just west of north, psi_2 just east: psi_d must lie on the short arc through north."""
+    g = guidance([(2.0, -0.3), (40.0, 6.0)])
+    out = g.update(nav(0, 0, 0), 0.1)
+    psi_1 = math.atan2(-0.3, 2.0)
+    psi_2 = math.atan2(6.0, 40.0)
+    assert 0.0 < out.cdh < 1.0
+    assert psi_1 < out.psi_d_rad < psi_2  # not the long way round via south
+    assert_allclose(out.psi_d_rad, psi_1 + (psi_2 - psi_1) * out.cdh)
+
+
+def test_waypoint_behind_at_start_is_not_passed():
+    g = guidance([(-10.0, 0.0), (-20.0, 5.0)])
+    out = g.update(nav(0, 0, 0), 0.1)
+    assert out.reached_index is None and out.wp_index == 0
+    assert abs(out.psi_d_rad) == pytest.approx(math.pi)
+
+
+def test_switch_when_tcpa_turns_negative():
+    g = guidance([(10.0, 1.5), (20.0, 10.0)])
+    assert g.update(nav(5, 0, 0), 0.1).reached_index is None
+    assert g.update(nav(9.9, 0, 0), 0.1).reached_index is None
+    out = g.update(nav(10.2, 0, 0), 0.1)  # the waypoint is now abaft the beam
+    assert out.reached_index == 0 and out.wp_index == 1
+    assert out.closest_approach_m == pytest.approx(math.hypot(0.1, 1.5))
+
+
+def test_no_switch_at_rest_or_far_away():
+    g = guidance([(10.0, 1.5), (20.0, 10.0)])
+    g.update(nav(5, 0, 0), 0.1)
+    assert g.update(nav(10.2, 0, 0, speed=0.0), 0.1).reached_index is None  # TCPA undefined at rest
+    g = guidance([(30.0, 0.0), (40.0, 10.0)])
+    g.update(nav(0, 0, 0), 0.1)
+    assert g.update(nav(0, 0, 180), 0.1).reached_index is None  # spun round 30 m away: not passed
+
+
+def test_on_top_of_waypoint_counts_as_reached():
+    g = guidance([(0.2, 0.1), (10.0, 0.0)])
+    out = g.update(nav(0, 0, 90, speed=0.0), 0.1)
+    assert out.reached_index == 0 and out.wp_index == 1 and math.isfinite(out.psi_d_rad)
+
+
+def test_last_waypoint_stop():
+    g = guidance([(10.0, 0.0)])
+    g.update(nav(0, 0, 0), 0.1)
+    out = g.update(nav(10.3, 0.2, 0), 0.1)
+    assert out.complete and out.thrust_off and out.reached_index == 0
+    assert g.update(nav(11, 0, 0), 0.1).thrust_off

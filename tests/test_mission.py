@@ -1,0 +1,102 @@
+"""Mission files: the four formats, home/origin handling and refusals naming the waypoint."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from autopilot.geo import local_to_latlon
+from autopilot.mission import MissionError, load_mission
+from autopilot.schema import ConfigError
+
+MISSIONS = Path(__file__).resolve().parent.parent / "config" / "missions"
+HOME = (34.8225, 135.5245)
+
+
+@pytest.mark.parametrize("path", sorted(MISSIONS.glob("*.yaml")) + sorted((MISSIONS / "examples").iterdir()), ids=lambda p: p.name)
+def test_shipped_missions_load(path):
+    m = load_mission(path)
+    assert m.waypoints_ne_m.ndim == 2 and m.waypoints_ne_m.shape[1] == 2 and len(m.speeds_m_s) == len(m.waypoints_ne_m)
+
+
+def test_thesis_and_pond_sets():
+    assert_allclose(load_mission(MISSIONS / "thesis-sim.yaml").waypoints_ne_m, [(10, 5), (35, 20), (50, 16)])
+    assert_allclose(load_mission(MISSIONS / "pond-9.3.yaml").waypoints_ne_m, [(2.7, -1.2), (7.8, -3.4), (11.9, -8.7)])
+    assert len(load_mission(MISSIONS / "zigzag-003.yaml").waypoints_ne_m) == 9
+
+
+def test_plan_and_waypoints_home_is_origin():
+    for name in ("pond-9.4.plan", "pond-9.4.waypoints"):
+        m = load_mission(MISSIONS / "examples" / name, origin_lat_deg=0.0, origin_lon_deg=0.0)
+        assert m.home_latlon == pytest.approx(HOME) and (m.origin_lat_deg, m.origin_lon_deg) == pytest.approx(HOME)
+        assert_allclose(m.waypoints_ne_m, [(10.2, -1.0), (22.0, -6.7), (34.5, -5.5)], atol=0.01)
+    assert load_mission(MISSIONS / "examples" / "pond-9.4.waypoints").speeds_m_s == (1.2, 1.2, 1.2)
+
+
+def test_csv_speeds_and_latlon_yaml(tmp_path):
+    m = load_mission(MISSIONS / "examples" / "thesis-sim.csv")
+    assert m.speeds_m_s == (None, 1.2, 0.8)
+    lat, lon = local_to_latlon(30.0, -40.0, *HOME)
+    p = tmp_path / "ll.yaml"
+    p.write_text(f"frame: latlon\norigin: {{lat_deg: {HOME[0]}, lon_deg: {HOME[1]}}}\nwaypoints:\n  - {{lat_deg: {lat}, lon_deg: {lon}, speed_m_s: 0.9}}\n")
+    m = load_mission(p)
+    assert_allclose(m.waypoints_ne_m, [(30.0, -40.0)], atol=1e-6)
+    assert m.speeds_m_s == (0.9,)
+
+
+def _yaml(tmp_path, body):
+    p = tmp_path / "m.yaml"
+    p.write_text(body)
+    return p
+
+
+@pytest.mark.parametrize(
+    "body, match",
+    [
+        ("waypoints: []\n", "no waypoints"),
+        ("waypoints:\n  - [1, 2]\n  - [.nan, 3]\n", "waypoint 2: north_m is nan"),
+        ("waypoints:\n  - [1, 2]\n  - [1, 2]\n", "waypoint 2: same position as waypoint 1"),
+        ("waypoints:\n  - [1, 2]\n  - [3000, 0]\n", "waypoint 2: 3000 m from the origin"),
+        ("waypoints:\n  - {north_m: 1, east_m: 2, speed_m_s: 0}\n", r"waypoint 1: speed 0 m/s outside"),
+        ("waypoints:\n  - {north_m: 1}\n", "waypoint 1: missing east_m"),
+        ("waypoints:\n  - {north_m: 1, east_m: x}\n", "waypoint 1: east_m is not a number"),
+        ("frame: latlon\norigin: {lat_deg: 10, lon_deg: 10}\nwaypoints:\n  - {lat_deg: 10.001, lon_deg: 10}\n  - {lat_deg: 95, lon_deg: 10}\n", "waypoint 2: latitude 95 outside"),
+        ("frame: latlon\nwaypoints:\n  - {lat_deg: 10, lon_deg: 10}\n", "no home or origin"),
+        ("wayponts: []\n", "unknown key"),
+    ],
+)
+def test_bad_yaml_missions_refused(tmp_path, body, match):
+    with pytest.raises(MissionError, match=match):
+        load_mission(_yaml(tmp_path, body))
+
+
+def test_mission_error_is_config_error(tmp_path):
+    with pytest.raises(ConfigError):
+        load_mission(tmp_path / "missing.yaml")
+    with pytest.raises(MissionError, match="unknown mission format"):
+        load_mission(tmp_path / "m.txt")
+
+
+def test_bad_waypoints_and_plan(tmp_path):
+    p = tmp_path / "m.waypoints"
+    p.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t10\t10\t0\t1\n1\t0\t3\t21\t0\t0\t0\t0\t10.0001\t10\t0\t1\n")
+    with pytest.raises(MissionError, match="row 1: command 21 not supported"):
+        load_mission(p)
+    p = tmp_path / "m.plan"
+    p.write_text(json.dumps({"mission": {"plannedHomePosition": [10, 10, 0], "items": [{"type": "SimpleItem", "command": 16, "params": [0, 0, 0, 0, 10.0001, 10, 0]}, {"type": "ComplexItem"}]}}))
+    with pytest.raises(MissionError, match="item 2: only SimpleItem"):
+        load_mission(p)
+    p.write_text("{not json")
+    with pytest.raises(MissionError, match="not valid JSON"):
+        load_mission(p)
+
+
+def test_csv_latlon_needs_origin(tmp_path):
+    p = tmp_path / "m.csv"
+    p.write_text("lat_deg,lon_deg\n10,10\n")
+    with pytest.raises(MissionError, match="no home or origin"):
+        load_mission(p)
+    m = load_mission(p, origin_lat_deg=10.0, origin_lon_deg=10.0)
+    assert_allclose(m.waypoints_ne_m, np.zeros((1, 2)), atol=1e-9)
