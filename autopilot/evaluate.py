@@ -89,6 +89,43 @@ class RunResult:
         }
 
 
+class CirclingMonitor:
+    """Flags a boat circling a waypoint: its heading turned through more than
+    ``limit_rad`` (one full turn) while it steered to one and the same waypoint.
+
+    Fed the heading once per control cycle; the turn between two samples is
+    the wrapped difference (the boat cannot turn half a revolution in one
+    10 Hz cycle), so the sum is the net heading change since the target last
+    changed. Oscillation about a course sums to ~0; a full loop sums to 2 pi.
+    """
+
+    def __init__(self, limit_rad: float = 2.0 * math.pi) -> None:
+        self.limit_rad = limit_rad
+        self.circled = False
+        self._target: int | None = None
+        self._prev_psi = 0.0
+        self._turned_rad = 0.0
+
+    def update(self, wp_index: int, psi_rad: float) -> bool:
+        """One heading sample while steering to ``wp_index``; returns the flag so far."""
+        if wp_index != self._target:
+            self._target, self._turned_rad = wp_index, 0.0
+        else:
+            self._turned_rad += math.remainder(psi_rad - self._prev_psi, 2.0 * math.pi)
+            if abs(self._turned_rad) > self.limit_rad:
+                self.circled = True
+        self._prev_psi = psi_rad
+        return self.circled
+
+
+def circled(wp_index, psi_rad, *, limit_rad: float = 2.0 * math.pi) -> bool:
+    """The scorecard's circling flag for a heading history (one sample per control cycle)."""
+    mon = CirclingMonitor(limit_rad)
+    for i, psi in zip(wp_index, psi_rad):
+        mon.update(int(i), float(psi))
+    return mon.circled
+
+
 def time_limit_s(waypoints_ne_m, speed_m_s: float) -> float:
     """Generous limit: three times the polyline length at the wanted speed, plus two minutes."""
     length = 0.0
@@ -132,11 +169,9 @@ def run_closed_loop(
     closest = [math.inf] * len(wps)
     xte_sq = xte_max = energy = 0.0
     n_cycles = n_sat = 0
-    turned_rad = 0.0
-    target = 0
-    circled = False
+    circling = CirclingMonitor()
     completed_at = None
-    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s")}
+    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n")}
     while t < t_max_s:
         n_m, e_m, psi, u, v, r = (float(c) for c in x)
         nav = NavInput(north_m=n_m, east_m=e_m, psi_rad=psi, speed_m_s=math.hypot(u, v), yaw_rate_rad_s=r, course_rad=psi + math.atan2(v, u) if (u or v) else psi)
@@ -147,10 +182,10 @@ def run_closed_loop(
         if not out.complete:
             xte_sq += out.xte_m * out.xte_m
             xte_max = max(xte_max, abs(out.xte_m))
-        if out.wp_index != target:
-            target, turned_rad = out.wp_index, 0.0
+        if not out.complete:
+            circling.update(out.wp_index, psi)
         if record:
-            for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", out.xte_m), ("speed_m_s", nav.speed_m_s)):
+            for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", out.xte_m), ("speed_m_s", nav.speed_m_s), ("speed_cmd_m_s", out.speed_cmd_m_s), ("tau_com_n", out.tau_com_n), ("tau_com_trim_n", out.tau_com_trim_n)):
                 tr[k].append(val)
         if out.complete and completed_at is None:
             completed_at = t
@@ -164,10 +199,6 @@ def run_closed_loop(
                 d = math.hypot(float(x[0]) - wn, float(x[1]) - we)
                 if d < closest[k]:
                     closest[k] = d
-        if not out.complete:
-            turned_rad += float(x[5]) * dt_ctrl
-            if abs(turned_rad) > 2.0 * math.pi:
-                circled = True
     return RunResult(
         mission=mission,
         guidance=config.guidance.law,
@@ -179,7 +210,7 @@ def run_closed_loop(
         time_s=completed_at if completed_at is not None else t,
         energy_ns=energy,
         saturation_pct=100.0 * n_sat / max(n_cycles, 1),
-        circled=circled,
+        circled=circling.circled,
         trace={**tr, "waypoints": wps} if record else {},
     )
 

@@ -1,12 +1,15 @@
 """Closed-loop evaluation (model + GNC, simulated time) on a short mission."""
 
 import json
+import math
 from pathlib import Path
+
+import numpy as np
 
 import pytest
 
 from autopilot.cli import main
-from autopilot.evaluate import conditions, run_closed_loop
+from autopilot.evaluate import CirclingMonitor, circled, conditions, evaluate, run_closed_loop, shipped_missions
 from autopilot.gnc import GncConfig
 from autopilot.mission import load_mission
 from autopilot.schema import load
@@ -50,3 +53,49 @@ def test_cli_json_fields(capsys):
 def test_cli_refuses_unknown_condition(capsys):
     assert main(["evaluate", "--condition", "storm"]) == 2
     assert "storm" in capsys.readouterr().err
+
+
+AIM_CONDITIONS = {"calm": 1.5, "current_n": 2.5, "current_e": 2.5, "current_s": 2.5, "current_w": 2.5}
+
+
+@pytest.mark.parametrize("mission", shipped_missions(), ids=lambda p: p.stem)
+def test_fuzzy_aim_on_shipped_missions(params, mission):
+    """Issue 3's aim with the default (fuzzy) configuration: every shipped mission completed,
+    every waypoint passed within 1.5 m in calm water and 2.5 m in 0.2 m/s current, no circling."""
+    for r in evaluate([mission], ["fuzzy"], list(AIM_CONDITIONS), params=params):
+        assert r.completed, f"{r.mission}/{r.condition} not completed"
+        assert not r.circled, f"{r.mission}/{r.condition} circled"
+        assert max(r.closest_approach_m) <= AIM_CONDITIONS[r.condition], (r.condition, r.closest_approach_m)
+
+
+def test_circling_flag_on_synthetic_heading_histories():
+    loop = np.linspace(0.0, math.radians(400.0), 200)  # one waypoint, turned 400 deg to starboard
+    assert circled([0] * 200, loop)
+    assert circled([1] * 200, -loop)  # to port as well
+    assert circled([0] * 200, np.angle(np.exp(1j * loop)))  # given wrapped, as a compass reports it
+    assert not circled([0] * 200, loop * 0.85)  # 340 deg: not yet a circle
+    assert not circled([0] * 100 + [1] * 100, loop)  # the turn is split over two targets
+    weave = math.radians(170.0) * np.sin(np.linspace(0.0, 40.0 * math.pi, 2000))  # +-170 deg weave across south
+    assert not circled([0] * 2000, weave + math.pi)
+
+
+def test_circling_monitor_resets_on_target_change():
+    m = CirclingMonitor()
+    for k in range(60):
+        m.update(0, math.radians(6.0 * k))  # 354 deg
+    for k in range(60):
+        m.update(1, math.radians(6.0 * k))  # new target: counting starts again
+    assert not m.circled
+    m.update(1, math.radians(360.0))
+    m.update(1, math.radians(366.0))
+    assert m.circled
+
+
+def test_circling_flag_fires_closed_loop_with_guards_off(params):
+    """A waypoint abeam inside the turning circle, file 003's law with its tolerance at 0.1 m and
+    the capture radius off: the boat overshoots and loops round it. The default guards do not."""
+    guards_off = {"law": "proportional", "capture_radius_m": 0.0, "proportional": {"wp_tol_m": 0.1}}
+    r = run_closed_loop(params, [(0.0, 4.0)], config=load(GncConfig, {"guidance": guards_off}), t_max_s=90.0)
+    assert r.circled
+    r = run_closed_loop(params, [(0.0, 4.0)], config=load(GncConfig, {"guidance": {"law": "fuzzy"}}), t_max_s=90.0)
+    assert r.completed and not r.circled

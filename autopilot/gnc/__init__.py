@@ -13,6 +13,7 @@ from autopilot.gnc.los import LosConfig
 from autopilot.gnc.pid import PidConfig
 from autopilot.gnc.proportional import ProportionalConfig
 from autopilot.gnc.registry import GUIDANCE_LAWS
+from autopilot.gnc.speed import SpeedTrimConfig
 
 __all__ = [
     "Autopilot",
@@ -25,5 +26,6 @@ __all__ = [
     "FuzzyConfig",
     "LosConfig",
     "ProportionalConfig",
+    "SpeedTrimConfig",
     "GUIDANCE_LAWS",
 ]

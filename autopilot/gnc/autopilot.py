@@ -2,7 +2,7 @@
 
     nav (position, heading, speed, yaw rate) --> guidance law --> psi_d, speed
     psi_d, psi, r                            --> PID (Eq 7.1)  --> tau_order
-    speed                                    --> Fig 8.2 table --> tau_com
+    speed cmd, speed over ground             --> Fig 8.2 table + PI trim --> tau_com
     tau_com, tau_order                       --> Eq 8.5-8.6, saturation --> T_port, T_stbd --> PWM
 
 Pure: the caller (daemon, simulator, evaluation) supplies the navigation
@@ -18,6 +18,7 @@ from autopilot.gnc.allocation import Allocator, common_thrust_n
 from autopilot.gnc.config import GncConfig
 from autopilot.gnc.pid import HeadingPid
 from autopilot.gnc.registry import make_guidance
+from autopilot.gnc.speed import SpeedTrim
 from autopilot.gnc.thrust_curve import ThrustCurve
 
 
@@ -60,6 +61,7 @@ class ControlOutput:
     reached_index: int | None
     closest_approach_m: float | None
     complete: bool
+    tau_com_trim_n: float = 0.0  # speed-over-ground trim inside tau_com_n (tau_com_n = table + trim)
 
 
 class Autopilot:
@@ -81,6 +83,7 @@ class Autopilot:
         )
         self.pid = HeadingPid(config.pid)
         self.allocator = Allocator(config.allocation, thrust_curve)
+        self.speed_trim = SpeedTrim(config.speed)
 
     @property
     def wp_index(self) -> int:
@@ -93,8 +96,9 @@ class Autopilot:
         return self.guidance.complete
 
     def reset_integrator(self) -> None:
-        """Zero the heading integral (after a failsafe, before resuming)."""
+        """Zero the heading and speed integrals (after a failsafe, before resuming)."""
         self.pid.reset()
+        self.speed_trim.reset()
 
     def step(self, nav: NavInput, dt_s: float) -> ControlOutput:
         """One control cycle: navigation data and the time since the last cycle -> command."""
@@ -104,12 +108,23 @@ class Autopilot:
         terms = self.pid.terms(g.psi_d_rad, nav.psi_rad, nav.yaw_rate_rad_s)
         if g.thrust_off:
             self.pid.reset()
+            self.speed_trim.reset()
             alloc = self.allocator.allocate(0.0, 0.0)
-            p_n = i_n = d_n = 0.0
+            p_n = i_n = d_n = trim_n = 0.0
         else:
             p_n, i_n, d_n = terms.p_n, terms.i_n, terms.d_n
-            alloc = self.allocator.allocate(common_thrust_n(g.speed_cmd_m_s), p_n + i_n + d_n)
+            speed_n = nav.speed_m_s if math.isfinite(nav.speed_m_s) else g.speed_cmd_m_s  # no speed: table only
+            trim_n = self.speed_trim.terms(g.speed_cmd_m_s, speed_n).trim_n
+            tau_com = common_thrust_n(g.speed_cmd_m_s) + trim_n
+            floor = tau_com <= 0.0
+            if floor:  # never astern common mode (see autopilot.gnc.speed)
+                trim_n -= tau_com
+                tau_com = 0.0
+            alloc = self.allocator.allocate(tau_com, p_n + i_n + d_n)
             self.pid.integrate(terms.heading_error_rad, dt_s, saturated=bool(alloc.saturation))
+            # the allocator cut the common mode: more speed cannot be delivered
+            cut = 0.5 * (alloc.thrust_port_n + alloc.thrust_stbd_n) < tau_com - 1e-9
+            self.speed_trim.integrate(g.speed_cmd_m_s, speed_n, dt_s, block_up=cut, block_down=floor)
         return ControlOutput(
             wp_index=g.wp_index,
             tcpa_nd=g.tcpa_nd,
@@ -134,4 +149,5 @@ class Autopilot:
             reached_index=g.reached_index,
             closest_approach_m=g.closest_approach_m,
             complete=g.complete,
+            tau_com_trim_n=trim_n,
         )

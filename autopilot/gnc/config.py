@@ -13,6 +13,7 @@ from autopilot.gnc.fuzzy_guidance import FuzzyConfig
 from autopilot.gnc.los import LosConfig
 from autopilot.gnc.pid import PidConfig
 from autopilot.gnc.proportional import ProportionalConfig
+from autopilot.gnc.speed import SpeedTrimConfig
 from autopilot.schema import param
 
 LAWS = ("fuzzy", "los", "proportional")
@@ -42,3 +43,4 @@ class GncConfig:
     guidance: GuidanceConfig = param(default_factory=GuidanceConfig, doc="outer loop")
     pid: PidConfig = param(default_factory=PidConfig, doc="inner loop, Eq 7.1")
     allocation: AllocationConfig = param(default_factory=AllocationConfig, doc="Eq 8.5-8.6")
+    speed: SpeedTrimConfig = param(default_factory=SpeedTrimConfig, doc="speed-over-ground trim on tau_com (SPEC 8: tau_com keeps the speed)")

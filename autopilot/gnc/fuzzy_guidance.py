@@ -37,10 +37,14 @@ Corner cases, guarded here:
 The membership-function universes of Fig 6.3 cannot be read from the thesis;
 they are configuration (:class:`FuzzyConfig`), defaults chosen in simulation
 (``autopilot evaluate``): TCPA' in [0, 1] and DCPA' in [0, 1] boat lengths,
-so CDH starts to rise about one boat length (4 m) before W_i. With TCPA' up
-to 1.5 L the boat cut the zig-zag's corners (closest approach up to 1.6 m in
-calm water); with 1.0 L every shipped waypoint is passed within 1.0 m calm
-and 1.4 m in 0.2 m/s current.
+so CDH starts to rise about one boat length (4 m) before W_i. Re-checked
+with the speed trim and the PID defaults of ``autopilot.gnc.pid`` (worst
+closest approach over every shipped mission, calm / 0.2 m/s current from
+any side): TCPA' to 0.8 L 1.00 / 1.37 m, 1.0 L 1.00 / 1.35 m, 1.25 L
+1.12 / 1.31 m; DCPA' to 0.7 L 1.00 / 1.37 m, 1.5 L 1.00 / 1.33 m. With the
+re-tuned PID the universes matter little; 1.0 / 1.0 is kept (best in calm
+water). The calm 1.00 m is the capture radius at the last waypoint (the
+run stops there).
 """
 
 from __future__ import annotations

@@ -1,0 +1,84 @@
+"""Speed-over-ground trim on tau_com (SPEC 8: tau_com keeps the speed; Eq 8.5-8.6 feed-forward)."""
+
+import math
+
+import pytest
+from numpy.testing import assert_allclose
+
+from autopilot.evaluate import conditions, run_closed_loop
+from autopilot.gnc import Autopilot, GncConfig, NavInput, SpeedTrimConfig
+from autopilot.gnc.allocation import common_thrust_n
+from autopilot.gnc.speed import SpeedTrim
+from autopilot.schema import load
+from autopilot.sim import default_params_path, load_params
+
+
+def nav(speed_m_s, psi_rad=0.0):
+    return NavInput(north_m=0.0, east_m=0.0, psi_rad=psi_rad, speed_m_s=speed_m_s, yaw_rate_rad_s=0.0, course_rad=psi_rad)
+
+
+def test_trim_pi_terms_and_bound():
+    t = SpeedTrim(SpeedTrimConfig(kp_n_s_per_m=8.0, ki_n_per_m=3.0, integral_limit_n=15.0, trim_limit_n=20.0))
+    assert_allclose(t.terms(1.0, 0.5).trim_n, 4.0)  # 8 * 0.5
+    t.integrate(1.0, 0.5, 2.0)
+    assert_allclose(t.integral_n, 3.0)  # 3 * 0.5 * 2
+    assert_allclose(t.terms(1.0, 0.5).trim_n, 7.0)
+    for _ in range(100):
+        t.integrate(1.0, 0.0, 1.0)
+    assert_allclose(t.integral_n, 15.0)  # integral bound
+    assert_allclose(t.terms(1.0, 0.0).trim_n, 20.0)  # 8 + 15 clamped to the trim bound
+
+
+def test_trim_anti_windup_blocks_only_the_saturated_direction():
+    t = SpeedTrim(SpeedTrimConfig(ki_n_per_m=1.0))
+    t.integrate(1.0, 0.0, 1.0)
+    t.integrate(1.0, 0.0, 1.0, block_up=True)  # allocator cut the common mode: may not grow
+    assert_allclose(t.integral_n, 1.0)
+    t.integrate(1.0, 1.5, 1.0, block_up=True)  # shrinking is allowed
+    assert_allclose(t.integral_n, 0.5)
+    t.integrate(1.0, 2.0, 1.0, block_down=True)  # at tau_com = 0: may not fall
+    assert_allclose(t.integral_n, 0.5)
+    t.integrate(0.0, 1.0, 1.0)  # no speed wanted: trim off and reset
+    assert t.integral_n == 0.0 and t.terms(0.0, 1.0).trim_n == 0.0
+
+
+def test_autopilot_tau_com_is_table_plus_trim():
+    ap = Autopilot(GncConfig(), [(100.0, 0.0)])
+    out = ap.step(nav(0.4), 0.1)
+    assert out.tau_com_trim_n > 0.0  # slower than wanted: more thrust
+    assert_allclose(out.tau_com_n, common_thrust_n(out.speed_cmd_m_s) + out.tau_com_trim_n)
+    fast = Autopilot(GncConfig(), [(100.0, 0.0)]).step(nav(1.6), 0.1)
+    assert fast.tau_com_trim_n < 0.0 and fast.tau_com_n < common_thrust_n(fast.speed_cmd_m_s)
+
+
+def test_trim_never_asks_astern_and_disabled_is_the_thesis():
+    out = Autopilot(GncConfig(), [(100.0, 0.0)]).step(nav(3.4), 0.1)  # far too fast
+    assert out.tau_com_n >= 0.0
+    assert_allclose(out.tau_com_n, common_thrust_n(out.speed_cmd_m_s) + out.tau_com_trim_n)
+    off = load(GncConfig, {"speed": {"enabled": False}})
+    out = Autopilot(off, [(100.0, 0.0)]).step(nav(0.2), 0.1)
+    assert out.tau_com_trim_n == 0.0 and out.tau_com_n == common_thrust_n(out.speed_cmd_m_s)
+
+
+def test_reset_integrator_zeroes_speed_integral_too():
+    ap = Autopilot(GncConfig(), [(100.0, 0.0)])
+    for _ in range(20):
+        ap.step(nav(0.5), 0.1)
+    before = ap.step(nav(1.0), 0.1).tau_com_trim_n
+    assert before > 0.0  # integral left from the slow cycles
+    ap.reset_integrator()
+    assert_allclose(ap.step(nav(1.0), 0.1).tau_com_trim_n, 0.0, atol=1e-9)
+
+
+def test_nan_speed_falls_back_to_table():
+    out = Autopilot(GncConfig(), [(100.0, 0.0)]).step(nav(math.nan), 0.1)
+    assert out.tau_com_trim_n == 0.0 and math.isfinite(out.tau_com_n)
+
+
+@pytest.mark.parametrize("enabled, completes", [(True, True), (False, False)])
+def test_headwind_needs_the_trim(enabled, completes):
+    """5 m/s wind on the bow: the Fig 8.2 table alone stalls (drag ~ table thrust), the trim beats it."""
+    params = load_params(default_params_path())
+    cfg = load(GncConfig, {"speed": {"enabled": enabled}})
+    r = run_closed_loop(params, [(14.0, 14.0)], config=cfg, env=conditions()["wind"], t_max_s=60.0)  # leg into the NE wind
+    assert r.completed is completes
