@@ -1,0 +1,183 @@
+"""Daemon configuration: every setting of ``config/autopilot.yaml`` as frozen dataclasses.
+
+Loaded with :func:`autopilot.schema.load_yaml`, so an unknown key, a wrong
+type or an out-of-range value stops ``autopilot run`` with a message naming
+the key and the allowed range *before any serial port is opened*.
+The GNC's own settings (guidance law, PID gains, allocation, membership
+universes) are the ``gnc`` section, :class:`autopilot.gnc.GncConfig`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from autopilot.gnc import GncConfig
+from autopilot.schema import ConfigError, load_yaml, param
+
+__all__ = [
+    "SerialConfig",
+    "FailsafeConfig",
+    "GeofenceConfig",
+    "SimConfig",
+    "DaemonConfig",
+    "load_config",
+]
+
+_SC30_BAUDS = (4800, 9600, 19200, 38400)
+_MBED_BAUDS = (9600, 19200, 38400, 57600, 115200)
+
+
+@dataclass(frozen=True)
+class SerialConfig:
+    """The two serial devices (stable names from systemd/99-wamv.rules)."""
+
+    sc30_port: str = param("/dev/sc30", doc="SC-30 satellite compass NMEA port")
+    sc30_baud: int = param(4800, unit="bit/s", lo=4800, hi=38400, source="SPEC 10", doc="SC-30 baud rate: 4800, 9600, 19200 or 38400")
+    mbed_port: str = param("/dev/mbed", doc="Mbed LPC1768 thruster controller port (USB CDC)")
+    mbed_baud: int = param(115200, unit="bit/s", lo=9600, hi=115200, doc="Mbed baud rate")
+    reconnect_min_s: float = param(0.2, unit="s", lo=0.01, hi=10.0, doc="first reconnect back-off after a port vanished")
+    reconnect_max_s: float = param(5.0, unit="s", lo=0.05, hi=60.0, doc="largest reconnect back-off")
+    ack_timeout_s: float = param(0.3, unit="s", lo=0.01, hi=5.0, doc="an Mbed command not acknowledged within this is missing")
+
+    def __post_init__(self) -> None:
+        if self.sc30_baud not in _SC30_BAUDS:
+            raise ConfigError(f"serial.sc30_baud: {self.sc30_baud} is not one of {', '.join(map(str, _SC30_BAUDS))}")
+        if self.mbed_baud not in _MBED_BAUDS:
+            raise ConfigError(f"serial.mbed_baud: {self.mbed_baud} is not one of {', '.join(map(str, _MBED_BAUDS))}")
+        if self.reconnect_max_s < self.reconnect_min_s:
+            raise ConfigError("serial.reconnect_max_s: must be >= serial.reconnect_min_s")
+
+
+@dataclass(frozen=True)
+class GeofenceConfig:
+    """A polygon the boat must stay inside; leaving it is a latched failsafe (zero thrust)."""
+
+    frame: str = param("none", choices=("none", "local", "latlon"), doc="polygon vertices as [north_m, east_m] (local) or [lat_deg, lon_deg] (latlon); none = no fence")
+    polygon: tuple[tuple[float, float], ...] = param((), unit="m or deg", lo=-1e6, hi=1e6, doc="vertices in order (>= 3), closed implicitly")
+
+    def __post_init__(self) -> None:
+        if self.frame != "none" and len(self.polygon) < 3:
+            raise ConfigError(f"geofence.polygon: needs at least 3 vertices for frame {self.frame!r}, got {len(self.polygon)}")
+        if self.frame == "latlon":
+            for i, (lat, lon) in enumerate(self.polygon):
+                if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+                    raise ConfigError(f"geofence.polygon[{i}]: [{lat}, {lon}] is not a latitude in [-90, 90] deg and longitude in [-180, 180] deg")
+
+
+@dataclass(frozen=True)
+class FailsafeConfig:
+    """Detection thresholds and the recovery rule (issue 7). Any fault -> zero thrust on both sides."""
+
+    heading_stale_s: float = param(1.0, unit="s", lo=0.05, hi=10.0, doc="heading older than this is a fault (SC-30 sends it at 10 Hz)")
+    position_stale_s: float = param(3.0, unit="s", lo=0.1, hi=30.0, doc="position older than this is a fault (GGA/RMC at 1 Hz)")
+    ack_missing_n: int = param(5, unit="commands", lo=1, hi=100, doc="this many consecutive unacknowledged Mbed commands is a fault")
+    garbage_hold_s: float = param(1.0, unit="s", lo=0.0, hi=30.0, doc="a garbage burst on either line counts as a fault for this long")
+    mbed_garbage_lines: int = param(5, unit="lines", lo=1, hi=1000, doc="more malformed Mbed lines than this within 1 s is a garbage burst")
+    resume_valid_s: float = param(2.0, unit="s", lo=0.0, hi=120.0, doc="data must be valid again for this long before thrust resumes")
+    start_valid_s: float = param(1.0, unit="s", lo=0.0, hi=120.0, doc="data must be valid for this long before the mission starts")
+    max_mission_time_s: float = param(1800.0, unit="s", lo=1.0, hi=86400.0, doc="mission time limit: zero thrust and stop when reached")
+    max_distance_m: float = param(500.0, unit="m", lo=1.0, hi=20000.0, doc="largest distance from the origin before a latched failsafe")
+    resume_after_restart: bool = param(False, doc="after a restart, continue from the saved waypoint (else refuse to move)")
+    cog_fallback: bool = param(False, doc="steer on course over ground when the heading is lost (logged as heading_source COG)")
+    cog_fallback_min_sog_m_s: float = param(0.5, unit="m/s", lo=0.0, hi=10.0, doc="COG is meaningless below this speed")
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """`--sim`: the simulated SC-30 and Mbed on pseudo-terminals, in the daemon's own event loop."""
+
+    origin_lat_deg: float = param(52.0, unit="deg", lo=-89.0, hi=89.0, doc="where a local-frame mission without origin is placed under --sim (any point; only the local frame matters)")
+    origin_lon_deg: float = param(4.4, unit="deg", lo=-180.0, hi=180.0, doc="see origin_lat_deg")
+    vessel: str = param("", doc="vessel parameter file; empty = the calibrated default (config/vessel.yaml)")
+    heading_noise_deg: float = param(0.1, unit="deg", lo=0.0, hi=10.0, doc="SC-30 heading noise (1 sigma)")
+    position_noise_m: float = param(0.3, unit="m", lo=0.0, hi=20.0, doc="SC-30 position noise (1 sigma)")
+    seed: int = param(0, lo=0, hi=2**31 - 1, doc="noise seed")
+    current_speed_m_s: float = param(0.0, unit="m/s", lo=0.0, hi=3.0, doc="uniform current speed")
+    current_towards_deg: float = param(0.0, unit="deg", lo=0.0, hi=360.0, doc="current direction (towards)")
+    wind_speed_m_s: float = param(0.0, unit="m/s", lo=0.0, hi=30.0, doc="wind speed")
+    wind_from_deg: float = param(0.0, unit="deg", lo=0.0, hi=360.0, doc="wind direction (from)")
+
+
+@dataclass(frozen=True)
+class DaemonConfig:
+    """The whole ``autopilot run`` configuration."""
+
+    rate_hz: float = param(10.0, unit="Hz", lo=1.0, hi=50.0, doc="control loop rate (absolute deadlines)")
+    origin_lat_deg: float | None = param(None, unit="deg", lo=-90.0, hi=90.0, doc="local-frame origin; null = the mission file's origin")
+    origin_lon_deg: float | None = param(None, unit="deg", lo=-180.0, hi=180.0, doc="local-frame origin; null = the mission file's origin")
+    max_mission_range_m: float = param(2000.0, unit="m", lo=1.0, hi=50000.0, doc="refuse missions with a waypoint farther than this from the origin")
+    boat_length_m: float = param(3.96, unit="m", lo=1.0, hi=50.0, source="SPEC 1", doc="hull length L for the fuzzy guidance (the simulated vessel's own length under --sim)")
+    log_dir: str = param("logs", doc="mission log directory (systemd passes $LOGS_DIRECTORY with --log-dir)")
+    state_dir: str = param("state", doc="mission progress directory (systemd passes $STATE_DIRECTORY with --state-dir)")
+    ready_timeout_s: float = param(30.0, unit="s", lo=0.5, hi=600.0, doc="log a warning if both devices have not answered after this")
+    stop_ack_timeout_s: float = param(1.0, unit="s", lo=0.05, hi=10.0, doc="on SIGTERM, wait this long for the zero-thrust acknowledgement")
+    serial: SerialConfig = param(default_factory=SerialConfig)
+    failsafe: FailsafeConfig = param(default_factory=FailsafeConfig)
+    geofence: GeofenceConfig = param(default_factory=GeofenceConfig)
+    sim: SimConfig = param(default_factory=SimConfig)
+    gnc: GncConfig = param(default_factory=GncConfig)
+
+    def __post_init__(self) -> None:
+        if (self.origin_lat_deg is None) != (self.origin_lon_deg is None):
+            raise ConfigError("origin_lat_deg, origin_lon_deg: give both or neither")
+        if self.failsafe.heading_stale_s < 1.0 / self.rate_hz:
+            raise ConfigError(
+                f"failsafe.heading_stale_s: {self.failsafe.heading_stale_s} s is shorter than one control period ({1.0 / self.rate_hz:g} s)"
+            )
+
+    @property
+    def period_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+def load_config(path: str | Path) -> DaemonConfig:
+    """Read and check the whole configuration file (raises ConfigError naming file and key)."""
+    cfg = load_yaml(DaemonConfig, path)
+    if not math.isfinite(cfg.period_s):  # pragma: no cover - rate_hz is range-checked
+        raise ConfigError("rate_hz: not finite")
+    return cfg
+
+
+def render_yaml(cfg: DaemonConfig | None = None) -> str:
+    """The whole configuration as commented YAML (how config/autopilot.yaml is generated)::
+
+        python -c "from autopilot.daemon.config import render_yaml; print(render_yaml(), end='')" > config/autopilot.yaml
+    """
+    import dataclasses
+
+    import yaml
+
+    from autopilot.schema import _range_text, to_dict
+
+    lines = [
+        "# autopilot run --config config/autopilot.yaml: every setting, with its default.",
+        "# Unit, allowed range and meaning in the comment above each key. An unknown key, a wrong",
+        "# type or an out-of-range value stops the start (before any port is opened) naming the key.",
+        "",
+    ]
+
+    def emit(obj, pad: str) -> None:
+        for f in dataclasses.fields(obj):
+            value, meta = getattr(obj, f.name), f.metadata
+            doc = meta.get("doc", "")
+            if dataclasses.is_dataclass(value):
+                if doc:
+                    lines.append(f"{pad}# {doc}")
+                lines.append(f"{pad}{f.name}:")
+                emit(value, pad + "  ")
+                continue
+            if meta.get("choices"):
+                rng = "one of " + ", ".join(meta["choices"])
+            elif meta.get("lo") is not None or meta.get("hi") is not None:
+                rng = _range_text(meta)
+            else:
+                rng = "" if meta.get("unit", "-") == "-" else meta["unit"]
+            src = f"; source: {meta['source']}" if meta.get("source") else ""
+            lines.append((f"{pad}# {doc}" + (f" [{rng}]" if rng else "") + src).rstrip())
+            text = yaml.safe_dump({f.name: to_dict(value)}, default_flow_style=True, width=1000).strip()
+            lines.append(pad + (text[1:-1] if text.startswith("{") else text))
+
+    emit(cfg or DaemonConfig(), "")
+    return "\n".join(lines) + "\n"

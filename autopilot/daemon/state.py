@@ -1,0 +1,88 @@
+"""Mission progress in the state directory, written atomically (issue 7, restart safety).
+
+One small JSON file per daemon: which mission (path and SHA-256 of its
+content), the waypoint being steered to, and whether the mission is still
+running. Written as tmp file + fsync + rename + fsync of the directory, so
+after a crash or power cut the file is either the old or the new version,
+never half of one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+__all__ = ["Progress", "StateStore", "file_sha256"]
+
+STATE_FILE = "mission-progress.json"
+
+
+def file_sha256(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+@dataclass(frozen=True)
+class Progress:
+    mission: str
+    mission_sha256: str
+    wp_index: int
+    status: str  # "running", "complete", "stopped", "aborted"
+    t_s: float = 0.0
+
+
+class StateStore:
+    """Reads and atomically replaces ``<state_dir>/mission-progress.json``."""
+
+    def __init__(self, state_dir: str | Path) -> None:
+        self.dir = Path(state_dir)
+        self.path = self.dir / STATE_FILE
+        self._last: Progress | None = None
+
+    def load(self) -> Progress | None:
+        """The saved progress, or None when absent or unreadable (never trusted half-way)."""
+        try:
+            data = json.loads(self.path.read_text(encoding="utf-8"))
+            return Progress(
+                mission=str(data["mission"]),
+                mission_sha256=str(data["mission_sha256"]),
+                wp_index=int(data["wp_index"]),
+                status=str(data["status"]),
+                t_s=float(data.get("t_s", 0.0)),
+            )
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+
+    def save(self, progress: Progress) -> None:
+        """Replace the file atomically; skip when nothing but the time changed."""
+        if self._last is not None and (self._last.wp_index, self._last.status, self._last.mission_sha256) == (
+            progress.wp_index,
+            progress.status,
+            progress.mission_sha256,
+        ):
+            return
+        self.dir.mkdir(parents=True, exist_ok=True)
+        tmp = self.path.with_name(f".{STATE_FILE}.{os.getpid()}.tmp")
+        data = json.dumps(asdict(progress), sort_keys=True).encode("utf-8")
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o640)
+        try:
+            os.write(fd, data + b"\n")
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, self.path)
+        dfd = os.open(self.dir, os.O_RDONLY | os.O_DIRECTORY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+        self._last = progress
+
+    def resume_index(self, mission: str, mission_sha256: str) -> int | None:
+        """Waypoint to resume from if the saved mission is this one and was still running."""
+        saved = self.load()
+        if saved is None or saved.mission_sha256 != mission_sha256 or saved.status != "running":
+            return None
+        return saved.wp_index

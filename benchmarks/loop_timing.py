@@ -1,0 +1,114 @@
+"""Control-loop timing of the real daemon: `autopilot run --sim` in real time (issue 4, Show).
+
+Runs the daemon as a subprocess at speedup 1 on a looping mission long enough for the
+duration, stops it with SIGTERM, and reports from its own log and from the kernel:
+
+- loop lateness (cycle start after its absolute deadline): median and 99th percentile;
+- latency from a heading sentence's arrival (driver receive time) to the command that used it,
+  99th percentile (includes the heading's age: the SC-30 sends heading at 10 Hz);
+- CPU seconds per wall second and peak RSS of the daemon process (wait4 rusage). Under --sim
+  the simulated SC-30, Mbed and boat model run in the same process, so these are upper bounds
+  of the daemon alone.
+
+    python benchmarks/loop_timing.py                       # 5 min at 10 Hz, then 1 min at 50 Hz
+    python benchmarks/loop_timing.py --duration-s 60 --rate-hz 10 [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def looping_mission(duration_s: float, speed_m_s: float = 1.0) -> dict:
+    """A 20 m square, repeated often enough that the boat is still under way at the end."""
+    side_m = 20.0
+    laps = int(math.ceil(duration_s * speed_m_s / (4 * side_m))) + 2
+    wps = []
+    for _ in range(laps):
+        wps += [[side_m, 0.0], [side_m, side_m], [0.0, side_m], [2.0, 2.0]]
+    return {"name": "timing-square", "frame": "local", "waypoints": wps}
+
+
+def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800) -> dict:
+    with tempfile.TemporaryDirectory(prefix="loop-timing-") as tmp:
+        tmp_path = Path(tmp)
+        cfg = yaml.safe_load((ROOT / "config" / "autopilot.yaml").read_text())
+        cfg["rate_hz"] = rate_hz
+        cfg["serial"]["sc30_baud"] = sc30_baud
+        cfg["failsafe"]["max_mission_time_s"] = max(duration_s * 2 + 60, 60.0)
+        (tmp_path / "autopilot.yaml").write_text(yaml.safe_dump(cfg))
+        (tmp_path / "mission.yaml").write_text(yaml.safe_dump(looping_mission(duration_s)))
+        cmd = [sys.executable, "-m", "autopilot", "run", "--config", str(tmp_path / "autopilot.yaml"),
+               "--mission", str(tmp_path / "mission.yaml"), "--sim", "--log-dir", str(tmp_path / "logs"),
+               "--state-dir", str(tmp_path / "state")]
+        t0 = time.monotonic()
+        proc = subprocess.Popen(cmd, cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(duration_s)
+        proc.send_signal(signal.SIGTERM)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall_s = time.monotonic() - t0
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        (log_file,) = list((tmp_path / "logs").glob("mission-*.jsonl"))
+        recs = [json.loads(line) for line in log_file.read_text().splitlines()]
+    cycles = [r for r in recs if r["event"] == "cycle"]
+    auto = [r for r in cycles if r["mode"] == "auto"]
+    late_ms = np.array([c["lateness_ms"] for c in cycles])
+    lat_ms = np.array([c["heading_latency_ms"] for c in auto if c["heading_latency_ms"] is not None])
+    stop = recs[-1]
+    return {
+        "rate_hz": rate_hz,
+        "sc30_baud": sc30_baud,
+        "duration_s": round(wall_s, 1),
+        "exit_code": proc.returncode,
+        "cycles": len(cycles),
+        "skipped_cycles": stop.get("skipped_cycles"),
+        "late_cycles_over_period": int(np.sum(late_ms >= 1e3 / rate_hz)),
+        "lateness_p50_ms": round(float(np.percentile(late_ms, 50)), 3),
+        "lateness_p99_ms": round(float(np.percentile(late_ms, 99)), 3),
+        "lateness_max_ms": round(float(late_ms.max()), 3),
+        "heading_to_command_p99_ms": round(float(np.percentile(lat_ms, 99)), 1) if lat_ms.size else None,
+        "cpu_s_per_wall_s": round((usage.ru_utime + usage.ru_stime) / wall_s, 4),
+        "peak_rss_mb": round(usage.ru_maxrss / 1024.0, 1),
+        "stop_ack_received": stop.get("ack_received"),
+        "waypoints_reached": sum(r["event"] == "waypoint_reached" for r in recs),
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--duration-s", type=float, default=None, help="one run of this length (default: 300 s at 10 Hz and 60 s at 50 Hz)")
+    ap.add_argument("--rate-hz", type=float, default=10.0)
+    ap.add_argument("--sc30-baud", type=int, default=4800, help="SC-30 line speed (4800 or 38400): sets how late headings arrive")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    plan = [(args.duration_s, args.rate_hz)] if args.duration_s else [(300.0, 10.0), (60.0, 50.0)]
+    results = [run(d, r, args.sc30_baud) for d, r in plan]
+    if args.json:
+        print(json.dumps(results, indent=2))
+    else:
+        for res in results:
+            print(f"--sim, real time, {res['rate_hz']:g} Hz, SC-30 at {res['sc30_baud']} baud, {res['duration_s']:g} s, {res['cycles']} cycles "
+                  f"({res['skipped_cycles']} skipped), exit {res['exit_code']}")
+            print(f"  lateness p50 {res['lateness_p50_ms']:.3f} ms, p99 {res['lateness_p99_ms']:.3f} ms, max {res['lateness_max_ms']:.3f} ms")
+            print(f"  heading arrival -> command p99 {res['heading_to_command_p99_ms']} ms")
+            print(f"  CPU {res['cpu_s_per_wall_s'] * 100:.2f} % of one core, peak RSS {res['peak_rss_mb']:.1f} MB "
+                  f"(daemon + in-process simulator)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,165 @@
+"""End to end: `autopilot run --sim --speedup 20` flies each pond mission through the pseudo-terminals.
+
+The daemon runs as a subprocess exactly as a user starts it; its simulated SC-30 and Mbed sit
+behind real pseudo-terminals in the same process. The log is checked against docs/log-schema.md.
+"""
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = ROOT / "config" / "autopilot.yaml"
+MISSIONS = sorted((ROOT / "config" / "missions").glob("pond-9.*.yaml"))
+SPEEDUP = 20
+
+
+def schema_cycle_keys() -> list[str]:
+    """Every key of the `cycle` table in docs/log-schema.md."""
+    text = (ROOT / "docs" / "log-schema.md").read_text()
+    table = text.split("## `cycle`", 1)[1].split("\n\n", 2)[1]
+    keys = []
+    for row in table.splitlines()[2:]:
+        keys += re.findall(r"`([a-z_]+)`", row.split("|")[1])
+    return keys
+
+
+def read_log(log_dir: Path) -> list[dict]:
+    (path,) = list(log_dir.glob("mission-*.jsonl"))
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def start(mission: Path, tmp_path: Path, *extra: str) -> subprocess.Popen:
+    cmd = [sys.executable, "-m", "autopilot", "run", "--config", str(CONFIG), "--mission", str(mission),
+           "--sim", "--speedup", str(SPEEDUP), "--log-dir", str(tmp_path / "logs"), "--state-dir", str(tmp_path / "state"), *extra]
+    return subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def test_schema_table_is_parsed():
+    keys = schema_cycle_keys()
+    assert {"lat_deg", "lon_deg", "tcpa_nd", "dcpa_nd", "cdh", "lateness_ms", "pwm_stbd_pct", "active_faults"} <= set(keys)
+    assert len(keys) == len(set(keys)) >= 40
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mission", MISSIONS, ids=[m.stem for m in MISSIONS])
+def test_pond_mission_runs_to_completion_with_a_complete_log(mission, tmp_path):
+    assert MISSIONS, "config/missions/pond-9.*.yaml missing"
+    p = start(mission, tmp_path)
+    out, err = p.communicate(timeout=180)
+    assert p.returncode == 0, err[-3000:]
+    log = read_log(tmp_path / "logs")
+    assert all({"timestamp", "event", "t_s"} <= rec.keys() for rec in log)
+    assert all(rec["timestamp"].endswith("Z") for rec in log)
+    assert log[0]["event"] == "mission_start" and log[-1]["event"] == "stop"
+    start_rec = log[0]
+    n_wp = len(start_rec["waypoints"])
+    assert start_rec["sim"] is True and start_rec["speedup"] == SPEEDUP and start_rec["rate_hz"] == 10.0
+
+    cycles = [r for r in log if r["event"] == "cycle"]
+    keys = schema_cycle_keys()
+    for rec in cycles:
+        missing = [k for k in keys if k not in rec]
+        assert not missing, (rec["cycle"], missing)
+    # a cycle line for every cycle: consecutive counters, one per period (skipped deadlines counted)
+    assert [c["cycle"] for c in cycles] == list(range(len(cycles)))
+    stop = log[-1]
+    assert stop["reason"] == "complete" and stop["ack_received"] is True
+    assert stop["cycles"] == len(cycles)
+    period_s = 0.1
+    # deadlines are exactly one period apart, except where skipped deadlines are counted
+    assert all(0 <= c["lateness_ms"] < 1e3 * period_s for c in cycles)
+    deadlines = np.array([c["t_s"] - c["lateness_ms"] / 1e3 for c in cycles])
+    steps = np.diff(deadlines) / period_s
+    skipped = np.diff([c["skipped_cycles"] for c in cycles])
+    np.testing.assert_allclose(steps, 1 + skipped, atol=1e-6)
+    assert stop["skipped_cycles"] == cycles[-1]["skipped_cycles"]
+
+    reached = [r["wp_index"] for r in log if r["event"] == "waypoint_reached"]
+    assert reached == list(range(n_wp))
+    done = [r for r in log if r["event"] == "mission_complete"]
+    assert len(done) == 1 and done[0]["wp_count"] == n_wp
+    # how close is the GNC's business (tests/test_gnc*); here: one finite figure per waypoint
+    assert len(done[0]["closest_approach_m"]) == n_wp and all(0 <= d < 20.0 for d in done[0]["closest_approach_m"])
+    # steered cycles carry the GNC terms, and the fuzzy guidance's CDH
+    auto = [c for c in cycles if c["mode"] == "auto"]
+    assert len(auto) > 50
+    assert all(c["psi_d_deg"] is not None and c["cdh"] is not None and c["seq"] >= 0 for c in auto)
+    assert all(0 <= c["heading_deg"] < 360 and c["heading_source"] in ("HDT", "THS", "PFEC_GPatt", "PFEC") for c in auto)
+    # no fault in a clean run
+    assert not [r for r in log if r["event"] in ("failsafe", "fault")]
+    assert cycles[-1]["mode"] == "complete"
+    assert cycles[-1]["pwm_port_pct"] == 0.0 and cycles[-1]["pwm_stbd_pct"] == 0.0
+    state = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+    assert state["status"] == "complete"
+
+
+def _wait_for(predicate, log_dir: Path, proc: subprocess.Popen, limit_s: float = 60.0):
+    """Poll the log (a subprocess is not on our clock) until predicate(records) holds."""
+    deadline = time.monotonic() + limit_s
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.stderr.read()[-3000:]
+        files = list(log_dir.glob("mission-*.jsonl"))
+        if files:
+            lines = files[0].read_text().splitlines()
+            recs = [json.loads(x) for x in lines[:-1]]  # the last line may be half written
+            if predicate(recs):
+                return recs
+        time.sleep(0.05)
+    raise AssertionError("daemon never reached the awaited state")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("signame", ["SIGTERM", "SIGINT"])
+def test_signal_stops_with_zero_thrust_acknowledged_and_exit_0(signame, tmp_path):
+    mission = ROOT / "config" / "missions" / "pond-9.4.yaml"
+    p = start(mission, tmp_path)
+    _wait_for(lambda recs: sum(r["event"] == "cycle" and r["mode"] == "auto" for r in recs) >= 30, tmp_path / "logs", p)
+    p.send_signal(getattr(signal, signame))
+    p.communicate(timeout=30)
+    assert p.returncode == 0
+    log = read_log(tmp_path / "logs")
+    stop = log[-1]
+    assert stop["event"] == "stop" and stop["reason"] == "signal" and stop["signal"] == signame
+    assert stop["ack_received"] is True
+    assert not [r for r in log if r["event"] == "mission_complete"]
+    # stopped by the operator: not resumed by a later start
+    assert json.loads((tmp_path / "state" / "mission-progress.json").read_text())["status"] == "stopped"
+
+
+@pytest.mark.slow
+def test_sd_notify_ready_watchdog_stopping_from_a_real_run(tmp_path):
+    import socket
+
+    path = str(tmp_path / "notify")
+    srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    srv.bind(path)
+    env = dict(os.environ, NOTIFY_SOCKET=path)
+    mission = ROOT / "config" / "missions" / "pond-9.3.yaml"
+    cmd = [sys.executable, "-m", "autopilot", "run", "--config", str(CONFIG), "--mission", str(mission), "--sim",
+           "--speedup", str(SPEEDUP), "--log-dir", str(tmp_path / "logs"), "--state-dir", str(tmp_path / "state")]
+    r = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=180)
+    assert r.returncode == 0, r.stderr[-2000:]
+    srv.setblocking(False)
+    msgs = []
+    while True:
+        try:
+            msgs.append(srv.recv(4096).decode())
+        except BlockingIOError:
+            break
+    srv.close()
+    kinds = [m.split("\n")[0] for m in msgs]
+    assert kinds.count("READY=1") == 1
+    assert kinds[-1] == "STOPPING=1"
+    assert kinds.index("READY=1") < kinds.index("WATCHDOG=1")  # no watchdog before the devices answer
+    assert kinds.count("WATCHDOG=1") >= 3
+    log = read_log(tmp_path / "logs")
+    assert any(r.get("message") == "ready: SC-30 and Mbed answer" for r in log)

@@ -1,0 +1,365 @@
+"""Fault injection (issue 7): the real daemon, a subprocess without --sim, against simulated devices.
+
+This test process hosts the boat, the simulated SC-30 and the simulated Mbed (autopilot.simdev)
+behind real pseudo-terminals, on a Clock sped up SPEEDUP times; the daemon runs on its own Clock
+with the same --speedup and opens the pty paths as it would open /dev/sc30 and /dev/mbed.
+For each fault we measure, on the test's clock and from the simulated Mbed's own record, the
+time from the fault to the first zero-thrust state, and assert it is within the fault's
+detection time plus two control periods; the log must name the cause; where the fault clears,
+the mission resumes and completes.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import signal
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from autopilot.clock import Clock
+from autopilot.sim import default_params_path, load_params
+from autopilot.simdev import SimRig
+
+ROOT = Path(__file__).resolve().parents[1]
+SPEEDUP = 10.0
+RATE_HZ = 10.0
+PERIOD_S = 1.0 / RATE_HZ
+ORIGIN = (52.0, 4.4)
+FAILSAFE = {
+    "heading_stale_s": 1.0,
+    "position_stale_s": 3.0,
+    "ack_missing_n": 5,
+    "garbage_hold_s": 1.0,
+    "resume_valid_s": 2.0,
+    "start_valid_s": 1.0,
+}
+ACK_TIMEOUT_S = 0.3
+STOP_TIMEOUT_S = 0.5  # the simulated firmware's own stop (docs/mbed-protocol.md)
+# the pseudo-terminal hop and two event loops on a shared 2-core machine, in simulated seconds
+TRANSPORT_S = 0.05
+
+
+@dataclass
+class Daemon:
+    """A daemon subprocess plus the rig it talks to, both driven from one asyncio loop."""
+
+    tmp: Path
+    mission: dict
+    config: dict = field(default_factory=dict)
+    position_noise_m: float = 0.3
+    rig: SimRig | None = None
+    proc: asyncio.subprocess.Process | None = None
+    clock: Clock = field(default_factory=lambda: Clock(SPEEDUP))
+
+    async def start(self, *, fresh: bool = True) -> None:
+        if self.rig is None:
+            self.rig = SimRig(
+                load_params(default_params_path()),
+                self.clock,
+                directory=self.tmp / "dev",
+                origin_lat_deg=ORIGIN[0],
+                origin_lon_deg=ORIGIN[1],
+                position_noise_m=self.position_noise_m,
+                heading_noise_deg=0.1,
+                stop_timeout_s=STOP_TIMEOUT_S,
+            )
+            await self.rig.start()
+        cfg = {
+            "rate_hz": RATE_HZ,
+            "origin_lat_deg": ORIGIN[0],
+            "origin_lon_deg": ORIGIN[1],
+            "serial": {"sc30_port": self.rig.sc30_path, "mbed_port": self.rig.mbed_path, "ack_timeout_s": ACK_TIMEOUT_S,
+                       "reconnect_min_s": 0.2, "reconnect_max_s": 1.0},
+            "failsafe": dict(FAILSAFE),
+        }
+        for k, v in self.config.items():
+            if isinstance(v, dict):
+                cfg.setdefault(k, {}).update(v)
+            else:
+                cfg[k] = v
+        (self.tmp / "autopilot.yaml").write_text(yaml.safe_dump(cfg))
+        (self.tmp / "mission.yaml").write_text(yaml.safe_dump(self.mission))
+        args = [sys.executable, "-m", "autopilot", "run", "--config", str(self.tmp / "autopilot.yaml"),
+                "--mission", str(self.tmp / "mission.yaml"), "--speedup", str(SPEEDUP),
+                "--log-dir", str(self.tmp / "logs"), "--state-dir", str(self.tmp / "state")]
+        if fresh:
+            args.append("--fresh")
+        self.proc = await asyncio.create_subprocess_exec(*args, cwd=self.tmp, stdout=asyncio.subprocess.DEVNULL,
+                                                         stderr=asyncio.subprocess.PIPE)
+
+    def log(self) -> list[dict]:
+        """Complete lines of the current daemon's log (a line being written is left out)."""
+        for path in (self.tmp / "logs").glob("mission-*.jsonl"):
+            lines = path.read_text().split("\n")[:-1]  # only newline-terminated lines are complete
+            if lines and json.loads(lines[0]).get("pid") == self.proc.pid:
+                return [json.loads(x) for x in lines]
+        return []
+
+    def events(self, name: str) -> list[dict]:
+        return [r for r in self.log() if r["event"] == name]
+
+    async def wait(self, predicate, limit_s: float, what: str, *, may_exit: bool = False) -> float:
+        """Poll every 20 ms of simulated time until predicate(); return the clock time it held."""
+        t_end = self.clock.now_s() + limit_s
+        while self.clock.now_s() < t_end:
+            if predicate():
+                return self.clock.now_s()
+            if self.proc.returncode is not None and not may_exit:
+                err = (await self.proc.stderr.read()).decode()[-2000:]
+                raise AssertionError(f"daemon exited ({self.proc.returncode}) waiting for {what}: {err}")
+            await self.clock.sleep(0.02)
+        raise AssertionError(f"timed out (simulated {limit_s} s) waiting for {what}")
+
+    async def steady_thrust(self, hold_s: float = 1.0) -> None:
+        """Wait until the daemon has driven the boat for ``hold_s`` without a break."""
+        await self.wait(lambda: self._thrusting_since() >= hold_s, 30.0, "steady thrust")
+
+    def _thrusting_since(self) -> float:
+        log = self.rig.mbed.thrust_log
+        t_start = None
+        for entry in reversed(log):
+            if entry[1] > 0 or entry[3] > 0:
+                t_start = entry[0]
+            else:
+                break
+        return -1.0 if t_start is None else self.clock.now_s() - t_start
+
+    async def time_to_stop(self, t_fault_s: float, budget_s: float) -> float:
+        mbed = self.rig.mbed
+        await self.wait(lambda: mbed.first_stop_after(t_fault_s) is not None, budget_s + 5.0, "zero thrust", may_exit=True)
+        return mbed.first_stop_after(t_fault_s) - t_fault_s
+
+    async def finish(self, timeout_s: float = 120.0) -> int:
+        try:
+            await asyncio.wait_for(self.proc.wait(), self.clock.to_wall_s(timeout_s))
+        finally:
+            if self.proc.returncode is None:
+                self.proc.kill()
+                await self.proc.wait()
+        return self.proc.returncode
+
+    async def close(self) -> None:
+        if self.proc is not None and self.proc.returncode is None:
+            self.proc.kill()
+            await self.proc.wait()
+        if self.rig is not None:
+            await self.rig.stop()
+
+
+def square_mission(side_m: float = 15.0, laps: int = 1) -> dict:
+    wps = []
+    for _ in range(laps):
+        wps += [[side_m, 0.0], [side_m, side_m], [0.0, side_m], [0.0, 0.0]]
+    return {"name": "fault-square", "frame": "local", "waypoints": wps[:-1] + [[2.0, 2.0]]}
+
+
+# (name, inject, clear, detection time the daemon is allowed, cause in the log)
+def _inject_random(d: Daemon) -> None:
+    d.rig.sc30.inject(np.random.default_rng(7).integers(0, 256, 10_000, dtype=np.uint8).tobytes())
+
+
+def _last_sent(d: Daemon, kinds: tuple[str, ...], before_s: float) -> float:
+    """Delivery time of the last such sentence the SC-30 put on the wire before ``before_s``."""
+    return max(t for t, line in d.rig.sc30.sent_log if t <= before_s and line[3:6] in kinds)
+
+
+def _first_fixless(d: Daemon, after_s: float) -> float:
+    """Delivery time of the first GGA with quality 0 or RMC with status V after ``after_s``."""
+    return min(t for t, line in d.rig.sc30.sent_log if t >= after_s and (
+        (line[3:6] == "GGA" and line.split(",")[6] == "0") or (line[3:6] == "RMC" and line.split(",")[2] == "V")))
+
+
+# At 4800 baud the SC-30's line is ~80 % busy: a sentence can wait up to MAX_BACKLOG_S (0.5 s)
+# behind the 1 Hz group before it is on the wire, so data faults are timed from what the daemon
+# could see: the last heading/position delivered, or the first fix-less sentence delivered.
+WIRE_BACKLOG_S = 0.5
+
+RECOVERABLE = [
+    ("heading dropout", lambda d: setattr(d.rig.sc30, "heading_dropout", True),
+     lambda d: setattr(d.rig.sc30, "heading_dropout", False), FAILSAFE["heading_stale_s"], "heading_stale"),
+    ("position dropout", lambda d: setattr(d.rig.sc30, "position_dropout", True),
+     lambda d: setattr(d.rig.sc30, "position_dropout", False), FAILSAFE["position_stale_s"], "position_stale"),
+    # the next GGA (1 Hz) reports quality 0
+    ("fix lost", lambda d: setattr(d.rig.sc30, "fix_lost", True),
+     lambda d: setattr(d.rig.sc30, "fix_lost", False), 1.0, "no_fix"),
+    # 10 kB of random bytes reach the driver at once: a burst (> 5 rejected lines in 1 s)
+    ("random bytes 10 kB", _inject_random, lambda d: None, 0.1, "nmea_garbage"),
+    # bad checksums on HDT (10 Hz): the 6th rejected line within 1 s is the burst
+    ("bad checksum burst", lambda d: d.rig.sc30.corrupt_next(20), lambda d: None, 0.6, "nmea_garbage"),
+    # malformed lines on the Mbed's line (a firmware gone mad, a noisy cable): seen at the next cycle
+    ("mbed garbage", lambda d: d.rig.mbed._endpoint.write(b"$MBACK,xx*00\r\n" * 20), lambda d: None, PERIOD_S,
+     "mbed_garbage"),
+    ("compass unplugged", lambda d: d.rig.sc30.unplug(), lambda d: d.rig.sc30.replug(), 0.0, "compass_port_lost"),
+    # 5 consecutive commands without ack: the 5th is sent 0.4 s after the first, missing 0.3 s later
+    ("mbed silent 2 s", lambda d: setattr(d.rig.mbed, "silent", True), lambda d: setattr(d.rig.mbed, "silent", False),
+     ACK_TIMEOUT_S + (FAILSAFE["ack_missing_n"] - 1) * PERIOD_S + PERIOD_S, "mbed_ack_missing"),
+    # the cable is gone: nothing reaches the Mbed, whose firmware stops the motors itself
+    ("mbed unplugged", lambda d: d.rig.mbed.unplug(), lambda d: d.rig.mbed.replug(), STOP_TIMEOUT_S, "mbed_port_lost"),
+]
+
+
+@pytest.mark.slow
+def test_recoverable_faults_stop_the_boat_in_time_and_the_mission_resumes_and_completes(tmp_path):
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=14.0, laps=1))
+        results = []
+        try:
+            await d.start()
+            for name, inject, clear, detect_s, cause in RECOVERABLE:
+                await d.steady_thrust(1.0)
+                t_fault = d.clock.now_s()
+                inject(d)
+                budget_s = detect_s + 2 * PERIOD_S + TRANSPORT_S
+                dt_s = await d.time_to_stop(t_fault, budget_s + WIRE_BACKLOG_S)
+                t_stop = t_fault + dt_s
+                if cause == "heading_stale":
+                    t_ref = _last_sent(d, ("HDT", "THS", "PFE"), t_stop)
+                elif cause == "position_stale":
+                    t_ref = _last_sent(d, ("GGA", "RMC", "GLL"), t_stop)
+                elif cause == "no_fix":
+                    t_ref = _first_fixless(d, t_fault)
+                else:
+                    t_ref = t_fault
+                results.append((name, t_stop - t_ref, budget_s, dt_s))
+                hold_until = t_fault + max(budget_s, 2.0 if "silent" in name else 0.5)
+                await d.clock.sleep_until(hold_until)
+                await d.wait(lambda c=cause: any(r["cause"] == c for r in d.events("fault")), 5.0, f"fault {cause}")
+                clear(d)
+                # zero thrust is kept until the data has been valid for resume_valid_s
+                t_clear = d.clock.now_s()
+                t_resume = await d.wait(lambda: d.rig.mbed.thrusting, 20.0, f"resume after {name}")
+                assert t_resume - t_clear >= FAILSAFE["resume_valid_s"] - 2 * PERIOD_S, name
+            code = await d.finish(400.0)
+        finally:
+            await d.close()
+        return d, results, code
+
+    d, results, code = asyncio.run(scenario())
+    report = "\n".join(f"{n}: {dt:.3f} s after it reached the wire, {dtf:.3f} s after injection (budget {b:.3f} s)"
+                       for n, dt, b, dtf in results)
+    print(report)
+    for name, dt_s, budget_s, dt_fault_s in results:
+        assert dt_s <= budget_s, f"{name}: zero thrust after {dt_s:.3f} s > {budget_s:.3f} s\n{report}"
+        assert dt_fault_s <= budget_s + WIRE_BACKLOG_S, report
+    assert code == 0
+    log = d.log()
+    causes = {r["cause"] for r in log if r["event"] == "fault"}
+    assert {c for *_, c in RECOVERABLE} <= causes
+    assert len([r for r in log if r["event"] == "resume"]) >= len(RECOVERABLE)
+    assert log[-1]["event"] == "stop" and log[-1]["reason"] == "complete" and log[-1]["ack_received"]
+    assert len([r for r in log if r["event"] == "waypoint_reached"]) == 4
+    # the Mbed was never driven while the daemon's own log says failsafe
+    cycles = [r for r in log if r["event"] == "cycle"]
+    assert all(c["pwm_port_pct"] == 0 and c["pwm_stbd_pct"] == 0 for c in cycles if c["mode"] in ("failsafe", "waiting"))
+    # the drivers reconnected without a restart
+    assert {(r["device"], r["message"]) for r in log if r["event"] == "info" and r.get("device")} >= {
+        ("sc30", "port_lost"), ("sc30", "port_opened"), ("mbed", "port_lost"), ("mbed", "port_opened")}
+
+
+@pytest.mark.slow
+def test_geofence_crossing_stops_the_boat_and_stays_stopped(tmp_path):
+    fence = [[-5.0, -5.0], [-5.0, 5.0], [8.0, 5.0], [8.0, -5.0]]
+    mission = {"name": "fence", "frame": "local", "waypoints": [[30.0, 0.0]]}
+
+    async def scenario():
+        d = Daemon(tmp_path, mission, config={"geofence": {"frame": "local", "polygon": fence}}, position_noise_m=0.0)
+        try:
+            await d.start()
+            boat = d.rig.boat
+            t_cross = await d.wait(lambda: boat.state[0] > 8.0, 60.0, "fence crossing")
+            # the boat's position reaches the daemon at 1 Hz (GGA/RMC)
+            budget_s = 1.0 + 2 * PERIOD_S + TRANSPORT_S
+            dt_s = await d.time_to_stop(t_cross, budget_s)
+            t_stop = d.clock.now_s()
+            await d.clock.sleep(3.0)
+            assert d.rig.mbed.first_stop_after(t_stop) is not None and not d.rig.mbed.thrusting  # latched
+            d.proc.send_signal(signal.SIGTERM)
+            code = await d.finish(30.0)
+        finally:
+            await d.close()
+        return d, dt_s, budget_s, code
+
+    d, dt_s, budget_s, code = asyncio.run(scenario())
+    assert dt_s <= budget_s, (dt_s, budget_s)
+    assert code == 0
+    log = d.log()
+    assert [r["cause"] for r in log if r["event"] == "failsafe"] == ["geofence"]
+    assert not [r for r in log if r["event"] == "resume"]
+    assert log[-1]["event"] == "stop" and log[-1]["reason"] == "signal"
+
+
+@pytest.mark.slow
+def test_sigterm_mid_mission_sends_acknowledged_zero_thrust_and_exits_0(tmp_path):
+    async def scenario():
+        d = Daemon(tmp_path, square_mission())
+        try:
+            await d.start()
+            await d.steady_thrust(2.0)
+            t_sig = d.clock.now_s()
+            d.proc.send_signal(signal.SIGTERM)
+            dt_s = await d.time_to_stop(t_sig, 2 * PERIOD_S)
+            code = await d.finish(30.0)
+        finally:
+            await d.close()
+        return d, dt_s, code
+
+    d, dt_s, code = asyncio.run(scenario())
+    assert dt_s <= 2 * PERIOD_S + TRANSPORT_S
+    assert code == 0
+    last_cmd = d.rig.mbed.commands[-1]
+    assert last_cmd[2] == 0 and last_cmd[4] == 0  # the last command the Mbed got was zero thrust
+    stop = d.log()[-1]
+    assert stop["event"] == "stop" and stop["signal"] == "SIGTERM" and stop["ack_received"] is True
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("resume", [False, True])
+def test_sigkill_leaves_a_valid_log_and_restart_is_safe(tmp_path, resume):
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(), config={"failsafe": {"resume_after_restart": resume}})
+        try:
+            await d.start()
+            await d.wait(lambda: any(r["event"] == "waypoint_reached" for r in d.log()), 60.0, "first waypoint")
+            await d.steady_thrust(0.5)
+            t_kill = d.clock.now_s()
+            d.proc.kill()
+            # nobody commands the Mbed any more: its firmware stops the motors
+            dt_s = await d.time_to_stop(t_kill, STOP_TIMEOUT_S + 2 * PERIOD_S)
+            await d.proc.wait()
+            first_log = d.log()
+            # systemd restarts the daemon: same mission, state directory kept
+            n_cmds = len(d.rig.mbed.commands)
+            await d.start(fresh=False)
+            await d.wait(lambda: len(d.events("cycle")) > 30, 30.0, "restarted daemon running")
+            after = d.log()
+            new_cmds = d.rig.mbed.commands[n_cmds:]
+            if resume:
+                await d.wait(lambda: d.rig.mbed.thrusting, 10.0, "resumed thrust")
+            d.proc.send_signal(signal.SIGTERM)
+            code = await d.finish(30.0)
+        finally:
+            await d.close()
+        return dt_s, first_log, after, new_cmds, code
+
+    dt_s, first_log, after, new_cmds, code = asyncio.run(scenario())
+    assert dt_s <= STOP_TIMEOUT_S + 2 * PERIOD_S + TRANSPORT_S
+    assert first_log[0]["event"] == "mission_start" and not [r for r in first_log if r["event"] == "stop"]
+    reached = max(r["wp_index"] for r in first_log if r["event"] == "waypoint_reached")
+    start = after[0]
+    assert start["event"] == "mission_start"
+    # the first commands after a restart are zero thrust (waiting for valid data)
+    assert new_cmds and new_cmds[0][2] == 0 and new_cmds[0][4] == 0
+    if resume:
+        assert start["start_index"] == reached + 1
+        assert any("resuming interrupted mission" in r.get("message", "") for r in after)
+    else:
+        assert start["start_index"] == 0
+        assert any("holding zero thrust" in r.get("message", "") for r in after)
+        assert all(c[2] == 0 and c[4] == 0 for c in new_cmds)
+    assert code == 0
