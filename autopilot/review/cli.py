@@ -1,0 +1,50 @@
+"""``autopilot review``: one command from mission logs to a report, a scorecard and exports."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "review",
+        help="post-mission review: plots, scorecard, report.html, GPX/KML/GeoJSON/CSV exports",
+        description="Review one or several mission logs (JSON lines, docs/log-schema.md). "
+        "Writes DIR/report.html with its PNGs and summary.json; with several logs, an "
+        "overlay of the tracks and a side-by-side scorecard, each log in DIR/<k>-<stem>/.",
+    )
+    p.add_argument("logs", nargs="+", metavar="LOG", help="mission log file(s) (.jsonl)")
+    p.add_argument("--out", metavar="DIR", default=None,
+                   help="output directory (default: review-<stem of the first log> here)")
+    p.add_argument("--export", metavar="FMTS", default="",
+                   help="comma-separated exports: gpx,kml,geojson,csv (csv = the sysid trial file)")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures (scorecard and exports only)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from autopilot.review.export import parse_formats
+    from autopilot.review.report import review
+    from autopilot.schema import ConfigError
+
+    formats = parse_formats(args.export)
+    for path in args.logs:
+        if not Path(path).is_file():
+            raise ConfigError(f"log {path!r} is not a readable file")
+    out = Path(args.out) if args.out else Path(f"review-{Path(args.logs[0]).stem}")
+    result = review(args.logs, out, formats=formats, with_plots=not args.no_plots)
+    failed = False
+    for one in result.logs:
+        card = one.card
+        print(f"{card.path}: {card.cycles} cycles, {card.mission_time_s:.1f} s, "
+              f"{card.distance_m:.1f} m, {len(card.failsafes)} failsafe(s)")
+        for note in card.read_notes[1:]:
+            print(f"  {note}")
+        for fmt, path in one.exports.items():
+            print(f"  {fmt}: {path}")
+        for fmt, msg in one.export_errors.items():
+            print(f"  {fmt} export failed: {msg}")
+            failed = True
+    print(f"report: {result.report}")
+    return 1 if failed else 0

@@ -1,0 +1,348 @@
+"""Scorecard of one mission, computed from the columns of a :class:`MissionLog`.
+
+Pure numbers: no I/O, no plotting. Quantities are recomputed from the
+recorded positions and the mission's legs where possible rather than taken
+from what the daemon logged about itself (its ``xte_m`` and
+``closest_approach_m`` are shown beside the recomputed values).
+
+Time integrals treat each cycle's command as held until the next cycle
+(zero-order hold, as the thrusters see it); a gap in the log longer than
+``GAP_FACTOR`` nominal periods is not integrated over (nothing is known
+about it) and is reported as log-gap time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from autopilot.review.reader import MODES, MissionLog
+
+GAP_FACTOR = 5.0  # dt above this many nominal periods is a hole in the log
+STALE_HEADING_S = 0.5  # heading data older than this counts as stale (10 Hz source)
+STALE_POSITION_S = 2.0  # position older than this counts as stale (1 Hz GGA)
+LATENESS_PERCENTILES = (50.0, 90.0, 99.0, 99.9)
+
+
+@dataclass
+class WaypointScore:
+    index: int
+    north_m: float
+    east_m: float
+    reached: bool
+    closest_approach_m: float  # recomputed from positions (NaN if never steered to / no data)
+    closest_t_s: float
+    closest_north_m: float
+    closest_east_m: float
+    logged_closest_approach_m: float  # from waypoint_reached (NaN if absent)
+
+
+@dataclass
+class Scorecard:
+    name: str
+    path: str
+    cycles: int
+    mission_time_s: float
+    distance_m: float
+    thrust_energy_n_s: float
+    thrust_unknown_s: float
+    xte_rms_m: float
+    xte_max_m: float
+    logged_xte_rms_m: float
+    logged_xte_max_m: float
+    heading_lost_s: float
+    heading_stale_s: float
+    position_lost_s: float
+    position_stale_s: float
+    log_gap_s: float
+    failsafe_time_s: float
+    failsafes: list  # [(t_s, cause)]
+    faults: dict  # cause -> {"count": n, "time_s": s}
+    nmea_dropped: float
+    ack_missing: float
+    lateness_ms: dict  # "p50" ... "max" -> ms
+    stop_reason: str | None
+    complete: bool
+    waypoints: list = field(default_factory=list)  # [WaypointScore]
+    skipped_lines: int = 0
+    read_notes: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        return _json_safe(d)
+
+    def table_rows(self) -> list[tuple[str, str]]:
+        """(label, value) rows for a human-readable summary table."""
+        wp_reached = sum(w.reached for w in self.waypoints)
+        ca = [w.closest_approach_m for w in self.waypoints if math.isfinite(w.closest_approach_m)]
+        lat = self.lateness_ms
+        rows = [
+            ("cycles", f"{self.cycles}"),
+            ("mission time", _fmt_duration(self.mission_time_s)),
+            ("distance run", _fmt(self.distance_m, "m", 1)),
+            ("thrust energy (|T_port|+|T_stbd|) dt", _fmt(self.thrust_energy_n_s, "N s", 0)),
+            ("waypoints reached", f"{wp_reached} of {len(self.waypoints)}"),
+            ("closest approach, mean / max", (f"{np.mean(ca):.2f} / {np.max(ca):.2f} m" if ca else "n/a")),
+            ("cross-track error RMS / max (recomputed)",
+             f"{_fmt(self.xte_rms_m, 'm', 2)} / {_fmt(self.xte_max_m, 'm', 2)}"),
+            ("cross-track error RMS / max (logged xte_m)",
+             f"{_fmt(self.logged_xte_rms_m, 'm', 2)} / {_fmt(self.logged_xte_max_m, 'm', 2)}"),
+            ("heading lost / stale", f"{_fmt(self.heading_lost_s, 's', 1)} / {_fmt(self.heading_stale_s, 's', 1)}"),
+            ("position lost / stale", f"{_fmt(self.position_lost_s, 's', 1)} / {_fmt(self.position_stale_s, 's', 1)}"),
+            ("gaps in the log", _fmt(self.log_gap_s, "s", 1)),
+            ("failsafes", f"{len(self.failsafes)}" + (
+                " (" + ", ".join(f"{c} at {t:.1f} s" for t, c in self.failsafes[:5])
+                + (", ..." if len(self.failsafes) > 5 else "") + ")" if self.failsafes else "")),
+            ("time in failsafe", _fmt(self.failsafe_time_s, "s", 1)),
+            ("faults", ", ".join(f"{c} x{v['count']} ({v['time_s']:.1f} s)" for c, v in sorted(self.faults.items())) or "none"),
+            ("dropped NMEA lines", _fmt_count(self.nmea_dropped)),
+            ("missing Mbed acks", _fmt_count(self.ack_missing)),
+            ("loop lateness p50 / p99 / max",
+             f"{_fmt(lat.get('p50'), 'ms', 2)} / {_fmt(lat.get('p99'), 'ms', 2)} / {_fmt(lat.get('max'), 'ms', 2)}"),
+            ("thrust unknown (not logged)", _fmt(self.thrust_unknown_s, "s", 1)),
+            ("stop", f"{self.stop_reason or 'no stop line'}" + (", mission complete" if self.complete else "")),
+            ("log lines skipped", f"{self.skipped_lines}"),
+        ]
+        return rows
+
+
+def _json_safe(x):
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, dict):
+        return {str(k): _json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_safe(v) for v in x]
+    if isinstance(x, np.generic):
+        return _json_safe(x.item())
+    return x
+
+
+def _fmt(x, unit: str, digits: int) -> str:
+    if x is None or not math.isfinite(x):
+        return "n/a"
+    return f"{x:.{digits}f} {unit}"
+
+
+def _fmt_count(x) -> str:
+    return "n/a (not logged)" if x is None or not math.isfinite(x) else f"{int(x)}"
+
+
+def _fmt_duration(t_s: float) -> str:
+    if not math.isfinite(t_s):
+        return "n/a"
+    h, rem = divmod(t_s, 3600.0)
+    m, s = divmod(rem, 60.0)
+    return f"{t_s:.1f} s ({int(h)}:{int(m):02d}:{s:04.1f})"
+
+
+def hold_durations_s(t_s: np.ndarray, nominal_dt_s: float | None = None) -> tuple[np.ndarray, float]:
+    """Duration each cycle's values hold (to the next cycle), and the log-gap time.
+
+    The last cycle holds for one nominal period; intervals longer than
+    ``GAP_FACTOR`` nominal periods (or negative) count as 0 and their
+    length is returned as gap time.
+    """
+    n = len(t_s)
+    if n == 0:
+        return np.zeros(0), 0.0
+    dt = np.diff(t_s)
+    if nominal_dt_s is None or not nominal_dt_s > 0:
+        pos = dt[dt > 0]
+        nominal_dt_s = float(np.median(pos)) if len(pos) else 0.1
+    hold = np.empty(n)
+    hold[:-1] = dt
+    hold[-1] = nominal_dt_s
+    gap = (hold > GAP_FACTOR * nominal_dt_s) | (hold < 0)
+    gap_s = float(np.sum(hold[gap & (hold > 0)]))
+    hold[gap] = 0.0
+    return hold, gap_s
+
+
+def leg_starts(log: MissionLog) -> np.ndarray:
+    """Start point of each leg: leg 0 from the first recorded position, leg i from W_{i-1}."""
+    wps = log.waypoints_ne_m
+    n, e = log.col("north_m"), log.col("east_m")
+    ok = np.isfinite(n) & np.isfinite(e)
+    first = (n[ok][0], e[ok][0]) if ok.any() else (0.0, 0.0)
+    return np.vstack([[first], wps[:-1]]) if len(wps) else np.zeros((0, 2))
+
+
+def cross_track_m(log: MissionLog) -> np.ndarray:
+    """Signed cross-track error (+ = starboard of the leg) from positions and legs; NaN when unknown."""
+    wps = log.waypoints_ne_m
+    n, e = log.col("north_m"), log.col("east_m")
+    idx = log.col("wp_index")
+    out = np.full(len(n), np.nan)
+    if len(wps) == 0:
+        return out
+    ok = np.isfinite(n) & np.isfinite(e) & np.isfinite(idx) & (idx >= 0) & (idx < len(wps))
+    i = idx[ok].astype(int)
+    a = leg_starts(log)[i]
+    b = wps[i]
+    d = b - a
+    length = np.hypot(d[:, 0], d[:, 1])
+    length = np.where(length > 1e-9, length, np.nan)  # a zero-length leg has no direction
+    pn, pe = n[ok] - a[:, 0], e[ok] - a[:, 1]
+    out[ok] = (d[:, 0] * pe - d[:, 1] * pn) / length
+    return out
+
+
+def closest_approaches(log: MissionLog) -> list[WaypointScore]:
+    """Closest recorded position to each waypoint while steering to it (plus the switch cycle)."""
+    wps = log.waypoints_ne_m
+    t, n, e, idx = log.col("t_s"), log.col("north_m"), log.col("east_m"), log.col("wp_index")
+    valid = np.isfinite(n) & np.isfinite(e)
+    logged = {}
+    reached = set()
+    for ev in log.events_named("waypoint_reached"):
+        i = ev.get("wp_index")
+        if isinstance(i, int) and not isinstance(i, bool):
+            reached.add(i)
+            ca = ev.get("closest_approach_m")
+            if isinstance(ca, (int, float)) and not isinstance(ca, bool):
+                logged[i] = float(ca)
+    best: dict[int, int] = {}  # waypoint -> cycle index of the closest recorded position
+    nw = len(wps)
+    if np.isfinite(idx).any():
+        in_range = np.isfinite(idx) & (idx >= 0) & (idx < nw)
+        k = np.nonzero(valid & in_range)[0]
+        key = idx[k].astype(np.int64)
+        # the cycle that switches to the next waypoint is the one past the closest point
+        prev = np.concatenate([[np.nan], idx[:-1]])
+        sw = np.nonzero(valid & (idx == prev + 1) & (prev >= 0) & (prev < nw))[0]
+        k = np.concatenate([k, sw])
+        key = np.concatenate([key, idx[sw].astype(np.int64) - 1])
+        dist = np.hypot(n[k] - wps[key, 0], e[k] - wps[key, 1])
+        order = np.lexsort((dist, key))  # by waypoint, nearest first
+        key_s, k_s = key[order], k[order]
+        first = np.concatenate([[True], key_s[1:] != key_s[:-1]]) if len(key_s) else np.zeros(0, bool)
+        best = dict(zip(key_s[first].tolist(), k_s[first].tolist()))
+    elif valid.any():  # no wp_index logged: nearest over the whole track
+        k_all = np.nonzero(valid)[0]
+        for i, (wn, we) in enumerate(wps):
+            best[i] = int(k_all[np.argmin(np.hypot(n[k_all] - wn, e[k_all] - we))])
+    out = []
+    for i, (wn, we) in enumerate(wps):
+        if i in best:
+            k = best[i]
+            ca, ct, cn, ce = float(np.hypot(n[k] - wn, e[k] - we)), float(t[k]), float(n[k]), float(e[k])
+        else:
+            ca = ct = cn = ce = math.nan
+        out.append(WaypointScore(i, float(wn), float(we), i in reached, ca, ct, cn, ce,
+                                 logged.get(i, math.nan)))
+    return out
+
+
+def _fault_times(log: MissionLog, t_end_s: float) -> dict:
+    """cause -> count and time between fault and fault_cleared (or the end of the log)."""
+    open_at: dict = {}
+    out: dict = {}
+    for ev in log.events:
+        name, cause, t = ev.get("event"), ev.get("cause"), ev.get("t_s")
+        if not isinstance(cause, str) or not isinstance(t, (int, float)):
+            continue
+        if name == "fault":
+            rec = out.setdefault(cause, {"count": 0, "time_s": 0.0})
+            rec["count"] += 1
+            open_at.setdefault(cause, float(t))
+        elif name == "fault_cleared" and cause in open_at:
+            out[cause]["time_s"] += max(0.0, float(t) - open_at.pop(cause))
+    for cause, t0 in open_at.items():
+        out[cause]["time_s"] += max(0.0, t_end_s - t0)
+    return out
+
+
+def _max_count(log: MissionLog, column: str, stop_key: str) -> float:
+    values = log.col(column)
+    best = float(np.nanmax(values)) if np.isfinite(values).any() else math.nan
+    for ev in log.events_named("stop"):
+        v = ev.get(stop_key)
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
+            best = v if not math.isfinite(best) else max(best, float(v))
+    return best
+
+
+def _rms_max(x: np.ndarray) -> tuple[float, float]:
+    x = x[np.isfinite(x)]
+    if len(x) == 0:
+        return math.nan, math.nan
+    return float(np.sqrt(np.mean(x * x))), float(np.max(np.abs(x)))
+
+
+def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
+          stale_position_s: float = STALE_POSITION_S) -> Scorecard:
+    """Compute the scorecard of one mission."""
+    t = log.col("t_s")
+    rate = (log.start or {}).get("rate_hz")
+    nominal = 1.0 / rate if isinstance(rate, (int, float)) and not isinstance(rate, bool) and rate > 0 else None
+    hold, gap_s = hold_durations_s(t, nominal)
+    times = [float(ev["t_s"]) for ev in log.events if isinstance(ev.get("t_s"), (int, float))
+             and not isinstance(ev.get("t_s"), bool) and math.isfinite(ev["t_s"])]
+    if len(t):
+        mission_time = float(t[-1] - t[0])
+        t_end = float(t[-1])
+    elif times:
+        mission_time, t_end = max(times) - min(times), max(times)
+    else:
+        mission_time, t_end = math.nan, 0.0
+
+    n, e = log.col("north_m"), log.col("east_m")
+    ok = np.isfinite(n) & np.isfinite(e)
+    pn, pe = n[ok], e[ok]
+    distance = float(np.sum(np.hypot(np.diff(pn), np.diff(pe)))) if len(pn) > 1 else (0.0 if len(pn) else math.nan)
+
+    tp, ts = log.col("thrust_port_n"), log.col("thrust_stbd_n")
+    known = np.isfinite(tp) & np.isfinite(ts)
+    energy = float(np.sum((np.abs(tp[known]) + np.abs(ts[known])) * hold[known])) if known.any() else math.nan
+    thrust_unknown = float(np.sum(hold[~known]))
+
+    in_auto = log.mode == MODES.index("auto")
+    if not in_auto.any():
+        in_auto = np.ones(len(t), dtype=bool)  # mode not logged: judge every cycle
+    xte_rms, xte_max = _rms_max(cross_track_m(log)[in_auto])
+    lxte_rms, lxte_max = _rms_max(log.col("xte_m")[in_auto])
+
+    heading = log.col("heading_deg")
+    h_age = log.col("heading_age_s")
+    p_age = log.col("position_age_s")
+    fixq = log.col("fix_quality")
+    heading_lost = ~np.isfinite(heading)
+    position_lost = ~ok | (fixq == 0)
+    heading_stale = ~heading_lost & (h_age > stale_heading_s)
+    position_stale = ~position_lost & (p_age > stale_position_s)
+
+    lat = log.col("lateness_ms")
+    lat = lat[np.isfinite(lat)]
+    lateness = {}
+    if len(lat):
+        for p in LATENESS_PERCENTILES:
+            lateness[f"p{p:g}"] = float(np.percentile(lat, p))
+        lateness["max"] = float(lat.max())
+        lateness["mean"] = float(lat.mean())
+
+    failsafes = [(float(ev.get("t_s")) if isinstance(ev.get("t_s"), (int, float)) else math.nan,
+                  str(ev.get("cause")))
+                 for ev in log.events_named("failsafe")]
+    stops = log.events_named("stop")
+    stop_reason = stops[-1].get("reason") if stops else None
+    return Scorecard(
+        name=log.name, path=str(log.path), cycles=log.n_cycles, mission_time_s=mission_time,
+        distance_m=distance, thrust_energy_n_s=energy, thrust_unknown_s=thrust_unknown,
+        xte_rms_m=xte_rms, xte_max_m=xte_max, logged_xte_rms_m=lxte_rms, logged_xte_max_m=lxte_max,
+        heading_lost_s=float(np.sum(hold[heading_lost])),
+        heading_stale_s=float(np.sum(hold[heading_stale])),
+        position_lost_s=float(np.sum(hold[position_lost])),
+        position_stale_s=float(np.sum(hold[position_stale])),
+        log_gap_s=gap_s,
+        failsafe_time_s=float(np.sum(hold[log.mode == MODES.index("failsafe")])),
+        failsafes=failsafes, faults=_fault_times(log, t_end),
+        nmea_dropped=_max_count(log, "nmea_dropped", "nmea_dropped"),
+        ack_missing=_max_count(log, "ack_missing", "ack_missing"),
+        lateness_ms=lateness, stop_reason=stop_reason if isinstance(stop_reason, str) else None,
+        complete=bool(log.events_named("mission_complete")),
+        waypoints=closest_approaches(log), skipped_lines=log.stats.skipped,
+        read_notes=log.stats.describe(),
+    )

@@ -1,0 +1,333 @@
+"""Streaming, tolerant reader of mission logs (docs/log-schema.md).
+
+One pass, line by line, constant work per line: each line is decoded with
+``json.loads`` and a ``cycle`` line's numeric fields go into a block of
+rows that is turned into a numpy array every few thousand lines and copied
+into columnar float64 storage sized from the file length (pages that are
+never written are never resident, so over-estimating costs nothing).
+
+Nothing is invented: a missing, null or non-numeric field is NaN (a gap,
+never a zero); lines that cannot be used are skipped and counted by reason
+(a cut last line, corrupt JSON, a line without ``event`` or ``t_s``,
+unknown events); keys that are not in the schema are ignored, as the
+schema asks of readers.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import operator
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from autopilot.schema import ConfigError
+
+# numeric (or boolean) cycle fields, stored as float64 columns; NaN = absent
+CYCLE_FIELDS: tuple[str, ...] = (
+    "t_s", "cycle", "lat_deg", "lon_deg", "north_m", "east_m", "heading_deg",
+    "yaw_rate_deg_s", "sog_m_s", "cog_deg", "fix_quality", "heading_age_s",
+    "position_age_s", "wp_index", "tcpa_nd", "dcpa_nd", "cdh", "psi_d_deg",
+    "heading_error_deg", "xte_m", "speed_cmd_m_s", "pid_p_n", "pid_i_n", "pid_d_n",
+    "tau_com_n", "tau_order_n", "thrust_port_n", "thrust_stbd_n", "pwm_port_pct",
+    "pwm_stbd_pct", "sat_port", "sat_stbd", "lateness_ms", "heading_latency_ms", "seq",
+    "ack_missing", "nmea_dropped",
+)
+MODES: tuple[str, ...] = ("auto", "failsafe", "complete", "hold", "waiting")
+HEADING_SOURCES: tuple[str, ...] = ("HDT", "THS", "PFEC", "COG")
+EVENTS: frozenset[str] = frozenset({
+    "cycle", "mission_start", "waypoint_reached", "mission_complete", "fault", "fault_cleared",
+    "failsafe", "failsafe_cleared", "resume", "stop", "info",
+})
+UNKNOWN_CODE = -1  # mode / heading source absent or not in the schema
+_BLOCK_ROWS = 8192
+_MIN_BYTES_PER_CYCLE = 160  # a full cycle line is ~900 B; only a size estimate
+_MAX_EXAMPLES = 10
+
+
+@dataclass
+class ReadStats:
+    """What the reader used and what it skipped, and why."""
+
+    lines: int = 0
+    cycles: int = 0
+    events: int = 0
+    blank: int = 0
+    truncated_last_line: bool = False
+    corrupt: int = 0  # not JSON or not a JSON object
+    no_event: int = 0
+    no_time: int = 0  # a cycle without a numeric t_s: it cannot be placed in time
+    unknown_events: Counter = field(default_factory=Counter)
+    bad_values: Counter = field(default_factory=Counter)  # field -> non-numeric/infinite values
+    unknown_modes: int = 0
+    time_reversals: int = 0  # cycles whose t_s is before the previous cycle's
+    examples: list = field(default_factory=list)  # (line number, reason) of the first skips
+
+    @property
+    def skipped(self) -> int:
+        return (self.corrupt + self.no_event + self.no_time + int(self.truncated_last_line)
+                + sum(self.unknown_events.values()))
+
+    def _skip(self, lineno: int, reason: str) -> None:
+        if len(self.examples) < _MAX_EXAMPLES:
+            self.examples.append((lineno, reason))
+
+    def describe(self) -> list[str]:
+        """Plain sentences for the report and the terminal."""
+        out = [f"{self.lines} lines: {self.cycles} cycles, {self.events} events"]
+        if self.truncated_last_line:
+            out.append("last line cut off mid-write: skipped")
+        if self.corrupt:
+            out.append(f"{self.corrupt} corrupt line(s) (not a JSON object): skipped")
+        if self.no_event:
+            out.append(f"{self.no_event} line(s) without an event name: skipped")
+        if self.no_time:
+            out.append(f"{self.no_time} cycle line(s) without a numeric t_s: skipped")
+        for name, count in sorted(self.unknown_events.items()):
+            out.append(f"{count} line(s) of unknown event {name!r}: skipped")
+        for name, count in sorted(self.bad_values.items()):
+            out.append(f"{count} non-numeric or infinite value(s) of {name}: treated as gaps")
+        if self.unknown_modes:
+            out.append(f"{self.unknown_modes} cycle(s) with an unknown or missing mode")
+        if self.time_reversals:
+            out.append(f"{self.time_reversals} cycle(s) with t_s going backwards")
+        if self.blank:
+            out.append(f"{self.blank} blank line(s)")
+        if self.examples:
+            out.append("first skipped: " + "; ".join(f"line {n}: {r}" for n, r in self.examples))
+        return out
+
+
+@dataclass
+class MissionLog:
+    """One mission log in columns.
+
+    ``col(name)`` gives a float64 array over cycles (NaN where absent);
+    ``mode`` / ``heading_source`` are int8 codes into :data:`MODES` /
+    :data:`HEADING_SOURCES` (``UNKNOWN_CODE`` when absent). ``events`` holds
+    every non-cycle line in file order (they are few).
+    """
+
+    path: Path
+    start: dict | None
+    events: list[dict]
+    data: np.ndarray  # (len(CYCLE_FIELDS), n) float64
+    mode: np.ndarray
+    heading_source: np.ndarray
+    stats: ReadStats
+    first_timestamp: str | None = None
+    last_timestamp: str | None = None
+
+    @property
+    def n_cycles(self) -> int:
+        return int(self.data.shape[1])
+
+    def col(self, name: str) -> np.ndarray:
+        return self.data[_INDEX[name]]
+
+    @property
+    def name(self) -> str:
+        if self.start and isinstance(self.start.get("mission_name"), str):
+            return self.start["mission_name"]
+        return self.path.stem
+
+    @property
+    def waypoints_ne_m(self) -> np.ndarray:
+        """(N, 2) waypoints from ``mission_start`` ((0, 2) when absent or malformed)."""
+        try:
+            wps = np.asarray((self.start or {}).get("waypoints") or [], dtype=float).reshape(-1, 2)
+        except (TypeError, ValueError):
+            return np.zeros((0, 2))
+        return wps[np.all(np.isfinite(wps), axis=1)]
+
+    @property
+    def origin_deg(self) -> tuple[float, float] | None:
+        """(lat, lon) of the local frame's origin, if the log states it."""
+        s = self.start or {}
+        lat, lon = s.get("origin_lat_deg"), s.get("origin_lon_deg")
+        if _is_number(lat) and _is_number(lon) and abs(lat) <= 90 and abs(lon) <= 180:
+            return float(lat), float(lon)
+        return None
+
+    def events_named(self, *names: str) -> list[dict]:
+        return [e for e in self.events if e.get("event") in names]
+
+
+_INDEX = {name: i for i, name in enumerate(CYCLE_FIELDS)}
+_MODE_CODES = {m: i for i, m in enumerate(MODES)}
+_SOURCE_CODES = {s: i for i, s in enumerate(HEADING_SOURCES)}
+
+
+def _is_number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _to_float(x) -> float:
+    """One value to float; NaN for absent; TypeError for anything not a finite number."""
+    if x is None:
+        return math.nan
+    if isinstance(x, bool):
+        return 1.0 if x else 0.0
+    if isinstance(x, (int, float)) and math.isfinite(x):
+        return float(x)
+    raise TypeError  # strings, lists, objects, infinities
+
+
+class _Columns:
+    """Growable (fields, rows) float64 storage filled block by block."""
+
+    def __init__(self, capacity: int) -> None:
+        self.buf = np.empty((len(CYCLE_FIELDS), max(capacity, _BLOCK_ROWS)))
+        self.mode = np.empty(self.buf.shape[1], dtype=np.int8)
+        self.source = np.empty(self.buf.shape[1], dtype=np.int8)
+        self.n = 0
+
+    def append(self, block: np.ndarray, mode: np.ndarray, source: np.ndarray) -> None:
+        m = block.shape[0]
+        if self.n + m > self.buf.shape[1]:
+            cap = max(self.n + m, int(self.buf.shape[1] * 1.5))
+            buf = np.empty((self.buf.shape[0], cap))
+            buf[:, : self.n] = self.buf[:, : self.n]
+            self.buf = buf
+            self.mode = np.resize(self.mode, cap)
+            self.source = np.resize(self.source, cap)
+        self.buf[:, self.n : self.n + m] = block.T
+        self.mode[self.n : self.n + m] = mode
+        self.source[self.n : self.n + m] = source
+        self.n += m
+
+
+def _block_to_array(rows: list, stats: ReadStats) -> np.ndarray:
+    try:
+        arr = np.array(rows, dtype=np.float64)
+        if arr.shape != (len(rows), len(CYCLE_FIELDS)):
+            raise ValueError
+    except (TypeError, ValueError):
+        # slow path only for blocks holding something odd (strings, lists)
+        arr = np.empty((len(rows), len(CYCLE_FIELDS)))
+        for i, row in enumerate(rows):
+            for j, value in enumerate(row):
+                try:
+                    arr[i, j] = _to_float(value)
+                except TypeError:
+                    arr[i, j] = math.nan
+                    stats.bad_values[CYCLE_FIELDS[j]] += 1
+        return arr
+    bad = ~np.isfinite(arr) & ~np.isnan(arr)
+    if bad.any():
+        for j in np.nonzero(bad.any(axis=0))[0]:
+            stats.bad_values[CYCLE_FIELDS[j]] += int(bad[:, j].sum())
+        arr[bad] = np.nan
+    return arr
+
+
+def read_log(path) -> MissionLog:
+    """Read one mission log in a single streaming pass.
+
+    Raises ``ConfigError`` only when the file cannot be opened; anything
+    wrong inside the file is skipped and counted in ``stats``.
+    """
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        f = path.open("rb")
+    except OSError as exc:
+        raise ConfigError(f"cannot read log {str(path)!r}: {exc.strerror or exc}") from exc
+    stats = ReadStats()
+    cols = _Columns(size // _MIN_BYTES_PER_CYCLE + 16)
+    start: dict | None = None
+    events: list[dict] = []
+    rows: list = []
+    modes: list = []
+    sources: list = []
+    first_ts = last_ts = None
+    fields = CYCLE_FIELDS
+    take = operator.itemgetter(*fields)
+    loads = json.loads
+    mode_codes, source_codes = _MODE_CODES, _SOURCE_CODES
+
+    def flush() -> None:
+        block = _block_to_array(rows, stats)
+        mode = np.fromiter((mode_codes.get(m, UNKNOWN_CODE) for m in modes), np.int8, len(modes))
+        src = np.fromiter((source_codes.get(s, UNKNOWN_CODE) if type(s) is str else UNKNOWN_CODE
+                           for s in sources), np.int8, len(sources))
+        cols.append(block, mode, src)
+        rows.clear()
+        modes.clear()
+        sources.clear()
+
+    with f:
+        lineno = 0
+        for raw in f:
+            lineno += 1
+            try:
+                rec = loads(raw)
+            except ValueError:  # JSONDecodeError and UnicodeDecodeError
+                if not raw.strip():
+                    stats.blank += 1
+                elif not raw.endswith(b"\n"):
+                    stats.truncated_last_line = True
+                    stats._skip(lineno, "cut off mid-line")
+                else:
+                    stats.corrupt += 1
+                    stats._skip(lineno, "not JSON")
+                continue
+            if type(rec) is not dict:
+                stats.corrupt += 1
+                stats._skip(lineno, "not a JSON object")
+                continue
+            event = rec.get("event")
+            if event == "cycle":
+                t = rec.get("t_s")
+                if type(t) is not float and (type(t) is not int or not math.isfinite(t)):
+                    stats.no_time += 1
+                    stats._skip(lineno, "cycle without t_s")
+                    continue
+                try:
+                    rows.append(take(rec))  # all fields present: one C call
+                except KeyError:
+                    rows.append([rec.get(k) for k in fields])
+                modes.append(rec.get("mode"))
+                sources.append(rec.get("heading_source"))
+                if len(rows) == _BLOCK_ROWS:
+                    flush()
+                ts = rec.get("timestamp")
+            elif type(event) is not str:
+                stats.no_event += 1
+                stats._skip(lineno, "no event name")
+                continue
+            elif event in EVENTS:
+                stats.events += 1
+                if event == "mission_start" and start is None:
+                    start = rec
+                events.append(rec)
+                ts = rec.get("timestamp")
+            else:
+                stats.unknown_events[event] += 1
+                continue
+            if type(ts) is str:
+                if first_ts is None:
+                    first_ts = ts
+                last_ts = ts
+    stats.lines = lineno
+    if rows:
+        flush()
+    data = cols.buf[:, : cols.n]
+    t = data[_INDEX["t_s"]]
+    nan_t = np.isnan(t)  # t_s was NaN/Infinity in the file
+    if nan_t.any():
+        keep = ~nan_t
+        stats.no_time += int(nan_t.sum())
+        data, mode, source = data[:, keep], cols.mode[: cols.n][keep], cols.source[: cols.n][keep]
+        t = data[_INDEX["t_s"]]
+    else:
+        mode, source = cols.mode[: cols.n], cols.source[: cols.n]
+    stats.cycles = int(data.shape[1])
+    stats.unknown_modes = int(np.count_nonzero(mode == UNKNOWN_CODE))
+    stats.time_reversals = int(np.count_nonzero(np.diff(t) < 0))
+    return MissionLog(path=path, start=start, events=events, data=data, mode=mode,
+                      heading_source=source, stats=stats, first_timestamp=first_ts,
+                      last_timestamp=last_ts)

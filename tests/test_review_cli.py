@@ -1,0 +1,100 @@
+"""`autopilot review` end to end on intact and damaged logs, one and several at once."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from autopilot.cli import main
+from autopilot.review.synthetic import write_synthetic_log
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def _damaged_logs(d):
+    """An intact mission, one cut mid-line, one with a corrupt line, an empty one, a failsafe stop."""
+    write_synthetic_log(d / "ok.jsonl")
+    text = (d / "ok.jsonl").read_text()
+    (d / "cut.jsonl").write_text(text[: len(text) - 700])  # through the last cycle line
+    lines = text.splitlines(keepends=True)
+    lines[50] = lines[50][:40] + "\x00#garbage#" + lines[50][40:]
+    (d / "corrupt.jsonl").write_text("".join(lines))
+    (d / "empty.jsonl").write_text("")
+    write_synthetic_log(d / "failsafe.jsonl", failsafe_at_s=20.0, dropout_every_s=12.0)
+    return ["ok", "cut", "corrupt", "empty", "failsafe"]
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cli")
+    return d, _damaged_logs(d)
+
+
+@pytest.mark.parametrize("name, skipped, note", [
+    ("ok", 0, None),
+    ("cut", 1, "cut off mid-write"),
+    ("corrupt", 1, "corrupt line"),
+    ("empty", 0, "no cycle lines"),
+    ("failsafe", 0, None),
+])
+def test_review_runs_and_says_what_it_skipped(logs, tmp_path, capsys, name, skipped, note):
+    d, _ = logs
+    out = tmp_path / "out"
+    assert main(["review", str(d / f"{name}.jsonl"), "--out", str(out), "--export", "gpx,kml,geojson,csv"]) in (0, 1)
+    html = (out / "report.html").read_text()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["skipped_lines"] == skipped
+    if note:
+        assert note in html
+    for img in html.split('<img src="')[1:]:
+        src = img.split('"')[0]
+        assert (out / src).read_bytes()[:8] == PNG_MAGIC
+    printed = capsys.readouterr().out
+    assert "report:" in printed
+
+
+def test_failsafe_mission_is_reported(logs, tmp_path):
+    d, _ = logs
+    out = tmp_path / "fs"
+    assert main(["review", str(d / "failsafe.jsonl"), "--out", str(out), "--export", "csv"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["failsafes"] == [[20.0, "heading_stale"]]
+    assert summary["stop_reason"] == "failsafe" and summary["complete"] is False
+    assert summary["heading_lost_s"] > 3.0  # failsafe plus the drop-outs
+    html = (out / "report.html").read_text()
+    assert "heading_stale at 20.0 s" in html
+
+
+def test_empty_log_exports_fail_but_report_is_written(logs, tmp_path, capsys):
+    d, _ = logs
+    out = tmp_path / "empty"
+    assert main(["review", str(d / "empty.jsonl"), "--out", str(out), "--export", "gpx"]) == 1
+    assert "gpx export failed" in capsys.readouterr().out
+    html = (out / "report.html").read_text()
+    assert "<img" not in html and "no cycle lines" in html
+
+
+def test_several_logs_overlay_and_scorecard(logs, tmp_path):
+    d, names = logs
+    out = tmp_path / "many"
+    assert main(["review", *(str(d / f"{n}.jsonl") for n in ("ok", "cut", "failsafe")), "--out", str(out)]) == 0
+    html = (out / "report.html").read_text()
+    assert 'src="tracks.png"' in html and (out / "tracks.png").read_bytes()[:8] == PNG_MAGIC
+    for k, n in enumerate(("ok", "cut", "failsafe"), start=1):
+        assert f'href="{k}-{n}/report.html"' in html
+        assert (out / f"{k}-{n}" / "report.html").exists()
+    summary = json.loads((out / "summary.json").read_text())
+    assert [s["path"].rsplit("/", 1)[-1] for s in summary] == ["ok.jsonl", "cut.jsonl", "failsafe.jsonl"]
+    assert html.count("<tr>") >= 15  # one scorecard row per quantity, three columns
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["review", "/nonexistent/log.jsonl"], "not a readable file"),
+    (["review", "LOG", "--export", "gpx,shapefile"], "unknown format 'shapefile'"),
+])
+def test_bad_input_exits_2(logs, capsys, argv, message):
+    d, _ = logs
+    argv = [str(d / "ok.jsonl") if a == "LOG" else a for a in argv]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err

@@ -1,0 +1,132 @@
+"""The mission-log reader: columns match what was written; bad lines are skipped and counted."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from autopilot.review.reader import MODES, UNKNOWN_CODE, read_log
+from autopilot.review.synthetic import write_synthetic_log
+from autopilot.schema import ConfigError
+
+
+def _write(path, records, tail: str = ""):
+    with open(path, "w", encoding="utf-8") as f:
+        for r in records:
+            f.write((r if isinstance(r, str) else json.dumps(r)) + "\n")
+        f.write(tail)
+    return path
+
+
+def _cycle(k, **extra):
+    rec = {"event": "cycle", "t_s": 0.1 * k, "cycle": k, "mode": "auto", "north_m": float(k),
+           "east_m": 2.0 * k, "heading_deg": 10.0, "thrust_port_n": 5.0, "thrust_stbd_n": 6.0,
+           "timestamp": "2024-05-21T09:30:00Z"}
+    rec.update(extra)
+    return rec
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    path = tmp_path_factory.mktemp("logs") / "mission.jsonl"
+    truth = write_synthetic_log(path, dropout_every_s=10.0)
+    return path, truth
+
+
+def test_columns_match_the_written_mission(synthetic):
+    path, truth = synthetic
+    log = read_log(path)
+    assert log.n_cycles == truth["cycles"]
+    assert log.stats.skipped == 0 and not log.stats.bad_values
+    assert_allclose(log.col("t_s"), truth["t_s"], atol=1e-3)
+    ok = np.isfinite(log.col("north_m"))
+    assert 0 < ok.sum() < log.n_cycles  # the drop-outs are gaps
+    assert_allclose(log.col("north_m")[ok], truth["north_m"][ok], atol=1e-3)
+    assert_allclose(log.col("thrust_port_n"), truth["thrust_port_n"], atol=1e-3)
+    assert log.start["mission_name"] == "synthetic"
+    assert_allclose(log.waypoints_ne_m, truth["waypoints_ne_m"])
+    assert [e["event"] for e in log.events][:2] == ["mission_start", "waypoint_reached"]
+    assert np.all(log.mode == MODES.index("auto"))
+
+
+def test_missing_fields_are_gaps_not_zeros(tmp_path):
+    rec = _cycle(0)
+    del rec["thrust_stbd_n"]
+    rec["heading_deg"] = None
+    log = read_log(_write(tmp_path / "a.jsonl", [rec, _cycle(1)]))
+    assert math.isnan(log.col("thrust_stbd_n")[0]) and log.col("thrust_stbd_n")[1] == 6.0
+    assert math.isnan(log.col("heading_deg")[0])
+    assert np.all(np.isnan(log.col("lateness_ms")))  # never logged at all
+
+
+def test_cut_last_line_is_skipped_and_reported(tmp_path):
+    full = json.dumps(_cycle(2))
+    log = read_log(_write(tmp_path / "cut.jsonl", [_cycle(0), _cycle(1)], tail=full[: len(full) // 2]))
+    assert log.n_cycles == 2
+    assert log.stats.truncated_last_line and log.stats.corrupt == 0
+    assert any("cut off" in line for line in log.stats.describe())
+
+
+@pytest.mark.parametrize("bad, counter", [
+    ("{this is not json", "corrupt"),
+    ("[1, 2, 3]", "corrupt"),
+    ('{"t_s": 1.0, "north_m": 3}', "no_event"),
+    ('{"event": "cycle", "north_m": 3}', "no_time"),
+    ('{"event": "cycle", "t_s": "soon"}', "no_time"),
+    ('{"event": "cycle", "t_s": NaN}', "no_time"),
+])
+def test_corrupt_lines_are_skipped_and_counted(tmp_path, bad, counter):
+    log = read_log(_write(tmp_path / "c.jsonl", [_cycle(0), bad, _cycle(1)]))
+    assert log.n_cycles == 2
+    assert getattr(log.stats, counter) == 1
+    assert log.stats.skipped == 1
+    assert_allclose(log.col("north_m"), [0.0, 1.0])
+
+
+def test_unknown_events_and_keys_are_ignored(tmp_path):
+    log = read_log(_write(tmp_path / "u.jsonl", [
+        _cycle(0, new_field_from_the_future=3.0), {"event": "telemetry_v2", "t_s": 0.05}, _cycle(1)]))
+    assert log.n_cycles == 2
+    assert log.stats.unknown_events == {"telemetry_v2": 1}
+
+
+def test_bad_values_become_gaps(tmp_path):
+    log = read_log(_write(tmp_path / "b.jsonl", [
+        _cycle(0, north_m="abc", east_m=[1, 2]), _cycle(1, heading_deg=math.inf), _cycle(2, mode="dancing")]))
+    assert np.isnan(log.col("north_m")[0]) and np.isnan(log.col("east_m")[0])
+    assert np.isnan(log.col("heading_deg")[1])
+    assert log.stats.bad_values == {"north_m": 1, "east_m": 1, "heading_deg": 1}
+    assert log.mode[2] == UNKNOWN_CODE and log.stats.unknown_modes == 1
+
+
+def test_booleans_are_numbers(tmp_path):
+    log = read_log(_write(tmp_path / "s.jsonl", [_cycle(0, sat_port=True, sat_stbd=False)]))
+    assert log.col("sat_port")[0] == 1.0 and log.col("sat_stbd")[0] == 0.0
+
+
+@pytest.mark.parametrize("content", ["", "\n\n", "\x00\x00garbage"])
+def test_empty_or_garbage_file(tmp_path, content):
+    path = tmp_path / "empty.jsonl"
+    path.write_text(content)
+    log = read_log(path)
+    assert log.n_cycles == 0 and log.start is None and log.waypoints_ne_m.shape == (0, 2)
+
+
+def test_many_blocks_are_assembled_in_order(tmp_path):
+    # more rows than one block, with an odd value in a late block (slow path)
+    recs = [_cycle(k) for k in range(20000)]
+    recs[17000]["north_m"] = "x"
+    log = read_log(_write(tmp_path / "big.jsonl", recs))
+    expect = np.arange(20000, dtype=float)
+    expect[17000] = np.nan
+    assert_allclose(log.col("north_m"), expect)
+    assert_allclose(log.col("cycle"), np.arange(20000))
+
+
+def test_missing_file_is_a_config_error(tmp_path):
+    with pytest.raises(ConfigError, match="cannot read log"):
+        read_log(tmp_path / "nope.jsonl")
