@@ -217,8 +217,13 @@ class SimulatedSC30:
             await self.clock.sleep_until(t_s)
             self.boat.advance_to(t_s)
             kinds = list(self.fast_sentences)
-            if tick % self.slow_every == 0:
-                kinds += list(self.slow_sentences)
+            # One slow sentence per tick, after the heading, as a real compass interleaves them:
+            # a 1 Hz burst at 4800 baud would hold the line ~0.5 s and starve the 10 Hz heading.
+            slot = tick % self.slow_every
+            if len(self.slow_sentences) > self.slow_every:
+                kinds += list(self.slow_sentences[slot :: self.slow_every])
+            elif slot < len(self.slow_sentences):
+                kinds.append(self.slow_sentences[slot])
             for kind in kinds:
                 if self.drop_rate > 0 and self._rng.random() < self.drop_rate:
                     continue
