@@ -40,7 +40,7 @@ KN_TO_M_S = 1852.0 / 3600.0
 # ControlOutput fields logged in a cycle line (log-schema), null while the GNC is not stepped
 _GNC_KEYS = (
     "tcpa_nd", "dcpa_nd", "cdh", "psi_d_deg", "heading_error_deg", "xte_m", "speed_cmd_m_s",
-    "pid_p_n", "pid_i_n", "pid_d_n", "tau_com_n", "tau_order_n",
+    "pid_p_n", "pid_i_n", "pid_d_n", "tau_com_n", "tau_com_trim_n", "tau_order_n",
 )
 
 
@@ -224,6 +224,7 @@ class ControlLoop:
                 "pid_i_n": out.pid_i_n,
                 "pid_d_n": out.pid_d_n,
                 "tau_com_n": out.tau_com_n,
+                "tau_com_trim_n": out.tau_com_trim_n,
                 "tau_order_n": out.tau_order_n,
             }
             thrust = (out.thrust_port_n, out.thrust_stbd_n)
