@@ -55,3 +55,16 @@ def test_watchdog_interval_from_environment(monkeypatch):
     assert Notifier.watchdog_interval_s() == 1.0
     monkeypatch.setenv("WATCHDOG_PID", "1")  # meant for another process
     assert Notifier.watchdog_interval_s() is None
+
+
+def test_watchdog_is_fed_only_by_cycles_on_time():
+    from autopilot.daemon.loop import watchdog_due
+
+    common = dict(period_s=0.1, interval_s=1.0)
+    assert watchdog_due(ready=True, lateness_s=0.002, since_last_s=1.0, **common)
+    assert not watchdog_due(ready=True, lateness_s=0.1, since_last_s=5.0, **common)  # a period late
+    assert not watchdog_due(ready=True, lateness_s=0.35, since_last_s=5.0, **common)
+    assert not watchdog_due(ready=False, lateness_s=0.0, since_last_s=5.0, **common)  # before READY=1
+    assert not watchdog_due(ready=True, lateness_s=0.0, since_last_s=0.4, **common)  # rate-limited
+    # a loop late on every cycle never feeds the watchdog, however long it runs
+    assert not any(watchdog_due(ready=True, lateness_s=0.1 + k * 1e-3, since_last_s=k, **common) for k in range(100))

@@ -44,6 +44,13 @@ _GNC_KEYS = (
 )
 
 
+def watchdog_due(*, ready: bool, lateness_s: float, period_s: float, since_last_s: float, interval_s: float) -> bool:
+    """WATCHDOG=1 is due: only once ready, only from a cycle that started on time (later than its
+    deadline by less than one period), and at most every ``interval_s`` (half of WatchdogSec).
+    A loop that runs late every cycle therefore stops feeding systemd, which restarts it."""
+    return ready and lateness_s < period_s and since_last_s >= interval_s
+
+
 def gnc_fields_null() -> dict:
     return {k: None for k in _GNC_KEYS}
 
@@ -343,11 +350,13 @@ class ControlLoop:
                     "info", t_s=now_s - self.t0_s, message="devices not answering",
                     sc30_heard=heard_compass, mbed_heard=heard_mbed,
                 )
-        on_time = lateness_s < self.cfg.period_s
-        if not on_time:
+        if lateness_s >= self.cfg.period_s:
             self.stats.late_cycles += 1
         interval_s = (Notifier.watchdog_interval_s() or 0.5) * self.clock.speedup / 2.0
-        if self.ready and on_time and now_s - self._last_watchdog_s >= interval_s:
+        if watchdog_due(
+            ready=self.ready, lateness_s=lateness_s, period_s=self.cfg.period_s,
+            since_last_s=now_s - self._last_watchdog_s, interval_s=interval_s,
+        ):
             self.notifier.watchdog()
             self._last_watchdog_s = now_s
 
