@@ -2,6 +2,11 @@ import os
 import sys
 from pathlib import Path
 
+# Multi-threaded BLAS on a shared 2-core machine makes small least-squares SVDs ~40x slower
+# (measured in the identification fits); the suite's work is many small problems.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]

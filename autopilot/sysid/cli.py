@@ -1,0 +1,107 @@
+"""`autopilot sysid`: name the effect the model is missing, on trials, mission logs or a steady table."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from autopilot.schema import ConfigError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "sysid",
+        help="find where simulation and measurements disagree, name the missing effect, fit it",
+        description=(
+            "Replay measured trials (CSV, see autopilot/sysid/trials.py) or daemon mission logs (.jsonl) "
+            "through the simulator, fit every candidate effect, choose by BIC confirmed on held-out "
+            "trials, and write DIR/summary.json, DIR/report.html, DIR/vessel-updated.yaml, DIR/effects.yaml. "
+            "With --table, examine a steady-state table (SPEC 6) instead."
+        ),
+    )
+    p.add_argument("trials", nargs="*", metavar="TRIAL", help="trial CSV files or mission logs (.jsonl)")
+    p.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
+    p.add_argument("--table", help="steady-state table CSV: name,thrust_port_n,thrust_stbd_n,yaw_rate_rad_s,speed_m_s")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--effects", help="comma-separated candidate identifiers (default: all)")
+    p.add_argument("--top-k", type=int, default=3, help="candidates fitted fully after screening (default 3)")
+    p.add_argument("--no-report", action="store_true", help="skip report.html (faster)")
+    p.add_argument("--quiet", action="store_true")
+    p.set_defaults(func=run_cli)
+
+
+def run_cli(args: argparse.Namespace) -> int:
+    from autopilot.sim import default_params_path, load_params
+    from autopilot.sysid.effects import EFFECT_NAMES
+
+    params_path = Path(args.params) if args.params else default_params_path()
+    vessel = load_params(params_path)
+    log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    candidates = tuple(EFFECT_NAMES)
+    if args.effects:
+        candidates = tuple(e.strip() for e in args.effects.split(",") if e.strip())
+        unknown = [e for e in candidates if e not in EFFECT_NAMES]
+        if unknown:
+            raise ConfigError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECT_NAMES)})")
+    if args.table:
+        if args.trials:
+            raise ConfigError("give either trial files or --table, not both")
+        return _table(args, vessel, params_path, candidates if args.effects else None, log)
+    if not args.trials:
+        raise ConfigError("no trial files (or use --table)")
+    if args.top_k < 1:
+        raise ConfigError("--top-k must be at least 1")
+    from autopilot.sysid.trials import read_trial
+    from autopilot.sysid.workflow import run
+
+    trials = [read_trial(p) for p in args.trials]
+    summary = run(trials, vessel, args.out, params_file=str(params_path), candidates=candidates,
+                  top_k=args.top_k, report=not args.no_report, log=log)
+    _print(summary, args.out)
+    return 0
+
+
+def _table(args, vessel, params_path, candidates, log) -> int:
+    from autopilot.sysid.output import write_effects_yaml, write_json, write_vessel_updated
+    from autopilot.sysid.table import TABLE_CANDIDATES, identify_table, read_table_csv, table_figure
+
+    rows = read_table_csv(args.table)
+    t0 = time.perf_counter()
+    summary = identify_table(rows, vessel, candidates=candidates or TABLE_CANDIDATES, log=log)
+    summary["seconds"] = time.perf_counter() - t0
+    summary["params_file"] = str(params_path)
+    summary["table_file"] = str(args.table)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    verdict = tuple(v for v in summary["verdict"] if v != "none")
+    write_vessel_updated(vessel, summary.pop("values"), verdict, out / "vessel-updated.yaml", source=str(args.table))
+    write_effects_yaml(summary["effects"], out / "effects.yaml")
+    summary["outputs"] = {"summary": "summary.json", "vessel": "vessel-updated.yaml", "effects": "effects.yaml"}
+    if not args.no_report:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from autopilot.sysid import report as rep
+
+        figs = {"Steady states: measured, model before and after": rep.png(table_figure(summary))}
+        rep.write_html(out / "report.html", summary, figs)
+        summary["outputs"]["report"] = "report.html"
+    write_json(summary, out / "summary.json")
+    _print(summary, args.out)
+    return 0
+
+
+def _print(summary: dict, out) -> None:
+    print(f"verdict: {', '.join(summary['verdict'])}")
+    for name, eff in summary.get("effects", {}).items():
+        for p in eff["params"]:
+            print(f"  {name}.{p['name']} = {p['value']:.4g} {p['unit']}  (95 %: {p['ci95'][0]:.4g} .. {p['ci95'][1]:.4g})")
+    for part in ("fitted", "held_out"):
+        b, a = summary["rmse_before"][part], summary["rmse_after"][part]
+        figures = ", ".join(f"{k} {b[k]:.4g} -> {a[k]:.4g}" for k in b if isinstance(b.get(k), float) and a.get(k) is not None)
+        print(f"  {part}: {figures}")
+    for note in summary.get("notes", []):
+        print(f"  note: {note}")
+    print(f"written to {out}/")

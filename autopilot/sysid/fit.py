@@ -1,0 +1,351 @@
+"""Output-error least squares of effect parameters with per-trial initial states.
+
+The unknowns are the effect parameters (shared by all trials) and each
+trial's initial state (a nuisance: a noisy start would otherwise bias every
+effect). Residuals are measured minus predicted position and heading, each
+divided by that trial's measurement noise (estimated from the data), so the
+cost is a chi-square and the 95 % intervals come from the Jacobian:
+cov = s^2 (J^T J)^-1, s^2 = cost / (m - n).
+
+The Jacobian is a batched finite difference: the initial state of trial i
+only moves trial i, so one ``simulate`` call with N (1 + 4 + p) runs gives
+all columns; north/east offsets are analytic (the model is translation
+invariant).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from autopilot.sim import VesselParams
+from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
+from autopilot.sysid.replay import Prepared, predict, residuals
+
+# scales of the nuisance initial state (north, east, psi, u, v, r) and their FD steps (scaled units)
+X0_SCALE = np.array([1.0, 1.0, 0.05, 0.1, 0.05, 0.02])
+X0_FD = 1e-3
+# psi, u, r by finite difference; north, east analytic. Sway v0 is held at its start value:
+# the strong sway damping (SPEC 3) erases it within a second, so it is not identifiable
+# from a track and leaving it free only makes the problem ill-conditioned.
+FD_STATES = (2, 3, 5)
+FREE_STATES = (0, 1, 2, 3, 5)
+X0_LIMIT = np.array([np.inf, np.inf, np.inf, 6.0, 3.0, 1.5])  # |u|, |v| (m/s), |r| (rad/s) a WAM-V can have
+GN_MAX_STEP = 20.0  # largest screening step, in units of the parameter's scale
+DIVERGED = 1e3  # residual of every sample when a trial step makes the simulation blow up
+
+
+def theta_bounds(key: str, vessel: VesselParams) -> tuple[float, float]:
+    """Bounds of an effect parameter, tightened so the updated VesselParams stays in range."""
+    p = PARAM_BY_KEY[key]
+    lo, hi = p.lo, p.hi
+    if key == "yaw_damping_quadratic.n_rr_nm_s2":
+        lo = max(lo, -vessel.yaw_damping_quadratic_nm_s2)
+    elif key == "hydro_refit.resistance_linear_n_s_m":
+        lo = max(lo, -vessel.resistance_linear_n_s_m)
+    elif key == "hydro_refit.n_r_nd":
+        lo, hi = max(lo, -50.0 - vessel.n_r_nd), min(hi, -vessel.n_r_nd)
+    return lo, hi
+
+
+@dataclass
+class Fit:
+    """A fitted model: effect parameters, per-trial initial states, cost and intervals."""
+
+    effects: tuple[str, ...]
+    keys: tuple[str, ...]
+    theta: np.ndarray  # effect parameter values (SI, as in effects.py)
+    sigma: np.ndarray  # 1-sigma of theta (NaN when not identifiable)
+    x0: np.ndarray  # (len(trials), 6)
+    trials: tuple[int, ...]
+    cost: float  # weighted sum of squared residuals (chi-square)
+    n_obs: int
+    nfev: int = 0
+    fixed: dict = field(default_factory=dict)
+
+    @property
+    def n_params(self) -> int:
+        return len(self.keys) + len(FREE_STATES) * len(self.trials)
+
+    @property
+    def bic(self) -> float:
+        return self.cost + self.n_params * math.log(max(self.n_obs, 2))
+
+    @property
+    def aic(self) -> float:
+        return self.cost + 2.0 * self.n_params
+
+    def values(self) -> dict[str, float]:
+        out = dict(self.fixed)
+        out.update({k: float(v) for k, v in zip(self.keys, self.theta)})
+        return out
+
+    def ci95(self) -> dict[str, tuple[float, float]]:
+        return {k: (float(v - 1.96 * s), float(v + 1.96 * s)) for k, v, s in zip(self.keys, self.theta, self.sigma)}
+
+
+class Problem:
+    """Residuals and batched Jacobian of one model over a set of trials."""
+
+    def __init__(self, prep: Prepared, vessel: VesselParams, keys, trials, x0, *, fixed=None):
+        self.prep, self.vessel = prep, vessel
+        self.x0_start = np.array(x0, dtype=float).reshape(len(trials), 6)
+        self.keys = tuple(keys)
+        self.trials = tuple(trials)
+        self.fixed = dict(fixed or {})
+        self.scale = np.array([PARAM_BY_KEY[k].scale for k in self.keys])
+        self.fd = np.array([PARAM_BY_KEY[k].fd_step for k in self.keys])
+        self.sizes = [prep.n_residuals(i) for i in self.trials]
+        self.offsets = np.concatenate([[0], np.cumsum(self.sizes)])
+        self.nfev = 0
+
+    @property
+    def p(self) -> int:
+        return len(self.keys)
+
+    def split(self, z):
+        theta = z[: self.p] * self.scale
+        x0 = self.x0_start.copy()
+        x0[:, FREE_STATES] = z[self.p :].reshape(len(self.trials), len(FREE_STATES)) * X0_SCALE[list(FREE_STATES)]
+        return theta, x0
+
+    def bounds(self):
+        lo = [theta_bounds(k, self.vessel)[0] / s for k, s in zip(self.keys, self.scale)]
+        hi = [theta_bounds(k, self.vessel)[1] / s for k, s in zip(self.keys, self.scale)]
+        free = list(FREE_STATES)
+        lim = np.tile(X0_LIMIT[free] / X0_SCALE[free], len(self.trials))
+        return np.concatenate([lo, -lim]), np.concatenate([hi, lim])
+
+    def pack(self, theta, x0) -> np.ndarray:
+        return np.concatenate([np.asarray(theta, float) / self.scale, (np.asarray(x0)[:, FREE_STATES] / X0_SCALE[list(FREE_STATES)]).ravel()])
+
+    def _runs(self, thetas, x0s, tri):
+        """Simulate runs: thetas (R, p), x0s (R, 6), trial indices (R,)."""
+        values = dict(self.fixed)
+        for k, key in enumerate(self.keys):
+            values[key] = thetas[:, k]
+        self.nfev += 1
+        with np.errstate(all="ignore"):
+            return predict(self.prep, self.vessel, tri, x0s, values)
+
+    def residual_vector(self, pred, runs) -> np.ndarray:
+        r = np.concatenate([residuals(self.prep, i, pred, j) for i, j in zip(self.trials, runs)])
+        return np.where(np.isfinite(r), r, DIVERGED)
+
+    def fun(self, z) -> np.ndarray:
+        theta, x0 = self.split(z)
+        n = len(self.trials)
+        try:
+            pred = self._runs(np.tile(theta, (n, 1)), x0, np.array(self.trials))
+        except FloatingPointError:  # a trust-region step too far: tell the solver it is bad
+            return np.full(int(self.offsets[-1]), DIVERGED)
+        return self.residual_vector(pred, range(n))
+
+    def jac(self, z, *, with_theta: bool = True, extra: dict | None = None) -> np.ndarray:
+        """Jacobian d(residual)/dz by batched forward differences (extra: key -> step columns)."""
+        theta, x0 = self.split(z)
+        n = len(self.trials)
+        tri = np.array(self.trials)
+        thetas, x0s, trials = [np.tile(theta, (n, 1))], [x0], [tri]
+        for s in FD_STATES:  # one perturbed run per trial and state
+            xp = x0.copy()
+            xp[:, s] += X0_FD * X0_SCALE[s]
+            thetas.append(np.tile(theta, (n, 1)))
+            x0s.append(xp)
+            trials.append(tri)
+        cols = range(self.p) if with_theta else ()
+        for k in cols:
+            tp = theta.copy()
+            tp[k] += self.fd[k] * self.scale[k]
+            thetas.append(np.tile(tp, (n, 1)))
+            x0s.append(x0)
+            trials.append(tri)
+        pred = self._runs(np.vstack(thetas), np.vstack(x0s), np.concatenate(trials))
+        base = self.residual_vector(pred, range(n))
+        m = base.size
+        nf = len(FREE_STATES)
+        n_cols = (self.p if with_theta else 0) + nf * n
+        jac = np.zeros((m, n_cols))
+        col0 = self.p if with_theta else 0
+        for t_pos, i in enumerate(self.trials):
+            lo, hi = self.offsets[t_pos], self.offsets[t_pos + 1]
+            npos = self.prep.pos_idx[i].size
+            sp = self.prep.sigma_pos_m[i]
+            c = col0 + nf * t_pos
+            jac[lo : lo + npos, c] = -X0_SCALE[0] / sp
+            jac[lo + npos : lo + 2 * npos, c + 1] = -X0_SCALE[1] / sp
+            for q, s in enumerate(FD_STATES):
+                run = (q + 1) * n + t_pos
+                r = residuals(self.prep, i, pred, run)
+                r = np.where(np.isfinite(r), r, DIVERGED)
+                jac[lo:hi, c + FREE_STATES.index(s)] = (r - base[lo:hi]) / X0_FD
+        for k in cols:
+            runs = range((1 + len(FD_STATES) + k) * n, (2 + len(FD_STATES) + k) * n)
+            r = self.residual_vector(pred, runs)
+            jac[:, k] = (r - base) / self.fd[k]
+        return jac
+
+
+def fit_model(
+    prep: Prepared,
+    vessel: VesselParams,
+    effects,
+    trials,
+    x0,
+    *,
+    theta0=None,
+    fixed: dict | None = None,
+    max_nfev: int = 40,
+    horizons_s=(),
+) -> Fit:
+    """Least squares (scipy trf) of the effects' parameters and the trials' initial states.
+
+    ``horizons_s``: first fit the first seconds of every trial, growing the horizon
+    (e.g. 10 s, 30 s), then all of it. An output-error fit of a long trial from a
+    poor start falls into local minima (a wrong initial yaw rate turns the whole
+    track); short horizons are nearly linear and lead it to the right basin.
+    """
+    from scipy.optimize import least_squares
+
+    from autopilot.sysid.replay import prepare, truncate
+
+    keys = tuple(k for e in effects for k in BY_NAME[e].keys)
+    trials = tuple(trials)
+    x0 = np.asarray(x0, dtype=float)
+    x0_in = x0_h = x0
+    theta_h = theta0
+    for h in horizons_s:
+        if h >= prep.t_grid[-1] * 0.8:
+            break
+        short = prepare([truncate(prep.trials[i], h) for i in trials], dt_s=prep.dt_s)
+        f = fit_model(short, vessel, effects, tuple(range(len(trials))), x0_h, theta0=theta_h, fixed=fixed, max_nfev=15)
+        x0_h, theta_h = f.x0, (list(f.theta) if keys else theta_h)
+    if horizons_s:  # keep whichever start fits the whole trials better
+        probe = Problem(prep, vessel, keys, trials, x0, fixed=fixed)
+        t_start = [PARAM_BY_KEY[k].start for k in keys] if theta0 is None else theta0
+        t_hor = [PARAM_BY_KEY[k].start for k in keys] if theta_h is None else theta_h
+        c_start = float(np.sum(probe.fun(probe.pack(t_start, x0)) ** 2))
+        probe = Problem(prep, vessel, keys, trials, x0_h, fixed=fixed)
+        c_hor = float(np.sum(probe.fun(probe.pack(t_hor, x0_h)) ** 2))
+        if c_hor <= c_start:
+            x0, theta0, c_start = x0_h, theta_h, c_hor
+        if keys:  # and never start worse than "no effect" from the given states
+            null = [PARAM_BY_KEY[k].null for k in keys]
+            probe = Problem(prep, vessel, keys, trials, x0_in, fixed=fixed)
+            if float(np.sum(probe.fun(probe.pack(null, x0_in)) ** 2)) < c_start:
+                x0, theta0 = x0_in, null
+    prob = Problem(prep, vessel, keys, trials, x0, fixed=fixed)
+    if theta0 is None:
+        theta0 = [PARAM_BY_KEY[k].start for k in keys]
+    lo, hi = prob.bounds()
+    z0 = prob.pack(theta0, x0)
+    z0 = np.clip(z0, lo * 0.999, hi * 0.999)
+    p = len(keys)
+    if p:  # strictly inside the bounds (trf requires it)
+        pad = 1e-9 * (np.abs(lo[:p]) + np.abs(hi[:p]) + 1.0)
+        z0[:p] = np.clip(z0[:p], lo[:p] + pad, hi[:p] - pad)
+    # lsmr: no SVD of the tall Jacobian (multi-threaded BLAS SVDs crawl on a busy machine)
+    sol = least_squares(prob.fun, z0, jac=prob.jac, bounds=(lo, hi), method="trf", x_scale=1.0, tr_solver="lsmr",
+                        ftol=3e-5, xtol=1e-6, gtol=1e-8, max_nfev=max_nfev)
+    theta, x0_fit = prob.split(sol.x)
+    cost = float(np.sum(sol.fun**2))
+    m = sol.fun.size
+    sigma = np.full(len(keys), np.nan)
+    if keys:
+        j = sol.jac
+        dof = max(m - j.shape[1], 1)
+        s2 = cost / dof
+        try:
+            cov = np.linalg.pinv(j.T @ j) * s2
+            sigma = np.sqrt(np.maximum(np.diag(cov)[: len(keys)], 0.0)) * prob.scale
+        except np.linalg.LinAlgError:
+            pass
+    return Fit(tuple(effects), keys, theta, sigma, x0_fit, tuple(trials), cost, m, prob.nfev, dict(fixed or {}))
+
+
+def screen(prep: Prepared, vessel: VesselParams, base: Fit, candidates, *, iterations: int = 3) -> dict[str, dict]:
+    """A few Gauss-Newton steps of every candidate from ``base``, all candidates in one batch per step.
+
+    Each step solves the linearised problem [J_x0 | J_effect] (the initial-state columns are the
+    base's); a step that raises the actual cost is halved. Returns per candidate the lowest
+    actual cost met (``predicted_cost``, used for ranking) and its parameters and states as a start.
+    One linear step misranks large effects (30 deg heading errors are far from linear).
+    """
+    n = len(base.trials)
+    tri = np.array(base.trials)
+    base_values = base.values()
+    prob = Problem(prep, vessel, base.keys, base.trials, base.x0, fixed=base.fixed)
+    j_x0 = prob.jac(prob.pack(base.theta, base.x0))[:, len(base.keys) :]
+    free = list(FREE_STATES)
+    state = {}
+    for c in candidates:
+        if c in base.effects:
+            continue
+        for g, start in enumerate(_starts(BY_NAME[c])):
+            state[(c, g)] = {"theta": dict(start), "x0": base.x0.copy(), "cost": np.inf, "prev": None,
+                             "best": (np.inf, dict(start), base.x0.copy())}
+    for _ in range(iterations + 1):
+        runs_vals, runs_x0, meta = [], [], []
+        for key, st in state.items():
+            c = key[0]
+            runs_vals.append(dict(st["theta"]))
+            runs_x0.append(st["x0"])
+            meta.append((key, None))
+            for k in BY_NAME[c].keys:
+                v = dict(st["theta"])
+                v[k] += PARAM_BY_KEY[k].fd_step * PARAM_BY_KEY[k].scale
+                runs_vals.append(v)
+                runs_x0.append(st["x0"])
+                meta.append((key, k))
+        all_keys = sorted({k for v in runs_vals for k in v} | set(base_values))
+        values = {k: np.repeat([v.get(k, base_values.get(k, PARAM_BY_KEY[k].null)) for v in runs_vals], n)
+                  for k in all_keys}
+        pred = predict(prep, vessel, np.tile(tri, len(runs_vals)), np.vstack(runs_x0), values)
+        resid = {}
+        for q, mk in enumerate(meta):
+            r = np.concatenate([residuals(prep, i, pred, j) for i, j in zip(base.trials, range(q * n, (q + 1) * n))])
+            resid[mk] = np.where(np.isfinite(r), r, DIVERGED)
+        for key, st in state.items():
+            eff = BY_NAME[key[0]]
+            r0 = resid[(key, None)]
+            cost = float(np.sum(r0**2))
+            if cost < st["best"][0]:
+                st["best"] = (cost, dict(st["theta"]), st["x0"].copy())
+            if st["prev"] is not None and cost > st["cost"]:  # overshoot: back half way
+                p_theta, p_x0 = st["prev"]
+                st["theta"] = {k: 0.5 * (st["theta"][k] + p_theta[k]) for k in st["theta"]}
+                st["x0"] = 0.5 * (st["x0"] + p_x0)
+                continue
+            st["cost"] = cost
+            cols = [(resid[(key, k)] - r0) / PARAM_BY_KEY[k].fd_step for k in eff.keys]
+            a = np.column_stack([j_x0] + cols)
+            step, *_ = np.linalg.lstsq(a, -r0, rcond=None)
+            st["prev"] = (dict(st["theta"]), st["x0"].copy())
+            for k, d in zip(eff.keys, step[-len(eff.keys) :]):
+                lo, hi = theta_bounds(k, vessel)
+                d = float(np.clip(d, -GN_MAX_STEP, GN_MAX_STEP))  # a linearisation is not trusted far out
+                st["theta"][k] = float(np.clip(st["theta"][k] + d * PARAM_BY_KEY[k].scale, lo, hi))
+            dx = step[: j_x0.shape[1]].reshape(n, len(free)) * X0_SCALE[free]
+            x0 = st["x0"].copy()
+            x0[:, free] += dx
+            x0[:, free] = np.clip(x0[:, free], -X0_LIMIT[free], X0_LIMIT[free])
+            st["x0"] = x0
+    out = {}
+    for (c, g), st in state.items():
+        cost, theta, x0 = st["best"]
+        if c not in out or cost < out[c]["predicted_cost"]:
+            out[c] = {"predicted_cost": cost, "theta": [theta[k] for k in BY_NAME[c].keys], "x0": x0}
+    return out
+
+
+def _starts(eff) -> list[dict]:
+    """Screening starts of an effect: its start values, and a grid where the parameter has one."""
+    grids = [PARAM_BY_KEY[k].grid or (PARAM_BY_KEY[k].start,) for k in eff.keys]
+    if all(len(g) == 1 for g in grids):
+        return [{k: g[0] for k, g in zip(eff.keys, grids)}]
+    import itertools
+
+    return [dict(zip(eff.keys, combo)) for combo in itertools.product(*grids)]
+

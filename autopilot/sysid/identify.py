@@ -1,0 +1,257 @@
+"""The identification workflow on trials: replay, fit candidates, choose, confirm on held-out trials.
+
+1. Baseline: each trial replayed from its initial state (first-seconds estimate,
+   refined by least squares with no effect).
+2. Screening: one batched Gauss-Newton step of every candidate from the baseline
+   ranks them by predicted cost; the ``top_k`` best are fitted fully
+   (scipy.optimize.least_squares over all trials).
+3. Choice by BIC (chi-square + k ln m; the residuals are divided by the noise
+   estimated from the data), so extra parameters must pay for themselves:
+   a candidate must beat the baseline by ``bic_margin``. Then forward
+   selection of a second effect from the best single's fit, kept only if it
+   beats the single by ``bic_margin`` too.
+4. Confirmation on held-out trials: the chosen effects are fitted on the other
+   trials and must lower the held-out cost by ``min_holdout_gain`` (relative);
+   otherwise the verdict is ``none``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from autopilot.sim import VesselParams
+from autopilot.sysid.effects import BY_NAME, EFFECT_NAMES, PARAM_BY_KEY
+from autopilot.sysid.fit import Fit, fit_model, screen
+from autopilot.sysid.replay import Prepared, initial_state, predict, prepare, rmse
+
+BIC_MARGIN = 10.0  # "very strong" evidence on the Kass-Raftery scale
+MIN_HOLDOUT_GAIN = 0.05
+HORIZONS_S = (10.0, 30.0)
+# chi-square per residual below which the model explains the data to the noise: no second effect sought
+ADEQUATE_CHI2 = 1.15
+STUCK_CHI2 = ADEQUATE_CHI2  # above this after a fit from the screening start, retry through growing horizons
+
+
+def _retry(prep, vessel, f: Fit, x0_fresh) -> Fit:
+    """If a fit did not reach the noise level, retry it through growing horizons from the
+    first-seconds states (the baseline's states were bent to hide the effect); keep the better."""
+    if f.cost / max(f.n_obs, 1) > STUCK_CHI2:  # first: let it run longer from where it stopped
+        g = fit_model(prep, vessel, f.effects, f.trials, f.x0, theta0=list(f.theta), max_nfev=100)
+        f = g if g.cost < f.cost else f
+    if f.cost / max(f.n_obs, 1) > STUCK_CHI2:
+        g = fit_model(prep, vessel, f.effects, f.trials, x0_fresh, theta0=list(f.theta), horizons_s=HORIZONS_S,
+                      max_nfev=100)
+        f = g if g.cost < f.cost else f
+    return f
+
+
+@dataclass
+class Identification:
+    """Everything the report needs."""
+
+    prep: Prepared
+    vessel: VesselParams
+    base: Fit
+    chosen: Fit
+    verdict: tuple[str, ...]
+    candidates: list[dict]
+    held_out: tuple[int, ...]
+    rmse_before: dict
+    rmse_after: dict
+    notes: list[str] = field(default_factory=list)
+
+    def values(self) -> dict[str, float]:
+        return self.chosen.values() if self.verdict else {}
+
+
+def held_out_trials(n: int) -> tuple[int, ...]:
+    """Every third trial from the second one (at least one when there are two or more)."""
+    return tuple(range(1, n, 3)) if n >= 2 else ()
+
+
+def _predict_fit(prep, vessel, fit: Fit):
+    n = len(fit.trials)
+    values = {k: np.full(n, v) for k, v in fit.values().items()}
+    return predict(prep, vessel, np.array(fit.trials), fit.x0, values)
+
+
+def fit_rmse(prep: Prepared, vessel: VesselParams, fit: Fit) -> dict:
+    """Unweighted position/heading RMS of a fit over its trials."""
+    pred = _predict_fit(prep, vessel, fit)
+    return rmse(prep, fit.trials, pred, range(len(fit.trials)))
+
+
+def _subset_x0(fit: Fit, trials) -> np.ndarray:
+    where = {t: k for k, t in enumerate(fit.trials)}
+    return np.array([fit.x0[where[t]] for t in trials])
+
+
+def effect_report(fit: Fit, vessel: VesselParams) -> dict:
+    """Per effect: parameters with names, units, values and 95 % intervals."""
+    out = {}
+    ci = fit.ci95()
+    for name in fit.effects:
+        eff = BY_NAME[name]
+        params = []
+        for p in eff.params:
+            key = eff.key(p)
+            k = fit.keys.index(key)
+            value, lo, hi = float(fit.theta[k]), ci[key][0], ci[key][1]
+            offset = 0.0
+            if name == "hydro_refit":  # fitted as a change; reported as the new field value
+                offset = getattr(vessel, p.name)
+            params.append({
+                "name": p.name, "unit": p.unit, "value": value + offset,
+                "ci95": [lo + offset, hi + offset], "sigma": float(fit.sigma[k]),
+            })
+        if name == "current":  # speed and direction, delta method
+            cn, ce = fit.theta[fit.keys.index("current.north_m_s")], fit.theta[fit.keys.index("current.east_m_s")]
+            sn, se = fit.sigma[fit.keys.index("current.north_m_s")], fit.sigma[fit.keys.index("current.east_m_s")]
+            speed = math.hypot(cn, ce)
+            s_speed = math.sqrt((cn * sn) ** 2 + (ce * se) ** 2) / max(speed, 1e-9)
+            s_dir = math.degrees(math.sqrt((ce * sn) ** 2 + (cn * se) ** 2)) / max(speed**2, 1e-12)
+            towards = math.degrees(math.atan2(ce, cn)) % 360.0
+            params.append({"name": "speed_m_s", "unit": "m/s", "value": speed,
+                           "ci95": [speed - 1.96 * s_speed, speed + 1.96 * s_speed], "sigma": s_speed})
+            params.append({"name": "towards_deg", "unit": "deg", "value": towards,
+                           "ci95": [towards - 1.96 * s_dir, towards + 1.96 * s_dir], "sigma": s_dir})
+        out[name] = {"doc": eff.doc, "params": params}
+    return out
+
+
+def identify(
+    trials,
+    vessel: VesselParams,
+    *,
+    candidates=EFFECT_NAMES,
+    top_k: int = 3,
+    pair_k: int = 1,
+    bic_margin: float = BIC_MARGIN,
+    min_holdout_gain: float = MIN_HOLDOUT_GAIN,
+    dt_s: float | None = None,
+    log=None,
+) -> Identification:
+    """Run the whole workflow on measured trials against the ``vessel`` parameter set."""
+    say = log or (lambda msg: None)
+    prep = prepare(trials, dt_s=dt_s)
+    n = prep.n_trials
+    everyone = tuple(range(n))
+    x0_init = np.array([initial_state(t) for t in prep.trials])
+    base = fit_model(prep, vessel, (), everyone, x0_init, horizons_s=HORIZONS_S)
+    say(f"baseline: cost {base.cost:.0f} over {base.n_obs} residuals")
+
+    # stage 1: screen all, fit the best few
+    scr = screen(prep, vessel, base, candidates)
+    ranked = sorted(scr, key=lambda c: scr[c]["predicted_cost"])
+    table = {c: {"effect": c, "params": list(BY_NAME[c].keys), "screen_cost": scr[c]["predicted_cost"]} for c in candidates}
+    fits: dict[tuple[str, ...], Fit] = {(): base}
+    for c in ranked[:top_k]:
+        f = fit_model(prep, vessel, (c,), everyone, scr[c]["x0"], theta0=scr[c]["theta"])
+        fits[(c,)] = f
+        say(f"fitted {c}: cost {f.cost:.0f}, BIC {f.bic - base.bic:+.0f}")
+    singles = [k for k in fits if len(k) == 1]
+    best = min(singles, key=lambda k: fits[k].bic) if singles else ()
+    if best:  # the leader gets a second, slower try when it did not reach the noise level; if it
+        # still does not, every fitted single gets one (large effects make the problem very nonlinear)
+        fits[best] = _retry(prep, vessel, fits[best], x0_init)
+        if fits[best].cost / max(fits[best].n_obs, 1) > ADEQUATE_CHI2:
+            for k in singles:
+                fits[k] = _retry(prep, vessel, fits[k], x0_init)
+        best = min(singles, key=lambda k: fits[k].bic)
+    chosen = ()
+    if best and fits[best].bic < base.bic - bic_margin:
+        chosen = best
+    if chosen and fits[best].cost / fits[best].n_obs > ADEQUATE_CHI2:
+        # stage 2: a second effect from the best single's fit
+        scr2 = screen(prep, vessel, fits[best], [c for c in candidates if c not in best])
+        for c in sorted(scr2, key=lambda c: scr2[c]["predicted_cost"])[:pair_k]:
+            pair = tuple(best) + (c,)
+            f = _retry(prep, vessel, fit_model(prep, vessel, pair, everyone, scr2[c]["x0"],
+                                                theta0=list(fits[best].theta) + scr2[c]["theta"]), x0_init)
+            fits[pair] = f
+            say(f"fitted {'+'.join(pair)}: cost {f.cost:.0f}, BIC {f.bic - base.bic:+.0f}")
+        pairs = [k for k in fits if len(k) == 2]
+        if pairs:
+            best_pair = min(pairs, key=lambda k: fits[k].bic)
+            if fits[best_pair].bic < fits[best].bic - bic_margin:
+                chosen = best_pair
+                # backward step: a single may now fit from the pair's values (its own first fit
+                # may have stopped in a local minimum); the simpler model wins unless the pair
+                # beats it by the margin
+                pf = fits[best_pair]
+                for e in best_pair:
+                    keys = BY_NAME[e].keys
+                    start = [pf.theta[pf.keys.index(k)] for k in keys]
+                    f = fit_model(prep, vessel, (e,), everyone, pf.x0, theta0=start)
+                    if (e,) not in fits or f.bic < fits[(e,)].bic:
+                        fits[(e,)] = f
+                        say(f"refitted {e} from the pair: cost {f.cost:.0f}, BIC {f.bic - base.bic:+.0f}")
+                alone = min(((e,) for e in best_pair), key=lambda k: fits[k].bic)
+                if fits[alone].bic <= pf.bic + bic_margin:
+                    chosen = alone
+
+    # held-out confirmation
+    held = held_out_trials(n)
+    train = tuple(i for i in everyone if i not in held)
+    notes = []
+    before_fit = fit_rmse(prep, vessel, base)
+    after_fit = fit_rmse(prep, vessel, fits[chosen])
+    if held:
+        base_held = Fit((), (), np.zeros(0), np.zeros(0), _subset_x0(base, held), held, 0.0, 0)
+        before_held = fit_rmse(prep, vessel, base_held)
+        cost_before_held = _cost(prep, vessel, base_held)
+    else:
+        notes.append("one trial only: no held-out trial, held-out figures repeat the fitted ones")
+        before_held, cost_before_held = before_fit, base.cost
+    after_held, cost_after_held = before_held, cost_before_held
+    if chosen and held:
+        on_train = fit_model(prep, vessel, chosen, train, _subset_x0(fits[chosen], train), theta0=fits[chosen].theta)
+        fixed = on_train.values()
+        # two starts for the held-out states (first seconds, and the no-effect fit's); the better wins
+        h = fit_model(prep, vessel, (), held, x0_init[list(held)], fixed=fixed, horizons_s=HORIZONS_S)
+        h2 = fit_model(prep, vessel, (), held, _subset_x0(base, held), fixed=fixed, horizons_s=HORIZONS_S)
+        h = h2 if h2.cost < h.cost else h
+        after_held, cost_after_held = fit_rmse(prep, vessel, h), h.cost
+        gain = 1.0 - cost_after_held / max(cost_before_held, 1e-12)
+        say(f"held-out trials {list(held)}: cost {cost_before_held:.0f} -> {cost_after_held:.0f} ({100 * gain:.0f} %)")
+        if gain < min_holdout_gain:
+            notes.append(f"{'+'.join(chosen)} won on BIC but lowered the held-out cost by only {100 * gain:.1f} % "
+                         f"(< {100 * min_holdout_gain:.0f} %): verdict none")
+            chosen = ()
+            after_fit, after_held = before_fit, before_held
+    elif chosen:
+        after_held = after_fit
+    for key, f in fits.items():
+        if len(key) == 1:
+            table[key[0]].update(_fit_entry(f, base, vessel))
+    cands = sorted(table.values(), key=lambda d: (d.get("delta_bic", math.inf), d["screen_cost"]))
+    for key, f in fits.items():
+        if len(key) == 2:
+            cands.append({"effect": "+".join(key), "params": list(f.keys), "screen_cost": None, **_fit_entry(f, base, vessel)})
+    return Identification(
+        prep=prep, vessel=vessel, base=base, chosen=fits[chosen], verdict=tuple(chosen), candidates=cands,
+        held_out=held,
+        rmse_before={"fitted": before_fit, "held_out": before_held},
+        rmse_after={"fitted": after_fit, "held_out": after_held},
+        notes=notes,
+    )
+
+
+def _cost(prep, vessel, fit: Fit) -> float:
+    from autopilot.sysid.replay import residuals
+
+    pred = _predict_fit(prep, vessel, fit)
+    return float(sum(np.sum(residuals(prep, i, pred, j) ** 2) for j, i in enumerate(fit.trials)))
+
+
+def _fit_entry(f: Fit, base: Fit, vessel: VesselParams) -> dict:
+    return {
+        "cost": f.cost,
+        "bic": f.bic,
+        "delta_bic": f.bic - base.bic,
+        "aic": f.aic,
+        "fitted": effect_report(f, vessel),
+    }
