@@ -113,6 +113,10 @@ class DaemonConfig:
     state_dir: str = param("state", doc="mission progress directory (systemd passes $STATE_DIRECTORY with --state-dir)")
     ready_timeout_s: float = param(30.0, unit="s", lo=0.5, hi=600.0, doc="log a warning if both devices have not answered after this")
     stop_ack_timeout_s: float = param(1.0, unit="s", lo=0.05, hi=10.0, doc="on SIGTERM, wait this long for the zero-thrust acknowledgement")
+    dead_reckon_max_s: float = param(
+        1.5, unit="s", lo=0.0, hi=5.0,
+        doc="carry the last position fix forward by SOG/COG for at most this long between fixes (0 = off; autopilot.gnc.navigation)",
+    )
     serial: SerialConfig = param(default_factory=SerialConfig)
     failsafe: FailsafeConfig = param(default_factory=FailsafeConfig)
     geofence: GeofenceConfig = param(default_factory=GeofenceConfig)

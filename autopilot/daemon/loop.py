@@ -32,6 +32,7 @@ from autopilot.daemon.missionlog import MissionLog
 from autopilot.daemon.sd_notify import Notifier
 from autopilot.daemon.state import Progress, StateStore
 from autopilot.geo import latlon_to_local, wrap_180, wrap_360
+from autopilot.gnc.navigation import dead_reckon_ne
 
 __all__ = ["LoopStats", "ControlLoop", "gnc_fields_null", "KN_TO_M_S"]
 
@@ -203,6 +204,7 @@ class ControlLoop:
             self.log.event(ev.name, t_s=t_s, **ev.fields)
 
         mode = decision.mode
+        est_north_m = est_east_m = None
         fields = gnc_fields_null()
         thrust = (0.0, 0.0)
         pwm = (0.0, 0.0)
@@ -217,7 +219,11 @@ class ControlLoop:
             dt_s = self.cfg.period_s if self._last_step_t_s is None else min(max(now_s - self._last_step_t_s, 1e-3), 1.0)
             self._last_step_t_s = now_s
             psi_rad = math.radians(heading_deg)
-            nav_in = self._nav_input(north_m, east_m, psi_rad, sog_m_s, yaw_rate_deg_s, cog_deg)
+            est_north_m, est_east_m = dead_reckon_ne(
+                north_m, east_m, position_age_s, sog_m_s, None if cog_deg is None else math.radians(float(cog_deg)), psi_rad,
+                max_age_s=self.cfg.dead_reckon_max_s,
+            )
+            nav_in = self._nav_input(est_north_m, est_east_m, psi_rad, sog_m_s, yaw_rate_deg_s, cog_deg)
             out = self.ap.step(nav_in, dt_s)
             fields = {
                 "tcpa_nd": out.tcpa_nd,
@@ -241,7 +247,7 @@ class ControlLoop:
             if out.reached_index is not None:
                 self.closest_m.append(out.closest_approach_m)
                 self.log.event(
-                    "waypoint_reached", t_s=t_s, wp_index=out.reached_index, north_m=north_m, east_m=east_m,
+                    "waypoint_reached", t_s=t_s, wp_index=out.reached_index, north_m=est_north_m, east_m=est_east_m,
                     closest_approach_m=out.closest_approach_m,
                 )
                 self._save("running")
@@ -277,6 +283,8 @@ class ControlLoop:
             lon_deg=lon_deg,
             north_m=north_m,
             east_m=east_m,
+            est_north_m=est_north_m,
+            est_east_m=est_east_m,
             heading_deg=None if heading_deg is None else float(wrap_360(heading_deg)),
             heading_source=heading_src,
             yaw_rate_deg_s=yaw_rate_deg_s,
