@@ -91,14 +91,14 @@ EFFECTS: tuple[Effect, ...] = (
     ),
     Effect(
         "thrust_asymmetry",
-        (EffectParam("asymmetry_nd", "-", 0.0, -0.6, 0.6, 0.05),),
+        (EffectParam("asymmetry_nd", "-", 0.0, -0.6, 0.6, 0.05, grid=(-0.08, -0.04, 0.0, 0.04, 0.08)),),
         "one side pushes more: port thrust x (1 + a), starboard x (1 - a)",
         "input",
         steady=True,
     ),
     Effect(
         "thrust_lag",
-        (EffectParam("time_constant_s", "s", 0.0, 0.0, 10.0, 0.5),),
+        (EffectParam("time_constant_s", "s", 0.0, 0.0, 10.0, 0.5, grid=(0.0, 0.5, 1.0, 2.0)),),
         "motor spin-up: thrust follows the command with a first-order lag",
         "input",
     ),
@@ -127,13 +127,13 @@ EFFECTS: tuple[Effect, ...] = (
     ),
     Effect(
         "sensor_delay",
-        (EffectParam("delay_s", "s", 0.0, 0.0, 5.0, 0.3),),
+        (EffectParam("delay_s", "s", 0.0, 0.0, 5.0, 0.3, grid=(0.0, 0.5, 1.0, 1.5)),),
         "position and heading reported late by a fixed delay",
         "sensor",
     ),
     Effect(
         "yaw_damping_quadratic",
-        (EffectParam("n_rr_nm_s2", "N m s^2", 0.0, -1e5, 1e5, 20.0),),
+        (EffectParam("n_rr_nm_s2", "N m s^2", 0.0, -1e5, 1e5, 20.0, grid=(0.0, 15.0, 40.0)),),
         "unmodelled quadratic yaw damping: extra moment -N_rr |r| r",
         "force",
         steady=True,

@@ -40,7 +40,8 @@ def summarise(ident, *, params_file: str = "", seconds: float | None = None) -> 
         "mode": "trials",
         "params_file": params_file,
         "trials": [t.name for t in prep.trials],
-        "held_out_trials": [prep.trials[i].name for i in ident.held_out],
+        # cross-validation: each fold's trials held out in turn; held_out RMSEs are over all folds
+        "held_out_folds": [[prep.trials[i].name for i in fold] for fold in ident.held_out],
         "verdict": list(ident.verdict) or ["none"],
         "effects": effect_report(ident.chosen, ident.vessel) if ident.verdict else {},
         "candidates": cands,
