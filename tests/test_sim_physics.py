@@ -170,6 +170,23 @@ def test_batch_equals_single_runs(params):
             assert_allclose(batch[name][k], one[name], rtol=1e-10, atol=1e-10)
 
 
+def test_a_diverging_run_raises_or_comes_back_nan_without_touching_the_others(params):
+    t = _times(20)
+    tp = np.full((3, t.size), 20.0)
+    ts = np.full((3, t.size), 10.0)
+    x0 = np.zeros((3, 6))
+    x0[1, 3] = 1e300  # overflows on the first step
+    with pytest.raises(FloatingPointError), np.errstate(all="ignore"):
+        simulate(params, t, tp, ts, x0=x0)
+    with np.errstate(all="ignore"):
+        out = simulate(params, t, tp, ts, x0=x0, diverged_as_nan=True)
+    good = simulate(params, t, tp[0], ts[0])
+    assert np.all(np.isnan(out["north_m"][1])) and np.all(np.isnan(out["r_rad_s"][1]))
+    for k in (0, 2):
+        for name in ("north_m", "east_m", "psi_rad", "u_m_s", "v_m_s", "r_rad_s"):
+            assert_allclose(out[name][k], good[name], rtol=1e-10, atol=1e-10)
+
+
 def test_step_matches_simulate(params):
     x = np.array([1.0, 2.0, 0.3, 1.2, 0.1, 0.05])
     out = simulate(params, np.array([0.0, 0.05]), np.array([20.0, 20.0]), np.array([5.0, 5.0]), x0=x)

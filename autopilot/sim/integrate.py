@@ -97,6 +97,7 @@ def simulate(
     external_force: Callable | None = None,
     dt_s: float = 0.05,
     env: Environment | None = None,
+    diverged_as_nan: bool = False,
 ) -> Mapping[str, np.ndarray]:
     """Simulate the model at the times ``t_s`` with thrusts held from each time to the next.
 
@@ -111,6 +112,9 @@ def simulate(
             state of shape (6,) or (n_runs, 6).
         dt_s: the largest RK4 step (s); each output interval is split evenly.
         env: a full :class:`Environment` instead of current/wind.
+        diverged_as_nan: return a run that blew up as NaN from start to end instead of raising
+            FloatingPointError (the runs of a batch are independent, so the others stand; the
+            identification tries far-out parameters and must not lose a whole batch to one).
     Outputs: mapping of ``t_s`` and the six states, each shaped like the thrust input.
     """
     t = np.asarray(t_s, dtype=float)
@@ -164,9 +168,12 @@ def simulate(
             for j in range(n_sub):
                 x = rk4(rhs, t0 + j * h, h, x, p_k, s_k)
             out[k + 1] = x
+    if not np.all(np.isfinite(out)):
+        if not diverged_as_nan:
+            raise FloatingPointError("the simulation diverged (NaN or infinite state); check the parameters and dt_s")
+        bad = ~np.all(np.isfinite(out.reshape(n_runs, -1)), axis=1)
+        out[bad if batched else slice(None)] = np.nan
     result = {"t_s": t}
     for k, name in enumerate(STATE_NAMES):
         result[name] = out[..., k]
-    if not np.all(np.isfinite(out)):
-        raise FloatingPointError("the simulation diverged (NaN or infinite state); check the parameters and dt_s")
     return result

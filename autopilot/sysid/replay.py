@@ -190,51 +190,10 @@ def _simulate_scalar(vessel, g, tp, ts, x0, dt, n_rr, d_r1, d_nr, external=None)
     return out
 
 
-# Simulations one predict() may spend isolating diverged runs. The simulator reports divergence only
-# for a whole batch, so each diverged run costs ~log2(batch) simulations when bisecting; a screening
-# step far out on a badly wrong model (a 13 % thrust asymmetry) diverged ~100 runs of 200 and took
-# 560 simulations (3 minutes). Beyond the budget, a failing batch is all marked diverged (NaN).
-MAX_SPLIT_SIMULATIONS = 24
-
-
-def _simulate_batch(vessel, g, tp, ts, x0, dt, external, runs) -> dict:
-    """Batched simulation of ``runs``; when one run blows up, bisect (breadth first, so every part of
-    the batch gets the same depth) so the others survive, NaN for it; within MAX_SPLIT_SIMULATIONS."""
-
-    def attempt(part):
-        sub_force = None
-        if external is not None:
-            if part.size == external.n_runs:
-                sub_force = external
-            else:
-                def sub_force(t_s, state, _runs=part):
-                    full = np.zeros((external.n_runs, 6))
-                    full[_runs] = state
-                    return tuple(np.broadcast_to(np.asarray(x), (external.n_runs,))[_runs]
-                                 for x in external(t_s, full))
-        try:
-            return dict(simulate(vessel, g, tp[part], ts[part], x0=x0[part], external_force=sub_force, dt_s=dt))
-        except FloatingPointError:
-            return None
-
-    out = {name: np.full((runs.size, g.size), np.nan) for name in STATE_NAMES}
-    where = {int(r): k for k, r in enumerate(runs)}
-    parts, budget = [runs], MAX_SPLIT_SIMULATIONS + 1  # the whole batch, then the bisections
-    while parts and budget > 0:
-        failing = []
-        for part in parts:
-            if budget <= 0:
-                break  # left NaN: reported as diverged
-            budget -= 1
-            res = attempt(part)
-            if res is None:
-                failing.append(part)
-                continue
-            rows = [where[int(r)] for r in part]
-            for name in STATE_NAMES:
-                out[name][rows] = res[name]
-        parts = [h for f in failing if f.size > 1 for h in (f[: f.size // 2], f[f.size // 2 :])]
-    return out
+def _simulate_batch(vessel, g, tp, ts, x0, dt, external) -> dict:
+    """Batched simulation; a run that blows up (a far-out parameter trial) comes back NaN, the
+    others stand (the runs are independent; the simulator's ``diverged_as_nan``)."""
+    return dict(simulate(vessel, g, tp, ts, x0=x0, external_force=external, dt_s=dt, diverged_as_nan=True))
 
 
 def predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict) -> dict:
@@ -293,7 +252,6 @@ def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict) 
                 n_e = n_e + k_nr * np.sqrt(u * u + vv * vv) * r
             return x_e, y_e, n_e
 
-        external.n_runs = n_runs
 
     # A uniform steady current only shifts the water-relative motion (model.py works in
     # relative velocity; the added forces depend on psi and r only): simulate calm water
@@ -311,7 +269,7 @@ def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict) 
     if not wind and n_runs <= SCALAR_MAX_RUNS:
         out = _simulate_scalar(vessel, g, tp, ts, x0, dt, n_rr, d_r1, d_nr)
     else:
-        out = _simulate_batch(vessel, g, tp, ts, x0, dt, external, np.arange(n_runs))
+        out = _simulate_batch(vessel, g, tp, ts, x0, dt, external)
     north, east, psi = out["north_m"], out["east_m"], out["psi_rad"]
     u, vv, r = out["u_m_s"], out["v_m_s"], out["r_rad_s"]
     if has_current:
