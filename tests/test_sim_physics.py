@@ -185,6 +185,12 @@ def test_a_diverging_run_raises_or_comes_back_nan_without_touching_the_others(pa
     for k in (0, 2):
         for name in ("north_m", "east_m", "psi_rad", "u_m_s", "v_m_s", "r_rad_s"):
             assert_allclose(out[name][k], good[name], rtol=1e-10, atol=1e-10)
+    # one run (the scalar path, math module): the same contract
+    with pytest.raises(FloatingPointError), np.errstate(all="ignore"):
+        simulate(params, t, tp[1], ts[1], x0=x0[1])
+    with np.errstate(all="ignore"):
+        one = simulate(params, t, tp[1], ts[1], x0=x0[1], diverged_as_nan=True)
+    assert np.all(np.isnan(one["north_m"])) and np.all(np.isnan(one["psi_rad"]))
 
 
 def test_step_matches_simulate(params):

@@ -160,14 +160,17 @@ def simulate(
         out[0] = x
         tp_l, ts_l, t_l, steps_l = tp.tolist(), ts.tolist(), t.tolist(), steps.tolist()
         rk4 = _rk4
-        for k in range(t.size - 1):
-            n_sub = steps_l[k]
-            t0 = t_l[k]
-            h = (t_l[k + 1] - t0) / n_sub
-            p_k, s_k = tp_l[k], ts_l[k]
-            for j in range(n_sub):
-                x = rk4(rhs, t0 + j * h, h, x, p_k, s_k)
-            out[k + 1] = x
+        try:
+            for k in range(t.size - 1):
+                n_sub = steps_l[k]
+                t0 = t_l[k]
+                h = (t_l[k + 1] - t0) / n_sub
+                p_k, s_k = tp_l[k], ts_l[k]
+                for j in range(n_sub):
+                    x = rk4(rhs, t0 + j * h, h, x, p_k, s_k)
+                out[k + 1] = x
+        except (ValueError, OverflowError):  # the math module's answer to an infinite state
+            out[:] = np.inf
     if not np.all(np.isfinite(out)):
         if not diverged_as_nan:
             raise FloatingPointError("the simulation diverged (NaN or infinite state); check the parameters and dt_s")

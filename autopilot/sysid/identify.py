@@ -2,9 +2,11 @@
 
 1. Baseline: each trial replayed from its initial state (first-seconds estimate,
    refined by least squares with no effect).
-2. Screening: one batched Gauss-Newton step of every candidate from the baseline
-   ranks them by predicted cost; the ``top_k`` best are fitted fully
-   (scipy.optimize.least_squares over all trials).
+2. Screening: a few batched Gauss-Newton steps of every candidate from the
+   baseline, twice (over whole trials, at most SCREEN_MAX_TRIALS of them, and over
+   15-s windows, at most SCREEN_MAX_WINDOWS), rank them by cost; the ``top_k`` best
+   of each are fitted fully (scipy.optimize.least_squares over all trials), with
+   bounded retries from fresh states for fits that stop above the noise.
 3. Choice by BIC (chi-square + k ln m; the residuals are divided by the noise
    estimated from the data), so extra parameters must pay for themselves:
    a candidate must beat the baseline by ``bic_margin``. Then forward
@@ -48,7 +50,8 @@ STUCK_CHI2 = ADEQUATE_CHI2  # above this after a fit from the screening start, r
 # scipy's max_nfev (fit_model's default 40, RETRY_NFEV for retries; the Jacobian calls add at most as
 # many again, and each horizon stage of fit_model is bounded at 15); the number of fits is bounded by top_k, pair_k and
 # MAX_RETRIES: at most 2 (baselines) + 2 top_k (two screenings) + 1 (polish) + pair_k + 3 (backward,
-# BACKWARD_NFEV) + 2 x folds (cross-validation, MAX_FOLDS) fits plus MAX_RETRIES retries, each of at
+# BACKWARD_NFEV) + 4 x folds (cross-validation, MAX_FOLDS: a training fit and up to three starts of the
+# held-out states) fits plus MAX_RETRIES retries, each of at
 # most 2 fits. Found stalling otherwise: a large thrust asymmetry (13 %) retried every single and
 # pair with 100 evaluations each for > 3 minutes.
 RETRY_NFEV = 60
@@ -134,7 +137,7 @@ def _screen_subset(prep, vessel, fit: Fit, candidates) -> dict:
     return out
 
 
-def screening_windows(prep: Prepared, window_s: float = SCREEN_WINDOW_S, max_windows: int | None = None) -> Prepared:
+def screening_windows(prep: Prepared, window_s: float = SCREEN_WINDOW_S, max_windows: int | None = None) -> Prepared | None:
     """The trials cut into windows of ``window_s``, each replayed from its own initial state.
 
     Screening takes a few Gauss-Newton steps from the no-effect model; over a whole trial a
@@ -142,14 +145,17 @@ def screening_windows(prep: Prepared, window_s: float = SCREEN_WINDOW_S, max_win
     the candidates wrongly (a 1.2 s sensor delay ranked below a current and a deadband, seed
     1268740813; a 3 % thrust asymmetry below a wind moment). Over short windows the errors stay
     small and nearly linear in the effect. Each window keeps its trial's noise estimate.
-    ``max_windows``: keep at most this many, evenly spread over the trials.
+    ``max_windows``: keep at most this many, evenly spread over the trials. None when no window
+    has enough positions and headings (at least 3 of each in its first 3 s, 10 positions in all).
     """
     windows, parent = [], []
     for i, tr in enumerate(prep.trials):
         start = float(tr.t_s[0])
         while start + 0.5 * window_s < tr.t_s[-1] or start == tr.t_s[0]:
             sel = (tr.t_s >= start) & (tr.t_s < start + window_s)
-            if sel.sum() >= 20 and np.isfinite(tr.north_m[sel]).sum() >= 10:
+            first = sel & (tr.t_s < start + 3.0)  # initial_state fits the first 3 s of each window
+            if (sel.sum() >= 20 and np.isfinite(tr.north_m[sel]).sum() >= 10
+                    and np.isfinite(tr.north_m[first]).sum() >= 3 and np.isfinite(tr.heading_rad[first]).sum() >= 3):
                 fields = {}
                 for f in dataclasses.fields(tr):
                     v = getattr(tr, f.name)
@@ -161,6 +167,8 @@ def screening_windows(prep: Prepared, window_s: float = SCREEN_WINDOW_S, max_win
                 windows.append(dataclasses.replace(tr, **fields))
                 parent.append(i)
             start += window_s
+    if not windows:
+        return None
     if max_windows is not None:
         keep = spread_subset(len(windows), max_windows)
         windows, parent = [windows[i] for i in keep], [parent[i] for i in keep]
@@ -242,7 +250,7 @@ def identify(
     """Run the whole workflow on measured trials against the ``vessel`` parameter set.
 
     The work is bounded whatever the data (see RETRY_NFEV, MAX_RETRIES and the budget beside them):
-    at most 6 + 2 top_k + pair_k + 2 MAX_FOLDS fits and ``max_retries`` retries.
+    at most 6 + 2 top_k + pair_k + 4 MAX_FOLDS fits and ``max_retries`` retries.
     """
     say = log or (lambda msg: None)
     retry = _Retries(max_retries)
@@ -260,11 +268,15 @@ def identify(
     scr = _screen_subset(prep, vessel, base, candidates)
     ranked = sorted(scr, key=lambda c: scr[c]["predicted_cost"])
     prep_w = screening_windows(prep, max_windows=SCREEN_MAX_WINDOWS)
-    every_w = tuple(range(prep_w.n_trials))
-    base_w = fit_model(prep_w, vessel, (), every_w, np.array([initial_state(t) for t in prep_w.trials]))
-    scr_w = screen(prep_w, vessel, base_w, candidates)
+    if prep_w is not None:
+        every_w = tuple(range(prep_w.n_trials))
+        base_w = fit_model(prep_w, vessel, (), every_w, np.array([initial_state(t) for t in prep_w.trials]))
+        scr_w = screen(prep_w, vessel, base_w, candidates)
+    else:  # no window with enough data: the whole-trial screening alone
+        scr_w = {}
     ranked_w = sorted(scr_w, key=lambda c: scr_w[c]["predicted_cost"])
-    say("screened: whole trials " + ", ".join(ranked[:top_k]) + f"; {prep_w.n_trials} windows " + ", ".join(ranked_w[:top_k]))
+    say("screened: whole trials " + ", ".join(ranked[:top_k])
+        + f"; {prep_w.n_trials if prep_w else 0} windows " + ", ".join(ranked_w[:top_k]))
     table = {c: {"effect": c, "params": list(BY_NAME[c].keys), "screen_cost": scr[c]["predicted_cost"]} for c in candidates}
     fits: dict[tuple[str, ...], Fit] = {(): base}
     starts = [(c, scr[c]["x0"], scr[c]["theta"], ()) for c in ranked[:top_k]]
@@ -397,13 +409,6 @@ def identify(
         rmse_after={"fitted": after_fit, "held_out": after_held},
         notes=notes,
     )
-
-
-def _cost(prep, vessel, fit: Fit) -> float:
-    from autopilot.sysid.replay import residuals
-
-    pred = _predict_fit(prep, vessel, fit)
-    return float(sum(np.sum(residuals(prep, i, pred, j) ** 2) for j, i in enumerate(fit.trials)))
 
 
 def _fit_entry(f: Fit, base: Fit, vessel: VesselParams) -> dict:

@@ -183,7 +183,8 @@ def _simulate_scalar(vessel, g, tp, ts, x0, dt, n_rr, d_r1, d_nr, external=None)
         params = dataclasses.replace(vessel, **changes) if changes else vessel
         try:
             run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, external_force=external)
-        except FloatingPointError:  # a parameter trial far out: NaN, the fit sees huge residuals
+        except (FloatingPointError, ValueError, OverflowError):  # a parameter trial far out (the scalar
+            # path's math functions raise ValueError or OverflowError on inf): NaN, the fit sees huge residuals
             run = {name: np.full(g.size, np.nan) for name in STATE_NAMES}
         for name in STATE_NAMES:
             out[name][j] = run[name]
@@ -251,7 +252,6 @@ def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict) 
             if k_nr is not None:  # N_H term 1/2 rho L^2 d U N'_r L r (Eq 3.21)
                 n_e = n_e + k_nr * np.sqrt(u * u + vv * vv) * r
             return x_e, y_e, n_e
-
 
     # A uniform steady current only shifts the water-relative motion (model.py works in
     # relative velocity; the added forces depend on psi and r only): simulate calm water
