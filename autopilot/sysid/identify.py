@@ -48,11 +48,10 @@ BACKWARD_NFEV = 20
 STUCK_CHI2 = ADEQUATE_CHI2  # above this after a fit from the screening start, retry through growing horizons
 # Hard work budget (no wall clock: the same inputs always do the same work). Every fit is bounded by
 # scipy's max_nfev (fit_model's default 40, RETRY_NFEV for retries; the Jacobian calls add at most as
-# many again, and each horizon stage of fit_model is bounded at 15); the number of fits is bounded by top_k, pair_k and
-# MAX_RETRIES: at most 2 (baselines) + 2 top_k (two screenings) + 1 (polish) + pair_k + 3 (backward,
-# BACKWARD_NFEV) + 4 x folds (cross-validation, MAX_FOLDS: a training fit and up to three starts of the
-# held-out states) fits plus MAX_RETRIES retries, each of at
-# most 2 fits. Found stalling otherwise: a large thrust asymmetry (13 %) retried every single and
+# many again, and each horizon stage of fit_model is bounded at 15); the number of fits is bounded
+# by top_k, pair_k and MAX_RETRIES: at most 2 (baselines) + 2 top_k (two screenings) + 1 (polish) +
+# pair_k + 3 (backward, BACKWARD_NFEV) + 4 x folds (cross-validation, MAX_FOLDS: a training fit and
+# up to three starts of the held-out states) fits plus MAX_RETRIES retries, each of at most 2 fits. Found stalling otherwise: a large thrust asymmetry (13 %) retried every single and
 # pair with 100 evaluations each for > 3 minutes.
 RETRY_NFEV = 60
 MAX_RETRIES = 3
@@ -261,8 +260,8 @@ def identify(
     base = fit_model(prep, vessel, (), everyone, x0_init, horizons_s=HORIZONS_S)
     say(f"baseline: cost {base.cost:.0f} over {base.n_obs} residuals")
 
-    # stage 1: screen all on short windows, fit the best few on the whole trials
-    # Two screenings, because each misranks some effects: over whole trials a large effect is far
+    # stage 1: screen every candidate, fit the best few on the whole trials.
+    # Two screenings (whole trials and 15-s windows), because each misranks some effects: over whole trials a large effect is far
     # from linear; over windows an effect that a shifted initial state mimics (a sensor delay)
     # hardly shows. The top_k of each are fitted.
     scr = _screen_subset(prep, vessel, base, candidates)
