@@ -3,8 +3,13 @@
 Trials are made by the project's simulator (autopilot.sysid.synthetic: independent
 of the replay code) with realistic measurements: 10 Hz, position noise drawn in
 0.3-1 m, heading noise 0.3 deg quantised to 0.1 deg, dropped rows and empty cells.
-The magnitudes are drawn at random on every run from a seed printed by the test
-(set SYSID_TEST_SEED to replay a run). Four trials of 60 s each.
+The magnitudes are drawn at random from a seed printed by the test. The suite's seeds are fixed
+(one per case, derived from CI_SEED_BASE and the case's name), so that CI does not fail by chance:
+each check holds at one random draw with a rate below 1 (z-scores at 3.3 sigma over ~20 parameters
+fail ~2 % of runs by themselves), and a red CI run with no change to the code says nothing.
+How often each effect is identified over many random draws is measured by
+``benchmarks/sysid_reliability.py`` (rates in the README). SYSID_TEST_SEED=N replays seed N,
+SYSID_TEST_SEED=random draws a fresh one per test. Four trials of 60 s each.
 
 For every candidate effect but the deadband (NOT_RELIABLE, below: not yet identified reliably,
 not counted as passing; a fixed-seed regression test only): it is named first; its parameters are recovered within
@@ -31,6 +36,7 @@ import math
 import os
 import secrets
 import signal
+import zlib
 
 import numpy as np
 import pytest
@@ -125,9 +131,18 @@ CASES = {
 }
 
 
+CI_SEED_BASE = 20261201  # changing it draws a new fixed set; the reliability benchmark draws many
+
+
 def _seed(label: str) -> int:
-    base = os.environ.get("SYSID_TEST_SEED")
-    seed = int(base) if base else secrets.randbits(31)
+    """The seed of one case: SYSID_TEST_SEED (an integer, or ``random``), else fixed per ``label``."""
+    base = os.environ.get("SYSID_TEST_SEED", "").strip()
+    if base == "random":
+        seed = secrets.randbits(31)
+    elif base:
+        seed = int(base)
+    else:
+        seed = zlib.crc32(f"{CI_SEED_BASE}:{label}".encode()) & 0x7FFFFFFF
     print(f"\n[{label}] seed {seed} (SYSID_TEST_SEED={seed} reproduces it)")
     return seed
 
