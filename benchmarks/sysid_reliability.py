@@ -1,11 +1,10 @@
 """How often the identification gets a hidden effect right (issue 5): the test's checks over many seeds.
 
 Each run is exactly the check of ``tests/test_sysid_workflow.py::test_hidden_effect_is_named_and_recovered``
-(``_check_identified``) for one effect, the deadband included (the suite leaves it out as not yet
-reliable), with magnitudes drawn from one seed: named first, parameters within 20 % and within their
-intervals, held-out gap beyond the noise cut by 70 %. The suite runs one seed per
-effect per CI run; this runs many and counts, so that a flaky effect shows as a rate, not as a
-red CI run now and then. Failing seeds are printed; ``SYSID_TEST_SEED=... pytest
+(``_check_identified``) for one effect, with magnitudes drawn from one seed: named first,
+parameters within 20 % and within their intervals, held-out gap beyond the noise cut by 70 %.
+The suite runs one fixed seed per effect (and a few regression seeds); this runs many random ones
+and counts, so that a flaky effect shows as a rate, not as a red CI run now and then. Failing seeds are printed; ``SYSID_TEST_SEED=... pytest
 tests/test_sysid_workflow.py -k EFFECT -s`` replays one.
 
     python benchmarks/sysid_reliability.py                      # 4 seeds per effect, ~15 min

@@ -43,6 +43,9 @@ class EffectParam:
     fd_step: float = 1e-3  # finite-difference step in units of ``scale``
     init: float | None = None  # starting value when the null value has no gradient
     grid: tuple[float, ...] | None = None  # screening starts when the cost is far from quadratic
+    # the cost is flat between steps (a threshold between the duties a trial holds): a fit stuck
+    # above the noise is profiled over ``grid`` (identify._profile)
+    stepwise: bool = False
 
     @property
     def start(self) -> float:
@@ -105,7 +108,7 @@ EFFECTS: tuple[Effect, ...] = (
     Effect(
         "thrust_deadband",
         (EffectParam("threshold_pct", "%", 0.0, 0.0, 60.0, 10.0, fd_step=0.03, init=5.0,
-                     grid=(5.0, 12.0, 19.0, 26.0, 33.0, 40.0)),),
+                     grid=(5.0, 12.0, 19.0, 26.0, 33.0, 40.0), stepwise=True),),
         "no thrust below a duty threshold (the motor does not start)",
         "input",
         steady=True,
