@@ -194,11 +194,11 @@ def test_cli_table(tmp_path, capsys):
 
 def test_interval_is_the_larger_of_curvature_and_jackknife():
     """identify._with_jackknife: the fold spread widens a too-narrow interval, never narrows one."""
-    import sys
+    import importlib
 
     from autopilot.sysid.fit import Fit
 
-    ident = sys.modules["autopilot.sysid.identify"]  # the package exports a function of that name
+    ident = importlib.import_module("autopilot.sysid.identify")  # the package exports a function of that name
     fit = Fit(("wind_force",), ("a", "b"), np.array([1.0, 2.0]), np.array([0.01, 1.0]), np.zeros((4, 6)),
               (0, 1, 2, 3), 100.0, 1000)
     folds = [[0.9, 2.0], [1.1, 2.0], [1.0, 2.1], [1.0, 1.9]]
@@ -207,6 +207,9 @@ def test_interval_is_the_larger_of_curvature_and_jackknife():
     assert_allclose(out.sigma, [jk_a, 1.0])  # a widened to the jackknife, b kept (its own is wider)
     assert_allclose(fit.sigma, [0.01, 1.0])  # the input is not modified
     assert ident._with_jackknife(fit, folds[:2]) is fit  # two folds: too few for a spread
+    unidentified = Fit(("wind_force",), ("a",), np.array([1.0]), np.array([np.nan]), np.zeros((4, 6)),
+                       (0, 1, 2, 3), 100.0, 1000)
+    assert np.isnan(ident._with_jackknife(unidentified, [[1.0], [1.0], [1.0]]).sigma[0])  # stays unidentified
 
 
 def test_given_values_are_held_through_the_fit_horizons():

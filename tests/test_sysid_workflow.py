@@ -13,7 +13,7 @@ SYSID_TEST_SEED=random draws a fresh one per test. Four trials of 60 s each.
 
 For every candidate effect: it is named first; its parameters are recovered within
 20 % (of the effect's magnitude, per unit group) and within their intervals (sigma: the
-curvature estimate or the jackknife over the folds, whichever is larger; the
+curvature estimate or the jackknife over the folds, whichever is larger, as reported; the
 95 % intervals are checked at 3.3 sigma, i.e. 99.9 %, so that the ~20 parameters
 checked per run do not fail by chance; the z-scores are printed); the held-out
 position RMSE beyond the measurement noise falls by at least 70 % (see the test). Held out

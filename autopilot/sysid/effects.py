@@ -47,6 +47,10 @@ class EffectParam:
     # above the noise is profiled over ``grid`` (identify._profile)
     stepwise: bool = False
 
+    def __post_init__(self):
+        if self.stepwise and not self.grid:
+            raise ValueError(f"{self.name}: a stepwise parameter needs a grid to profile over")
+
     @property
     def start(self) -> float:
         return self.null if self.init is None else self.init

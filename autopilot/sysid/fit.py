@@ -206,6 +206,8 @@ def fit_model(
     (e.g. 10 s, 30 s), then all of it. An output-error fit of a long trial from a
     poor start falls into local minima (a wrong initial yaw rate turns the whole
     track); short horizons are nearly linear and lead it to the right basin.
+    Given values (``theta0``) are held there and only the states fit; without
+    ``theta0`` the parameters fit from their starts through the horizons too.
     """
     from scipy.optimize import least_squares
 
@@ -221,6 +223,8 @@ def fit_model(
     # deadband started at its true value went to 29 % at chi-square 1.13 for 0.93, seed 1008).
     hold = dict(fixed or {}) | (dict(zip(keys, (float(v) for v in theta0))) if keys and theta0 is not None else {})
     held = bool(keys) and theta0 is not None
+    if held and len(theta0) != len(keys):
+        raise ValueError(f"theta0 has {len(theta0)} values for {len(keys)} parameters {keys}")
     for h in horizons_s:
         if h >= prep.t_grid[-1] * 0.8:
             break

@@ -99,8 +99,8 @@ def _profile(prep, vessel, f: Fit, x0_fresh) -> Fit:
     (seed 1462085713 of the tests; the held duties are 0, 20, 30 %, so nothing moves a threshold
     between 30 and 60 %)."""
     key = f.keys[0]
-    profile = [(v, fit_model(prep, vessel, (), f.trials, x0_fresh, fixed={key: v}, horizons_s=HORIZONS_S,
-                             max_nfev=BACKWARD_NFEV)) for v in PARAM_BY_KEY[key].grid]
+    profile = [(v, fit_model(prep, vessel, (), f.trials, x0_fresh[list(f.trials)], fixed={key: v},
+                             horizons_s=HORIZONS_S, max_nfev=BACKWARD_NFEV)) for v in PARAM_BY_KEY[key].grid]
     v, g = min(profile, key=lambda vg: vg[1].cost)
     if g.cost >= f.cost:
         return f
@@ -110,9 +110,10 @@ def _profile(prep, vessel, f: Fit, x0_fresh) -> Fit:
 
 def _from_fresh_states(prep, vessel, f: Fit, x0_fresh, max_nfev: int) -> Fit:
     """``f`` refitted with its own values from the first-seconds states through growing horizons
-    (a fit can stop in the basin of the states it started from); the better of the two."""
-    g = fit_model(prep, vessel, f.effects, f.trials, x0_fresh, theta0=list(f.theta), horizons_s=HORIZONS_S,
-                  max_nfev=max_nfev)
+    (a fit can stop in the basin of the states it started from); the better of the two.
+    ``x0_fresh``: the first-seconds states of every trial of ``prep`` (here and in _retry, _profile)."""
+    g = fit_model(prep, vessel, f.effects, f.trials, x0_fresh[list(f.trials)], theta0=list(f.theta),
+                  horizons_s=HORIZONS_S, max_nfev=max_nfev)
     return g if g.cost < f.cost else f
 
 
@@ -229,7 +230,10 @@ def _subset_x0(fit: Fit, trials) -> np.ndarray:
 
 def _with_jackknife(fit: Fit, fold_theta) -> Fit:
     """``fit`` with each sigma the larger of its curvature estimate and the delete-a-fold jackknife
-    over the cross-validation's training fits (three folds at least).
+    over the cross-validation's training fits (three folds at least; applied to the chosen model
+    only, the other candidates keep their curvature sigmas). With more than MAX_FOLDS trials the
+    folds differ in size by one trial and the (g - 1) / g formula, exact for equal folds, is off
+    by ~2 %.
 
     The curvature sigma assumes white noise and a model linear in its parameters near the optimum.
     A threshold is neither: the deadband's information sits in the few samples where a ramp crosses
@@ -242,7 +246,7 @@ def _with_jackknife(fit: Fit, fold_theta) -> Fit:
         return fit
     th = np.asarray(fold_theta, dtype=float)
     sigma_jk = np.sqrt((g - 1) / g * np.sum((th - th.mean(axis=0)) ** 2, axis=0))
-    return dataclasses.replace(fit, sigma=np.fmax(fit.sigma, sigma_jk))
+    return dataclasses.replace(fit, sigma=np.maximum(fit.sigma, sigma_jk))  # NaN (not identifiable) stays NaN
 
 
 def effect_report(fit: Fit, vessel: VesselParams) -> dict:
@@ -294,7 +298,8 @@ def identify(
     """Run the whole workflow on measured trials against the ``vessel`` parameter set.
 
     The work is bounded whatever the data (see RETRY_NFEV, MAX_RETRIES and the budget beside them):
-    at most 6 + 2 top_k + pair_k + 4 MAX_FOLDS fits and ``max_retries`` retries.
+    at most 6 + 2 top_k + pair_k + 4 MAX_FOLDS fits and ``max_retries`` retries of at most 2 fits each
+    (9 for the deadband, whose retry may profile its threshold over 6 values).
     """
     say = log or (lambda msg: None)
     retry = _Retries(max_retries)
