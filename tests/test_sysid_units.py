@@ -228,3 +228,16 @@ def test_given_values_are_held_through_the_fit_horizons():
     f = fit_model(prep, VESSEL, ("thrust_deadband",), (0, 1, 2, 3), x0, theta0=[true_pct], horizons_s=(5.0, 10.0, 30.0))
     assert abs(f.theta[0] - true_pct) < 1.0, f.theta
     assert f.cost / f.n_obs < 1.1
+
+
+def test_a_diverging_parameter_trial_is_nan_and_the_others_stand():
+    """Far-out parameters (a fit's trial step) blow a run up: NaN for that run, on the scalar path
+    (two runs) and the batched one (SCALAR_MAX_RUNS + 1), never an exception."""
+    tr, _ = _trial()
+    prep = prepare([tr])
+    for n in (2, SCALAR_MAX_RUNS + 1):
+        values = {"hydro_refit.n_r_nd": np.r_[40.0, np.full(n - 1, -0.01)],
+                  "hydro_refit.resistance_linear_n_s_m": np.r_[-900.0, np.zeros(n - 1)]}
+        out = predict(prep, VESSEL, np.zeros(n, int), np.repeat([[0, 0, 0.3, 1.0, 0, 0.05]], n, 0), values)
+        assert np.isnan(out["north_m"][0]).all()
+        assert np.isfinite(out["north_m"][1:]).all()

@@ -181,20 +181,11 @@ def _simulate_scalar(vessel, g, tp, ts, x0, dt, n_rr, d_r1, d_nr, external=None)
         if d_nr is not None:
             changes["n_r_nd"] = vessel.n_r_nd + float(d_nr[j])
         params = dataclasses.replace(vessel, **changes) if changes else vessel
-        try:
-            run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, external_force=external)
-        except (FloatingPointError, ValueError, OverflowError):  # a parameter trial far out (the scalar
-            # path's math functions raise ValueError or OverflowError on inf): NaN, the fit sees huge residuals
-            run = {name: np.full(g.size, np.nan) for name in STATE_NAMES}
+        # a parameter trial far out may blow up: NaN, the fit sees huge residuals
+        run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, external_force=external, diverged_as_nan=True)
         for name in STATE_NAMES:
             out[name][j] = run[name]
     return out
-
-
-def _simulate_batch(vessel, g, tp, ts, x0, dt, external) -> dict:
-    """Batched simulation; a run that blows up (a far-out parameter trial) comes back NaN, the
-    others stand (the runs are independent; the simulator's ``diverged_as_nan``)."""
-    return dict(simulate(vessel, g, tp, ts, x0=x0, external_force=external, dt_s=dt, diverged_as_nan=True))
 
 
 def predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict) -> dict:
@@ -269,7 +260,8 @@ def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict) 
     if not wind and n_runs <= SCALAR_MAX_RUNS:
         out = _simulate_scalar(vessel, g, tp, ts, x0, dt, n_rr, d_r1, d_nr)
     else:
-        out = _simulate_batch(vessel, g, tp, ts, x0, dt, external)
+        # batched; a run that blows up (a far-out parameter trial) comes back NaN, the others stand
+        out = simulate(vessel, g, tp, ts, x0=x0, external_force=external, dt_s=dt, diverged_as_nan=True)
     north, east, psi = out["north_m"], out["east_m"], out["psi_rad"]
     u, vv, r = out["u_m_s"], out["v_m_s"], out["r_rad_s"]
     if has_current:
