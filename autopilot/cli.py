@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
+from autopilot.resources import package_version
 from autopilot.schema import ConfigError
 
 # subcommand area modules, in the order they appear in --help
@@ -25,13 +27,27 @@ AREAS = (
 )
 
 
+def _files(args: argparse.Namespace) -> int:
+    from autopilot.resources import shipped_files
+
+    for what, path in shipped_files():
+        print(f"{path}  ({what})")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="autopilot",
         description="WAM-V autopilot: daemon, simulator, guidance evaluation, identification and review.",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
+    f = sub.add_parser("files", help="list the files shipped with the package (configuration, vessel sets, missions)",
+                       description="Print the path of every file shipped inside the package: the default daemon "
+                       "configuration, the two vessel parameter sets, the measured table and the missions. "
+                       "Copy one to edit it.")
+    f.set_defaults(func=_files)
     for name in AREAS:
         try:
             module = importlib.import_module(name)
@@ -53,6 +69,15 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except BrokenPipeError:  # output piped into head & co.
         return 0
+    except KeyboardInterrupt:
+        print(f"autopilot {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - no traceback reaches a user; AUTOPILOT_DEBUG=1 shows it
+        if os.environ.get("AUTOPILOT_DEBUG"):
+            raise
+        print(f"autopilot {args.command}: internal error: {type(exc).__name__}: {exc} "
+              "(a bug: please report it with the command line; AUTOPILOT_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

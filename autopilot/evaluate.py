@@ -6,9 +6,9 @@ serial, simulated time. The boat starts at the mission's home (the local
 origin), heading north, at rest. Each run gives a scorecard:
 
 - completed: the autopilot reached the last waypoint within the time limit;
-- closest_approach_m: per waypoint, the smallest distance of the simulated
-  track to it over the whole run (from the trajectory, not the autopilot's
-  own bookkeeping);
+- closest_approach_m: per waypoint, the closest approach over its pass, from
+  the simulated 1 Hz position fixes (:mod:`autopilot.gnc.passes`, the same
+  definition the daemon logs and ``autopilot review`` recomputes);
 - xte_rms_m / xte_max_m: cross-track error from the leg being followed;
 - time_s: time to complete (or the time limit);
 - energy_ns: integral of |T_port| + |T_stbd| dt;
@@ -30,11 +30,12 @@ import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from autopilot.gnc.passes import PassTracker
 from autopilot.schema import ConfigError
 
-MISSIONS_DIR = Path(__file__).resolve().parent.parent / "config" / "missions"
 GNC_RATE_HZ = 10.0
 SIM_DT_S = 0.05
+FIX_PERIOD_S = 1.0  # GGA/RMC at 1 Hz (SPEC 10)
 
 
 def conditions() -> dict:
@@ -150,6 +151,7 @@ def run_closed_loop(
     record: bool = False,
     mission: str = "",
     condition: str = "",
+    fix_period_s: float = FIX_PERIOD_S,
 ):
     """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`."""
     import numpy as np
@@ -166,9 +168,12 @@ def run_closed_loop(
     dt_ctrl = substeps * dt_s
     x = np.zeros(6)
     t = 0.0
-    closest = [math.inf] * len(wps)
+    passes = PassTracker(wps)
+    closest_by_wp: dict[int, float] = {}
+    next_fix_s = 0.0
+    passes_open = True
     xte_sq = xte_max = energy = 0.0
-    n_cycles = n_sat = 0
+    n_cycles = n_sat = n_track = 0  # n_track: cycles steering to a waypoint (the last one not yet reached)
     circling = CirclingMonitor()
     completed_at = None
     tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n")}
@@ -176,36 +181,43 @@ def run_closed_loop(
         n_m, e_m, psi, u, v, r = (float(c) for c in x)
         nav = NavInput(north_m=n_m, east_m=e_m, psi_rad=psi, speed_m_s=math.hypot(u, v), yaw_rate_rad_s=r, course_rad=psi + math.atan2(v, u) if (u or v) else psi)
         out = ap.step(nav, dt_ctrl)
+        ended = passes.on_target(ap.wp_index) if out.reached_index is not None else []
+        if t >= next_fix_s - 1e-9 and passes_open:  # the GPS fix of this second (noise-free)
+            ended += passes.on_fix(t, n_m, e_m, ap.wp_index)
+            next_fix_s += fix_period_s
+        closest_by_wp.update((p.wp_index, p.closest_approach_m) for p in ended)
         n_cycles += 1
         if out.saturation:
             n_sat += 1
         if not out.complete:
+            n_track += 1
             xte_sq += out.xte_m * out.xte_m
             xte_max = max(xte_max, abs(out.xte_m))
-        if not out.complete:
             circling.update(out.wp_index, psi)
         if record:
             for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", out.xte_m), ("speed_m_s", nav.speed_m_s), ("speed_cmd_m_s", out.speed_cmd_m_s), ("tau_com_n", out.tau_com_n), ("tau_com_trim_n", out.tau_com_trim_n)):
                 tr[k].append(val)
         if out.complete and completed_at is None:
             completed_at = t
-        if completed_at is not None and config.guidance.final_action == "stop":
-            break
+        if passes_open and completed_at is not None and t - completed_at >= config.guidance.final_pass_s - 1e-9:
+            passes_open = False  # the last pass has ended (autopilot.gnc.passes)
+            closest_by_wp.update((p.wp_index, p.closest_approach_m) for p in passes.finish())
+        if not passes_open and config.guidance.final_action == "stop":
+            break  # thrust has been zero since completion
         for _ in range(substeps):
             x = step(params, x, out.thrust_port_n, out.thrust_stbd_n, dt_s, t_s=t, env=env, external_force=external_force)
             t += dt_s
             energy += (abs(out.thrust_port_n) + abs(out.thrust_stbd_n)) * dt_s
-            for k, (wn, we) in enumerate(wps):
-                d = math.hypot(float(x[0]) - wn, float(x[1]) - we)
-                if d < closest[k]:
-                    closest[k] = d
+    if passes_open:
+        closest_by_wp.update((p.wp_index, p.closest_approach_m) for p in passes.finish())
+    closest = [closest_by_wp.get(i, math.inf) for i in range(len(wps))]
     return RunResult(
         mission=mission,
         guidance=config.guidance.law,
         condition=condition,
         completed=completed_at is not None,
         closest_approach_m=closest,
-        xte_rms_m=math.sqrt(xte_sq / max(n_cycles, 1)),
+        xte_rms_m=math.sqrt(xte_sq / max(n_track, 1)),
         xte_max_m=xte_max,
         time_s=completed_at if completed_at is not None else t,
         energy_ns=energy,
@@ -216,8 +228,10 @@ def run_closed_loop(
 
 
 def shipped_missions() -> list[Path]:
-    """The missions of config/missions (not the format examples)."""
-    return sorted(p for p in MISSIONS_DIR.glob("*.yaml"))
+    """The shipped missions (``autopilot files``; not the format examples)."""
+    from autopilot.resources import shipped_missions as missions
+
+    return missions()
 
 
 def evaluate(mission_paths, laws, condition_names, *, params=None, base_config=None, record: bool = False):

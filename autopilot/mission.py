@@ -30,8 +30,6 @@ origin, two consecutive identical waypoints, a speed that is not > 0.
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import math
 from dataclasses import dataclass
@@ -43,6 +41,7 @@ import yaml
 
 from autopilot.geo import latlon_to_local
 from autopilot.schema import ConfigError
+from autopilot.userfile import csv_rows, read_text
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
@@ -213,22 +212,23 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
 
 # ------------------------------------------------------------------------- CSV
 def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
+    rows = csv_rows(text)
+    if not rows:
         raise MissionError(f"{path}: the mission has no waypoints")
-    reader = csv.DictReader(io.StringIO("\n".join(lines)))
-    cols = [c.strip() for c in (reader.fieldnames or [])]
-    reader.fieldnames = cols
+    cols = rows[0]
     if {"north_m", "east_m"} <= set(cols):
         keys, latlon = ("north_m", "east_m"), False
     elif {"lat_deg", "lon_deg"} <= set(cols):
         keys, latlon = ("lat_deg", "lon_deg"), True
     else:
         raise MissionError(f"{path}: header must name north_m,east_m or lat_deg,lon_deg (got {','.join(cols)})")
-    points = []
-    for row in reader:
-        speed = (row.get("speed_m_s") or "").strip() or None
-        points.append(_RawPoint((row.get(keys[0]) or "").strip(), (row.get(keys[1]) or "").strip(), speed))
+    at = {c: k for k, c in enumerate(cols)}
+
+    def cell(row: list[str], name: str) -> str:
+        k = at.get(name)
+        return row[k] if k is not None and k < len(row) else ""
+
+    points = [_RawPoint(cell(r, keys[0]), cell(r, keys[1]), cell(r, "speed_m_s") or None) for r in rows[1:]]
     return _finish(path, path.stem, points, latlon=latlon, home=None, origin=origin, max_range_m=max_range_m)
 
 
@@ -307,7 +307,7 @@ def load_mission(
     if parser is None:
         raise MissionError(f"{path}: unknown mission format {path.suffix!r} (known: {', '.join(_PARSERS)})")
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise MissionError(f"{path}: cannot read ({exc.strerror})") from exc
+        text = read_text(path, what="mission file")
+    except ConfigError as exc:
+        raise MissionError(str(exc)) from None
     return parser(path, text, (origin_lat_deg, origin_lon_deg), max_range_m)

@@ -139,11 +139,10 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "") -> Any:
 
 def load_yaml(cls: type, path: str | Path) -> Any:
     """Load ``cls`` from a YAML file; syntax errors become :class:`ConfigError` naming the file."""
+    from autopilot.userfile import read_text
+
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    text = read_text(path, what="YAML file")
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

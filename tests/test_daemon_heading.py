@@ -2,17 +2,11 @@
 
 import pytest
 
-from autopilot.clock import Clock
-from autopilot.daemon.config import DaemonConfig, FailsafeConfig
-from autopilot.daemon.loop import ControlLoop
-from autopilot.daemon.sd_notify import Notifier
+from autopilot.daemon.config import FailsafeConfig
+from autopilot.daemon.loop import choose_heading
 from autopilot.drivers.sc30 import NavData, Stamped
 
 
-def loop_with(**failsafe) -> ControlLoop:
-    cfg = DaemonConfig(failsafe=FailsafeConfig(**failsafe))
-    return ControlLoop(cfg, clock=Clock(), autopilot=None, mission=None, mission_path="", mission_sha256="",
-                       sc30=None, mbed=None, log=None, notifier=Notifier(None), store=None)
 
 
 def nav(heading=(90.0, 10.0, True), cog=(45.0, 9.5, True), sog_kn=2.0) -> NavData:
@@ -35,6 +29,6 @@ def nav(heading=(90.0, 10.0, True), cog=(45.0, 9.5, True), sog_kn=2.0) -> NavDat
     (False, nav(heading=None), 10.2, (None, None, float("inf"), False)),
 ])
 def test_heading_choice(fallback, data, now_s, expected):
-    got = loop_with(cog_fallback=fallback, cog_fallback_min_sog_m_s=0.5)._heading(data, now_s)
+    got = choose_heading(data, now_s, FailsafeConfig(cog_fallback=fallback, cog_fallback_min_sog_m_s=0.5))
     assert got[0] == expected[0] and got[1] == expected[1] and got[3] == expected[3]
     assert got[2] == pytest.approx(expected[2])

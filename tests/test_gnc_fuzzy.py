@@ -119,7 +119,8 @@ def test_switch_when_tcpa_turns_negative():
     assert g.update(nav(9.9, 0, 0), 0.1).reached_index is None
     out = g.update(nav(10.2, 0, 0), 0.1)  # the waypoint is now abaft the beam
     assert out.reached_index == 0 and out.wp_index == 1
-    assert out.closest_approach_m == pytest.approx(math.hypot(0.1, 1.5))
+    assert out.reached_how == "passed"  # 1.5 m abeam: outside the 1 m capture radius
+    assert out.reached_distance_m == pytest.approx(math.hypot(0.2, 1.5))  # the distance at the switch
 
 
 def test_no_switch_at_rest_or_far_away():

@@ -60,7 +60,7 @@ def test_failsafe_mission_is_reported(logs, tmp_path):
     assert main(["review", str(d / "failsafe.jsonl"), "--out", str(out), "--export", "csv"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["failsafes"] == [[20.0, "heading_stale"]]
-    assert summary["stop_reason"] == "failsafe" and summary["complete"] is False
+    assert summary["stop_reason"] == "signal" and summary["complete"] is False  # a failsafe does not end the daemon
     assert summary["heading_lost_s"] > 3.0  # failsafe plus the drop-outs
     html = (out / "report.html").read_text()
     assert "heading_stale at 20.0 s" in html
@@ -90,7 +90,7 @@ def test_several_logs_overlay_and_scorecard(logs, tmp_path):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["review", "/nonexistent/log.jsonl"], "not a readable file"),
+    (["review", "/nonexistent/log.jsonl"], "/nonexistent/log.jsonl: cannot read"),
     (["review", "LOG", "--export", "gpx,shapefile"], "unknown format 'shapefile'"),
 ])
 def test_bad_input_exits_2(logs, capsys, argv, message):

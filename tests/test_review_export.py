@@ -12,7 +12,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from autopilot.geo import latlon_to_local
-from autopilot.review.export import (CSV_COLUMNS, GPX_NS, KML_NS, export, parse_formats, segments,
+from autopilot.review.export import (CSV_COLUMNS, GPX_NS, KML_NS, export, parse_formats,
                                      write_geojson, write_gpx, write_kml, write_trial_csv)
 from autopilot.review.reader import read_log
 from autopilot.review.synthetic import DEFAULT_ORIGIN_DEG, write_synthetic_log
@@ -39,15 +39,17 @@ def test_gpx_is_gpx_1_1_with_track_and_waypoints(mission):
     n, e = _local([float(w.get("lat")) for w in wpts], [float(w.get("lon")) for w in wpts])
     assert_allclose(np.column_stack([n, e]), truth["waypoints_ne_m"], atol=0.01)
     segs = root.findall("g:trk/g:trkseg", ns)
-    valid = np.isfinite(log.col("north_m"))
-    assert len(segs) == len(segments(valid)) > 1  # the drop-outs break the track
+    assert len(segs) > 1  # the drop-outs break the track
     pts = root.findall("g:trk/g:trkseg/g:trkpt", ns)
-    assert len(pts) == valid.sum()
+    rows, fix_t = log.fix_rows()
+    assert len(pts) == len(rows) == len(truth["fix_rows"])  # one point per fix, not per 10 Hz cycle
     n, e = _local([float(p.get("lat")) for p in pts], [float(p.get("lon")) for p in pts])
-    assert_allclose(n, truth["north_m"][valid], atol=0.01)
-    assert_allclose(e, truth["east_m"][valid], atol=0.01)
+    assert_allclose(n, truth["north_m"][truth["fix_rows"]], atol=0.01)
+    assert_allclose(e, truth["east_m"][truth["fix_rows"]], atol=0.01)
     times = [p.find("g:time", ns).text for p in pts]
-    assert times[0] == "2024-05-21T09:30:00.000Z" and times[1] == "2024-05-21T09:30:00.100Z"
+    # each at the time the fix was measured (50 ms before the cycle that first logged it)
+    assert times[0] == "2024-05-21T09:29:59.950Z" and times[1] == "2024-05-21T09:30:00.950Z"
+    assert len(set(times)) == len(times)
 
 
 def test_kml_parses_with_lon_lat_order(mission):
@@ -61,7 +63,7 @@ def test_kml_parses_with_lon_lat_order(mission):
     assert_allclose(_local(lat, lon), truth["waypoints_ne_m"][0], atol=0.01)
     lines = root.findall(".//k:LineString/k:coordinates", ns)
     coords = [ln.split(",") for c in lines for ln in c.text.split()]
-    assert len(coords) == np.isfinite(log.col("north_m")).sum()
+    assert len(coords) == len(log.fix_rows()[0])  # one coordinate per fix
 
 
 def test_geojson_feature_collection(mission):
@@ -99,11 +101,15 @@ def test_trial_csv_round_trip_with_gaps(mission):
     assert_allclose(col("t_s"), truth["t_s"], atol=1e-3)
     assert_allclose(col("thrust_port_n"), truth["thrust_port_n"], atol=1e-3)
     north = col("north_m")
-    assert np.array_equal(np.isnan(north), np.isnan(log.col("north_m")))  # gaps stay gaps
-    assert np.isnan(north).any()
+    # each fix once, on the row it arrived, with its measurement time; held rows empty
+    assert_allclose(np.nonzero(np.isfinite(north))[0], truth["fix_rows"])
+    assert_allclose(north[truth["fix_rows"]], truth["north_m"][truth["fix_rows"]], atol=2e-3)
+    assert_allclose(col("position_time_s")[truth["fix_rows"]], truth["fix_t_s"], atol=2e-3)
+    assert np.array_equal(np.isfinite(col("position_time_s")), np.isfinite(north))
     assert np.isnan(col("heading_deg")[-1])  # heading lost in the failsafe: empty, not 0
     h = col("heading_deg")
     assert np.all((h[np.isfinite(h)] >= 0) & (h[np.isfinite(h)] < 360))
+    assert np.array_equal(np.isfinite(col("heading_time_s")), np.isfinite(h))
 
 
 def test_export_without_positions_is_refused(tmp_path):

@@ -45,7 +45,10 @@ def test_columns_match_the_written_mission(synthetic):
     assert_allclose(log.col("t_s"), truth["t_s"], atol=1e-3)
     ok = np.isfinite(log.col("north_m"))
     assert 0 < ok.sum() < log.n_cycles  # the drop-outs are gaps
-    assert_allclose(log.col("north_m")[ok], truth["north_m"][ok], atol=1e-3)
+    assert_allclose(log.col("north_m")[ok], truth["logged_north_m"][ok], atol=1e-3)  # the held 1 Hz fix
+    rows, fix_t = log.fix_rows()  # one row per fix, dated when it was measured
+    assert_allclose(rows, truth["fix_rows"])
+    assert_allclose(fix_t, truth["fix_t_s"], atol=2e-3)
     assert_allclose(log.col("thrust_port_n"), truth["thrust_port_n"], atol=1e-3)
     assert log.start["mission_name"] == "synthetic"
     assert_allclose(log.waypoints_ne_m, truth["waypoints_ne_m"])

@@ -237,14 +237,18 @@ def test_split_corrupt_and_random_bytes_are_counted_not_raised(params, tmp_path)
             await b.clock.sleep(1.0)
             corrupt_errors = b.sc30.stats["checksum_errors"]
             rng = np.random.default_rng(1)
-            b.rig.sc30.inject(rng.integers(0, 256, 10_000, dtype=np.uint8).tobytes())
-            await b.clock.sleep(1.5)
+            t_inject = b.clock.now_s()
+            b.rig.sc30.inject(rng.integers(0, 256, 2_000, dtype=np.uint8).tobytes())
+            await b.clock.sleep(0.5)
+            busy_s = b.rig.sc30.line_busy_until_s - t_inject  # paced at the baud rate: ~4.2 s
+            await b.clock.sleep_until(b.rig.sc30.line_busy_until_s)
             t_after = b.clock.now_s()
             assert await until(lambda: b.sc30.nav.heading_deg.t_s > t_after)
             assert b.sc30.connected  # 10 kB of noise is data, not a lost port
-            return split_updates, corrupt_errors, b
+            return split_updates, corrupt_errors, busy_s, b
 
-    split_updates, corrupt_errors, b = asyncio.run(main())
+    split_updates, corrupt_errors, busy_s, b = asyncio.run(main())
+    assert 2_000 * 10 / 4800 - 0.1 <= busy_s <= 2_000 * 10 / 4800 + 0.6  # 10 bits a byte at 4800 baud
     assert split_updates >= 10  # fragments reassembled into whole sentences
     assert corrupt_errors == 5
     stats = b.sc30.stats

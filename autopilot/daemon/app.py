@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import math
 import os
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +24,7 @@ from autopilot.daemon.missionlog import MissionLog, log_path
 from autopilot.daemon.sd_notify import Notifier
 from autopilot.daemon.state import StateStore, file_sha256
 from autopilot.geo import latlon_to_local
+from autopilot.resources import package_version
 from autopilot.schema import ConfigError, to_dict
 
 __all__ = ["RunOptions", "prepare", "run_daemon"]
@@ -38,13 +40,12 @@ class RunOptions:
     fresh: bool = False
 
 
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
+def _console(text: str) -> None:
+    """One plain sentence on stderr for the person who started the daemon (events go there as JSON too)."""
     try:
-        return version("wamv-autopilot")
-    except PackageNotFoundError:  # pragma: no cover - running from a bare checkout
-        return "unknown"
+        print(f"autopilot run: {text}", file=sys.stderr, flush=True)
+    except (OSError, ValueError):  # a closed stderr must not stop the boat logic
+        pass
 
 
 def _fence_ne_m(cfg: DaemonConfig, origin_lat_deg: float, origin_lon_deg: float):
@@ -54,6 +55,20 @@ def _fence_ne_m(cfg: DaemonConfig, origin_lat_deg: float, origin_lon_deg: float)
     if g.frame == "local":
         return tuple(g.polygon)
     return tuple(latlon_to_local(lat, lon, origin_lat_deg, origin_lon_deg) for lat, lon in g.polygon)
+
+
+def sim_sentences(cfg: DaemonConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(10 Hz, 1 Hz) sentences of the simulated SC-30 at ``serial.sc30_baud``; ConfigError if they do not fit."""
+    from autopilot.drivers.sc30_output import check_sentences, default_sentences
+
+    fast, slow = default_sentences(cfg.serial.sc30_baud)
+    fast = cfg.sim.sc30_fast_sentences or fast
+    slow = cfg.sim.sc30_slow_sentences or slow
+    try:
+        check_sentences(cfg.serial.sc30_baud, fast, slow)
+    except ValueError as exc:
+        raise ConfigError(f"sim.sc30_fast_sentences, sim.sc30_slow_sentences: {exc}") from None
+    return fast, slow
 
 
 def prepare(cfg: DaemonConfig, opts: RunOptions):
@@ -80,6 +95,8 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
             origin_lon_deg=cfg.sim.origin_lon_deg,
             max_range_m=cfg.max_mission_range_m,
         )
+    if opts.sim:
+        sim_sentences(cfg)  # refuses sets that do not fit in the line before anything starts
     log_dir = Path(opts.log_dir or cfg.log_dir)
     state_dir = Path(opts.state_dir or cfg.state_dir)
     for name, d in (("log directory", log_dir), ("state directory", state_dir)):
@@ -93,7 +110,7 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
 
 
 async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, state_dir: Path, *, keep_samples=False, result=None) -> int:
-    version = _version()
+    version = package_version()
     from autopilot.drivers.mbed import MbedDriver
     from autopilot.drivers.sc30 import SC30Driver
     from autopilot.gnc import Autopilot
@@ -145,6 +162,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             position_noise_m=cfg.sim.position_noise_m,
             seed=cfg.sim.seed,
             sc30_baudrate=cfg.serial.sc30_baud,
+            sc30_options=dict(zip(("fast_sentences", "slow_sentences"), sim_sentences(cfg))),
         )
         await rig.start()
         sc30_port, mbed_port = rig.sc30_path, rig.mbed_path
@@ -171,6 +189,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg),
         hold_zero=hold_zero,
         keep_samples=keep_samples,
+        console=_console,
     )
     sc30 = SC30Driver(
         sc30_port,
@@ -179,6 +198,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         reconnect_min_s=cfg.serial.reconnect_min_s,
         reconnect_max_s=cfg.serial.reconnect_max_s,
         on_event=loop.on_driver_event("sc30"),
+        garbage_burst_lines=cfg.failsafe.nmea_garbage_lines,
+        garbage_burst_bytes=cfg.failsafe.garbage_bytes,
     )
     mbed = MbedDriver(
         mbed_port,
@@ -188,6 +209,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         reconnect_max_s=cfg.serial.reconnect_max_s,
         on_event=loop.on_driver_event("mbed"),
         ack_timeout_s=cfg.serial.ack_timeout_s,
+        garbage_burst_lines=cfg.failsafe.mbed_garbage_lines,
+        garbage_burst_bytes=cfg.failsafe.garbage_bytes,
     )
     loop.sc30, loop.mbed = sc30, mbed
 
@@ -250,7 +273,36 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         if result is not None:
             result["stats"] = loop.stats
             result["log_path"] = str(log.path)
+        for line in end_summary(loop, str(log.path), sim=opts.sim):
+            _console(line)
     return code
+
+
+def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
+    """What the person who started the run wants to know at the end, in a few lines."""
+    st = loop.stats
+    t_s = loop.clock.now_s() - loop.t0_s
+    n_wps = len(loop.mission.waypoints_ne_m)
+    reached = loop.reached
+    lines = [f"log: {log_path}"]
+    done = "mission complete" if loop.complete else "mission not complete"
+    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached")
+    for i in range(n_wps):
+        ca = loop.closest_m.get(i)
+        got = "reached" if i in reached else "not reached"
+        lines.append(f"  W{i}: {got}, closest approach " + (f"{ca:.2f} m" if ca is not None and math.isfinite(ca) else "n/a"))
+    causes = [ev for ev in loop.failsafe_causes]
+    lines.append(f"failsafes: {len(causes)}" + (f" ({', '.join(causes[:5])}{', ...' if len(causes) > 5 else ''})" if causes else ""))
+    total = st.cycles + st.skipped
+    if total and (st.skipped or st.late_cycles):
+        held = loop.speedup_held()
+        msg = (f"the loop could not keep up: {st.skipped} of {total} deadlines skipped, {st.late_cycles} cycle(s) "
+               f"late by a period or more; speedup held ~{held:.3g}")
+        if sim:
+            msg += (f" of --speedup {loop.clock.speedup:g}: faults raised by late data may be the machine, not the "
+                    "mission; run with a lower --speedup")
+        lines.append(msg)
+    return lines
 
 
 def run_daemon(cfg: DaemonConfig, opts: RunOptions, *, keep_samples: bool = False, result: dict | None = None) -> int:

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from autopilot.drivers.sc30_output import SENTENCES as SC30_SENTENCES
 from autopilot.gnc import GncConfig
 from autopilot.schema import ConfigError, load_yaml, param
 
@@ -27,6 +28,7 @@ __all__ = [
 
 _SC30_BAUDS = (4800, 9600, 19200, 38400)
 _MBED_BAUDS = (9600, 19200, 38400, 57600, 115200)
+_SIM_SENTENCES = SC30_SENTENCES
 
 
 @dataclass(frozen=True)
@@ -74,7 +76,9 @@ class FailsafeConfig:
     position_stale_s: float = param(3.0, unit="s", lo=0.1, hi=30.0, doc="position older than this is a fault (GGA/RMC at 1 Hz)")
     ack_missing_n: int = param(5, unit="commands", lo=1, hi=100, doc="this many consecutive unacknowledged Mbed commands is a fault")
     garbage_hold_s: float = param(1.0, unit="s", lo=0.0, hi=30.0, doc="a garbage burst on either line counts as a fault for this long")
+    nmea_garbage_lines: int = param(5, unit="lines", lo=1, hi=1000, doc="more rejected NMEA lines than this within 1 s is a garbage burst on the compass line")
     mbed_garbage_lines: int = param(5, unit="lines", lo=1, hi=1000, doc="more malformed Mbed lines than this within 1 s is a garbage burst")
+    garbage_bytes: int = param(32, unit="bytes", lo=1, hi=100000, doc="more bytes that no NMEA or Mbed line can hold (not printable ASCII, CR, LF) than this within 1 s is a garbage burst on that line (random bytes at 4800 baud: ~300 a second)")
     resume_valid_s: float = param(2.0, unit="s", lo=0.0, hi=120.0, doc="data must be valid again for this long before thrust resumes")
     start_valid_s: float = param(1.0, unit="s", lo=0.0, hi=120.0, doc="data must be valid for this long before the mission starts")
     max_mission_time_s: float = param(1800.0, unit="s", lo=1.0, hi=86400.0, doc="mission time limit: zero thrust and stop when reached")
@@ -91,6 +95,8 @@ class SimConfig:
     origin_lat_deg: float = param(52.0, unit="deg", lo=-89.0, hi=89.0, doc="where a local-frame mission without origin is placed under --sim (any point; only the local frame matters)")
     origin_lon_deg: float = param(4.4, unit="deg", lo=-180.0, hi=180.0, doc="see origin_lat_deg")
     vessel: str = param("", doc="vessel parameter file; empty = the calibrated default (config/vessel.yaml)")
+    sc30_fast_sentences: tuple[str, ...] = param((), choices=_SIM_SENTENCES, doc="sentences the simulated SC-30 sends at 10 Hz; empty = the default for serial.sc30_baud (docs/sc30.md)")
+    sc30_slow_sentences: tuple[str, ...] = param((), choices=_SIM_SENTENCES, doc="sentences it sends at 1 Hz; empty = the default for serial.sc30_baud (docs/sc30.md)")
     heading_noise_deg: float = param(0.1, unit="deg", lo=0.0, hi=10.0, doc="SC-30 heading noise (1 sigma)")
     position_noise_m: float = param(0.3, unit="m", lo=0.0, hi=20.0, doc="SC-30 position noise (1 sigma)")
     seed: int = param(0, lo=0, hi=2**31 - 1, doc="noise seed")

@@ -24,24 +24,12 @@ import math
 from dataclasses import dataclass, field
 
 from autopilot.daemon.config import FailsafeConfig
+from autopilot.logschema import FAULT_CAUSES, LATCHED_CAUSES
 
 __all__ = ["CAUSES", "LATCHED", "WAITING_QUIET", "Observation", "Event", "Decision", "Failsafe", "detect", "inside_polygon"]
 
-CAUSES = (
-    "heading_stale",
-    "heading_invalid",
-    "position_stale",
-    "no_fix",
-    "mbed_ack_missing",
-    "compass_port_lost",
-    "mbed_port_lost",
-    "nmea_garbage",
-    "mbed_garbage",
-    "geofence",
-    "max_mission_time",
-    "max_distance",
-)
-LATCHED = frozenset({"geofence", "max_mission_time", "max_distance"})
+CAUSES = FAULT_CAUSES  # the log schema owns the causes' names and order
+LATCHED = LATCHED_CAUSES
 # before control first starts, missing data is expected (devices starting): shown in each cycle
 # line's active_faults, but not logged as fault events
 WAITING_QUIET = frozenset({"heading_stale", "heading_invalid", "position_stale", "no_fix"})

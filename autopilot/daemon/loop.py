@@ -33,6 +33,7 @@ from autopilot.daemon.sd_notify import Notifier
 from autopilot.daemon.state import Progress, StateStore
 from autopilot.geo import latlon_to_local, wrap_180, wrap_360
 from autopilot.gnc.navigation import dead_reckon_ne
+from autopilot.gnc.passes import PassTracker
 
 __all__ = ["LoopStats", "ControlLoop", "gnc_fields_null", "KN_TO_M_S"]
 
@@ -54,6 +55,24 @@ def watchdog_due(*, ready: bool, lateness_s: float, period_s: float, since_last_
 
 def gnc_fields_null() -> dict:
     return {k: None for k in _GNC_KEYS}
+
+
+def choose_heading(nav, now_s: float, fs):
+    """(heading_deg, source, age_s, valid): the compass's heading while fresh and valid, else the
+    course over ground when ``fs.cog_fallback`` allows it (logged as source COG), else the stale
+    or invalid heading for the failsafe to judge. ``fs``: the FailsafeConfig."""
+    h = nav.heading_deg
+    age = nav.heading_age_s(now_s)
+    if h is not None and age <= fs.heading_stale_s and h.valid:
+        return float(h.value), h.source, age, True
+    if fs.cog_fallback and nav.cog_deg is not None and nav.sog_kn is not None:
+        cog_age = now_s - nav.cog_deg.t_s
+        sog_m_s = float(nav.sog_kn.value) * KN_TO_M_S
+        if cog_age <= fs.position_stale_s and nav.cog_deg.valid and sog_m_s >= fs.cog_fallback_min_sog_m_s:
+            return float(nav.cog_deg.value), "COG", cog_age, True
+    if h is None:
+        return None, None, age, False
+    return float(h.value), h.source, age, bool(h.valid)
 
 
 @dataclass
@@ -90,8 +109,10 @@ class ControlLoop:
         fence_ne_m=None,
         hold_zero: str | None = None,
         keep_samples: bool = False,
+        console=None,
     ) -> None:
         self.cfg = cfg
+        self.console = console  # callable(str): a sentence for the person at the terminal (stderr)
         self.clock = clock
         self.ap = autopilot
         self.mission = mission
@@ -109,10 +130,13 @@ class ControlLoop:
         self.t0_s = 0.0
         self.ready = False
         self.complete = False
-        self.closest_m: list = []
-        self._last_garbage_t_s: float | None = None
-        self._last_mbed_garbage_t_s: float | None = None
-        self._mbed_bad_lines: list[tuple[float, int]] = []  # (t_s, cumulative bad lines), last ~1 s
+        self.completed_t_s: float | None = None  # mission time the last waypoint was reached
+        self.passes_done = False  # the last pass has ended (final_pass_s after completion)
+        self.reached: list[int] = []  # waypoints reached, in order
+        self.failsafe_causes: list[str] = []  # the cause of every failsafe taken, in order
+        self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
+        self.closest_m: dict[int, float] = {}  # wp -> closest approach of its finished pass (m)
+        self._last_fix_t_s: float | None = None
         self._last_watchdog_s = -math.inf
         self._last_step_t_s: float | None = None
         self._was_auto = False
@@ -124,8 +148,12 @@ class ControlLoop:
     def on_driver_event(self, device: str):
         def handler(name: str, **fields) -> None:
             now = self.clock.now_s()
-            if name == "nmea_garbage":
-                self._last_garbage_t_s = now
+            if name == "port_open_failed" and self.console is not None:
+                self.console(
+                    f"{device}: cannot open {fields.get('path')} ({fields.get('error')}); thrust stays at zero and the "
+                    f"port is retried every {self.cfg.serial.reconnect_min_s:g}-{self.cfg.serial.reconnect_max_s:g} s "
+                    "until it appears. Stop with Ctrl-C (or: systemctl stop wamv-autopilot)."
+                )
             fields.pop("device", None)
             self.log.event("info", t_s=now - self.t0_s, message=name, device=device, **fields)
 
@@ -141,26 +169,10 @@ class ControlLoop:
             loop.add_signal_handler(sig, self.request_stop, sig.name)
 
     # ---- one cycle ----------------------------------------------------------------------
-    def _heading(self, nav, now_s: float):
-        """(heading_deg, source, age_s, valid) with the explicit COG fallback (logged as COG)."""
-        fs = self.cfg.failsafe
-        h = nav.heading_deg
-        age = nav.heading_age_s(now_s)
-        if h is not None and age <= fs.heading_stale_s and h.valid:
-            return float(h.value), h.source, age, True
-        if fs.cog_fallback and nav.cog_deg is not None and nav.sog_kn is not None:
-            cog_age = now_s - nav.cog_deg.t_s
-            sog_m_s = float(nav.sog_kn.value) * KN_TO_M_S
-            if cog_age <= fs.position_stale_s and nav.cog_deg.valid and sog_m_s >= fs.cog_fallback_min_sog_m_s:
-                return float(nav.cog_deg.value), "COG", cog_age, True
-        if h is None:
-            return None, None, age, False
-        return float(h.value), h.source, age, bool(h.valid)
-
     def cycle(self, now_s: float, lateness_s: float) -> None:
         nav = self.sc30.nav
         t_s = now_s - self.t0_s
-        heading_deg, heading_src, heading_age_s, heading_valid = self._heading(nav, now_s)
+        heading_deg, heading_src, heading_age_s, heading_valid = choose_heading(nav, now_s, self.cfg.failsafe)
         pos = _value(nav.position)
         lat_deg, lon_deg = (pos if pos is not None else (None, None))
         north_m = east_m = None
@@ -183,7 +195,6 @@ class ControlLoop:
         if heading_deg is not None:
             self._prev_heading = (now_s, heading_deg)
 
-        self._check_mbed_garbage(now_s)
         obs = Observation(
             t_s=now_s,
             heading_age_s=heading_age_s,
@@ -193,8 +204,8 @@ class ControlLoop:
             ack_consecutive_missing=int(self.mbed.consecutive_missing),
             compass_connected=bool(self.sc30.connected),
             mbed_connected=bool(self.mbed.connected),
-            last_garbage_t_s=self._last_garbage_t_s,
-            last_mbed_garbage_t_s=self._last_mbed_garbage_t_s,
+            last_garbage_t_s=self.sc30.last_garbage_s,
+            last_mbed_garbage_t_s=self.mbed.last_garbage_s,
             north_m=north_m,
             east_m=east_m,
             mission_time_s=t_s,
@@ -202,6 +213,8 @@ class ControlLoop:
         decision = self.failsafe.update(obs)
         for ev in decision.events:
             self.log.event(ev.name, t_s=t_s, **ev.fields)
+            if ev.name == "failsafe":
+                self.failsafe_causes.append(ev.fields.get("cause"))
 
         mode = decision.mode
         est_north_m = est_east_m = None
@@ -245,15 +258,19 @@ class ControlLoop:
             sat = (out.sat_port, out.sat_stbd)
             saturation = tuple(out.saturation)
             if out.reached_index is not None:
-                self.closest_m.append(out.closest_approach_m)
+                self.reached.append(out.reached_index)
                 self.log.event(
                     "waypoint_reached", t_s=t_s, wp_index=out.reached_index, north_m=est_north_m, east_m=est_east_m,
-                    closest_approach_m=out.closest_approach_m,
+                    distance_m=out.reached_distance_m, how=out.reached_how,
                 )
+                self._log_passes(self.passes.on_target(self.ap.wp_index), t_s)
                 self._save("running")
+        self._track_fix(nav.position, north_m, east_m, t_s)
+        if drive:
             if out.complete and not self.complete:
                 self.complete = True
-                self.log.event("mission_complete", t_s=t_s, wp_count=len(self.mission.waypoints_ne_m), closest_approach_m=self.closest_m)
+                self.completed_t_s = t_s
+                self.log.event("mission_complete", t_s=t_s, wp_count=len(self.mission.waypoints_ne_m))
                 self._save("complete")
                 if self.cfg.gnc.guidance.final_action != "hold":
                     thrust, pwm = (0.0, 0.0), (0.0, 0.0)
@@ -312,18 +329,26 @@ class ControlLoop:
         )
         self._notify(now_s, lateness_s)
 
-    def _check_mbed_garbage(self, now_s: float) -> None:
-        """A burst: more than ``mbed_garbage_lines`` malformed Mbed lines within the last second."""
-        bad = int(getattr(self.mbed, "bad_lines", 0))
-        window = self._mbed_bad_lines
-        window.append((now_s, bad))
-        while len(window) > 1 and window[1][0] <= now_s - 1.0:
-            window.pop(0)
-        if bad - window[0][1] > self.cfg.failsafe.mbed_garbage_lines:
-            if self._last_mbed_garbage_t_s is None or now_s - self._last_mbed_garbage_t_s >= 1.0:
-                self.log.event("info", t_s=now_s - self.t0_s, message="mbed_garbage", device="mbed",
-                               bad_lines=bad - window[0][1], window_s=1.0)
-            self._last_mbed_garbage_t_s = now_s
+    def _track_fix(self, position, north_m, east_m, t_s: float) -> None:
+        """A new position fix goes to the pass tracker, attributed to the waypoint steered to now.
+
+        After the last waypoint the fixes still count for ``final_pass_s``: the boat coasts
+        (or holds) past it, and its pass ends then (autopilot.gnc.passes).
+        """
+        if self.complete and not self.passes_done and t_s - self.completed_t_s >= self.cfg.gnc.guidance.final_pass_s:
+            self.passes_done = True
+            self._log_passes(self.passes.finish(), t_s)
+        if position is None or north_m is None or self.passes_done or position.t_s == self._last_fix_t_s:
+            return
+        self._last_fix_t_s = position.t_s
+        self._log_passes(self.passes.on_fix(position.t_s - self.t0_s, north_m, east_m, self.ap.wp_index),
+                         self.clock.now_s() - self.t0_s)
+
+    def _log_passes(self, passes, t_s: float) -> None:
+        for p in passes:
+            self.closest_m[p.wp_index] = p.closest_approach_m
+            self.log.event("waypoint_pass", t_s=t_s, wp_index=p.wp_index, closest_approach_m=p.closest_approach_m,
+                           closest_t_s=p.t_s, closest_north_m=p.north_m, closest_east_m=p.east_m, fixes=p.fixes)
 
     def _nav_input(self, north_m, east_m, psi_rad, sog_m_s, yaw_rate_deg_s, cog_deg):
         from autopilot.gnc import NavInput
@@ -394,10 +419,15 @@ class ControlLoop:
                 return "signal"
             self.cycle(now_s, lateness_s)
             next_due += period_s
-            if self.complete and self.cfg.gnc.guidance.final_action != "hold":
+            if self.passes_done and self.cfg.gnc.guidance.final_action != "hold":
                 return "complete"
             if "max_mission_time" in self.failsafe.latched:
                 return "max_mission_time"
+
+    def speedup_held(self) -> float:
+        """Simulated control time per wall second: ``--speedup`` scaled by the share of deadlines kept."""
+        total = self.stats.cycles + self.stats.skipped
+        return self.clock.speedup * (self.stats.cycles / total if total else 1.0)
 
     async def stop(self, reason: str) -> int:
         """Zero thrust, bounded wait for its ack, ``stop`` line, STOPPING=1. Returns the exit code."""
@@ -409,6 +439,9 @@ class ControlLoop:
                 ack = bool(await self.mbed.wait_ack(seq, self.cfg.stop_ack_timeout_s))
         except Exception as exc:  # noqa: BLE001 - stopping must finish
             self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="zero-thrust on stop failed", error=repr(exc))
+        if not self.passes_done:  # the passes still open end with the mission
+            self.passes_done = True
+            self._log_passes(self.passes.finish(), self.clock.now_s() - self.t0_s)
         status = {"complete": "complete", "signal": "stopped"}.get(reason, "aborted")
         if self.hold_zero is None or status != "stopped":
             self._save(status)
@@ -420,7 +453,10 @@ class ControlLoop:
             ack_received=ack,
             cycles=self.stats.cycles,
             skipped_cycles=self.stats.skipped,
+            late_cycles=self.stats.late_cycles,
+            speedup_held=self.speedup_held(),
             nmea_dropped=self._nmea_dropped(),
             ack_missing=int(self.mbed.ack_missing),
+            closest_approach_m=[self.closest_m.get(i) for i in range(len(self.mission.waypoints_ne_m))],
         )
         return 1 if reason == "error" else 0

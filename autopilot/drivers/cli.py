@@ -16,6 +16,7 @@ import stat
 import sys
 
 from autopilot.schema import ConfigError
+from autopilot.userfile import check_file
 
 _FIELDS = ("lat_deg", "lon_deg", "heading_deg", "rot_deg_min", "sog_kn", "cog_deg", "fix_quality")
 
@@ -85,12 +86,17 @@ def run_nmea(args) -> int:
                 return False
         return True
 
+    port = stat.S_ISCHR(mode)
+    if not port:
+        check_file(args.source, what="capture file or serial port")
+    lines = 0
     try:
-        if stat.S_ISCHR(mode):
+        if port:
             _read_port(args, emit)
         else:
             with open(args.source, "rb") as f:
                 for line in f:
+                    lines += 1
                     if line.startswith(b"#"):  # comment header of gpsd-style captures
                         continue
                     if not emit(line):
@@ -99,6 +105,13 @@ def run_nmea(args) -> int:
         pass
     finally:
         print(f"nmea: {json.dumps(decoder.stats.as_dict())}", file=sys.stderr)
+    if printed == 0:
+        st = decoder.stats
+        what = (f"{lines} line(s) read" if not port else f"{st.lines_ok + st.dropped + st.unknown} line(s) received")
+        hint = ("check the wiring and the baud rate (--baud; the SC-30 sends at 4800 or 38400)" if port
+                else "is it an NMEA 0183 capture?")
+        raise ConfigError(f"{args.source}: no NMEA sentence decoded ({what}, {st.dropped} rejected, "
+                          f"{st.unknown} of sentence types not used): {hint}")
     return 0
 
 

@@ -13,6 +13,7 @@ from collections import OrderedDict
 from typing import Any
 
 from autopilot.clock import Clock
+from autopilot.drivers.framing import GarbageDetector, LineFramer
 from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, Ack, ProtocolError, decode_ack, encode_command
 from autopilot.drivers.serial_link import EventCallback, SerialLink
 
@@ -34,6 +35,8 @@ class MbedDriver:
         reconnect_max_s: float = 5.0,
         on_event: EventCallback | None = None,
         ack_timeout_s: float = 0.3,
+        garbage_burst_lines: int = 5,
+        garbage_burst_bytes: int = 32,
     ) -> None:
         self._clock = clock
         self.ack_timeout_s = float(ack_timeout_s)
@@ -51,8 +54,9 @@ class MbedDriver:
         self._pending: OrderedDict[int, float] = OrderedDict()  # seq -> send time (Clock s)
         self._waiters: dict[int, list[asyncio.Future[bool]]] = {}
         self._acked_recent: OrderedDict[int, bool] = OrderedDict()  # seq -> applied (OK)
-        self._buf = bytearray()
-        self._overflow = False
+        self._framer = LineFramer(MAX_LINE_CHARS)
+        self._garbage = GarbageDetector(max_lines=garbage_burst_lines, max_bytes=garbage_burst_bytes)
+        self._malformed = 0
         self._ack_missing = 0
         self._consecutive_missing = 0
         self.last_ack_seq: int | None = None
@@ -63,7 +67,6 @@ class MbedDriver:
         self.acks_ok = 0
         self.acks_rejected = 0
         self.acks_late = 0
-        self.bad_lines = 0
 
     # ------------------------------------------------------------------ properties
     @property
@@ -169,27 +172,27 @@ class MbedDriver:
 
     def _on_bytes(self, data: bytes) -> None:
         now_s = self._clock.now_s()
-        self._buf += data
-        while True:
-            nl = self._buf.find(b"\n")
-            if nl < 0:
-                break
-            line = bytes(self._buf[:nl])
-            del self._buf[: nl + 1]
-            if self._overflow:
-                self._overflow = False
-                continue
+        for line in self._framer.feed(data):
             self._line(line, now_s)
-        if len(self._buf) > MAX_LINE_CHARS + 2:
-            self._buf.clear()
-            self._overflow = True
-            self.bad_lines += 1
+        if self._garbage.feed(now_s, self.bad_lines, self._framer.invalid_bytes):
+            lines, bad_bytes = self._garbage.window_counts()
+            self._link.emit("mbed_garbage", bad_lines=lines, bad_bytes=bad_bytes, window_s=self._garbage.window_s)
+
+    @property
+    def bad_lines(self) -> int:
+        """Lines from the Mbed that are not valid protocol lines (malformed or too long), cumulative."""
+        return self._malformed + self._framer.too_long
+
+    @property
+    def last_garbage_s(self) -> float | None:
+        """Clock time of the latest garbage seen during a burst on the Mbed line (None: no burst yet)."""
+        return self._garbage.last_garbage_s
 
     def _line(self, line: bytes, now_s: float) -> None:
         try:
             ack = decode_ack(line)
         except ProtocolError:
-            self.bad_lines += 1
+            self._malformed += 1
             return
         if ack is None:
             return

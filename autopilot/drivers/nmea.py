@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import datetime as _dt
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import pynmea2
+
+from autopilot.drivers.framing import LineFramer
 
 __all__ = [
     "NmeaError",
@@ -405,57 +407,43 @@ class NmeaStats:
         return d
 
 
-@dataclass
 class NmeaStreamDecoder:
     """Bytes in (any chunking), updates out; counts and drops what it cannot accept.
 
-    Lines end at LF (CR is stripped). A line is resynchronised at its first
-    ``$``; bytes before it (the tail of a sentence cut by a reconnect) make
-    no difference unless no ``$`` follows, then the line counts as garbage.
-    A line longer than ``max_line_chars`` is discarded up to its LF, so a
-    stream without newlines cannot grow memory.
+    Lines end at LF (CR is stripped), framed by :class:`~autopilot.drivers.framing.LineFramer`.
+    A line is resynchronised at its first ``$``; bytes before it (the tail of a sentence cut by
+    a reconnect) make no difference unless no ``$`` follows, then the line counts as garbage.
+    A line longer than ``max_line_chars`` is discarded up to its LF, so a stream without
+    newlines cannot grow memory. :attr:`invalid_bytes` counts bytes that no NMEA line can hold
+    (the garbage detector's byte measure).
     """
 
-    max_line_chars: int = MAX_LINE_CHARS
-    stats: NmeaStats = field(default_factory=NmeaStats)
-    _buf: bytearray = field(default_factory=bytearray, repr=False)
-    _overflow: bool = field(default=False, repr=False)
+    def __init__(self, max_line_chars: int = MAX_LINE_CHARS) -> None:
+        self.max_line_chars = int(max_line_chars)
+        self.stats = NmeaStats()
+        self._framer = LineFramer(self.max_line_chars)
+
+    @property
+    def invalid_bytes(self) -> int:
+        return self._framer.invalid_bytes
 
     def feed(self, data: bytes) -> list[NmeaUpdate]:
         """Decode every complete line in ``data`` (plus what was held back). Never raises."""
         out: list[NmeaUpdate] = []
         try:
-            self._buf += data
-            start = 0
-            while True:
-                nl = self._buf.find(b"\n", start)
-                if nl < 0:
-                    break
-                line = bytes(self._buf[start:nl])
-                start = nl + 1
-                if self._overflow:
-                    self._overflow = False  # the tail of an overlong line: already counted
-                    continue
+            for line in self._framer.feed(data):
                 update = self._line(line)
                 if update is not None:
                     out.append(update)
-            del self._buf[:start]
-            if len(self._buf) > self.max_line_chars:
-                if not self._overflow:
-                    self.stats.too_long += 1
-                self._overflow = True
-                self._buf.clear()
         except Exception:  # pragma: no cover - defensive: the loop must survive anything
-            self._buf.clear()
+            self._framer.clear()
             self.stats.garbage += 1
+        self.stats.too_long = self._framer.too_long
         return out
 
     def _line(self, raw: bytes) -> NmeaUpdate | None:
         raw = raw.strip(b"\r")
         if not raw:
-            return None
-        if len(raw) > self.max_line_chars:
-            self.stats.too_long += 1
             return None
         dollar = raw.find(b"$")
         if dollar < 0:

@@ -11,11 +11,11 @@ daemon may fall back to it explicitly and log that it did.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
 from autopilot.clock import Clock
+from autopilot.drivers.framing import GarbageDetector
 from autopilot.drivers.nmea import NmeaStreamDecoder, NmeaUpdate
 from autopilot.drivers.serial_link import EventCallback, SerialLink
 
@@ -65,8 +65,11 @@ class SC30Driver:
     ``heading_window_s``: a lower-priority heading sentence is used only when
     no higher-priority one arrived within this time (so a compass sending
     THS and HDT is steered by THS, and HDT takes over if THS stops).
-    ``garbage_burst_lines``: more rejected lines than this within 1 s emit
-    one ``nmea_garbage`` event (at most one per second).
+    ``garbage_burst_lines`` / ``garbage_burst_bytes``: more rejected lines, or
+    more bytes that no NMEA line can hold, than these within 1 s are a garbage
+    burst (:class:`~autopilot.drivers.framing.GarbageDetector`): one
+    ``nmea_garbage`` event when it starts, and :attr:`last_garbage_s` for the
+    failsafe while it lasts.
     """
 
     def __init__(
@@ -80,6 +83,7 @@ class SC30Driver:
         on_event: EventCallback | None = None,
         heading_window_s: float = 0.5,
         garbage_burst_lines: int = 5,
+        garbage_burst_bytes: int = 32,
     ) -> None:
         self._clock = clock
         self._decoder = NmeaStreamDecoder()
@@ -98,10 +102,7 @@ class SC30Driver:
         self.updates = 0
         self._heading_window_s = float(heading_window_s)
         self._by_source: dict[str, Stamped] = {}
-        self._burst_lines = int(garbage_burst_lines)
-        self._rejects: deque[float] = deque()
-        self._last_burst_event_s = -math.inf
-        self._dropped_seen = 0
+        self._garbage = GarbageDetector(max_lines=garbage_burst_lines, max_bytes=garbage_burst_bytes)
 
     # ------------------------------------------------------------------ public
     @property
@@ -139,16 +140,16 @@ class SC30Driver:
         self._check_garbage(now_s)
 
     def _check_garbage(self, now_s: float) -> None:
-        dropped = self._decoder.stats.dropped
-        new = dropped - self._dropped_seen
-        self._dropped_seen = dropped
-        for _ in range(min(new, self._burst_lines + 1)):
-            self._rejects.append(now_s)
-        while self._rejects and self._rejects[0] < now_s - 1.0:
-            self._rejects.popleft()
-        if len(self._rejects) > self._burst_lines and now_s - self._last_burst_event_s >= 1.0:
-            self._last_burst_event_s = now_s
-            self._link.emit("nmea_garbage", rejected_lines=len(self._rejects), window_s=1.0, stats=self.stats)
+        dec = self._decoder
+        if self._garbage.feed(now_s, dec.stats.dropped, dec.invalid_bytes):
+            lines, bad_bytes = self._garbage.window_counts()
+            self._link.emit("nmea_garbage", rejected_lines=lines, bad_bytes=bad_bytes, window_s=self._garbage.window_s,
+                            stats=self.stats)
+
+    @property
+    def last_garbage_s(self) -> float | None:
+        """Clock time of the latest garbage seen during a burst (None: no burst yet)."""
+        return self._garbage.last_garbage_s
 
     def apply(self, u: NmeaUpdate, now_s: float) -> None:
         """Fold one decoded sentence into :attr:`nav` (public so a file replay can use it)."""

@@ -59,7 +59,8 @@ class ControlOutput:
     sat_stbd: bool
     saturation: tuple[str, ...]
     reached_index: int | None
-    closest_approach_m: float | None
+    reached_distance_m: float | None  # distance to the reached waypoint at the switch (m)
+    reached_how: str | None  # "capture" or "passed" (autopilot.gnc.waypoints)
     complete: bool
     tau_com_trim_n: float = 0.0  # speed-over-ground trim inside tau_com_n (tau_com_n = table + trim)
 
@@ -147,7 +148,8 @@ class Autopilot:
             sat_stbd=alloc.sat_stbd,
             saturation=alloc.saturation,
             reached_index=g.reached_index,
-            closest_approach_m=g.closest_approach_m,
+            reached_distance_m=g.reached_distance_m,
+            reached_how=g.reached_how,
             complete=g.complete,
             tau_com_trim_n=trim_n,
         )

@@ -8,8 +8,9 @@ must be the same for every law so that laws can be compared fairly:
 - waypoint ``i`` is reached when the law says it is passed, or when the boat
   is within ``capture_radius_m`` of it (the boat on top of the waypoint: the
   bearing is undefined there);
-- the closest approach to the target waypoint is tracked and reported when it
-  is reached;
+- when a waypoint is reached, how (``capture``: within the radius; ``passed``:
+  the law's own test) and the distance then are reported (the closest approach
+  over the whole pass is :mod:`autopilot.gnc.passes`' job);
 - the wanted speed: per-leg speed or the default, slowed in large heading
   errors (``turn_speed_floor_nd``) and on the approach to the last waypoint;
 - the last waypoint: ``stop`` (zero thrust, mission complete) or ``hold``
@@ -64,7 +65,8 @@ class GuidanceOutput:
     dcpa_nd: float | None
     cdh: float | None
     reached_index: int | None
-    closest_approach_m: float | None
+    reached_distance_m: float | None  # distance to the reached waypoint at the switch (m)
+    reached_how: str | None  # "capture" (within capture_radius_m) or "passed" (the law's test)
     complete: bool
     thrust_off: bool  # stop: command zero thrust (mission complete, or holding inside the radius)
 
@@ -101,7 +103,6 @@ class WaypointGuidance:
         self.boat_length_m = float(boat_length_m)
         self.index = start_index
         self.complete = False
-        self._closest_m = math.inf
         self._leg_start: tuple[float, float] | None = (
             wps[start_index - 1] if start_index > 0 else None
         )
@@ -149,14 +150,11 @@ class WaypointGuidance:
         i = self.index
         wn, we = self.waypoints[i]
         d_m = math.hypot(wn - nav.north_m, we - nav.east_m)
-        if d_m < self._closest_m:
-            self._closest_m = d_m
         xte = self._xte_m(nav.north_m, nav.east_m, i)
         steer = self._steer(nav, dt_s, i)
-        reached = d_m <= self.config.capture_radius_m or steer.passed
-        if reached:
-            closest = self._closest_m
-            self._closest_m = math.inf
+        captured = d_m <= self.config.capture_radius_m
+        if captured or steer.passed:
+            how = "capture" if captured else "passed"
             self._armed = False
             self._leg_start = self.waypoints[i]
             self.reset()
@@ -166,7 +164,7 @@ class WaypointGuidance:
                 return GuidanceOutput(
                     wp_index=i, psi_d_rad=out.psi_d_rad, speed_cmd_m_s=out.speed_cmd_m_s, xte_m=xte,
                     tcpa_nd=steer.tcpa_nd, dcpa_nd=steer.dcpa_nd, cdh=steer.cdh,
-                    reached_index=i, closest_approach_m=closest, complete=True, thrust_off=out.thrust_off,
+                    reached_index=i, reached_distance_m=d_m, reached_how=how, complete=True, thrust_off=out.thrust_off,
                 )
             self.index = i + 1
             # steer to the new target in the same cycle: no cycle without a valid command
@@ -174,14 +172,14 @@ class WaypointGuidance:
             return GuidanceOutput(
                 wp_index=nxt.wp_index, psi_d_rad=nxt.psi_d_rad, speed_cmd_m_s=nxt.speed_cmd_m_s,
                 xte_m=nxt.xte_m, tcpa_nd=nxt.tcpa_nd, dcpa_nd=nxt.dcpa_nd, cdh=nxt.cdh,
-                reached_index=i, closest_approach_m=closest, complete=False, thrust_off=False,
+                reached_index=i, reached_distance_m=d_m, reached_how=how, complete=False, thrust_off=False,
             )
         err = wrap_pi_f(steer.psi_d_rad - nav.psi_rad)
         speed = self._speed_m_s(i, d_m, err, steer.speed_factor_nd)
         return GuidanceOutput(
             wp_index=i, psi_d_rad=wrap_pi_f(steer.psi_d_rad), speed_cmd_m_s=speed, xte_m=xte,
             tcpa_nd=steer.tcpa_nd, dcpa_nd=steer.dcpa_nd, cdh=steer.cdh,
-            reached_index=None, closest_approach_m=None, complete=False, thrust_off=False,
+            reached_index=None, reached_distance_m=None, reached_how=None, complete=False, thrust_off=False,
         )
 
     def _after_end(self, nav: NavInput) -> GuidanceOutput:
@@ -195,7 +193,7 @@ class WaypointGuidance:
         if cfg.final_action == "stop" or d_m <= cfg.hold_radius_m:
             return GuidanceOutput(
                 wp_index=i, psi_d_rad=nav.psi_rad, speed_cmd_m_s=0.0, xte_m=xte, tcpa_nd=None,
-                dcpa_nd=None, cdh=None, reached_index=None, closest_approach_m=None, complete=True,
+                dcpa_nd=None, cdh=None, reached_index=None, reached_distance_m=None, reached_how=None, complete=True,
                 thrust_off=True,
             )
         # hold: creep back towards the waypoint, slower the closer it is
@@ -205,5 +203,5 @@ class WaypointGuidance:
         v *= max(0.0, math.cos(err))  # turn on the spot first when it is behind
         return GuidanceOutput(
             wp_index=i, psi_d_rad=psi_d, speed_cmd_m_s=v, xte_m=xte, tcpa_nd=None, dcpa_nd=None,
-            cdh=None, reached_index=None, closest_approach_m=None, complete=True, thrust_off=False,
+            cdh=None, reached_index=None, reached_distance_m=None, reached_how=None, complete=True, thrust_off=False,
         )

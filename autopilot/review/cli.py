@@ -25,20 +25,23 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from autopilot.review.export import parse_formats
+    from autopilot.review.reader import check_mission_log
     from autopilot.review.report import review
-    from autopilot.schema import ConfigError
 
     formats = parse_formats(args.export)
     for path in args.logs:
-        if not Path(path).is_file():
-            raise ConfigError(f"log {path!r} is not a readable file")
+        check_mission_log(path)
     out = Path(args.out) if args.out else Path(f"review-{Path(args.logs[0]).stem}")
     result = review(args.logs, out, formats=formats, with_plots=not args.no_plots)
     failed = False
     for one in result.logs:
         card = one.card
-        print(f"{card.path}: {card.cycles} cycles, {card.mission_time_s:.1f} s, "
-              f"{card.distance_m:.1f} m, {len(card.failsafes)} failsafe(s)")
+        if card.cycles == 0:
+            print(f"{card.path}: no cycle lines: nothing to review (report written with what was read)")
+            failed = True
+        else:
+            print(f"{card.path}: {card.cycles} cycles, {card.mission_time_s:.1f} s, "
+                  f"{card.distance_m:.1f} m, {len(card.failsafes)} failsafe(s)")
         for note in card.read_notes[1:]:
             print(f"  {note}")
         for fmt, path in one.exports.items():

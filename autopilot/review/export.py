@@ -8,13 +8,18 @@
 - GeoJSON (RFC 7946, lon/lat order): a FeatureCollection of the track
   (LineString, or MultiLineString when it has gaps) and one Point per
   waypoint.
-- The trial CSV read by the identification workflow (issue 5): columns
-  ``t_s, thrust_port_n, thrust_stbd_n, north_m, east_m, heading_deg,
-  lat_deg, lon_deg, sog_m_s, cog_deg, rot_deg_s``; a gap is an empty field.
+- The trial CSV read by the identification workflow: columns ``t_s,
+  thrust_port_n, thrust_stbd_n, north_m, east_m, position_time_s, heading_deg,
+  heading_time_s, lat_deg, lon_deg, sog_m_s, cog_deg, rot_deg_s``; a command on
+  every cycle row, each position fix and heading sample once, on the row where
+  it arrived, with the time it was measured; every other cell is empty.
 
-Positions come from the logged latitude/longitude; where a cycle has only
-the local position, the log's origin converts it (SPEC section 2). Gaps are
-never filled: a track breaks where the position is missing.
+Positions are measurements: the track is one point per position fix at the
+time the fix was measured (``t_s - position_age_s``), never the held fix
+repeated on every 10 Hz cycle. They come from the logged latitude/longitude;
+where a cycle has only the local position, the log's origin converts it (SPEC
+section 2). Gaps are never filled: a track breaks where the position is
+missing.
 """
 
 from __future__ import annotations
@@ -35,9 +40,9 @@ from autopilot.schema import ConfigError
 FORMATS = ("gpx", "kml", "geojson", "csv")
 GPX_NS = "http://www.topografix.com/GPX/1/1"
 KML_NS = "http://www.opengis.net/kml/2.2"
-CSV_COLUMNS = ("t_s", "thrust_port_n", "thrust_stbd_n", "north_m", "east_m", "heading_deg",
-               "lat_deg", "lon_deg", "sog_m_s", "cog_deg", "rot_deg_s")
-_CSV_FORMATS = ("%.3f", "%.3f", "%.3f", "%.3f", "%.3f", "%.2f", "%.8f", "%.8f", "%.3f", "%.2f", "%.3f")
+CSV_COLUMNS = ("t_s", "thrust_port_n", "thrust_stbd_n", "north_m", "east_m", "position_time_s", "heading_deg",
+               "heading_time_s", "lat_deg", "lon_deg", "sog_m_s", "cog_deg", "rot_deg_s")
+_CSV_FORMATS = ("%.3f", "%.3f", "%.3f", "%.3f", "%.3f", "%.3f", "%.2f", "%.3f", "%.8f", "%.8f", "%.3f", "%.2f", "%.3f")
 _CHUNK = 20000
 
 
@@ -69,6 +74,31 @@ def track_latlon(log: MissionLog) -> tuple[np.ndarray, np.ndarray]:
     return lat, lon
 
 
+FIX_GAP_FACTOR = 5.0  # fixes further apart than this many typical fix intervals are separate segments
+
+
+def track_fixes(log: MissionLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[int, int]]]:
+    """The track as measured: one point per position fix, at the fix's time.
+
+    Returns fix times (mission s), latitudes, longitudes and the [start, stop) index ranges of
+    unbroken stretches: a stretch breaks where the position was lost between two fixes or
+    the fixes are more than FIX_GAP_FACTOR typical intervals apart (nothing is drawn across).
+    """
+    lat_row, lon_row = track_latlon(log)
+    rows, fix_t = log.fix_rows()
+    keep = np.isfinite(lat_row[rows])
+    rows, fix_t = rows[keep], fix_t[keep]
+    lat, lon = lat_row[rows], lon_row[rows]
+    if len(rows) == 0:
+        return fix_t, lat, lon, []
+    lost = np.cumsum(~np.isfinite(lat_row))  # rows without a position so far
+    dt = np.diff(fix_t)
+    typical = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
+    brk = (lost[rows[1:]] != lost[rows[:-1]]) | (dt > FIX_GAP_FACTOR * typical) | (dt <= 0)
+    cuts = np.concatenate([[0], np.nonzero(brk)[0] + 1, [len(rows)]])
+    return fix_t, lat, lon, list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
+
+
 def waypoints_latlon(log: MissionLog) -> np.ndarray:
     """(N, 2) waypoint latitude/longitude; (0, 2) when the log has no origin."""
     wps = log.waypoints_ne_m
@@ -76,15 +106,6 @@ def waypoints_latlon(log: MissionLog) -> np.ndarray:
         return np.zeros((0, 2))
     lat, lon = local_to_latlon(wps[:, 0], wps[:, 1], *log.origin_deg)
     return np.column_stack([np.atleast_1d(lat), np.atleast_1d(lon)])
-
-
-def segments(valid: np.ndarray) -> list[tuple[int, int]]:
-    """[start, stop) index ranges of consecutive True values."""
-    if len(valid) == 0:
-        return []
-    v = np.concatenate([[False], valid, [False]]).astype(np.int8)
-    d = np.diff(v)
-    return list(zip(np.nonzero(d == 1)[0].tolist(), np.nonzero(d == -1)[0].tolist()))
 
 
 def _start_time(log: MissionLog) -> _dt.datetime | None:
@@ -109,12 +130,11 @@ def _need_track(log: MissionLog, lat: np.ndarray, fmt: str) -> None:
 
 
 def write_gpx(log: MissionLog, path) -> Path:
-    """GPX 1.1: waypoints and the track, one segment per unbroken stretch."""
-    lat, lon = track_latlon(log)
+    """GPX 1.1: waypoints and the track (one point per fix, at its time), a segment per unbroken stretch."""
+    fix_t, lat, lon, segs = track_fixes(log)
     _need_track(log, lat, "GPX")
     t0 = _start_time(log)
     tm0 = _mission_t0(log)
-    t = log.col("t_s")
     path = Path(path)
     with path.open("w", encoding="utf-8") as f:
         f.write('<?xml version="1.0" encoding="UTF-8"?>\n')
@@ -126,7 +146,7 @@ def write_gpx(log: MissionLog, path) -> Path:
         for i, (la, lo) in enumerate(waypoints_latlon(log)):
             f.write(f'  <wpt lat="{la:.8f}" lon="{lo:.8f}"><name>W{i}</name></wpt>\n')
         f.write(f"  <trk><name>{escape(log.name)}</name>\n")
-        for a, b in segments(np.isfinite(lat)):
+        for a, b in segs:
             f.write("    <trkseg>\n")
             for k0 in range(a, b, _CHUNK):
                 k1 = min(b, k0 + _CHUNK)
@@ -134,7 +154,7 @@ def write_gpx(log: MissionLog, path) -> Path:
                     base = t0.timestamp()
                     stamps = [_dt.datetime.fromtimestamp(base + x - tm0, _dt.timezone.utc)
                               .strftime("%Y-%m-%dT%H:%M:%S.%fZ")[:-4] + "Z"
-                              for x in t[k0:k1].tolist()]
+                              for x in fix_t[k0:k1].tolist()]
                     f.write("".join(
                         f'      <trkpt lat="{la:.8f}" lon="{lo:.8f}"><time>{s}</time></trkpt>\n'
                         for la, lo, s in zip(lat[k0:k1].tolist(), lon[k0:k1].tolist(), stamps)))
@@ -147,8 +167,8 @@ def write_gpx(log: MissionLog, path) -> Path:
 
 
 def write_kml(log: MissionLog, path) -> Path:
-    """KML 2.2 for Google Earth: waypoints and the track."""
-    lat, lon = track_latlon(log)
+    """KML 2.2 for Google Earth: waypoints and the track (one point per fix)."""
+    _, lat, lon, stretches = track_fixes(log)
     _need_track(log, lat, "KML")
     path = Path(path)
     with path.open("w", encoding="utf-8") as f:
@@ -158,9 +178,9 @@ def write_kml(log: MissionLog, path) -> Path:
         for i, (la, lo) in enumerate(waypoints_latlon(log)):
             f.write(f"<Placemark><name>W{i}</name><Point><coordinates>{lo:.8f},{la:.8f},0"
                     "</coordinates></Point></Placemark>\n")
-        segs = [(a, b) for a, b in segments(np.isfinite(lat)) if b - a >= 2]
+        segs = [(a, b) for a, b in stretches if b - a >= 2]
         if segs:
-            f.write(f"<Placemark><name>track</name><styleUrl>#track</styleUrl><MultiGeometry>\n")
+            f.write("<Placemark><name>track</name><styleUrl>#track</styleUrl><MultiGeometry>\n")
             for a, b in segs:
                 f.write("<LineString><tessellate>1</tessellate><coordinates>\n")
                 for k0 in range(a, b, _CHUNK):
@@ -174,12 +194,12 @@ def write_kml(log: MissionLog, path) -> Path:
 
 
 def write_geojson(log: MissionLog, path) -> Path:
-    """GeoJSON FeatureCollection: the track and the waypoints, [lon, lat] order."""
-    lat, lon = track_latlon(log)
+    """GeoJSON FeatureCollection: the track (one point per fix) and the waypoints, [lon, lat] order."""
+    _, lat, lon, stretches = track_fixes(log)
     _need_track(log, lat, "GeoJSON")
     features = []
     lines = []
-    for a, b in segments(np.isfinite(lat)):
+    for a, b in stretches:
         if b - a >= 2:
             lines.append([[round(x, 8), round(y, 8)] for x, y in zip(lon[a:b].tolist(), lat[a:b].tolist())])
     if lines:
@@ -200,14 +220,34 @@ def write_geojson(log: MissionLog, path) -> Path:
 
 
 def trial_columns(log: MissionLog) -> dict[str, np.ndarray]:
-    """The trial CSV's columns (NaN = gap)."""
-    lat, lon = track_latlon(log)
+    """The trial CSV's columns (NaN = gap): the cycle's command on every row, each measurement once.
+
+    A position appears on the row where its fix first reached the daemon, with
+    ``position_time_s`` the time it was measured (``t_s - position_age_s``); the rows that
+    only repeat a held fix leave it empty. Likewise the heading and ``heading_time_s``.
+    """
+    lat_row, lon_row = track_latlon(log)
+    n = log.n_cycles
+
+    def once(rows, values):
+        out = np.full(n, np.nan)
+        out[rows] = values[rows]
+        return out
+
+    fix, fix_t = log.fix_rows()
+    head, head_t = log.heading_rows()
     heading = log.col("heading_deg")
+    heading = np.where(np.isfinite(heading), wrap_360(heading), np.nan)
+    position_time_s, heading_time_s = np.full(n, np.nan), np.full(n, np.nan)
+    position_time_s[fix], heading_time_s[head] = fix_t, head_t
     return {
         "t_s": log.col("t_s"), "thrust_port_n": log.col("thrust_port_n"),
-        "thrust_stbd_n": log.col("thrust_stbd_n"), "north_m": log.col("north_m"),
-        "east_m": log.col("east_m"), "heading_deg": np.where(np.isfinite(heading), wrap_360(heading), np.nan),
-        "lat_deg": lat, "lon_deg": lon, "sog_m_s": log.col("sog_m_s"), "cog_deg": log.col("cog_deg"),
+        "thrust_stbd_n": log.col("thrust_stbd_n"),
+        "north_m": once(fix, log.col("north_m")), "east_m": once(fix, log.col("east_m")),
+        "position_time_s": position_time_s,
+        "heading_deg": once(head, heading), "heading_time_s": heading_time_s,
+        "lat_deg": once(fix, lat_row), "lon_deg": once(fix, lon_row),
+        "sog_m_s": once(fix, log.col("sog_m_s")), "cog_deg": once(fix, log.col("cog_deg")),
         "rot_deg_s": log.col("yaw_rate_deg_s"),
     }
 

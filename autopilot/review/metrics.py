@@ -18,6 +18,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from autopilot.gnc.passes import closest_per_pass
 from autopilot.review.reader import MODES, MissionLog
 
 GAP_FACTOR = 5.0  # dt above this many nominal periods is a hole in the log
@@ -32,8 +33,8 @@ class WaypointScore:
     north_m: float
     east_m: float
     reached: bool
-    closest_approach_m: float  # recomputed from positions (NaN if never steered to / no data)
-    closest_t_s: float
+    closest_approach_m: float  # recomputed from the fixes over the pass (NaN if never steered to / no data)
+    closest_t_s: float  # when that fix was measured
     closest_north_m: float
     closest_east_m: float
     logged_closest_approach_m: float  # from waypoint_reached (NaN if absent)
@@ -138,6 +139,24 @@ def _fmt_duration(t_s: float) -> str:
     return f"{t_s:.1f} s ({int(h)}:{int(m):02d}:{s:04.1f})"
 
 
+def nominal_period_s(t_s: np.ndarray, nominal_dt_s: float | None = None) -> float:
+    """The log's cycle period: the one given, else the median positive interval (0.1 s if none)."""
+    if nominal_dt_s is not None and nominal_dt_s > 0:
+        return float(nominal_dt_s)
+    dt = np.diff(t_s)
+    pos = dt[dt > 0]
+    return float(np.median(pos)) if len(pos) else 0.1
+
+
+def gap_after(t_s: np.ndarray, nominal_dt_s: float | None = None) -> np.ndarray:
+    """True for each row followed by a hole in the log (more than GAP_FACTOR periods, or time going back)."""
+    out = np.zeros(len(t_s), dtype=bool)
+    if len(t_s) > 1:
+        dt = np.diff(t_s)
+        out[:-1] = (dt > GAP_FACTOR * nominal_period_s(t_s, nominal_dt_s)) | (dt < 0)
+    return out
+
+
 def hold_durations_s(t_s: np.ndarray, nominal_dt_s: float | None = None) -> tuple[np.ndarray, float]:
     """Duration each cycle's values hold (to the next cycle), and the log-gap time.
 
@@ -149,9 +168,7 @@ def hold_durations_s(t_s: np.ndarray, nominal_dt_s: float | None = None) -> tupl
     if n == 0:
         return np.zeros(0), 0.0
     dt = np.diff(t_s)
-    if nominal_dt_s is None or not nominal_dt_s > 0:
-        pos = dt[dt > 0]
-        nominal_dt_s = float(np.median(pos)) if len(pos) else 0.1
+    nominal_dt_s = nominal_period_s(t_s, nominal_dt_s)
     hold = np.empty(n)
     hold[:-1] = dt
     hold[-1] = nominal_dt_s
@@ -171,7 +188,10 @@ def leg_starts(log: MissionLog) -> np.ndarray:
 
 
 def cross_track_m(log: MissionLog) -> np.ndarray:
-    """Signed cross-track error (+ = starboard of the leg) from positions and legs; NaN when unknown."""
+    """Signed cross-track error (+ = starboard of the leg) per row from positions and legs; NaN when unknown.
+
+    The scorecard takes it at the rows where a fix first appears (a held fix is not a new measurement).
+    """
     wps = log.waypoints_ne_m
     n, e = log.col("north_m"), log.col("east_m")
     idx = log.col("wp_index")
@@ -190,50 +210,47 @@ def cross_track_m(log: MissionLog) -> np.ndarray:
     return out
 
 
-def closest_approaches(log: MissionLog) -> list[WaypointScore]:
-    """Closest recorded position to each waypoint while steering to it (plus the switch cycle)."""
-    wps = log.waypoints_ne_m
-    t, n, e, idx = log.col("t_s"), log.col("north_m"), log.col("east_m"), log.col("wp_index")
-    valid = np.isfinite(n) & np.isfinite(e)
-    logged = {}
-    reached = set()
-    for ev in log.events_named("waypoint_reached"):
+def _logged_passes(log: MissionLog) -> tuple[set, dict]:
+    """Waypoints the daemon reported reached, and the closest approach it logged per waypoint.
+
+    ``waypoint_pass`` events carry the closest approach over the pass; logs written before
+    them carried a ``closest_approach_m`` in ``waypoint_reached`` (the guidance's own figure).
+    """
+    reached, logged = set(), {}
+    for ev in log.events_named("waypoint_reached", "waypoint_pass"):
         i = ev.get("wp_index")
-        if isinstance(i, int) and not isinstance(i, bool):
+        if not isinstance(i, int) or isinstance(i, bool):
+            continue
+        if ev.get("event") == "waypoint_reached":
             reached.add(i)
-            ca = ev.get("closest_approach_m")
-            if isinstance(ca, (int, float)) and not isinstance(ca, bool):
-                logged[i] = float(ca)
-    best: dict[int, int] = {}  # waypoint -> cycle index of the closest recorded position
-    nw = len(wps)
-    if np.isfinite(idx).any():
-        in_range = np.isfinite(idx) & (idx >= 0) & (idx < nw)
-        k = np.nonzero(valid & in_range)[0]
-        key = idx[k].astype(np.int64)
-        # the cycle that switches to the next waypoint is the one past the closest point
-        prev = np.concatenate([[np.nan], idx[:-1]])
-        sw = np.nonzero(valid & (idx == prev + 1) & (prev >= 0) & (prev < nw))[0]
-        k = np.concatenate([k, sw])
-        key = np.concatenate([key, idx[sw].astype(np.int64) - 1])
-        dist = np.hypot(n[k] - wps[key, 0], e[k] - wps[key, 1])
-        order = np.lexsort((dist, key))  # by waypoint, nearest first
-        key_s, k_s = key[order], k[order]
-        first = np.concatenate([[True], key_s[1:] != key_s[:-1]]) if len(key_s) else np.zeros(0, bool)
-        best = dict(zip(key_s[first].tolist(), k_s[first].tolist()))
-    elif valid.any():  # no wp_index logged: nearest over the whole track
-        k_all = np.nonzero(valid)[0]
-        for i, (wn, we) in enumerate(wps):
-            best[i] = int(k_all[np.argmin(np.hypot(n[k_all] - wn, e[k_all] - we))])
-    out = []
-    for i, (wn, we) in enumerate(wps):
-        if i in best:
-            k = best[i]
-            ca, ct, cn, ce = float(np.hypot(n[k] - wn, e[k] - we)), float(t[k]), float(n[k]), float(e[k])
-        else:
-            ca = ct = cn = ce = math.nan
-        out.append(WaypointScore(i, float(wn), float(we), i in reached, ca, ct, cn, ce,
-                                 logged.get(i, math.nan)))
-    return out
+        ca = ev.get("closest_approach_m")
+        if isinstance(ca, (int, float)) and not isinstance(ca, bool) and (ev.get("event") == "waypoint_pass" or i not in logged):
+            logged[i] = float(ca)
+    return reached, logged
+
+
+def closest_approaches(log: MissionLog) -> list[WaypointScore]:
+    """Closest approach to each waypoint over its pass, from the logged fixes (autopilot.gnc.passes).
+
+    The same definition the daemon logs in ``waypoint_pass``: fixes while steering to W_i
+    and to W_{i+1}; the last waypoint's pass ends ``final_pass_s`` after mission_complete
+    (fixes up to the ``waypoint_pass`` event that closed it, else to the end of the log).
+    """
+    wps = log.waypoints_ne_m
+    reached, logged = _logged_passes(log)
+    rows, fix_t = log.fix_rows()
+    t, n, e, idx = log.col("t_s"), log.col("north_m"), log.col("east_m"), log.col("wp_index")
+    ok = np.isfinite(n[rows]) & np.isfinite(e[rows]) & np.isfinite(idx[rows])
+    ends = [ev.get("t_s") for ev in log.events_named("waypoint_pass")
+            if ev.get("wp_index") == len(wps) - 1 and isinstance(ev.get("t_s"), (int, float))]
+    if ends:  # the last pass was closed by the daemon: later fixes are not part of it
+        ok &= t[rows] <= float(ends[0])
+    rows, fix_t = rows[ok], fix_t[ok]
+    start = int(idx[rows[0]]) if len(rows) else 0
+    passes = closest_per_pass(fix_t, n[rows], e[rows], idx[rows].astype(int), wps, start_index=min(start, max(len(wps) - 1, 0)))
+    return [WaypointScore(i, float(wn), float(we), i in reached, p.closest_approach_m, p.t_s, p.north_m, p.east_m,
+                          logged.get(i, math.nan))
+            for i, ((wn, we), p) in enumerate(zip(wps, passes))]
 
 
 def _fault_times(log: MissionLog, t_end_s: float) -> dict:
@@ -302,7 +319,9 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
     in_auto = log.mode == MODES.index("auto")
     if not in_auto.any():
         in_auto = np.ones(len(t), dtype=bool)  # mode not logged: judge every cycle
-    xte_rms, xte_max = _rms_max(cross_track_m(log)[in_auto])
+    fix = np.zeros(len(t), dtype=bool)
+    fix[log.fix_rows()[0]] = True  # recomputed from the measurements: each fix once
+    xte_rms, xte_max = _rms_max(cross_track_m(log)[in_auto & fix])
     lxte_rms, lxte_max = _rms_max(log.col("xte_m")[in_auto])
 
     heading = log.col("heading_deg")

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from autopilot.review.metrics import LATENESS_PERCENTILES, Scorecard
+from autopilot.review.metrics import LATENESS_PERCENTILES, Scorecard, gap_after
 from autopilot.review.reader import MODES, MissionLog
 
 MAX_POINTS = 4000  # per signal on a time axis (min/max pairs)
@@ -45,10 +45,18 @@ def time_scale(t_s: np.ndarray) -> tuple[float, str]:
 
 
 def envelope(t: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS) -> tuple[np.ndarray, np.ndarray]:
-    """Min/max decimation: at most ``max_points`` points, extremes kept, all-NaN blocks stay NaN."""
+    """Min/max decimation: at most ``max_points`` points, extremes kept, all-NaN blocks stay NaN.
+
+    A hole in the log (rows missing for more than GAP_FACTOR periods) is a break in the
+    line, never a ramp across it: a NaN point follows the row (or block) before the hole.
+    """
     n = len(t)
+    holes = gap_after(t)
     if n <= max_points:
-        return t, y
+        if not holes.any():
+            return t, y
+        at = np.nonzero(holes)[0] + 1
+        return np.insert(t, at, t[at - 1]), np.insert(np.asarray(y, dtype=float), at, np.nan)
     k = int(math.ceil(n / (max_points // 2)))
     starts = np.arange(0, n, k)
     lo = np.fmin.reduceat(y, starts)
@@ -58,11 +66,20 @@ def envelope(t: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS) -> tupl
     y2 = np.empty(2 * len(starts))
     t2[0::2], t2[1::2] = t[starts], t[ends]
     y2[0::2], y2[1::2] = lo, hi
+    broken = np.logical_or.reduceat(holes, starts)
+    if broken.any():
+        at = 2 * np.nonzero(broken)[0] + 2
+        t2, y2 = np.insert(t2, at, t2[at - 1]), np.insert(y2, at, np.nan)
     return t2, y2
 
 
 def block_any(t: np.ndarray, mask: np.ndarray, max_points: int = MAX_POINTS) -> tuple[np.ndarray, np.ndarray]:
-    """Boolean decimation: a block is True when any of its samples is."""
+    """Boolean decimation: a block is True when any of its samples is; False across a hole in the log."""
+    holes = gap_after(t)
+    if holes.any():  # a False sample just after the row before each hole: shading stops there
+        at = np.nonzero(holes)[0] + 1
+        t = np.insert(t, at, t[at - 1] + 0.5 * (t[np.minimum(at, len(t) - 1)] - t[at - 1]))
+        mask = np.insert(np.asarray(mask, dtype=bool), at, False)
     n = len(t)
     if n <= max_points:
         return t, mask

@@ -1,4 +1,4 @@
-"""Streaming, tolerant reader of mission logs (docs/log-schema.md).
+"""Streaming, tolerant reader of mission logs (the schema: :mod:`autopilot.logschema`, docs/log-schema.md).
 
 One pass, line by line, constant work per line: each line is decoded with
 ``json.loads`` and a ``cycle`` line's numeric fields go into a block of
@@ -24,24 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
+from autopilot.logschema import CYCLE, EVENT_NAMES, HEADING_SOURCES, MODES
 from autopilot.schema import ConfigError
 
-# numeric (or boolean) cycle fields, stored as float64 columns; NaN = absent
-CYCLE_FIELDS: tuple[str, ...] = (
-    "t_s", "cycle", "lat_deg", "lon_deg", "north_m", "east_m", "heading_deg",
-    "yaw_rate_deg_s", "sog_m_s", "cog_deg", "fix_quality", "heading_age_s",
-    "position_age_s", "wp_index", "tcpa_nd", "dcpa_nd", "cdh", "psi_d_deg",
-    "heading_error_deg", "xte_m", "speed_cmd_m_s", "pid_p_n", "pid_i_n", "pid_d_n",
-    "tau_com_n", "tau_order_n", "thrust_port_n", "thrust_stbd_n", "pwm_port_pct",
-    "pwm_stbd_pct", "sat_port", "sat_stbd", "lateness_ms", "heading_latency_ms", "seq",
-    "ack_missing", "nmea_dropped",
-)
-MODES: tuple[str, ...] = ("auto", "failsafe", "complete", "hold", "waiting")
-HEADING_SOURCES: tuple[str, ...] = ("HDT", "THS", "PFEC", "COG")
-EVENTS: frozenset[str] = frozenset({
-    "cycle", "mission_start", "waypoint_reached", "mission_complete", "fault", "fault_cleared",
-    "failsafe", "failsafe_cleared", "resume", "stop", "info",
-})
+# numeric (or boolean) cycle fields of the schema, stored as float64 columns; NaN = absent
+CYCLE_FIELDS: tuple[str, ...] = ("t_s",) + tuple(f.name for f in CYCLE if f.numeric)
+EVENTS: frozenset[str] = frozenset(EVENT_NAMES)
 UNKNOWN_CODE = -1  # mode / heading source absent or not in the schema
 _BLOCK_ROWS = 8192
 _MIN_BYTES_PER_CYCLE = 160  # a full cycle line is ~900 B; only a size estimate
@@ -155,6 +143,49 @@ class MissionLog:
     def events_named(self, *names: str) -> list[dict]:
         return [e for e in self.events if e.get("event") in names]
 
+    def fix_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """(row indices, fix times) of the cycles where a new position fix first appears.
+
+        A cycle line repeats the last fix until the next one arrives (1 Hz GGA/RMC in a
+        10 Hz log): a held fix is not a new measurement. The fix was measured at
+        ``t_s - position_age_s``; logs without ages count a row as a new fix when its
+        position differs from the previous row's (and date it at the row).
+        """
+        n, e = self.col("north_m"), self.col("east_m")
+        lat, lon = self.col("lat_deg"), self.col("lon_deg")
+        have = (np.isfinite(n) & np.isfinite(e)) | (np.isfinite(lat) & np.isfinite(lon))
+        return _new_samples(self.col("t_s"), self.col("position_age_s"), have, (n, e, lat, lon))
+
+    def heading_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """(row indices, measurement times) of the cycles with a new heading sample (see :meth:`fix_rows`).
+
+        Without ``heading_age_s`` every row with a heading counts (it comes at the cycle rate).
+        """
+        h = self.col("heading_deg")
+        return _new_samples(self.col("t_s"), self.col("heading_age_s"), np.isfinite(h), None)
+
+
+_SAME_SAMPLE_S = 1e-4  # two rows whose measurement times differ by less hold the same sample
+
+
+def _new_samples(t, age, have, values) -> tuple[np.ndarray, np.ndarray]:
+    rows = np.nonzero(have)[0]
+    if len(rows) == 0:
+        return rows, np.zeros(0)
+    when = t[rows] - age[rows]
+    dated = np.isfinite(when)
+    new = np.ones(len(rows), dtype=bool)
+    if dated.all():
+        new[1:] = np.abs(np.diff(when)) > _SAME_SAMPLE_S
+    elif values is None:  # no ages logged, a sample every cycle (the 10 Hz heading)
+        when = t[rows]
+    else:  # no ages logged: a repeated position is a held fix (GPS noise never repeats exactly)
+        stack = np.stack([v[rows] for v in values])
+        same = np.all((stack[:, 1:] == stack[:, :-1]) | (np.isnan(stack[:, 1:]) & np.isnan(stack[:, :-1])), axis=0)
+        new[1:] = ~same
+        when = np.where(dated, when, t[rows])
+    return rows[new], when[new]
+
 
 _INDEX = {name: i for i, name in enumerate(CYCLE_FIELDS)}
 _MODE_CODES = {m: i for i, m in enumerate(MODES)}
@@ -222,6 +253,40 @@ def _block_to_array(rows: list, stats: ReadStats) -> np.ndarray:
             stats.bad_values[CYCLE_FIELDS[j]] += int(bad[:, j].sum())
         arr[bad] = np.nan
     return arr
+
+
+_SNIFF_BYTES = 65536
+
+
+def check_mission_log(path) -> Path:
+    """``path`` if it can be a mission log; ConfigError naming the file when it plainly is not.
+
+    An empty file passes (a daemon killed before its first line leaves one; the review says
+    so). A file with bytes in it must hold at least one JSON line with an ``event`` among its
+    first 64 kB: a README, a CSV or a binary file given by mistake is refused, not reviewed as
+    "0 cycles".
+    """
+    from autopilot.userfile import check_file
+
+    p = check_file(path, what="mission log")
+    with p.open("rb") as f:
+        head = f.read(_SNIFF_BYTES)
+    if not head.strip():
+        return p
+    if b"\x00" in head[:8192]:
+        raise ConfigError(f"{p}: binary data, not a mission log (JSON lines, docs/log-schema.md)")
+    lines = head.splitlines()
+    if len(head) == _SNIFF_BYTES and len(lines) > 1:
+        lines = lines[:-1]  # the last one may be cut by the sniff
+    for raw in lines:
+        try:
+            rec = json.loads(raw)
+        except ValueError:
+            continue
+        if isinstance(rec, dict) and isinstance(rec.get("event"), str):
+            return p
+    raise ConfigError(f"{p}: no mission-log line in it (none of its first {len(lines)} line(s) is a JSON object "
+                      "with an 'event'): not a mission log (docs/log-schema.md)")
 
 
 def read_log(path) -> MissionLog:

@@ -1,4 +1,4 @@
-"""Synthetic mission logs in the documented schema (docs/log-schema.md).
+"""Synthetic mission logs in the schema of :mod:`autopilot.logschema` (every cycle key, schema values only).
 
 For tests and the review benchmark: a kinematic boat that follows the legs
 between waypoints with a slow sideways weave, so every cycle field has a
@@ -52,6 +52,7 @@ def write_synthetic_log(
     loop: bool = False,
     failsafe_at_s: float | None = None,
     dropout_every_s: float | None = None,
+    fix_rate_hz: float = 1.0,
     seed: int = 0,
 ) -> dict:
     """Write a mission log; return the truth it was made from.
@@ -62,6 +63,9 @@ def write_synthetic_log(
     patrol); otherwise the mission completes at the last waypoint.
     ``failsafe_at_s`` loses the heading there, zeroes thrust, coasts 3 s and
     stops. ``dropout_every_s`` blanks position and heading for 1 s that often.
+    Positions are GPS fixes at ``fix_rate_hz`` (1 Hz, as the SC-30 sends GGA/RMC),
+    each repeated on the cycle lines until the next one with its growing
+    ``position_age_s``, as the daemon logs them; the heading is new every cycle.
 
     Returns ``{"t_s", "north_m", "east_m", "thrust_port_n", "thrust_stbd_n",
     "waypoints_ne_m", "cycles", "failsafe_at_s", "complete"}``.
@@ -140,6 +144,14 @@ def write_synthetic_log(
     nmea_dropped = np.cumsum(rng.random(n) < 0.002)
     ack_missing = np.cumsum(rng.random(n) < 0.0005)
 
+    # what the daemon logs: the last fix held (and ageing) until the next one arrives
+    every = max(1, int(round(rate_hz / fix_rate_hz)))
+    fix_row = (np.arange(n) // every) * every
+    fix_latency_s = 0.05
+    position_age = t - t[fix_row] + fix_latency_s
+    north_true, east_true = north, east
+    north, east = north[fix_row], east[fix_row]
+    sog_fix, cog_fix = sog[fix_row], psi_deg[fix_row]
     lat, lon = local_to_latlon(north, east, *origin_deg)
     valid_heading = moving.copy()
     valid_pos = np.ones(n, dtype=bool)
@@ -152,16 +164,28 @@ def write_synthetic_log(
     if not loop and failsafe_at_s is None and end_s >= path_end_s:
         complete_idx = n - 1
 
-    # waypoint passages: index where the leg changes
+    # waypoint passages: the cycle where the leg changes; the closest fix of each pass (fixes
+    # while on the leg to W_i and on the next one) is logged when the pass ends, as the daemon does
     reached = np.nonzero(np.diff(leg))[0] + 1
     events_at: dict[int, list[str]] = {}
+    is_fix = (np.arange(n) % every == 0) & valid_pos
+    end_of_pass = {int(leg[k - 1]) - 1: int(k) for k in reached}  # W_{i+1} reached ends W_i's pass
+    passes = {}
+    for i in range(len(wps)):
+        sel = is_fix & ((leg == i) | (leg == i + 1)) & (np.arange(n) <= end_of_pass.get(i, n - 1))
+        if sel.any():
+            d = np.hypot(north[sel] - wps[i, 0], east[sel] - wps[i, 1])
+            j = int(np.argmin(d))
+            passes[i] = (round(float(d[j]), 3), float(t[sel][j] - fix_latency_s))
     for k in reached:
         i = int(leg[k - 1])
-        lo = k - int(5 * rate_hz)
-        ca = float(np.min(np.hypot(north[max(lo, 0):k + 1] - wps[i, 0], east[max(lo, 0):k + 1] - wps[i, 1])))
         events_at.setdefault(k, []).append(
-            _line("waypoint_reached", t[k], wp_index=i, north_m=round(float(north[k]), 3),
-                  east_m=round(float(east[k]), 3), closest_approach_m=round(ca, 3)))
+            _line("waypoint_reached", t[k], wp_index=i, north_m=round(float(north_true[k]), 3),
+                  east_m=round(float(east_true[k]), 3), distance_m=round(float(abs(weave[k])), 3),
+                  how="passed"))
+        if i - 1 in passes:
+            ca, ct = passes[i - 1]
+            events_at[k].append(_line("waypoint_pass", t[k], wp_index=i - 1, closest_approach_m=ca, closest_t_s=ct))
     fs_idx = None
     if failsafe_at_s is not None:
         fs_idx = int(np.argmax(~moving)) if (~moving).any() else None
@@ -177,10 +201,10 @@ def write_synthetic_log(
         "north_m": (north, "%.3f", valid_pos), "east_m": (east, "%.3f", valid_pos),
         "heading_deg": (heading, "%.2f", valid_heading),
         "yaw_rate_deg_s": (yaw_rate_deg_s, "%.3f", valid_heading),
-        "sog_m_s": (sog, "%.3f", valid_pos), "cog_deg": (psi_deg, "%.2f", valid_pos),
+        "sog_m_s": (sog_fix, "%.3f", valid_pos), "cog_deg": (cog_fix, "%.2f", valid_pos),
         "fix_quality": (np.where(valid_pos, 1, 0), "%d", None),
         "heading_age_s": (np.full(n, 0.05), "%.3f", valid_heading),
-        "position_age_s": (np.full(n, 0.4), "%.3f", valid_pos),
+        "position_age_s": (position_age, "%.3f", valid_pos),
         "wp_index": (wp_index, "%d", None),
         "tcpa_nd": (tcpa_nd, "%.4f", valid_heading), "dcpa_nd": (dcpa_nd, "%.4f", valid_heading),
         "cdh": (cdh, "%.4f", valid_heading), "psi_d_deg": (psi_d_deg, "%.2f", valid_heading),
@@ -196,6 +220,8 @@ def write_synthetic_log(
         "heading_latency_ms": (np.full(n, 4.2), "%.2f", valid_heading),
         "seq": (np.arange(n), "%d", None), "ack_missing": (ack_missing, "%d", None),
         "nmea_dropped": (nmea_dropped, "%d", None),
+        "est_north_m": (north_true, "%.3f", moving), "est_east_m": (east_true, "%.3f", moving),
+        "tau_com_trim_n": (np.zeros(n), "%.3f", moving), "skipped_cycles": (np.zeros(n, dtype=int), "%d", None),
     }
     path = Path(path)
     origin_lat, origin_lon = origin_deg
@@ -232,20 +258,29 @@ def write_synthetic_log(
                 f.write(head % (t_strs[j], k, mode[k], hs) + body
                         + f', "sat_port": {"true" if sat_port[k] else "false"}'
                         + f', "sat_stbd": {"true" if sat_stbd[k] else "false"}'
-                        + f', "saturation": [{", ".join(sat)}], "timestamp": "{_iso(t[k])}"}}\n')
+                        + f', "saturation": [{", ".join(sat)}]'
+                        + (', "active_faults": []' if moving[k] else ', "active_faults": ["heading_stale"]')
+                        + f', "timestamp": "{_iso(t[k])}"}}\n')
         if complete_idx is not None:
-            ca = [json.loads(x)["closest_approach_m"] for k in sorted(events_at)
-                  for x in events_at[k] if '"waypoint_reached"' in x]
-            f.write(_line("waypoint_reached", t[-1], wp_index=len(wps) - 1,
-                          north_m=round(float(north[-1]), 3), east_m=round(float(east[-1]), 3),
-                          closest_approach_m=round(float(abs(weave[-1])), 3)))
-            f.write(_line("mission_complete", t[-1], wp_count=len(wps),
-                          closest_approach_m=ca + [round(float(abs(weave[-1])), 3)]))
-        reason = "complete" if complete_idx is not None else ("failsafe" if fs_idx is not None else "signal")
-        f.write(_line("stop", t[-1], reason=reason, signal=None, ack_received=True, cycles=n,
-                      nmea_dropped=int(nmea_dropped[-1]), ack_missing=int(ack_missing[-1])))
+            last = len(wps) - 1
+            f.write(_line("waypoint_reached", t[-1], wp_index=last, north_m=round(float(north_true[-1]), 3),
+                          east_m=round(float(east_true[-1]), 3), distance_m=round(float(abs(weave[-1])), 3),
+                          how="capture"))
+            f.write(_line("mission_complete", t[-1], wp_count=len(wps)))
+        for i in sorted(passes):  # the passes still open end with the log
+            if i >= len(wps) - 2 or (i + 1) not in {int(leg[k - 1]) for k in reached}:
+                ca, ct = passes[i]
+                if not any(f'"wp_index": {i}, "closest_approach_m"' in x for v in events_at.values() for x in v):
+                    f.write(_line("waypoint_pass", t[-1], wp_index=i, closest_approach_m=ca, closest_t_s=ct))
+        reason = "complete" if complete_idx is not None else "signal"
+        f.write(_line("stop", t[-1], reason=reason, signal=None if complete_idx is not None else "SIGTERM",
+                      ack_received=True, cycles=n, nmea_dropped=int(nmea_dropped[-1]), ack_missing=int(ack_missing[-1]),
+                      closest_approach_m=[passes.get(i, (None,))[0] for i in range(len(wps))]))
     return {
-        "t_s": t, "north_m": north, "east_m": east, "thrust_port_n": port, "thrust_stbd_n": stbd,
+        "t_s": t, "north_m": north_true, "east_m": east_true, "thrust_port_n": port, "thrust_stbd_n": stbd,
+        "fix_rows": np.nonzero(is_fix)[0], "fix_t_s": t[is_fix] - fix_latency_s,
+        "logged_north_m": north, "logged_east_m": east,
+        "closest_approach_m": [passes.get(i, (math.nan,))[0] for i in range(len(wps))],
         "waypoints_ne_m": wps, "cycles": n, "failsafe_at_s": failsafe_at_s,
         "complete": complete_idx is not None, "weave_m": weave,
     }

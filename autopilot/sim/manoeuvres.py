@@ -90,25 +90,19 @@ def _zigzag(params: VesselParams, duration_s: float, dt_s: float, angle_deg: flo
     tp_hist = np.empty(n_steps + 1)
     ts_hist = np.empty(n_steps + 1)
     turn_sign = 1.0  # start turning to starboard
-    overshoots = []
-    peak = 0.0
+    switches: list[tuple[int, float]] = []  # (step index, sign of the turn that was reversed)
     limit = math.radians(angle_deg)
     for k in range(n_steps):
         psi = x[2]
         if turn_sign > 0 and psi >= limit or turn_sign < 0 and psi <= -limit:
+            switches.append((k, turn_sign))
             turn_sign = -turn_sign
-            peak = psi
-        elif abs(psi) > abs(peak) and np.sign(psi) == -turn_sign:
-            peak = psi
-        else:
-            if peak != 0.0:
-                overshoots.append(math.degrees(abs(peak)) - angle_deg)
-                peak = 0.0
         tp = common_n + turn_sign * differential_n / 2
         ts = common_n - turn_sign * differential_n / 2
         tp_hist[k], ts_hist[k] = tp, ts
         x = step(params, x, tp, ts, dt_s, t_s=t[k], env=CALM)
         hist[k + 1] = x
+    overshoots = zigzag_overshoots_deg(hist[:, 2], switches, angle_deg)
     tp_hist[-1], ts_hist[-1] = tp_hist[-2], ts_hist[-2]
     out = {"t_s": t, **{n: hist[:, i] for i, n in enumerate(STATE_NAMES)}}
     figures = {
@@ -117,6 +111,20 @@ def _zigzag(params: VesselParams, duration_s: float, dt_s: float, angle_deg: flo
         "overshoot_deg": [round(o, 3) for o in overshoots[:4]],
     }
     return ManoeuvreResult("zigzag", t, out, tp_hist, ts_hist, figures)
+
+
+def zigzag_overshoots_deg(psi_rad: np.ndarray, switches, angle_deg: float) -> list[float]:
+    """One overshoot per completed reversal: how far the heading went past +-``angle_deg``.
+
+    ``switches``: (sample index, sign of the turn being reversed) in order. After each switch
+    the heading keeps swinging the old way for a while; its largest excursion in that direction
+    before the next switch, minus the angle, is the overshoot. A swing cut off by the end of the
+    run (no later switch) is not counted.
+    """
+    out = []
+    for (i, sign), (j, _) in zip(switches, switches[1:]):
+        out.append(math.degrees(float(np.max(sign * psi_rad[i:j + 1]))) - angle_deg)
+    return out
 
 
 def plot(result: ManoeuvreResult, path: str) -> None:

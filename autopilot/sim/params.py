@@ -3,7 +3,7 @@
 One frozen dataclass, every field with its unit, allowed range and source.
 Hydrodynamic derivatives are kept non-dimensional as the thesis prints them
 (Table 5.1, standard MMG scaling by 1/2 rho L d U^2 and 1/2 rho L^2 d U^2);
-everything else is SI. Two files in ``config/`` hold the two sets:
+everything else is SI. Two files shipped in ``autopilot/data/`` (``config/`` in a checkout) hold the two sets:
 ``vessel-thesis.yaml`` (Table 5.1 as printed) and ``vessel.yaml`` (calibrated
 against the measured table, written by ``autopilot model calibrate``).
 """
@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from autopilot.resources import default_params_path, thesis_params_path  # noqa: F401 - the model's files, re-exported
 from autopilot.schema import load_yaml, param
 
 _T51 = "Table 5.1 (x 1e-3 as printed)"
@@ -102,18 +103,3 @@ class VesselParams:
 def load_params(path: str | Path) -> VesselParams:
     """Load a vessel parameter YAML file (refuses unknown keys, NaN, out-of-range values)."""
     return load_yaml(VesselParams, path)
-
-
-def config_dir() -> Path:
-    """The repository's config/ directory."""
-    return Path(__file__).resolve().parents[2] / "config"
-
-
-def default_params_path() -> Path:
-    """config/vessel.yaml: the set calibrated against the measured table (SPEC 6)."""
-    return config_dir() / "vessel.yaml"
-
-
-def thesis_params_path() -> Path:
-    """config/vessel-thesis.yaml: Table 5.1 as printed."""
-    return config_dir() / "vessel-thesis.yaml"

@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 
 from autopilot.clock import Clock
+from autopilot.drivers.framing import LineFramer
 from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, ProtocolError, decode_command, encode_ack
 from autopilot.simdev.boat import SimBoat
 from autopilot.simdev.pty import PtyEndpoint
@@ -45,12 +46,11 @@ class SimulatedMbed:
         self.commands: list[tuple[float, int, float, bool, float, bool]] = []
         self.thrust_log: list[tuple[float, float, bool, float, bool, str]] = []
         self.outputs: tuple[float, bool, float, bool] = (0.0, False, 0.0, False)
-        self.bad_lines = 0
+        self._malformed = 0
         self.rejected = 0
         self.timeouts = 0
         self.last_valid_s = -float("inf")
-        self._buf = bytearray()
-        self._overflow = False
+        self._framer = LineFramer(MAX_LINE_CHARS)
         self._fd: int | None = None
         self._armed = asyncio.Event()
         self._tasks: list[asyncio.Task] = []
@@ -76,7 +76,7 @@ class SimulatedMbed:
         """USB cable pulled: the link is gone; the firmware's timeout will stop the motors."""
         self._detach()
         self._endpoint.unplug()
-        self._buf.clear()
+        self._framer.clear()
 
     def replug(self) -> None:
         self._endpoint.replug()
@@ -127,21 +127,13 @@ class SimulatedMbed:
         if not data:
             return
         now_s = self.clock.now_s()
-        self._buf += data
-        while True:
-            nl = self._buf.find(b"\n")
-            if nl < 0:
-                break
-            line = bytes(self._buf[:nl])
-            del self._buf[: nl + 1]
-            if self._overflow:
-                self._overflow = False
-                self.bad_lines += 1
-                continue
+        for line in self._framer.feed(data):
             self._line(line, now_s)
-        if len(self._buf) > MAX_LINE_CHARS + 2:
-            self._buf.clear()
-            self._overflow = True
+
+    @property
+    def bad_lines(self) -> int:
+        """Lines that were not commands (bad framing or checksum, or too long), cumulative."""
+        return self._malformed + self._framer.too_long
 
     def _line(self, line: bytes, now_s: float) -> None:
         if not line.strip(b"\r"):
@@ -150,7 +142,7 @@ class SimulatedMbed:
             cmd = decode_command(line)
         except ProtocolError as exc:
             if exc.reason is None:
-                self.bad_lines += 1
+                self._malformed += 1
             else:
                 self.rejected += 1
                 self._reply(encode_ack(exc.seq, "REJ", reason=exc.reason))

@@ -20,8 +20,8 @@ RMC status V with empty fields), ``drop_rate`` (probability a sentence is
 dropped), ``delay_s`` (extra latency of every sentence), ``split`` (write
 each sentence in 1-7 byte fragments paced at the character time),
 ``corrupt_next(n)`` (the next n sentences get a wrong checksum),
-``inject(data)`` (raw bytes as fast as the pty takes them), ``unplug()``,
-``replug()``.
+``inject(data)`` (raw bytes on the line at the baud rate, displacing the
+sentences), ``unplug()``, ``replug()``.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import numpy as np
 
 from autopilot.clock import Clock
 from autopilot.drivers.nmea import checksum
+from autopilot.drivers.sc30_output import default_sentences
 from autopilot.simdev.boat import SimBoat
 from autopilot.simdev.pty import PtyEndpoint
 
@@ -42,13 +43,8 @@ KN_PER_M_S = 1.0 / 0.514444
 HEADING_SENTENCES = ("HDT", "THS", "PFEC_GPatt")
 POSITION_SENTENCES = ("GGA", "RMC", "GLL", "VTG")
 MAX_BACKLOG_S = 0.5
-
-
-def default_sentences(baudrate: int) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """(10 Hz sentences, 1 Hz sentences) that fit in the baud rate's ~baud/10 chars/s."""
-    if baudrate >= 9600:
-        return ("HDT", "PFEC_GPatt", "ROT"), ("GGA", "RMC", "VTG", "ZDA")
-    return ("HDT",), ("ROT", "GGA", "RMC", "VTG", "ZDA")
+RAW = "RAW"  # a queue item of injected raw bytes (not a sentence)
+RAW_CHUNK = 16  # injected bytes reach the pty this many at a time, each when its last would have
 
 
 def _ddmm(value_deg: float, deg_digits: int) -> str:
@@ -107,6 +103,7 @@ class SimulatedSC30:
         self.sentences_sent = 0
         self.bytes_sent = 0
         self.overruns = 0
+        self.raw_started_s: float | None = None  # when the last injected bytes began on the wire
         self.last_heading_sent_deg: float | None = None
         self.sent_log: deque[tuple[float, str]] = deque(maxlen=2000)  # (t_s, sentence) for tests
         self._line_free_s = 0.0
@@ -118,8 +115,15 @@ class SimulatedSC30:
         self._corrupt += int(n)
 
     def inject(self, data: bytes) -> None:
-        """Raw bytes onto the line now (ahead of the paced sentences)."""
-        self._tasks.append(asyncio.get_running_loop().create_task(self._write_all(bytes(data))))
+        """Raw bytes onto the line, paced at the baud rate like everything on it (10 kB at 4800
+        baud take ~21 s); sentences that wait behind them longer than MAX_BACKLOG_S are lost."""
+        assert self._queue is not None, "start() first"
+        self._queue.put_nowait((self.clock.now_s(), bytes(data), RAW))
+
+    @property
+    def line_busy_until_s(self) -> float:
+        """Clock time the line finishes sending what it has started (injected bytes included)."""
+        return self._line_free_s
 
     def unplug(self) -> None:
         self._endpoint.unplug()
@@ -240,6 +244,15 @@ class SimulatedSC30:
         while True:
             t_s, line, kind = await self._queue.get()
             start_s = max(t_s + self.delay_s, self._line_free_s)
+            if kind == RAW:
+                start_s = max(t_s, self._line_free_s)
+                self.raw_started_s = start_s
+                self._line_free_s = start_s + len(line) * char_s
+                for pos in range(0, len(line), RAW_CHUNK):
+                    await self.clock.sleep_until(start_s + min(pos + RAW_CHUNK, len(line)) * char_s)
+                    self._endpoint.write(line[pos : pos + RAW_CHUNK])
+                self.bytes_sent += len(line)
+                continue
             if start_s - t_s - self.delay_s > MAX_BACKLOG_S:
                 self.overruns += 1
                 continue
@@ -258,13 +271,3 @@ class SimulatedSC30:
             self.sentences_sent += 1
             self.bytes_sent += len(line)
             self.sent_log.append((self.clock.now_s(), line.decode("ascii")))
-
-    async def _write_all(self, data: bytes) -> None:
-        pos = 0
-        while pos < len(data) and self._endpoint.plugged:
-            n = self._endpoint.write(data[pos : pos + 1024])
-            pos += n
-            if n == 0:
-                await asyncio.sleep(0.002)  # pty full: let the reader drain it
-            else:
-                await asyncio.sleep(0)

@@ -46,24 +46,24 @@ FOLDS = 5
 
 def read_table_csv(path) -> tuple[SteadyRow, ...]:
     """Read a steady-state table CSV."""
+    from autopilot.userfile import csv_rows, read_text
+
     path = Path(path)
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(row for row in fh if row.strip() and not row.startswith("#"))
-            missing = [c for c in COLUMNS if c not in (reader.fieldnames or [])]
-            if missing:
-                raise ConfigError(f"{path}: missing column(s) {', '.join(missing)} (need {', '.join(COLUMNS)})")
-            rows = []
-            for k, r in enumerate(reader, start=2):
-                try:
-                    vals = [float(r[c]) for c in COLUMNS[1:]]
-                except (TypeError, ValueError) as exc:
-                    raise ConfigError(f"{path}:{k}: not a number ({exc})") from exc
-                if not all(math.isfinite(v) for v in vals) or vals[3] < 0:
-                    raise ConfigError(f"{path}:{k}: values must be finite and speed_m_s >= 0")
-                rows.append(SteadyRow(r["name"].strip(), *vals))
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    table = csv_rows(read_text(path, what="steady-state table CSV"))
+    header = table[0] if table else []
+    missing = [c for c in COLUMNS if c not in header]
+    if missing:
+        raise ConfigError(f"{path}: missing column(s) {', '.join(missing)} (need {', '.join(COLUMNS)})")
+    col = {c: header.index(c) for c in COLUMNS}
+    rows = []
+    for k, r in enumerate(table[1:], start=2):
+        try:
+            vals = [float(r[col[c]]) for c in COLUMNS[1:]]
+        except (IndexError, ValueError) as exc:
+            raise ConfigError(f"{path}:{k}: not a number ({exc})") from exc
+        if not all(math.isfinite(v) for v in vals) or vals[3] < 0:
+            raise ConfigError(f"{path}:{k}: values must be finite and speed_m_s >= 0")
+        rows.append(SteadyRow(r[col["name"]], *vals))
     if len(rows) < 3:
         raise ConfigError(f"{path}: need at least 3 rows, got {len(rows)}")
     return tuple(rows)

@@ -142,14 +142,12 @@ def _number(text: str) -> float:
 
 def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     """Read one trial CSV (columns in the module docstring)."""
+    from autopilot.userfile import csv_rows, read_text
+
     path = Path(path)
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.reader(row for row in fh if row.strip() and not row.lstrip().startswith("#"))
-            header = [h.strip() for h in next(reader, [])]
-            rows = [[_number(c.strip()) for c in r] for r in reader]
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    table = csv_rows(read_text(path, what="trial CSV"))
+    header = table[0] if table else []
+    rows = [[_number(c) for c in r] for r in table[1:]]
     if "t_s" not in header:
         raise ConfigError(f"{path}: no t_s column in the header ({', '.join(header) or 'empty file'})")
     width = len(header)

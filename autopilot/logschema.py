@@ -1,0 +1,322 @@
+"""The mission log's schema: every line, field, unit, mode, heading source, event and stop reason, once.
+
+The daemon writes its lines from these declarations, the review's reader and
+sysid's log reader read by them, the synthetic log writer writes them, and
+``docs/log-schema.md`` is generated from this module (``python -m
+autopilot.logschema > docs/log-schema.md``; a test keeps the two equal).
+Readers ignore keys they do not know, so adding a field is compatible.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+__all__ = [
+    "Field",
+    "EventSpec",
+    "Mode",
+    "MODES",
+    "HEADING_SOURCES",
+    "FAULT_CAUSES",
+    "LATCHED_CAUSES",
+    "STOP_REASONS",
+    "INFO_MESSAGES",
+    "CYCLE",
+    "CYCLE_KEYS",
+    "EVENTS",
+    "EVENT_NAMES",
+    "render_markdown",
+]
+
+
+@dataclass(frozen=True)
+class Field:
+    """One key of a log line: its JSON type, unit ("-" for none) and meaning."""
+
+    name: str
+    type: str  # "float", "int", "bool", "string", "list", "mapping", "any"
+    unit: str
+    doc: str
+
+    @property
+    def numeric(self) -> bool:
+        """Stored by the review's reader as a float column (bools as 0/1)."""
+        return self.type in ("float", "int", "bool")
+
+
+@dataclass(frozen=True)
+class EventSpec:
+    name: str
+    doc: str
+    fields: tuple[Field, ...] = ()
+
+
+class Mode(str, enum.Enum):
+    """What the daemon is doing in a cycle (the ``mode`` of every cycle line)."""
+
+    WAITING = "waiting"  # waiting for valid data before the mission starts (zero thrust)
+    AUTO = "auto"  # flying the mission
+    FAILSAFE = "failsafe"  # a fault: zero thrust until the data are valid again
+    COMPLETE = "complete"  # the last waypoint reached: zero thrust
+    HOLD = "hold"  # the last waypoint reached: holding station on it (gnc.guidance.final_action: hold)
+
+    def __str__(self) -> str:
+        return self.value
+
+
+MODES: tuple[str, ...] = tuple(m.value for m in Mode)
+HEADING_SOURCES: tuple[str, ...] = ("THS", "HDT", "PFEC_GPatt", "COG")  # the driver's priority, then the fallback
+FAULT_CAUSES: tuple[str, ...] = (
+    "heading_stale",
+    "heading_invalid",
+    "position_stale",
+    "no_fix",
+    "mbed_ack_missing",
+    "compass_port_lost",
+    "mbed_port_lost",
+    "nmea_garbage",
+    "mbed_garbage",
+    "geofence",
+    "max_mission_time",
+    "max_distance",
+)
+LATCHED_CAUSES = frozenset({"geofence", "max_mission_time", "max_distance"})
+STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_time")
+INFO_MESSAGES: tuple[tuple[str, str], ...] = (
+    ("port_opened, port_lost, port_open_failed, nmea_garbage, mbed_garbage",
+     "device events from the drivers, with `device` (`sc30` or `mbed`) and their context"),
+    ("data valid: control starts", "first transition out of `waiting` (`valid_for_s`)"),
+    ("ready: SC-30 and Mbed answer", "READY=1 sent to systemd"),
+    ("devices not answering", "after `ready_timeout_s` (`sc30_heard`, `mbed_heard`)"),
+    ("holding zero thrust: ...", "an interrupted mission found in the state directory and resuming is not configured"),
+    ("resuming interrupted mission at waypoint N", "`failsafe.resume_after_restart: true`"),
+    ("control loop error", "an exception in the loop (`error`); the boat is stopped"),
+    ("state not saved", "the progress file could not be written (`error`)"),
+    ("zero-thrust on stop failed", "the final command could not be sent (`error`)"),
+)
+
+
+def _f(name: str, type_: str, unit: str, doc: str) -> Field:
+    return Field(name, type_, unit, doc)
+
+
+COMMON: tuple[Field, ...] = (
+    _f("timestamp", "string", "-", "wall-clock UTC, ISO 8601 with `Z`"),
+    _f("event", "string", "-", "the line's event name (below)"),
+    _f("t_s", "float", "s", "mission time: seconds since `mission_start` on the daemon's (possibly sped-up, simulated) monotonic clock"),
+)
+
+CYCLE: tuple[Field, ...] = (
+    _f("cycle", "int", "-", "cycle counter from 0"),
+    _f("mode", "string", "-", "one of " + ", ".join(f"`{m}`" for m in MODES) + " (see Modes)"),
+    _f("lat_deg", "float", "deg", "latitude of the last position fix (null when none yet)"),
+    _f("lon_deg", "float", "deg", "longitude of the last position fix"),
+    _f("north_m", "float", "m", "the last fix in the local frame around the origin (null when none)"),
+    _f("east_m", "float", "m", "see `north_m`"),
+    _f("est_north_m", "float", "m", "position the guidance used: the fix dead-reckoned by SOG/COG over its age, at most `dead_reckon_max_s` (null when not steering)"),
+    _f("est_east_m", "float", "m", "see `est_north_m`"),
+    _f("heading_deg", "float", "deg", "heading used this cycle, [0, 360) (null when none)"),
+    _f("heading_source", "string", "-", "one of " + ", ".join(f"`{s}`" for s in HEADING_SOURCES) + " (fallback), or null"),
+    _f("yaw_rate_deg_s", "float", "deg/s", "rate of turn (ROT, or differentiated heading); + = to starboard"),
+    _f("sog_m_s", "float", "m/s", "speed over ground"),
+    _f("cog_deg", "float", "deg", "course over ground"),
+    _f("fix_quality", "int", "-", "GGA fix quality (0 = no fix)"),
+    _f("heading_age_s", "float", "s", "age of the heading used: it was measured at `t_s - heading_age_s`"),
+    _f("position_age_s", "float", "s", "age of the last fix: it was measured at `t_s - position_age_s`; a row repeating a held fix is not a new measurement"),
+    _f("wp_index", "int", "-", "index of the waypoint being steered to (0-based)"),
+    _f("tcpa_nd", "float", "-", "TCPA' of the fuzzy guidance (null for other laws)"),
+    _f("dcpa_nd", "float", "-", "DCPA' of the fuzzy guidance (null for other laws)"),
+    _f("cdh", "float", "-", "CDH of the fuzzy guidance (null for other laws)"),
+    _f("psi_d_deg", "float", "deg", "desired heading [0, 360)"),
+    _f("heading_error_deg", "float", "deg", "psi_d - psi wrapped to (-180, 180]"),
+    _f("xte_m", "float", "m", "signed cross-track error from the current leg (+ = starboard of the leg)"),
+    _f("speed_cmd_m_s", "float", "m/s", "wanted speed"),
+    _f("pid_p_n", "float", "N", "PID proportional term (tau_order = p + i + d)"),
+    _f("pid_i_n", "float", "N", "PID integral term"),
+    _f("pid_d_n", "float", "N", "PID derivative term"),
+    _f("tau_com_n", "float", "N", "common-mode thrust (Eq 8.5-8.6)"),
+    _f("tau_com_trim_n", "float", "N", "the speed-over-ground trim inside `tau_com_n` (table feed-forward = `tau_com_n - tau_com_trim_n`)"),
+    _f("tau_order_n", "float", "N", "differential thrust asked of the allocation (Eq 8.5-8.6)"),
+    _f("thrust_port_n", "float", "N", "commanded thrust after saturation (negative = reverse)"),
+    _f("thrust_stbd_n", "float", "N", "see `thrust_port_n`"),
+    _f("pwm_port_pct", "float", "%", "commanded duty, signed: negative = reverse (clockwise)"),
+    _f("pwm_stbd_pct", "float", "%", "see `pwm_port_pct`"),
+    _f("sat_port", "bool", "-", "that side hit its thrust limit"),
+    _f("sat_stbd", "bool", "-", "see `sat_port`"),
+    _f("saturation", "list", "-", "limits hit: `port_upper`, `port_lower`, `stbd_upper`, `stbd_lower`"),
+    _f("lateness_ms", "float", "ms", "how late this cycle started after its absolute deadline"),
+    _f("skipped_cycles", "int", "-", "deadlines skipped so far because the loop fell more than a period behind (cumulative)"),
+    _f("heading_latency_ms", "float", "ms", "time from the heading sentence's arrival to this command"),
+    _f("seq", "int", "-", "Mbed command sequence number sent (-1: the command could not be written)"),
+    _f("ack_missing", "int", "-", "Mbed acknowledgements missing so far (cumulative)"),
+    _f("nmea_dropped", "int", "-", "NMEA lines dropped so far (bad checksum, garbage; cumulative)"),
+    _f("active_faults", "list", "-", "failsafe causes active this cycle (empty when none)"),
+)
+CYCLE_KEYS: tuple[str, ...] = tuple(f.name for f in CYCLE)
+
+_CAUSE = _f("cause", "string", "-", "one of " + ", ".join(f"`{c}`" for c in FAULT_CAUSES))
+
+EVENTS: tuple[EventSpec, ...] = (
+    EventSpec("mission_start", "first line of every log", (
+        _f("mission", "string", "-", "mission file path"),
+        _f("mission_name", "string", "-", "the mission's name"),
+        _f("guidance", "string", "-", "guidance law (`fuzzy`, `los`, `proportional`)"),
+        _f("rate_hz", "float", "Hz", "control rate"),
+        _f("sim", "bool", "-", "bench run against simulated devices"),
+        _f("speedup", "float", "-", "simulated time runs this many times faster than real time"),
+        _f("origin_lat_deg", "float", "deg", "local-frame origin"),
+        _f("origin_lon_deg", "float", "deg", "local-frame origin"),
+        _f("waypoints", "list", "m", "list of `[north_m, east_m]`"),
+        _f("waypoint_speeds_m_s", "list", "m/s", "speed of the leg to each waypoint (null = default)"),
+        _f("boat_length_m", "float", "m", "L of the fuzzy guidance"),
+        _f("config", "mapping", "-", "the whole configuration"),
+        _f("version", "string", "-", "package version"),
+        _f("start_index", "int", "-", "waypoint the mission starts at: 0, or the saved one after a restart"),
+        _f("sc30_port", "string", "-", "compass port path"),
+        _f("mbed_port", "string", "-", "thruster board port path"),
+        _f("pid", "int", "-", "process id"),
+    )),
+    EventSpec("cycle", "one per control cycle (the table above)", CYCLE),
+    EventSpec("waypoint_reached", "the guidance counted a waypoint reached and switched to the next", (
+        _f("wp_index", "int", "-", "the waypoint"),
+        _f("north_m", "float", "m", "the position the guidance used (as `est_north_m`)"),
+        _f("east_m", "float", "m", "see `north_m`"),
+        _f("distance_m", "float", "m", "distance to the waypoint at the switch"),
+        _f("how", "string", "-", "`capture` (within `capture_radius_m`) or `passed` (the law's own test: TCPA' < 0 for the fuzzy law)"),
+    )),
+    EventSpec("waypoint_pass", "a waypoint's pass ended: its closest approach (autopilot.gnc.passes)", (
+        _f("wp_index", "int", "-", "the waypoint"),
+        _f("closest_approach_m", "float", "m", "smallest distance of a position fix measured during the pass (null: no fix)"),
+        _f("closest_t_s", "float", "s", "mission time that fix was measured"),
+        _f("closest_north_m", "float", "m", "that fix"),
+        _f("closest_east_m", "float", "m", "that fix"),
+        _f("fixes", "int", "-", "fixes in the pass"),
+    )),
+    EventSpec("mission_complete", "the last waypoint reached", (
+        _f("wp_count", "int", "-", "waypoints in the mission"),
+    )),
+    EventSpec("fault", "a failsafe cause appeared (once per cause until it clears)", (
+        _CAUSE, _f("detail", "string", "-", "what was seen"))),
+    EventSpec("fault_cleared", "a cause went away", (_CAUSE,)),
+    EventSpec("failsafe", "the boat was under control and a fault stopped it", (
+        _CAUSE, _f("action", "string", "-", "`zero_thrust`"))),
+    EventSpec("failsafe_cleared", "no cause for `failsafe.resume_valid_s`", (
+        _CAUSE, _f("valid_for_s", "float", "s", "how long the data have been valid"))),
+    EventSpec("resume", "the GNC drives again (integrators reset)", (
+        _CAUSE, _f("valid_for_s", "float", "s", "how long the data have been valid"))),
+    EventSpec("stop", "the last line of a log unless the process was killed (SIGKILL, power loss)", (
+        _f("reason", "string", "-", "one of " + ", ".join(f"`{r}`" for r in STOP_REASONS)),
+        _f("signal", "string", "-", "`SIGTERM`, `SIGINT` or null"),
+        _f("ack_received", "bool", "-", "the final zero-thrust command was acknowledged within `stop_ack_timeout_s`"),
+        _f("cycles", "int", "-", "cycles run"),
+        _f("skipped_cycles", "int", "-", "deadlines missed by more than a period and skipped"),
+        _f("late_cycles", "int", "-", "cycles that started a period or more after their deadline"),
+        _f("speedup_held", "float", "-", "simulated seconds per wall second over the run (the `--speedup` actually kept)"),
+        _f("nmea_dropped", "int", "-", "NMEA lines dropped"),
+        _f("ack_missing", "int", "-", "Mbed acknowledgements missing"),
+        _f("closest_approach_m", "list", "m", "closest approach of each waypoint's pass (null: no fix, or never reached)"),
+    )),
+    EventSpec("info", "`message` plus context", (
+        _f("message", "string", "-", "one of the messages listed below"),
+    )),
+)
+EVENT_NAMES: tuple[str, ...] = tuple(e.name for e in EVENTS)
+_BY_NAME = {e.name: e for e in EVENTS}
+
+
+def event_spec(name: str) -> EventSpec:
+    return _BY_NAME[name]
+
+
+def _table(fields, *, header=("key", "type", "unit", "meaning")) -> list[str]:
+    rows = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    rows += [f"| `{f.name}` | {f.type} | {f.unit} | {f.doc} |" for f in fields]
+    return rows
+
+
+_MODE_DOCS = {
+    Mode.WAITING: "waiting for valid data before control starts; zero thrust",
+    Mode.AUTO: "flying the mission",
+    Mode.FAILSAFE: "a fault: zero thrust on both sides, sent every cycle while it lasts",
+    Mode.COMPLETE: "the last waypoint reached; zero thrust",
+    Mode.HOLD: "the last waypoint reached; holding station on it (`gnc.guidance.final_action: hold`)",
+}
+
+
+def render_markdown() -> str:
+    """docs/log-schema.md."""
+    out = [
+        "# Mission log schema",
+        "",
+        "<!-- generated by `python -m autopilot.logschema > docs/log-schema.md` from autopilot/logschema.py; edit that -->",
+        "",
+        "One file per mission, `<log_dir>/mission-<UTC YYYYmmddTHHMMSSZ>-<mission stem>.jsonl`,",
+        "JSON lines written and flushed line by line by structlog, so a killed process loses",
+        "at most the line it was writing. Every line has:",
+        "",
+        *_table(COMMON),
+        "",
+        "Readers must ignore keys they do not know. Non-finite numbers are written as `null`.",
+        "",
+        "## `cycle` (one per control cycle)",
+        "",
+        *_table(CYCLE),
+        "",
+        "Every key is present on every `cycle` line; values that do not exist this cycle are `null`",
+        "(no position yet, no heading, GNC terms while the GNC is not stepped, `cdh`/`tcpa_nd`/`dcpa_nd`",
+        "for the non-fuzzy laws). Outside `auto` and `hold` the command is zero thrust on both sides",
+        "(`pwm_*_pct` = 0). `lateness_ms`, `heading_latency_ms` and the ages are measured on the daemon's",
+        "clock: with `--speedup N` they are simulated milliseconds.",
+        "",
+        "Measurements: the SC-30 sends position at 1 Hz and heading at 10 Hz, and every cycle line",
+        "repeats the latest of each. A position is a new measurement only on the first row it appears",
+        "in; it was measured at `t_s - position_age_s` (likewise the heading). The review's exports and",
+        "the identification use each fix once, at that time.",
+        "",
+        "## Modes",
+        "",
+        "| mode | meaning |",
+        "|---|---|",
+        *[f"| `{m.value}` | {_MODE_DOCS[m]} |" for m in Mode],
+        "",
+        "## Events",
+        "",
+    ]
+    for spec in EVENTS:
+        if spec.name == "cycle":
+            continue
+        out += [f"### `{spec.name}`", "", spec.doc[0].upper() + spec.doc[1:] + ".", ""]
+        if spec.fields:
+            out += [*_table(spec.fields), ""]
+    out += [
+        "`info` messages:",
+        "",
+        "| message | when |",
+        "|---|---|",
+        *[f"| `{m}` | {w} |" for m, w in INFO_MESSAGES],
+        "",
+        "## Failsafe sequence",
+        "",
+        "A fault appears: `fault` (per cause, once) and, if the boat was under control, one",
+        "`failsafe` with the first cause; zero thrust from that cycle on. Each cause that goes away",
+        "gets `fault_cleared`. When no cause has been active for `failsafe.resume_valid_s`:",
+        "`failsafe_cleared` and `resume` (same fields), and the GNC drives again (integrator reset).",
+        ", ".join(f"`{c}`" for c in sorted(LATCHED_CAUSES)) + " are latched: they never clear;",
+        "`max_mission_time` ends the run (`stop`, reason `max_mission_time`).",
+        "",
+        "## Closest approach",
+        "",
+        "The pass of waypoint W_i begins with the first fix taken while W_i is the target and ends",
+        "when W_{i+1} is reached, or, for the last waypoint, `gnc.guidance.final_pass_s` after",
+        "`mission_complete` (or when the mission stops). Its closest approach is the smallest distance",
+        "from W_i of the position fixes measured during the pass (`waypoint_pass`). The daemon logs it,",
+        "`autopilot evaluate` scores it and `autopilot review` recomputes it from the logged fixes, all",
+        "with `autopilot/gnc/passes.py`.",
+        "",
+    ]
+    return "\n".join(out)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(render_markdown(), end="")

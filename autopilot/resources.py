@@ -1,0 +1,83 @@
+"""The files shipped inside the package: vessel parameter sets, the measured table, missions, the default configuration.
+
+They live in ``autopilot/data/`` (the checkout's ``config/`` is a link to it),
+are installed with the wheel as package data and are found through
+:mod:`importlib.resources`, so an installed copy (``pip install .``, not only
+an editable checkout) simulates, evaluates and identifies with its defaults.
+``autopilot files`` lists them, so a user can copy one and edit it.
+"""
+
+from __future__ import annotations
+
+from importlib.resources import files
+from pathlib import Path
+
+__all__ = [
+    "data_dir",
+    "default_config_path",
+    "default_params_path",
+    "thesis_params_path",
+    "measured_table_path",
+    "missions_dir",
+    "shipped_missions",
+    "shipped_files",
+    "package_version",
+]
+
+
+def data_dir() -> Path:
+    """``autopilot/data`` of the installed (or checked-out) package."""
+    return Path(str(files("autopilot").joinpath("data")))
+
+
+def default_config_path() -> Path:
+    """``autopilot.yaml``: every daemon setting at its default, with unit and range in comments."""
+    return data_dir() / "autopilot.yaml"
+
+
+def default_params_path() -> Path:
+    """``vessel.yaml``: the set calibrated against the measured table (SPEC 6)."""
+    return data_dir() / "vessel.yaml"
+
+
+def thesis_params_path() -> Path:
+    """``vessel-thesis.yaml``: Table 5.1 as printed."""
+    return data_dir() / "vessel-thesis.yaml"
+
+
+def measured_table_path() -> Path:
+    """``measured-table.csv``: the free-running table of thesis Fig 8.2 (SPEC 6)."""
+    return data_dir() / "measured-table.csv"
+
+
+def missions_dir() -> Path:
+    """``missions/``: the thesis and pond missions (and format examples in ``missions/examples``)."""
+    return data_dir() / "missions"
+
+
+def shipped_missions() -> list[Path]:
+    """The YAML missions of ``missions/`` (not the format examples), sorted by name."""
+    return sorted(missions_dir().glob("*.yaml"))
+
+
+def shipped_files() -> list[tuple[str, Path]]:
+    """(what, path) of every shipped file a user may want to copy."""
+    out = [
+        ("daemon configuration (defaults)", default_config_path()),
+        ("vessel parameters, calibrated (default)", default_params_path()),
+        ("vessel parameters, thesis Table 5.1", thesis_params_path()),
+        ("measured steady-state table (thesis Fig 8.2)", measured_table_path()),
+    ]
+    out += [("mission", p) for p in shipped_missions()]
+    out += [("mission format example", p) for p in sorted((missions_dir() / "examples").iterdir()) if p.is_file()]
+    return out
+
+
+def package_version() -> str:
+    """The installed distribution's version ("unknown" from a checkout that was never installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("wamv-autopilot")
+    except PackageNotFoundError:  # pragma: no cover - a bare checkout
+        return "unknown"

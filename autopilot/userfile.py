@@ -1,0 +1,76 @@
+"""Reading a file a user hands in: one clear message instead of a traceback.
+
+Every text file the commands read (configuration, vessel parameters,
+missions, trial CSVs, steady-state tables) goes through :func:`read_text`:
+UTF-8, with a leading byte-order mark accepted (Excel's "CSV UTF-8" and some
+Windows editors write one). A directory, a missing or unreadable file, a
+binary file, UTF-16 text and other encodings (Latin-1 from an old editor) are
+refused with a :class:`~autopilot.schema.ConfigError` that names the file and
+says what it is instead; the CLI turns that into one line and exit code 2.
+"""
+
+from __future__ import annotations
+
+import codecs
+from pathlib import Path
+
+from autopilot.schema import ConfigError
+
+__all__ = ["read_text", "check_file"]
+
+_BINARY_SNIFF = 8192
+
+
+def check_file(path: str | Path, *, what: str = "file") -> Path:
+    """``path`` as a Path if it names a readable regular file; ConfigError otherwise."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise ConfigError(f"{p}: is a directory, not a {what}")
+        with p.open("rb"):
+            pass
+    except ConfigError:
+        raise
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    return p
+
+
+def read_text(path: str | Path, *, what: str = "file") -> str:
+    """The UTF-8 text of a user's file, a leading BOM removed; ConfigError naming the file otherwise."""
+    p = check_file(path, what=what)
+    try:
+        data = p.read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        raise ConfigError(f"{p}: UTF-16 text; save the {what} as UTF-8 (in Excel: 'CSV UTF-8')")
+    if data.startswith(codecs.BOM_UTF8):
+        data = data[len(codecs.BOM_UTF8):]
+    if b"\x00" in data[:_BINARY_SNIFF]:
+        raise ConfigError(f"{p}: binary data, not a text {what}")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        byte = data[exc.start]
+        raise ConfigError(
+            f"{p}: not UTF-8 text (byte 0x{byte:02X} at offset {exc.start}; Latin-1 or another encoding?): "
+            f"save the {what} as UTF-8"
+        ) from None
+
+
+def csv_rows(text: str) -> list[list[str]]:
+    """The rows of a CSV text, stripped cells; blank lines and ``#`` comment lines left out.
+
+    The delimiter is the header line's: a comma, or the semicolon or tab that spreadsheets
+    write in locales where the comma is the decimal separator.
+    """
+    import csv
+    import io
+
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        return []
+    head = lines[0]
+    delimiter = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
+    return [[c.strip() for c in row] for row in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
