@@ -306,7 +306,13 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "evaluate",
         help="closed-loop simulation scorecard: missions x guidance laws x conditions",
-        description=__doc__.split("\n\n")[1] if __doc__ else None,
+        description=(
+            "Fly every mission x guidance law x condition on simulated time: the calibrated model (RK4, "
+            "20 Hz) with the whole GNC stack at 10 Hz, no serial. One scorecard per run: completed, closest "
+            "approach per waypoint (over its pass, from 1 Hz fixes), cross-track RMS and maximum, time, "
+            "thrust energy, saturation time, circling. Conditions: calm; current_n/e/s/w (0.2 m/s from that "
+            "side); sinusoidal (file 003 Eq 7 force); wind (5 m/s from the north-east)."
+        ),
     )
     p.add_argument("--json", action="store_true", help="one JSON object per run")
     p.add_argument("--mission", action="append", metavar="FILE", help="mission file (any supported format); default: config/missions/*.yaml")

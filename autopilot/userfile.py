@@ -44,7 +44,8 @@ def read_text(path: str | Path, *, what: str = "file") -> str:
     except OSError as exc:
         raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
     if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
-        raise ConfigError(f"{p}: UTF-16 text; save the {what} as UTF-8 (in Excel: 'CSV UTF-8')")
+        excel = " (in Excel: 'CSV UTF-8')" if p.suffix.lower() == ".csv" else ""
+        raise ConfigError(f"{p}: UTF-16 text; save the {what} as UTF-8{excel}")
     if data.startswith(codecs.BOM_UTF8):
         data = data[len(codecs.BOM_UTF8):]
     if b"\x00" in data[:_BINARY_SNIFF]:

@@ -24,7 +24,8 @@ ROOT = Path(__file__).resolve().parents[1]
 GOOD_MISSION = "name: m\nframe: local\nwaypoints:\n  - {north_m: 10.0, east_m: 0.0}\n"
 GOOD_CONFIG = "serial: {sc30_port: /nonexistent/sc30, mbed_port: /nonexistent/mbed}\norigin_lat_deg: 52.0\norigin_lon_deg: 4.4\n"
 
-# (edge, what was tried, config text, mission text, extra argv, expected stderr with {dir} for the tmp dir)
+DIRECTORY = object()  # a directory where a file was expected
+# (edge, what was tried, config text or bytes, mission text or bytes, extra argv, expected stderr with {dir} for the tmp dir)
 CLI_CASES = [
     ("command line", "--mission missing", None, None, ["--config", "{dir}/c.yaml"],
      "autopilot run: error: the following arguments are required: --mission"),
@@ -54,16 +55,31 @@ CLI_CASES = [
      "autopilot run: error: {dir}/c.yaml: geofence.polygon: needs at least 3 vertices for frame 'local', got 2"),
     ("configuration", "half an origin", "origin_lat_deg: 52.0\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: origin_lat_deg, origin_lon_deg: give both or neither"),
+    ("configuration", "saved as Latin-1", "# Bjørnøya\nrate_hz: 10\n".encode("latin-1"), GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: not UTF-8 text (byte 0xF8 at offset 4; Latin-1 or another encoding?): save the YAML file as UTF-8"),
+    ("configuration", "a directory", DIRECTORY, GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: is a directory, not a YAML file"),
+    ("mission", "saved as UTF-16", GOOD_CONFIG, GOOD_MISSION.encode("utf-16"), [],
+     "autopilot run: error: {dir}/m.yaml: UTF-16 text; save the mission file as UTF-8"),
+    ("mission", "binary data", GOOD_CONFIG, bytes(range(256)), [],
+     "autopilot run: error: {dir}/m.yaml: binary data, not a text mission file"),
     ("mission", "local mission, no origin anywhere (real devices)", "serial: {sc30_port: /nonexistent/sc30}\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/m.yaml: local-frame mission without an origin: the compass reports latitude/longitude, so set origin_lat_deg/origin_lon_deg in the configuration (the launch point) or add 'origin' to the mission"),
 ]
 
 
-def _run_cli(tmp_path: Path, config: str | None, mission: str | None, extra: list[str]) -> tuple[int, str]:
-    if config is not None:
-        (tmp_path / "c.yaml").write_text(config)
-    if mission is not None:
-        (tmp_path / "m.yaml").write_text(mission)
+def _write(path: Path, content) -> None:
+    if content is DIRECTORY:
+        path.mkdir()
+    elif isinstance(content, bytes):
+        path.write_bytes(content)
+    elif content is not None:
+        path.write_text(content)
+
+
+def _run_cli(tmp_path: Path, config, mission, extra: list[str]) -> tuple[int, str]:
+    _write(tmp_path / "c.yaml", config)
+    _write(tmp_path / "m.yaml", mission)
     argv = ["run"]
     extra = [a.replace("{dir}", str(tmp_path)) for a in extra]
     if "--config" not in extra:
@@ -155,8 +171,10 @@ def render() -> str:
     out += [
         "",
         "While running, bad bytes never stop the daemon. NMEA lines that fail are dropped and counted",
-        "(`nmea_dropped` in every cycle line; a burst of more than 5 rejected lines within 1 s is the",
-        "`nmea_garbage` fault: zero thrust until the line is clean for `failsafe.resume_valid_s`).",
+        "(`nmea_dropped` in every cycle line). More than `failsafe.nmea_garbage_lines` (5) rejected lines, or",
+        "more than `failsafe.garbage_bytes` (32) bytes that no NMEA line can hold, within 1 s is the",
+        "`nmea_garbage` fault (likewise `mbed_garbage` on the Mbed line): zero thrust while garbage arrives",
+        "and `failsafe.garbage_hold_s` after it, then until the data are valid for `failsafe.resume_valid_s`.",
         "",
         "| edge | input | result |",
         "|---|---|---|",

@@ -16,7 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import xml.etree.ElementTree as ET
+
 from autopilot.logschema import CYCLE_KEYS
+from autopilot.review.export import GPX_NS, write_gpx
 from autopilot.review.metrics import score
 from autopilot.review.reader import read_log as review_read_log
 
@@ -86,6 +89,15 @@ def test_pond_mission_runs_to_completion_with_a_complete_log(mission, tmp_path):
     np.testing.assert_allclose([w.logged_closest_approach_m for w in card.waypoints], logged, atol=1e-9)
     reached_events = [r for r in log if r["event"] == "waypoint_reached"]
     assert all(r["how"] in ("capture", "passed") and r["distance_m"] >= 0 for r in reached_events)
+    # the exports hold each 1 Hz fix once, at the time it was measured (they repeated every held fix
+    # on each 10 Hz cycle, stamped with the cycle time: 352 GPX points for 71 distinct positions)
+    fixes = sorted({round(c["t_s"] - c["position_age_s"], 6) for c in cycles
+                    if c["north_m"] is not None and c["position_age_s"] is not None})
+    gpx = ET.parse(write_gpx(review_read_log(path), tmp_path / "track.gpx")).getroot()
+    pts = gpx.findall(f".//{{{GPX_NS}}}trkpt")
+    assert len(pts) == len(fixes) and 0.8 * len(cycles) / 10 <= len(fixes) <= 1.2 * len(cycles) / 10
+    # what the person at the terminal is told at the end
+    assert f"log: {path}" in err and f"{n_wp} of {n_wp} waypoint(s) reached" in err and "W0: reached" in err
     # steered cycles carry the GNC terms, and the fuzzy guidance's CDH
     auto = [c for c in cycles if c["mode"] == "auto"]
     assert len(auto) > 50
@@ -112,6 +124,24 @@ def _wait_for(predicate, log_dir: Path, proc: subprocess.Popen, limit_s: float =
                 return recs
         time.sleep(0.05)
     raise AssertionError("daemon never reached the awaited state")
+
+
+@pytest.mark.slow
+def test_a_port_that_does_not_exist_is_retried_and_the_user_is_told(tmp_path):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("origin_lat_deg: 52.0\norigin_lon_deg: 4.4\nserial:\n  sc30_port: /dev/nonexistent-sc30\n"
+                   "  mbed_port: /dev/nonexistent-mbed\n")
+    mission = ROOT / "config" / "missions" / "pond-9.1.yaml"
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--config", str(cfg), "--mission", str(mission),
+                          "--log-dir", str(tmp_path / "logs"), "--state-dir", str(tmp_path / "state")],
+                         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _wait_for(lambda recs: sum(r["event"] == "cycle" for r in recs) >= 10, tmp_path / "logs", p)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=30)
+    assert p.returncode == 0
+    told = [ln for ln in err.splitlines() if ln.startswith("autopilot run: sc30: cannot open /dev/nonexistent-sc30")]
+    assert len(told) == 1 and "retried every" in told[0] and "Ctrl-C" in told[0]  # once, not per retry
+    assert any(ln.startswith("autopilot run: mbed: cannot open /dev/nonexistent-mbed") for ln in err.splitlines())
 
 
 @pytest.mark.slow

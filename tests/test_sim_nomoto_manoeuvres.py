@@ -56,6 +56,22 @@ def test_zigzag_switches_and_overshoots(params):
     assert len(z["overshoot_deg"]) >= 2 and all(o > 0 for o in z["overshoot_deg"])
 
 
+def test_zigzag_gives_one_overshoot_per_reversal(params):
+    """Each printed overshoot is the heading's largest excursion past +-20 deg in one swing (the
+    old code printed consecutive samples of the first peak: 13.531, 13.522, 13.491, 13.437)."""
+    res = run(params, "zigzag")
+    psi_deg = np.degrees(res.states["psi_rad"])
+    # the swings, found independently: the extremes between zero crossings of the heading
+    sign = np.sign(psi_deg)
+    crossings = np.nonzero(np.diff(sign) != 0)[0] + 1
+    swings = [psi_deg[a:b] for a, b in zip(crossings[:-1], crossings[1:])]
+    peaks = [float(np.max(np.abs(w))) - 20.0 for w in swings if len(w)][: len(res.figures["overshoot_deg"])]
+    got = res.figures["overshoot_deg"]
+    np.testing.assert_allclose(got, peaks, atol=0.05)
+    assert len(set(round(x, 1) for x in got)) == len(got)  # distinct swings, not samples of one
+    assert got[1] > got[0] + 5.0  # the second swing starts from the first overshoot: it goes further
+
+
 def test_manoeuvre_plot_and_bad_name(tmp_path):
     png = tmp_path / "af.png"
     run_cli("model", "manoeuvre", "AF", "--plot", str(png))

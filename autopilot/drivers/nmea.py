@@ -92,6 +92,7 @@ class NmeaUpdate:
     status_valid: bool | None = None
     heading_mag_deg: float | None = None  # HDM, magnetic: never used as heading
     heave_m: float | None = None  # PFEC_GPhve
+    fix_time: _dt.time | None = None  # GGA/RMC/GLL: UTC of the position's epoch (sentences of one epoch share it)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -194,7 +195,7 @@ def _need(f: list[str], n: int, name: str) -> None:
 def _gga(t: str, f: list[str]) -> NmeaUpdate:
     _need(f, 6, "GGA")
     lat, lon = _latlon(f, 1)
-    _time(f[0])
+    epoch = _time(f[0])
     q = f[5]
     if q == "":
         quality = 0
@@ -202,7 +203,7 @@ def _gga(t: str, f: list[str]) -> NmeaUpdate:
         quality = int(q)
     else:
         raise SentenceError(f"GGA fix quality: {q!r}")
-    return NmeaUpdate("GGA", t, lat_deg=lat, lon_deg=lon, fix_quality=quality, status_valid=quality > 0)
+    return NmeaUpdate("GGA", t, lat_deg=lat, lon_deg=lon, fix_quality=quality, status_valid=quality > 0, fix_time=epoch)
 
 
 def _rmc(t: str, f: list[str]) -> NmeaUpdate:
@@ -222,16 +223,16 @@ def _rmc(t: str, f: list[str]) -> NmeaUpdate:
             utc = _dt.datetime.combine(d, tm)
     mode = _field(f, 11)
     valid = f[1] == "A" and mode != "N"
-    return NmeaUpdate("RMC", t, lat_deg=lat, lon_deg=lon, sog_kn=sog, cog_deg=cog, utc=utc, status_valid=valid)
+    return NmeaUpdate("RMC", t, lat_deg=lat, lon_deg=lon, sog_kn=sog, cog_deg=cog, utc=utc, status_valid=valid, fix_time=tm)
 
 
 def _gll(t: str, f: list[str]) -> NmeaUpdate:
     _need(f, 6, "GLL")
     lat, lon = _latlon(f, 0)
-    _time(f[4])
+    epoch = _time(f[4])
     if f[5] not in ("A", "V"):
         raise SentenceError(f"GLL status: {f[5]!r}")
-    return NmeaUpdate("GLL", t, lat_deg=lat, lon_deg=lon, status_valid=f[5] == "A" and _field(f, 6) != "N")
+    return NmeaUpdate("GLL", t, lat_deg=lat, lon_deg=lon, status_valid=f[5] == "A" and _field(f, 6) != "N", fix_time=epoch)
 
 
 def _vtg(t: str, f: list[str]) -> NmeaUpdate:

@@ -102,6 +102,7 @@ class SC30Driver:
         self.updates = 0
         self._heading_window_s = float(heading_window_s)
         self._by_source: dict[str, Stamped] = {}
+        self._fix_time = None  # UTC time of the epoch of the last position sentence
         self._garbage = GarbageDetector(max_lines=garbage_burst_lines, max_bytes=garbage_burst_bytes)
 
     # ------------------------------------------------------------------ public
@@ -162,7 +163,14 @@ class SC30Driver:
             nav.heading_deg = self._best_heading(now_s)
         if u.lat_deg is not None or (src in ("GGA", "RMC", "GLL") and u.status_valid is False):
             pos = None if u.lat_deg is None else (u.lat_deg, u.lon_deg)
-            nav.position = Stamped(pos, now_s, src, bool(u.status_valid) and pos is not None)
+            valid = bool(u.status_valid) and pos is not None
+            old = nav.position
+            # GGA, RMC and GLL of one epoch (same UTC time) are one measurement: the first keeps its stamp
+            same_epoch = (u.fix_time is not None and u.fix_time == self._fix_time and old is not None
+                          and old.valid == valid and now_s - old.t_s < 1.0)
+            if not same_epoch:
+                nav.position = Stamped(pos, now_s, src, valid)
+            self._fix_time = u.fix_time
         if u.fix_quality is not None:
             nav.fix_quality = Stamped(u.fix_quality, now_s, src, u.fix_quality > 0)
         if u.rot_deg_min is not None or src == "ROT":

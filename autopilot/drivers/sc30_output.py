@@ -13,8 +13,8 @@ __all__ = ["SENTENCES", "TYPICAL_CHARS", "LINE_SHARE_MAX", "default_sentences", 
 
 SENTENCES = ("HDT", "THS", "PFEC_GPatt", "ROT", "GGA", "RMC", "GLL", "VTG", "ZDA")
 # characters on the wire of each sentence as this device writes it, CR LF included (the longest
-# usual values: ROT "-123.4", a four-digit GGA altitude); 10 bits a character at 8N1
-TYPICAL_CHARS = {"HDT": 19, "THS": 19, "ROT": 20, "PFEC_GPatt": 32, "GGA": 72, "RMC": 72, "GLL": 52, "VTG": 38, "ZDA": 38}
+# usual values: ROT "-5500.0" deg/min when spinning, a four-digit GGA altitude); 10 bits a character at 8N1
+TYPICAL_CHARS = {"HDT": 19, "THS": 19, "ROT": 22, "PFEC_GPatt": 32, "GGA": 72, "RMC": 72, "GLL": 52, "VTG": 40, "ZDA": 38}
 LINE_SHARE_MAX = 0.95  # a line loaded beyond this delays every sentence behind the 1 Hz group
 
 

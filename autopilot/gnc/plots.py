@@ -7,22 +7,17 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
+import numpy as np
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+from autopilot.geo import wrap_pi
+from autopilot.plotting import pyplot, track_frame
 
 
 def plot_run(result, path: Path, waypoints_ne_m=None) -> None:
     """Four panels of one closed-loop run (RunResult with a recorded trace)."""
-    plt = _plt()
+    plt = pyplot()
     tr = result.trace
     t = tr["t_s"]
     fig, ax = plt.subplots(2, 2, figsize=(12, 9))
@@ -31,12 +26,16 @@ def plot_run(result, path: Path, waypoints_ne_m=None) -> None:
     wps = waypoints_ne_m if waypoints_ne_m is not None else tr.get("waypoints")
     if wps is not None:
         a.plot([w[1] for w in wps], [w[0] for w in wps], "rx--", label="waypoints")
-    a.set_xlabel("east (m)"), a.set_ylabel("north (m)"), a.set_aspect("equal"), a.legend()
-    a.set_title(f"{result.mission} / {result.guidance} / {result.condition} (Fig 7.5)")
+    track_frame(a, tr["north_m"], tr["east_m"], title=f"{result.mission} / {result.guidance} / {result.condition} (Fig 7.5)")
     a = ax[0, 1]
-    a.plot(t, [math.degrees(p) % 360 for p in tr["psi_rad"]], label="heading psi")
-    a.plot(t, [math.degrees(p) % 360 for p in tr["psi_d_rad"]], "--", label="reference psi_d")
-    a.set_xlabel("t (s)"), a.set_ylabel("deg"), a.legend(), a.set_title("heading (Fig 7.6)")
+    # heading unwrapped (no 0-360-0 spikes at north), psi_d drawn beside it: psi + wrap(psi_d - psi)
+    psi = np.unwrap(np.asarray(tr["psi_rad"], dtype=float))
+    psi_d = psi + wrap_pi(np.asarray(tr["psi_d_rad"], dtype=float) - psi)
+    a.plot(t, np.degrees(psi), label="heading psi")
+    a.plot(t, np.degrees(psi_d), "--", label="reference psi_d")
+    a.set_xlabel("t (s)"), a.set_ylabel("deg (unwrapped; 360 = a full turn)"), a.legend(fontsize=8)
+    a.set_title("heading (Fig 7.6)")
+    a.grid(True, alpha=0.3)
     a = ax[1, 0]
     nan = float("nan")
     for key, lab in (("tcpa_nd", "TCPA'"), ("dcpa_nd", "DCPA'"), ("cdh", "CDH")):
@@ -58,7 +57,7 @@ def plot_surface(path: Path, config=None) -> None:
     from autopilot.gnc.fuzzy_guidance import FuzzyConfig, cdh
 
     config = config or FuzzyConfig()
-    plt = _plt()
+    plt = pyplot()
     tt, dd = np.meshgrid(np.linspace(0, config.tcpa_max_nd, 61), np.linspace(0, config.dcpa_max_nd, 61))
     z = cdh(tt, dd, config)
     fig = plt.figure(figsize=(8, 6))

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from autopilot.plotting import pyplot, track_frame
 from autopilot.review.metrics import LATENESS_PERCENTILES, Scorecard, gap_after
 from autopilot.review.reader import MODES, MissionLog
 
@@ -23,15 +24,6 @@ MAX_POINTS = 4000  # per signal on a time axis (min/max pairs)
 MAX_TRACK_POINTS = 20000
 PORT_COLOR, STBD_COLOR = "#c62828", "#2e7d32"  # red to port, green to starboard
 _DPI = 100
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def time_scale(t_s: np.ndarray) -> tuple[float, str]:
@@ -138,7 +130,7 @@ def _shade(ax, t, mask, color, label=None):
 
 def _save(fig, path: Path) -> Path:
     fig.savefig(path, dpi=_DPI)
-    _plt().close(fig)
+    pyplot().close(fig)
     return path
 
 
@@ -152,10 +144,15 @@ def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
     wps = log.waypoints_ne_m
     if not _has(n, e) and len(wps) == 0:
         return None
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 8))
-    n2, e2 = track_points(n, e)
-    ax.plot(e2, n2, color="#1565c0", lw=1.2, label="track")
+    rows, _ = log.fix_rows()  # the measured fixes, a break wherever the position was lost
+    fix_n, fix_e = np.full(len(n), np.nan), np.full(len(n), np.nan)
+    fix_n[rows], fix_e[rows] = n[rows], e[rows]
+    lost = ~(np.isfinite(n) & np.isfinite(e))
+    keep = np.isfinite(fix_n) | lost
+    n2, e2 = track_points(fix_n[keep], fix_e[keep])
+    ax.plot(e2, n2, color="#1565c0", lw=1.2, label="track (position fixes)")
     ok = np.nonzero(np.isfinite(n) & np.isfinite(e))[0]
     if len(ok):
         ax.plot(e[ok[0]], n[ok[0]], marker="^", color="#2e7d32", ms=11, ls="none", label="start")
@@ -172,24 +169,17 @@ def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
             ax.plot(seg_e, seg_n, ls=":", color="#6a1b9a", lw=1)
             ax.plot(seg_e[1::3], seg_n[1::3], marker="x", color="#6a1b9a", ms=8, ls="none",
                     label="closest approach")
-        if labelled:
+        if labelled:  # one label per waypoint (two, at the waypoint and its closest fix, overlapped)
             for w in card.waypoints:
-                ax.annotate(f"W{w.index}", (w.east_m, w.north_m), textcoords="offset points",
-                            xytext=(7, 7), fontsize=9)
-            for w in near:
-                ax.annotate(f"{w.closest_approach_m:.2f} m", (w.closest_east_m, w.closest_north_m),
-                            textcoords="offset points", xytext=(7, -12), fontsize=8, color="#6a1b9a")
+                text = f"W{w.index}" + (f"  {w.closest_approach_m:.2f} m" if math.isfinite(w.closest_approach_m) else "")
+                ax.annotate(text, (w.east_m, w.north_m), textcoords="offset points", xytext=(9, 4), fontsize=9,
+                            bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.75})
     for name, marker, color in (("fault", "X", "#ef6c00"), ("failsafe", "*", "#d50000")):
         pts = [p for p in (_event_position(log, ev) for ev in log.events_named(name)) if p]
         if pts:
             arr = np.asarray(pts)
             ax.plot(arr[:, 1], arr[:, 0], marker=marker, color=color, ms=13, ls="none", label=name)
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    ax.set_title(f"{log.name}: track")
+    track_frame(ax, n, e, title=f"{log.name}: track")
     fig.tight_layout()
     return _save(fig, path)
 
@@ -201,7 +191,7 @@ def plot_thrust(log: MissionLog, path: Path) -> Path | None:
     pp, ps = log.col("pwm_port_pct"), log.col("pwm_stbd_pct")
     if not _has(tp, ts, pp, ps):
         return None
-    plt = _plt()
+    plt = pyplot()
     scale, xlabel = time_scale(t)
     ts_x = t / scale
     fig, axes = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True)
@@ -236,7 +226,7 @@ def plot_guidance(log: MissionLog, path: Path) -> Path | None:
               ("heading_error_deg", "heading error (deg)"))
     if not _has(*(log.col(k) for k, _ in series)):
         return None
-    plt = _plt()
+    plt = pyplot()
     scale, xlabel = time_scale(t)
     fig, axes = plt.subplots(4, 1, figsize=(11, 9), sharex=True)
     for ax, (key, label) in zip(axes, series):
@@ -262,7 +252,7 @@ def plot_motion(log: MissionLog, path: Path) -> Path | None:
     sog, cmd, r = log.col("sog_m_s"), log.col("speed_cmd_m_s"), log.col("yaw_rate_deg_s")
     if not _has(sog, cmd, r):
         return None
-    plt = _plt()
+    plt = pyplot()
     scale, xlabel = time_scale(t)
     fig, axes = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
     axes[0].plot(*envelope(t / scale, sog), color="#1565c0", lw=0.9, label="speed over ground")
@@ -285,7 +275,7 @@ def plot_lateness(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
     lat = lat[np.isfinite(lat)]
     if len(lat) == 0:
         return None
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 5))
     hi = max(float(lat.max()), 1e-3)
     ax.hist(lat, bins=np.linspace(min(0.0, float(lat.min())), hi, 80), color="#90a4ae", log=True)
@@ -325,7 +315,7 @@ def plot_timeline(log: MissionLog, path: Path) -> Path | None:
     ev_t = [ev.get("t_s") for ev in log.events]
     if len(t) == 0 and not any(isinstance(x, (int, float)) for x in ev_t):
         return None
-    plt = _plt()
+    plt = pyplot()
     scale, xlabel = time_scale(t if len(t) else np.asarray([x for x in ev_t if isinstance(x, (int, float))]))
     fig, ax = plt.subplots(figsize=(11, 4.5))
     labels = ["mode"]
@@ -373,7 +363,7 @@ def plot_overlay(tracks: list[Track], path: Path) -> Path | None:
     """Tracks of several missions on one chart, each with its waypoints."""
     if not any(_has(tr.north_m) for tr in tracks):
         return None
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 8))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, tr in enumerate(tracks):
@@ -386,11 +376,7 @@ def plot_overlay(tracks: list[Track], path: Path) -> Path | None:
         ok = np.nonzero(np.isfinite(n2) & np.isfinite(e2))[0]
         if len(ok):
             ax.plot(e2[ok[0]], n2[ok[0]], marker="^", color=c, ms=9, ls="none")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    ax.set_title("tracks (triangles: start, circles: waypoints)")
+    track_frame(ax, np.concatenate([tr.north_m for tr in tracks]), np.concatenate([tr.east_m for tr in tracks]),
+                title="tracks (triangles: start, circles: waypoints)")
     fig.tight_layout()
     return _save(fig, path)

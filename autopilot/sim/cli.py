@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from autopilot.schema import ConfigError
@@ -15,26 +16,42 @@ def register(sub) -> None:
     msub.required = True
 
     c = msub.add_parser("check", help="simulate the 20 measured rows to steady state and compare")
-    c.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
+    c.add_argument("--params", help="vessel parameter YAML (default: the shipped vessel.yaml)")
     c.add_argument("--json", action="store_true", help="print one JSON object")
     c.set_defaults(func=cmd_check)
 
-    k = msub.add_parser("calibrate", help="fit the default set to the measured table and write it")
-    k.add_argument("--base", help="starting set (default: config/vessel-thesis.yaml)")
-    k.add_argument("--out", help="output YAML (default: config/vessel.yaml)")
+    k = msub.add_parser("calibrate", help="fit a vessel set to the measured table and write it",
+                        description="Fit resistance, yaw and sway damping of a starting set to the measured "
+                        "free-running table (SPEC 6) and write the result. The shipped default (vessel.yaml, "
+                        "`autopilot files`) is this command's output from the thesis set; re-running it reproduces "
+                        "the file. Nothing is overwritten unless --out names it.")
+    k.add_argument("--base", help="starting set (default: the shipped vessel-thesis.yaml)")
+    k.add_argument("--out", default="vessel-calibrated.yaml",
+                   help="output YAML (default: ./vessel-calibrated.yaml; an existing file is refused without --force)")
+    k.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     k.set_defaults(func=cmd_calibrate)
 
-    m = msub.add_parser("manoeuvre", help="simulate a standard manoeuvre: speed, zigzag, spin, or letters such as AF, BD, Fb")
-    m.add_argument("name")
-    m.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
-    m.add_argument("--duration-s", type=float, default=None)
-    m.add_argument("--plot", help="write a PNG of the manoeuvre")
-    m.add_argument("--json", action="store_true")
+    m = msub.add_parser(
+        "manoeuvre", help="simulate a standard manoeuvre: speed, zigzag, spin, or letters such as AF, BD, Fb",
+        description="Simulate a standard manoeuvre of the WAM-V from rest (zigzag: from steady speed) and print its "
+        "figures. speed: both thrusters full ahead, final speed and time constant. zigzag: half thrust common, "
+        "a differential thrust switched each time the heading passes +-angle (the 20/20 manoeuvre with thrust "
+        "for rudder): one overshoot per reversal. spin: Ff, opposite full thrust. Two command letters (Table 4.2, "
+        "port then starboard, capital = ahead): a turning test, steady yaw rate, speed and turning diameter.")
+    m.add_argument("name", help="speed, zigzag, spin, or two letters A-F / a-f (AF, BD, Fb, ...)")
+    m.add_argument("--params", help="vessel parameter YAML (default: the shipped vessel.yaml)")
+    m.add_argument("--duration-s", type=float, default=None,
+                   help="simulated time (default: speed 120 s, zigzag 120 s, turning tests and spin 200 s)")
+    m.add_argument("--angle-deg", type=float, default=20.0, help="zigzag: heading at which the turn reverses (default 20)")
+    m.add_argument("--differential-n", type=float, default=20.0,
+                   help="zigzag: differential thrust T_port - T_stbd (default 20 N, within the 32.5 N per thruster)")
+    m.add_argument("--plot", metavar="PNG", help="write track, heading, speed, yaw rate and thrust to this PNG")
+    m.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     m.set_defaults(func=cmd_manoeuvre)
 
     n = msub.add_parser("nomoto", help="second-order Nomoto model at a speed (SPEC 3)")
     n.add_argument("--speed", type=float, required=True, help="forward speed (m/s)")
-    n.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
+    n.add_argument("--params", help="vessel parameter YAML (default: the shipped vessel.yaml)")
     n.add_argument("--json", action="store_true")
     n.set_defaults(func=cmd_nomoto)
 
@@ -75,9 +92,13 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from autopilot.sim.params import default_params_path, load_params, thesis_params_path
     from autopilot.sim.steady import check_table
 
+    out = Path(args.out)
+    if out.exists() and not args.force:
+        raise ConfigError(f"--out {out}: exists; give --force to overwrite it, or another --out")
+    if out.resolve() == default_params_path().resolve():
+        print(f"overwriting the shipped default set {out}", file=sys.stderr)
     base = load_params(args.base or thesis_params_path())
     fitted = calibrate(base)
-    out = Path(args.out) if args.out else default_params_path()
     write_params(fitted, out)
     s = check_table(fitted).summary()
     print(f"wrote {out}")
@@ -90,7 +111,14 @@ def cmd_manoeuvre(args: argparse.Namespace) -> int:
 
     params = _params(args.params)
     try:
-        result = manoeuvres.run(params, args.name, duration_s=args.duration_s)
+        if not (0.0 < args.angle_deg < 90.0):
+            raise ValueError(f"--angle-deg: {args.angle_deg} is outside the allowed range (0, 90) deg")
+        if not (0.0 < args.differential_n <= 2 * params.max_thrust_n):
+            raise ValueError(f"--differential-n: {args.differential_n} is outside the allowed range (0, {2 * params.max_thrust_n:g}] N")
+        if args.duration_s is not None and not (0.0 < args.duration_s <= 3600.0):
+            raise ValueError(f"--duration-s: {args.duration_s} is outside the allowed range (0, 3600] s")
+        result = manoeuvres.run(params, args.name, duration_s=args.duration_s, zigzag_angle_deg=args.angle_deg,
+                                zigzag_differential_n=args.differential_n)
     except ValueError as exc:
         raise ConfigError(str(exc)) from exc
     if args.plot:

@@ -129,19 +129,21 @@ def zigzag_overshoots_deg(psi_rad: np.ndarray, switches, angle_deg: float) -> li
 
 def plot(result: ManoeuvreResult, path: str) -> None:
     """Track, heading, speed, yaw rate and thrust of a manoeuvre, to a PNG."""
-    import matplotlib
+    from autopilot.plotting import pyplot, track_frame
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     s = result.states
     fig, ax = plt.subplots(2, 2, figsize=(11, 8))
-    ax[0, 0].plot(s["east_m"], s["north_m"])
+    ax[0, 0].plot(s["east_m"], s["north_m"], label="track")
     ax[0, 0].plot(s["east_m"][0], s["north_m"][0], "go", label="start")
-    ax[0, 0].set(xlabel="east (m)", ylabel="north (m)", title=f"{result.name}: track", aspect="equal")
-    ax[0, 0].legend()
+    track_frame(ax[0, 0], s["north_m"], s["east_m"], title=f"{result.name}: track")
     ax[0, 1].plot(result.t_s, np.degrees(s["psi_rad"]))
     ax[0, 1].set(xlabel="time (s)", ylabel="heading (deg)", title="heading")
+    if "overshoot_deg" in result.figures:  # the switching angles and each overshoot beyond them
+        angle = result.figures["angle_deg"]
+        for y in (angle, -angle):
+            ax[0, 1].axhline(y, color="grey", ls=":", lw=1)
+        ax[0, 1].set_title("heading; overshoots " + ", ".join(f"{o:.1f}" for o in result.figures["overshoot_deg"]) + " deg")
     ax[1, 0].plot(result.t_s, np.hypot(s["u_m_s"], s["v_m_s"]), label="speed (m/s)")
     ax[1, 0].plot(result.t_s, s["r_rad_s"], label="yaw rate (rad/s)")
     ax[1, 0].set(xlabel="time (s)", title="speed and yaw rate")

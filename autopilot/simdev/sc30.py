@@ -11,7 +11,9 @@ A sentence that would leave more than 0.5 s of backlog is dropped, as a
 real device's output buffer overflows (counted in ``overruns``).
 
 Heading: true heading plus Gaussian noise, quantised to 0.1 deg (the SC-30's
-resolution, SPEC section 1). Position: Gaussian noise in metres north/east.
+resolution, SPEC section 1). Position: one GNSS epoch a second (position with
+Gaussian noise in metres north/east, speed, course), reported by every
+position sentence of that second with the epoch's UTC time, as a receiver does.
 
 Fault controls (set at any time): ``heading_dropout`` (no heading
 sentences), ``heading_invalid`` (empty HDT, THS mode V, empty GPatt),
@@ -108,6 +110,7 @@ class SimulatedSC30:
         self.sent_log: deque[tuple[float, str]] = deque(maxlen=2000)  # (t_s, sentence) for tests
         self._line_free_s = 0.0
         self._queue: asyncio.Queue[tuple[float, bytes, str]] | None = None
+        self._epoch: dict = {}
         self._tasks: list[asyncio.Task] = []
 
     # ------------------------------------------------------------------ faults
@@ -165,6 +168,8 @@ class SimulatedSC30:
             return None
         if kind in POSITION_SENTENCES and self.position_dropout:
             return None
+        if kind in POSITION_SENTENCES:  # the position sentences of one second report one epoch
+            t_s = self._epoch["t_s"]
         # UTC from the clock: the simulated day starts at 00:00:00 on 2024-06-01
         secs = t_s % 86400.0
         hh, mm, ss = int(secs // 3600), int(secs % 3600 // 60), secs % 60
@@ -179,11 +184,11 @@ class SimulatedSC30:
             return f"PFEC,GPatt,{self._heading_text()},+0.0,+0.0"
         if kind == "ROT":
             return f"{tk}ROT,{b.yaw_rate_deg_min:.1f},A"
-        n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
-        lat, lon = b.latlon_deg(n_m, e_m)
+        ep = self._epoch
+        lat, lon = ep["lat_deg"], ep["lon_deg"]
         pos = f"{_ddmm(lat, 2)},{'N' if lat >= 0 else 'S'},{_ddmm(lon, 3)},{'E' if lon >= 0 else 'W'}"
-        sog = f"{b.sog_m_s * KN_PER_M_S:.2f}"
-        cog = f"{b.cog_deg:.1f}"
+        sog = f"{ep['sog_m_s'] * KN_PER_M_S:.2f}"
+        cog = f"{ep['cog_deg']:.1f}"
         if kind == "GGA":
             if self.fix_lost:
                 return f"{tk}GGA,{utc},,,,,0,00,,,M,,M,,"
@@ -199,10 +204,18 @@ class SimulatedSC30:
         if kind == "VTG":
             if self.fix_lost:
                 return f"{tk}VTG,,T,,M,,N,,K,N"
-            return f"{tk}VTG,{cog},T,,M,{sog},N,{b.sog_m_s * 3.6:.2f},K,A"
+            return f"{tk}VTG,{cog},T,,M,{sog},N,{ep['sog_m_s'] * 3.6:.2f},K,A"
         if kind == "ZDA":
             return f"{tk}ZDA,{utc},01,06,2024,00,00"
         raise ValueError(f"unknown sentence kind {kind!r}")
+
+    def _take_epoch(self, t_s: float) -> None:
+        """The GNSS fix of this second: position (with its error), speed and course, reported by every
+        position sentence of the second (a receiver computes one solution per epoch)."""
+        b = self.boat
+        n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
+        lat, lon = b.latlon_deg(n_m, e_m)
+        self._epoch = {"t_s": t_s, "lat_deg": lat, "lon_deg": lon, "sog_m_s": b.sog_m_s, "cog_deg": b.cog_deg}
 
     def _frame(self, body: str) -> bytes:
         cs = checksum(body)
@@ -224,6 +237,8 @@ class SimulatedSC30:
             # One slow sentence per tick, after the heading, as a real compass interleaves them:
             # a 1 Hz burst at 4800 baud would hold the line ~0.5 s and starve the 10 Hz heading.
             slot = tick % self.slow_every
+            if slot == 0:
+                self._take_epoch(t_s)
             if len(self.slow_sentences) > self.slow_every:
                 kinds += list(self.slow_sentences[slot :: self.slow_every])
             elif slot < len(self.slow_sentences):

@@ -51,7 +51,7 @@ def residual_figure(prep, before, after, trials_idx, max_trials: int = 6):
 
     from autopilot.geo import wrap_pi
 
-    fig, (ax_p, ax_h) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    fig, (ax_p, ax_h) = plt.subplots(2, 1, figsize=(12, 6), sharex=True)
     for j, i in enumerate(list(trials_idx)[:max_trials]):
         tr = prep.trials[i]
         for pred, style, label in ((before, "-", "before"), (after, "--", "after")):
@@ -66,7 +66,9 @@ def residual_figure(prep, before, after, trials_idx, max_trials: int = 6):
     ax_p.set_ylabel("position error (m)")
     ax_h.set_ylabel("heading error (deg)")
     ax_h.set_xlabel("time (s)")
-    ax_p.legend(fontsize=6, ncol=4)
+    # beside the panels, not over the data (six trials before and after: twelve entries)
+    ax_p.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    fig.tight_layout()
     return fig
 
 

@@ -191,9 +191,9 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
 
 def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
     """A daemon mission log (docs/log-schema.md, cycle lines) as a trial."""
-    from autopilot.review.reader import read_log
+    from autopilot.review.reader import check_mission_log, read_log
 
-    log = read_log(path)
+    log = read_log(check_mission_log(path))
     if log.n_cycles < MIN_SAMPLES:
         raise ConfigError(f"{path}: only {log.n_cycles} cycle lines (need {MIN_SAMPLES})")
     c = log.col

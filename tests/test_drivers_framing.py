@@ -1,0 +1,90 @@
+"""Line framing and garbage bursts (autopilot.drivers.framing), and one GNSS epoch = one fix in the SC-30 driver."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from autopilot.drivers.framing import GarbageDetector, LineFramer
+from autopilot.drivers.nmea import make_sentence
+from autopilot.drivers.sc30 import SC30Driver
+
+
+def test_framer_keeps_partial_lines_and_counts_bad_bytes():
+    f = LineFramer(20)
+    assert f.feed(b"$A*00\r") == []
+    assert f.feed(b"\n$B") == [b"$A*00\r"]
+    assert f.feed(b"*11\r\n\xff\x00ok\n") == [b"$B*11\r", b"\xff\x00ok"]
+    assert f.invalid_bytes == 2  # 0xff and NUL; CR and LF are line bytes
+
+
+def test_framer_discards_overlong_lines_once():
+    f = LineFramer(10)
+    assert f.feed(b"x" * 25) == [] and f.too_long == 1
+    assert f.feed(b"yyy\n$OK\n") == [b"$OK"] and f.too_long == 1  # the tail of the long line is dropped with it
+    assert f.feed(b"z" * 11 + b"\n") == [] and f.too_long == 2
+
+
+def test_random_bytes_at_4800_baud_are_a_burst_within_a_tenth_of_a_second():
+    """At the real line rate: 48 bytes every 0.1 s; ~2 line ends a second, so the line count alone never fires."""
+    rng = np.random.default_rng(5)
+    det, f = GarbageDetector(max_lines=5, max_bytes=32), LineFramer(200)
+    rejected = 0
+    started_at = None
+    for k in range(100):  # 10 s
+        t = 0.1 * k
+        rejected += len(f.feed(rng.integers(0, 256, 48, dtype=np.uint8).tobytes())) + 0
+        if det.feed(t, rejected + f.too_long, f.invalid_bytes) and started_at is None:
+            started_at = t
+    assert started_at is not None and started_at <= 0.1
+    assert det.bursts == 1 and det.last_garbage_s == pytest.approx(9.9)  # held while it lasts
+
+
+def test_line_count_alone_misses_line_rate_noise():
+    rng = np.random.default_rng(5)
+    det, f = GarbageDetector(max_lines=5, max_bytes=10**9), LineFramer(200)
+    lines = 0
+    fired = False
+    for k in range(100):
+        lines += len(f.feed(rng.integers(0, 256, 48, dtype=np.uint8).tobytes()))
+        fired |= det.feed(0.1 * k, lines + f.too_long, f.invalid_bytes)
+    assert not fired  # the old detector's blind spot
+
+
+def test_one_burst_holds_from_its_last_garbage_not_a_window_later():
+    det = GarbageDetector(max_lines=5, max_bytes=32)
+    assert det.feed(10.0, 20, 0)  # 20 malformed lines at once
+    for t in np.arange(10.1, 12.0, 0.1):
+        assert not det.feed(t, 20, 0)
+    assert det.last_garbage_s == 10.0  # the failsafe holds garbage_hold_s from here, not from 11.0
+    assert not det.in_burst
+
+
+def test_a_single_flipped_bit_is_not_a_burst():
+    det = GarbageDetector(max_lines=5, max_bytes=32)
+    assert not det.feed(1.0, 1, 1) and det.last_garbage_s is None
+
+
+class _Clock:
+    def __init__(self):
+        self.t = 0.0
+
+    def now_s(self):
+        return self.t
+
+
+def test_gga_and_rmc_of_one_epoch_are_one_fix():
+    clock = _Clock()
+    drv = SC30Driver("/dev/null", clock=clock)
+    gga = make_sentence("GPGGA,120000.00,5200.00000,N,00424.00000,E,1,10,0.9,1.0,M,30.0,M,,")
+    rmc = make_sentence("GPRMC,120000.00,A,5200.00000,N,00424.00000,E,2.00,90.0,010624,,,A")
+    gga2 = make_sentence("GPGGA,120001.00,5200.00100,N,00424.00000,E,1,10,0.9,1.0,M,30.0,M,,")
+    clock.t = 10.15
+    drv._on_bytes(gga.encode())
+    clock.t = 10.35
+    drv._on_bytes(rmc.encode())
+    assert drv.nav.position.t_s == 10.15 and drv.nav.position.source == "GGA"  # the RMC repeats the epoch
+    assert drv.nav.sog_kn.value == 2.0  # what only the RMC carries is still taken
+    clock.t = 11.15
+    drv._on_bytes(gga2.encode())
+    assert drv.nav.position.t_s == 11.15  # the next epoch is a new fix

@@ -1,0 +1,92 @@
+"""An installed copy runs: a wheel built from this checkout, installed in a fresh venv outside it.
+
+INSTALL.md step 1 installs with ``pip install .`` (not ``-e``): every file a command needs by
+default (vessel sets, measured table, missions, the default configuration) must be inside the
+package. The commands run from a directory outside the checkout, with that venv's ``autopilot``,
+as INSTALL.md's check does.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory):
+    base = tmp_path_factory.mktemp("install")
+    wheels = base / "wheels"
+    subprocess.run([sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "-q", "-w", str(wheels)],
+                   check=True, capture_output=True, text=True, timeout=600)
+    (wheel,) = wheels.glob("wamv_autopilot-*.whl")
+    venv = base / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
+    r = subprocess.run([str(venv / "bin" / "pip"), "install", "-q", str(wheel)], capture_output=True, text=True,
+                       timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    work = base / "work"  # a user's directory: no checkout anywhere near
+    work.mkdir()
+    return venv / "bin", work
+
+
+def run(bin_dir: Path, cwd: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([str(bin_dir / "autopilot"), *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+def shipped(bin_dir: Path, cwd: Path) -> dict[str, Path]:
+    out = run(bin_dir, cwd, "files")
+    assert out.returncode == 0, out.stderr
+    paths = [Path(line.split("  (")[0]) for line in out.stdout.splitlines()]
+    return {p.name: p for p in paths}
+
+
+@pytest.mark.slow
+def test_the_installed_package_is_the_wheel_and_ships_its_files(installed):
+    bin_dir, work = installed
+    r = subprocess.run([str(bin_dir / "python"), "-c", "import autopilot; print(autopilot.__file__)"], cwd=work,
+                       capture_output=True, text=True, check=True)
+    location = Path(r.stdout.strip())
+    assert bin_dir.parent in location.parents and ROOT not in location.parents
+    files = shipped(bin_dir, work)
+    for name in ("autopilot.yaml", "vessel.yaml", "vessel-thesis.yaml", "measured-table.csv", "pond-9.4.yaml",
+                 "pond-9.4.plan"):
+        assert files[name].is_file() and bin_dir.parent in files[name].parents, name
+    assert run(bin_dir, work, "--version").stdout.startswith("autopilot ")
+
+
+@pytest.mark.slow
+def test_install_md_check_runs_a_simulated_mission(installed, tmp_path):
+    bin_dir, work = installed
+    files = shipped(bin_dir, work)
+    etc = tmp_path / "etc"  # INSTALL.md step 2 copies these two files to /etc/wamv-autopilot
+    etc.mkdir()
+    shutil.copy(files["autopilot.yaml"], etc / "autopilot.yaml")
+    shutil.copy(files["pond-9.4.yaml"], etc / "mission.yaml")
+    check = tmp_path / "ap-check"
+    r = run(bin_dir, work, "run", "--config", str(etc / "autopilot.yaml"), "--mission", str(etc / "mission.yaml"),
+            "--sim", "--speedup", "20", "--log-dir", str(check), "--state-dir", str(check))
+    assert r.returncode == 0, r.stderr[-3000:]
+    (log,) = check.glob("mission-*.jsonl")
+    assert f"log: {log}" in r.stderr and "mission complete" in r.stderr
+    assert json.loads(log.read_text().splitlines()[-1])["reason"] == "complete"
+
+
+@pytest.mark.slow
+def test_model_check_evaluate_and_sysid_table_run_from_the_install(installed, tmp_path):
+    bin_dir, work = installed
+    r = run(bin_dir, work, "model", "check")
+    assert r.returncode == 0 and "turning rows" in r.stdout, r.stderr
+    r = run(bin_dir, work, "evaluate", "--guidance", "fuzzy", "--condition", "calm", "--json")
+    assert r.returncode == 0, r.stderr
+    rows = [json.loads(x) for x in r.stdout.splitlines()]
+    assert len(rows) == 6 and all(row["completed"] for row in rows)  # the six shipped missions
+    table = shipped(bin_dir, work)["measured-table.csv"]
+    r = run(bin_dir, work, "sysid", "--table", str(table), "--out", str(tmp_path / "sysid"), "--no-report")
+    assert r.returncode == 0 and r.stdout.startswith("verdict:"), r.stderr

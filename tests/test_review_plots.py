@@ -1,0 +1,55 @@
+"""The review's figures: a hole in the log is a break in every time panel, never a ramp across it."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from autopilot.review.plots import block_any, envelope
+
+
+def _segments(t, y):
+    """Runs of finite points as drawn by matplotlib (a NaN breaks the line)."""
+    ok = np.isfinite(y)
+    out, cur = [], []
+    for ti, yi, k in zip(t, y, ok):
+        if k:
+            cur.append(ti)
+        elif cur:
+            out.append(cur)
+            cur = []
+    if cur:
+        out.append(cur)
+    return out
+
+
+def test_a_log_gap_breaks_the_line_short_log():
+    t = np.concatenate([np.arange(0.0, 10.0, 0.1), np.arange(20.0, 30.0, 0.1)])  # 10 s without cycle lines
+    y = np.concatenate([np.full(100, 30.0), np.full(100, -30.0)])
+    t2, y2 = envelope(t, y)
+    segs = _segments(t2, y2)
+    assert len(segs) == 2 and segs[0][-1] < 10.0 and segs[1][0] >= 20.0  # no segment spans the hole
+
+
+def test_a_log_gap_breaks_the_line_decimated_log():
+    t = np.concatenate([np.arange(0.0, 1000.0, 0.1), np.arange(1100.0, 2000.0, 0.1)])  # 19000 rows, decimated
+    y = np.sin(t)
+    t2, y2 = envelope(t, y)
+    assert len(t2) < len(t)
+    segs = _segments(t2, y2)
+    assert len(segs) == 2 and segs[0][-1] < 1001.0 and segs[1][0] >= 1000.0
+
+
+def test_saturation_shading_stops_at_a_gap():
+    t = np.concatenate([np.arange(0.0, 5.0, 0.1), np.arange(15.0, 20.0, 0.1)])
+    mask = np.ones(len(t), dtype=bool)
+    tt, mm = block_any(t, mask)
+    # drawn with step="post": the sample before the hole must be followed by a False inside it
+    k = int(np.nonzero(tt > 4.95)[0][0])
+    assert tt[k] < 15.0 and not mm[k]
+
+
+def test_no_gap_no_change():
+    t = np.arange(0.0, 10.0, 0.1)
+    y = np.cos(t)
+    t2, y2 = envelope(t, y)
+    assert np.array_equal(t2, t) and np.array_equal(y2, y)

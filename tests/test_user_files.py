@@ -1,0 +1,228 @@
+"""Files a user really hands in: binary, Latin-1, UTF-16, a directory, Excel's UTF-8 with a BOM.
+
+Each bad one ends with one message naming the file and exit 2, never a traceback; a BOM is accepted.
+Run through the real entry point (python -m autopilot) as a user would.
+"""
+
+from __future__ import annotations
+
+import codecs
+import json
+import os
+
+import numpy as np
+import pytest
+
+from tests.conftest import REPO, run_cli
+
+MISSION_YAML = "name: bom\nframe: local\nwaypoints:\n  - {north_m: 10.0, east_m: 2.0}\n  - {north_m: 20.0, east_m: -3.0}\n"
+CONFIG_YAML = "rate_hz: 10\n"
+WPL = (REPO / "config" / "missions" / "examples" / "pond-9.4.waypoints").read_text()
+
+
+def _bad_variants(tmp_path, name: str, text: str) -> dict[str, object]:
+    """The same content as binary, Latin-1 (a non-ASCII name), UTF-16, and a directory of that name."""
+    stem, ext = os.path.splitext(name)
+    out = {}
+    p = tmp_path / f"{stem}-binary{ext}"
+    p.write_bytes(b"\x00\x01\x02" + os.urandom(500))
+    out["binary"] = p
+    p = tmp_path / f"{stem}-latin1{ext}"
+    p.write_bytes(("# Bjørnøya, Trondheimsfjorden\n" + text).encode("latin-1"))
+    out["latin-1"] = p
+    p = tmp_path / f"{stem}-utf16{ext}"
+    p.write_bytes(text.encode("utf-16"))
+    out["utf-16"] = p
+    p = tmp_path / f"{stem}-dir{ext}"
+    p.mkdir()
+    out["directory"] = p
+    return out
+
+
+EXPECT = {"binary": "binary data", "latin-1": "not UTF-8 text", "utf-16": "UTF-16 text", "directory": "is a directory"}
+
+
+def _assert_one_clean_message(proc, path, expect: str):
+    assert proc.returncode == 2, (proc.returncode, proc.stderr)
+    assert "Traceback" not in proc.stderr and "Traceback" not in proc.stdout
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1, proc.stderr
+    assert str(path) in lines[0] and expect in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("kind", list(EXPECT))
+def test_bad_mission_file(tmp_path, kind):
+    path = _bad_variants(tmp_path, "m.yaml", MISSION_YAML)[kind]
+    proc = run_cli("run", "--config", str(REPO / "config" / "autopilot.yaml"), "--mission", str(path), "--sim",
+                   "--log-dir", str(tmp_path / "logs"), "--state-dir", str(tmp_path / "state"), check=False)
+    _assert_one_clean_message(proc, path, EXPECT[kind])
+
+
+@pytest.mark.parametrize("kind", list(EXPECT))
+def test_bad_configuration_file(tmp_path, kind):
+    path = _bad_variants(tmp_path, "c.yaml", CONFIG_YAML)[kind]
+    proc = run_cli("run", "--config", str(path), "--mission", str(REPO / "config" / "missions" / "pond-9.1.yaml"),
+                   "--sim", check=False)
+    _assert_one_clean_message(proc, path, EXPECT[kind])
+
+
+@pytest.mark.parametrize("kind", list(EXPECT))
+def test_bad_trial_file(tmp_path, kind):
+    path = _bad_variants(tmp_path, "t.csv", "t_s,north_m,east_m,heading_deg,thrust_port_n,thrust_stbd_n\n")[kind]
+    proc = run_cli("sysid", str(path), "--out", str(tmp_path / "out"), check=False)
+    _assert_one_clean_message(proc, path, EXPECT[kind])
+
+
+def test_sysid_on_a_binary_mission_log(tmp_path):
+    path = tmp_path / "mission.jsonl"
+    path.write_bytes(b"\x00\xff" * 3000)
+    proc = run_cli("sysid", str(path), "--out", str(tmp_path / "out"), check=False)
+    _assert_one_clean_message(proc, path, "binary data")
+
+
+@pytest.mark.parametrize("kind", ["binary", "directory"])
+def test_bad_vessel_file(tmp_path, kind):
+    path = _bad_variants(tmp_path, "v.yaml", "mass_kg: 255\n")[kind]
+    proc = run_cli("model", "check", "--params", str(path), check=False)
+    _assert_one_clean_message(proc, path, EXPECT[kind])
+
+
+def test_nmea_on_a_directory(tmp_path):
+    (tmp_path / "logs").mkdir()
+    proc = run_cli("nmea", str(tmp_path / "logs"), check=False)
+    _assert_one_clean_message(proc, tmp_path / "logs", "is a directory")
+
+
+def test_nmea_on_random_bytes_is_not_success(tmp_path):
+    path = tmp_path / "capture.log"
+    path.write_bytes(np.random.default_rng(3).integers(0, 256, 20_000, dtype=np.uint8).tobytes())
+    proc = run_cli("nmea", str(path), check=False)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "no NMEA sentence decoded" in proc.stderr and str(path) in proc.stderr
+
+
+def test_review_of_a_file_that_is_not_a_mission_log(tmp_path):
+    proc = run_cli("review", str(REPO / "README.md"), "--out", str(tmp_path / "r"), check=False)
+    assert proc.returncode == 2 and "not a mission log" in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "r").exists()
+
+
+# ---------------------------------------------------------------------------------------- BOM accepted
+
+def test_bom_yaml_mission_and_configuration(tmp_path):
+    (tmp_path / "m.yaml").write_bytes(codecs.BOM_UTF8 + MISSION_YAML.encode())
+    (tmp_path / "c.yaml").write_bytes(codecs.BOM_UTF8 + b"rate_hz: 10\ngnc:\n  guidance:\n    default_speed_m_s: 1.2\n")
+    from autopilot.daemon.config import load_config
+    from autopilot.mission import load_mission
+
+    assert load_mission(tmp_path / "m.yaml").name == "bom"
+    assert load_config(tmp_path / "c.yaml").gnc.guidance.default_speed_m_s == 1.2
+
+
+def test_bom_csv_mission_as_excel_writes_it(tmp_path):
+    text = "north_m;east_m;speed_m_s\r\n10,5;2;1.0\r\n"  # an Excel locale with ; and decimal commas
+    (tmp_path / "bad.csv").write_bytes(codecs.BOM_UTF8 + text.encode())
+    (tmp_path / "m.csv").write_bytes(codecs.BOM_UTF8 + b"north_m;east_m;speed_m_s\r\n10.5;2;1.0\r\n20;-1;\r\n")
+    from autopilot.mission import MissionError, load_mission
+
+    m = load_mission(tmp_path / "m.csv")
+    np.testing.assert_allclose(m.waypoints_ne_m, [[10.5, 2.0], [20.0, -1.0]])
+    assert m.speeds_m_s == (1.0, None)
+    with pytest.raises(MissionError, match="waypoint 1: north_m is not a number"):  # says which cell, no traceback
+        load_mission(tmp_path / "bad.csv")
+
+
+def test_bom_waypoints_file(tmp_path):
+    (tmp_path / "m.waypoints").write_bytes(codecs.BOM_UTF8 + WPL.encode())
+    from autopilot.mission import load_mission
+
+    assert len(load_mission(tmp_path / "m.waypoints").waypoints_ne_m) == 3
+
+
+def test_bom_trial_csv_is_read(tmp_path):
+    t = np.arange(0.0, 5.0, 0.1)
+    lines = ["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg"]
+    lines += [f"{x:.1f},10,10,{x:.2f},0,0" for x in t]
+    (tmp_path / "t.csv").write_bytes(codecs.BOM_UTF8 + ("\r\n".join(lines) + "\r\n").encode())
+    from autopilot.sysid.trials import read_trial_csv
+
+    trial = read_trial_csv(tmp_path / "t.csv")
+    assert len(trial.t_s) == len(t) and np.isfinite(trial.north_m).all()
+
+
+def test_bom_steady_table(tmp_path):
+    text = (REPO / "config" / "measured-table.csv").read_text()
+    (tmp_path / "t.csv").write_bytes(codecs.BOM_UTF8 + text.encode())
+    from autopilot.sysid.table import read_table_csv
+
+    assert len(read_table_csv(tmp_path / "t.csv")) == 20
+
+
+# ---------------------------------------------------------------------------------------- small things
+
+def test_version_and_shipped_files():
+    proc = run_cli("--version")
+    assert proc.stdout.startswith("autopilot ") and proc.returncode == 0
+    listed = run_cli("files").stdout
+    assert "vessel.yaml" in listed and "pond-9.4.yaml" in listed
+
+
+def test_evaluate_help_is_whole_sentences():
+    text = " ".join(run_cli("evaluate", "--help").stdout.split())
+    assert "Each run gives a scorecard:" not in text and "One scorecard per run:" in text
+    assert "wind (5 m/s from the north-east)." in text
+
+
+def test_manoeuvre_options_are_documented():
+    text = run_cli("model", "manoeuvre", "--help").stdout
+    for opt in ("--duration-s", "--angle-deg", "--differential-n", "--plot", "--json", "--params"):
+        line = next(ln for ln in text.splitlines() if ln.strip().startswith(opt))
+        help_text = line.split(opt, 1)[1].split(None, 1)
+        assert help_text or opt in ("--json",), opt  # every option has a help text on its line or the next
+    assert "overshoot per reversal" in " ".join(text.split())
+
+
+def test_calibrate_does_not_overwrite_the_shipped_set(tmp_path):
+    shipped = (REPO / "config" / "vessel.yaml").read_bytes()
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "autopilot", "model", "calibrate"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "vessel-calibrated.yaml").read_bytes() == shipped  # reproduces it, beside the user
+    assert (REPO / "config" / "vessel.yaml").read_bytes() == shipped
+    r = subprocess.run([sys.executable, "-m", "autopilot", "model", "calibrate"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 2 and "exists" in r.stderr and "--force" in r.stderr
+
+
+def test_review_output_folders_are_git_ignored():
+    import subprocess
+
+    for folder in ("review/", "review-mission-20261201T000000Z-pond-9.4/"):
+        r = subprocess.run(["git", "check-ignore", "-q", folder], cwd=REPO)
+        assert r.returncode == 0, folder
+
+
+def test_internal_errors_reach_the_user_as_one_line(tmp_path, monkeypatch):
+    from autopilot import cli
+
+    def boom(args):
+        raise RuntimeError("something unexpected")
+
+    parser = cli.build_parser()
+    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    parser._subparsers._group_actions[0].choices["files"].set_defaults(func=boom)
+    monkeypatch.delenv("AUTOPILOT_DEBUG", raising=False)
+    import contextlib
+    import io
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert cli.main(["files"]) == 1
+    assert err.getvalue().count("\n") == 1 and "internal error: RuntimeError: something unexpected" in err.getvalue()
+
+
+def test_summary_json_of_model_check_is_json():
+    json.loads(run_cli("model", "check", "--json").stdout)
