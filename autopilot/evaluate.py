@@ -30,6 +30,7 @@ import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from autopilot.geo import wrap_pi
 from autopilot.gnc.passes import PassTracker
 from autopilot.schema import ConfigError
 
@@ -112,7 +113,7 @@ class CirclingMonitor:
         if wp_index != self._target:
             self._target, self._turned_rad = wp_index, 0.0
         else:
-            self._turned_rad += math.remainder(psi_rad - self._prev_psi, 2.0 * math.pi)
+            self._turned_rad += wrap_pi(psi_rad - self._prev_psi)
             if abs(self._turned_rad) > self.limit_rad:
                 self.circled = True
         self._prev_psi = psi_rad

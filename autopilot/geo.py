@@ -17,23 +17,43 @@ WGS84_F = 1.0 / 298.257223563  # flattening (-)
 _E2 = WGS84_F * (2.0 - WGS84_F)  # first eccentricity squared (-)
 
 
+_TWO_PI = 2.0 * math.pi
+
+
 def wrap_pi(angle_rad):
-    """Wrap an angle (or array) to (-pi, pi]."""
+    """An angle (rad) wrapped to (-pi, pi]; a float for a Python number (fast: the GNC's per-cycle
+    path), an array for an array. The one wrap of the project: every angle difference goes through it."""
+    if isinstance(angle_rad, (float, int)):
+        a = math.fmod(angle_rad + math.pi, _TWO_PI)
+        if a <= 0.0:
+            a += _TWO_PI
+        return a - math.pi
     wrapped = np.mod(np.asarray(angle_rad, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
     wrapped = np.where(wrapped == -np.pi, np.pi, wrapped)
     return float(wrapped) if np.ndim(wrapped) == 0 else wrapped
 
 
 def wrap_180(angle_deg):
-    """Wrap an angle in degrees (or array) to (-180, 180]."""
+    """An angle in degrees wrapped to (-180, 180] (float or array, as :func:`wrap_pi`)."""
+    if isinstance(angle_deg, (float, int)):
+        a = math.fmod(angle_deg + 180.0, 360.0)
+        if a <= 0.0:
+            a += 360.0
+        return a - 180.0
     wrapped = np.mod(np.asarray(angle_deg, dtype=float) + 180.0, 360.0) - 180.0
     wrapped = np.where(wrapped == -180.0, 180.0, wrapped)
     return float(wrapped) if np.ndim(wrapped) == 0 else wrapped
 
 
 def wrap_360(angle_deg):
-    """Wrap an angle in degrees (or array) to [0, 360)."""
+    """An angle in degrees wrapped to [0, 360) (float or array)."""
+    if isinstance(angle_deg, (float, int)):
+        a = math.fmod(angle_deg, 360.0)
+        if a < 0.0:
+            a += 360.0
+        return 0.0 if a >= 360.0 else a
     wrapped = np.mod(np.asarray(angle_deg, dtype=float), 360.0)
+    wrapped = np.where(wrapped >= 360.0, 0.0, wrapped)
     return float(wrapped) if np.ndim(wrapped) == 0 else wrapped
 
 

@@ -6,17 +6,15 @@ behind real pseudo-terminals in the same process. The log is checked against doc
 
 import json
 import os
-import re
 import signal
 import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-import xml.etree.ElementTree as ET
 
 from autopilot.logschema import CYCLE_KEYS
 from autopilot.review.export import GPX_NS, write_gpx

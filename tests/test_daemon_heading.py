@@ -7,8 +7,6 @@ from autopilot.daemon.loop import choose_heading
 from autopilot.drivers.sc30 import NavData, Stamped
 
 
-
-
 def nav(heading=(90.0, 10.0, True), cog=(45.0, 9.5, True), sog_kn=2.0) -> NavData:
     n = NavData()
     if heading is not None:

@@ -6,7 +6,6 @@ import json
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 from autopilot.cli import main
 from autopilot.drivers.nmea import NmeaStreamDecoder

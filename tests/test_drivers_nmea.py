@@ -11,8 +11,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from tests.conftest import SHARED as SHARED_ROOT
-
 from autopilot.drivers.nmea import (
     ChecksumError,
     NmeaStreamDecoder,
@@ -21,6 +19,7 @@ from autopilot.drivers.nmea import (
     decode_line,
     make_sentence,
 )
+from tests.conftest import SHARED as SHARED_ROOT
 
 SHARED = SHARED_ROOT / "nmea"
 CAPTURES = sorted(SHARED.glob("*.log"))

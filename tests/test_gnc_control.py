@@ -7,7 +7,13 @@ import pytest
 from numpy.testing import assert_allclose
 
 from autopilot.gnc import GUIDANCE_LAWS, Autopilot, GncConfig, NavInput, PidConfig
-from autopilot.gnc.allocation import AllocationConfig, Allocator, common_thrust_n, speed_for_common_thrust_m_s, table_thrusts_n
+from autopilot.gnc.allocation import (
+    AllocationConfig,
+    Allocator,
+    common_thrust_n,
+    speed_for_common_thrust_m_s,
+    table_thrusts_n,
+)
 from autopilot.gnc.config import LAWS
 from autopilot.gnc.los import LosGuidance
 from autopilot.gnc.pid import HeadingPid

@@ -4,7 +4,16 @@ from __future__ import annotations
 
 import json
 
-from autopilot.logschema import CYCLE, CYCLE_KEYS, EVENT_NAMES, FAULT_CAUSES, HEADING_SOURCES, MODES, STOP_REASONS, render_markdown
+from autopilot.logschema import (
+    CYCLE,
+    CYCLE_KEYS,
+    EVENT_NAMES,
+    FAULT_CAUSES,
+    HEADING_SOURCES,
+    MODES,
+    STOP_REASONS,
+    render_markdown,
+)
 from autopilot.review import reader
 from autopilot.review.synthetic import write_synthetic_log
 

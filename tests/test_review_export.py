@@ -12,8 +12,17 @@ import pytest
 from numpy.testing import assert_allclose
 
 from autopilot.geo import latlon_to_local
-from autopilot.review.export import (CSV_COLUMNS, GPX_NS, KML_NS, export, parse_formats,
-                                     write_geojson, write_gpx, write_kml, write_trial_csv)
+from autopilot.review.export import (
+    CSV_COLUMNS,
+    GPX_NS,
+    KML_NS,
+    export,
+    parse_formats,
+    write_geojson,
+    write_gpx,
+    write_kml,
+    write_trial_csv,
+)
 from autopilot.review.reader import read_log
 from autopilot.review.synthetic import DEFAULT_ORIGIN_DEG, write_synthetic_log
 from autopilot.schema import ConfigError

@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 
 from autopilot.schema import ConfigError, to_dict
 from autopilot.sim import load_params
-from autopilot.sim.params import VesselParams, default_params_path, thesis_params_path
+from autopilot.sim.params import default_params_path, thesis_params_path
 from tests.conftest import run_cli
 
 

@@ -1,6 +1,5 @@
 """Physics invariants of the MMG model and the RK4 integration (issue 2, Show)."""
 
-import dataclasses
 import math
 
 import numpy as np

@@ -135,8 +135,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     boat_length_m = cfg.boat_length_m
     tmpdir = None
     if opts.sim:
-        from autopilot.simdev import SimRig
         from autopilot.sim import Environment, default_params_path, load_params
+        from autopilot.simdev import SimRig
 
         params = load_params(cfg.sim.vessel or default_params_path())
         boat_length_m = float(params.length_m)

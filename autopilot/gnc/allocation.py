@@ -24,6 +24,7 @@ import bisect
 from dataclasses import dataclass
 
 from autopilot.gnc.thrust_curve import ThrustCurve
+from autopilot.mathutil import clamp
 from autopilot.measured import MEASURED_TABLE
 from autopilot.schema import param
 
@@ -130,10 +131,10 @@ class Allocator:
         hi, lo = self.upper_n, self.lower_n
         port_req, stbd_req = tau_com_n + tau_order_n, tau_com_n - tau_order_n
         half_span = 0.5 * (hi - lo)
-        d = -half_span if tau_order_n < -half_span else half_span if tau_order_n > half_span else tau_order_n
+        d = clamp(tau_order_n, -half_span, half_span)
         ad = abs(d)
         c_lo, c_hi = lo + ad, hi - ad
-        c = c_lo if tau_com_n < c_lo else c_hi if tau_com_n > c_hi else tau_com_n
+        c = clamp(tau_com_n, c_lo, c_hi)
         port, stbd = c + d, c - d
         sat: list[str] = []
         eps = 1e-9

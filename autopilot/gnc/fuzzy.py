@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from autopilot.mathutil import clamp
+
 Triangle = tuple[float, float, float]  # (left foot, peak, right foot)
 
 
@@ -41,7 +43,7 @@ def _tri_scalar(x: float, a: float, b: float, c: float) -> float:
     up = (x - a) / (b - a) if b > a else (1.0 if x >= b else 0.0)
     down = (c - x) / (c - b) if c > b else (1.0 if x <= b else 0.0)
     m = up if up < down else down
-    return 0.0 if m < 0.0 else 1.0 if m > 1.0 else m
+    return clamp(m, 0.0, 1.0)
 
 
 def uniform_partition(lo: float, hi: float, n: int, *, extend: bool = False) -> tuple[Triangle, ...]:
@@ -131,8 +133,8 @@ class Mamdani:
         """Crisp output for one point, plain Python (same numbers as :meth:`evaluate`)."""
         lo1, hi1 = self.in1_range
         lo2, hi2 = self.in2_range
-        x1 = lo1 if x1 < lo1 else hi1 if x1 > hi1 else x1
-        x2 = lo2 if x2 < lo2 else hi2 if x2 > hi2 else x2
+        x1 = clamp(x1, lo1, hi1)
+        x2 = clamp(x2, lo2, hi2)
         a = [_tri_scalar(x1, *s) for s in self.in1_sets]
         b = [_tri_scalar(x2, *s) for s in self.in2_sets]
         strength = [0.0] * len(self.out_sets)

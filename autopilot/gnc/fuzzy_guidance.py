@@ -53,8 +53,10 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 
+from autopilot.geo import wrap_pi
 from autopilot.gnc.fuzzy import Mamdani, rule_indices, uniform_partition
 from autopilot.gnc.waypoints import Steer, WaypointGuidance
+from autopilot.mathutil import clamp
 from autopilot.schema import param
 
 SETS = ("SA", "SM", "ME", "ML", "LA")  # small, small-medium, medium, medium-large, large
@@ -175,9 +177,9 @@ class FuzzyGuidance(WaypointGuidance):
             c = 0.0
         else:
             c = self._engine.evaluate_scalar(dcpa_nd, tcpa_nd)
-            c = 0.0 if c < 0.0 else 1.0 if c > 1.0 else c
+            c = clamp(c, 0.0, 1.0)
         # wrap the difference so the blend turns the short way (SPEC 7)
-        delta = math.remainder(psi_2 - psi_1, 2.0 * math.pi)
+        delta = wrap_pi(psi_2 - psi_1)
         psi_d = psi_1 + delta * c
         return Steer(
             psi_d_rad=psi_d, passed=passed, tcpa_nd=tcpa_nd, dcpa_nd=dcpa_nd, cdh=c

@@ -26,6 +26,7 @@ import math
 from dataclasses import dataclass
 
 from autopilot.gnc.waypoints import Steer, WaypointGuidance
+from autopilot.mathutil import clamp
 from autopilot.schema import param
 
 
@@ -72,6 +73,6 @@ class LosGuidance(WaypointGuidance):
             e_i = e_m
         i_val += cfg.ki_per_m_s * e_i * dt_s
         lim = cfg.i_hard_max_nd
-        self.integral_nd = -lim if i_val < -lim else lim if i_val > lim else i_val
+        self.integral_nd = clamp(i_val, -lim, lim)
         chi_r = -math.atan(e_m / cfg.lookahead_m + self.integral_nd)
         return Steer(psi_d_rad=chi_p + chi_r, passed=along_m >= length)

@@ -39,6 +39,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from autopilot.geo import wrap_pi
+from autopilot.mathutil import clamp
 from autopilot.schema import param
 
 _DEG = 180.0 / math.pi
@@ -80,9 +82,7 @@ class HeadingPid:
 
     def terms(self, psi_d_rad: float, psi_rad: float, yaw_rate_rad_s: float) -> PidTerms:
         """P, I, D for this cycle (the I term is the integral so far; see :meth:`integrate`)."""
-        err = math.remainder(psi_d_rad - psi_rad, 2.0 * math.pi)
-        if err == -math.pi:
-            err = math.pi
+        err = wrap_pi(psi_d_rad - psi_rad)
         cfg = self.config
         return PidTerms(
             p_n=cfg.kp_n_per_deg * err * _DEG,
@@ -96,7 +96,7 @@ class HeadingPid:
         cfg = self.config
         new = self.integral_n + cfg.ki_n_per_deg_s * heading_error_rad * _DEG * dt_s
         lim = cfg.integral_limit_n
-        new = -lim if new < -lim else lim if new > lim else new
+        new = clamp(new, -lim, lim)
         if saturated and abs(new) > abs(self.integral_n):
             return
         self.integral_n = new

@@ -22,7 +22,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from autopilot.gnc.waypoints import Steer, WaypointGuidance, wrap_pi_f
+from autopilot.geo import wrap_pi
+from autopilot.gnc.waypoints import Steer, WaypointGuidance
 from autopilot.schema import param
 
 
@@ -46,7 +47,7 @@ class ProportionalGuidance(WaypointGuidance):
         dn, de = wn - nav.north_m, we - nav.east_m
         dst = math.hypot(dn, de)
         hd = math.atan2(de, dn) if dst > 0.0 else nav.psi_rad
-        dhd = wrap_pi_f(hd - nav.psi_rad)
+        dhd = wrap_pi(hd - nav.psi_rad)
         if abs(dhd) < 0.5 * math.pi:
             factor = 1.0
         elif dst <= cfg.wp_sh_m:

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from autopilot.mathutil import clamp
 from autopilot.schema import param
 
 
@@ -70,7 +71,7 @@ class SpeedTrim:
         p = cfg.kp_n_s_per_m * (speed_cmd_m_s - speed_m_s)
         lim = cfg.trim_limit_n
         t = p + self.integral_n
-        t = -lim if t < -lim else lim if t > lim else t
+        t = clamp(t, -lim, lim)
         return SpeedTrimTerms(p, self.integral_n, t)
 
     def integrate(self, speed_cmd_m_s: float, speed_m_s: float, dt_s: float, *, block_up: bool = False, block_down: bool = False) -> None:
@@ -89,4 +90,4 @@ class SpeedTrim:
             return
         new = self.integral_n + inc
         lim = cfg.integral_limit_n
-        self.integral_n = -lim if new < -lim else lim if new > lim else new
+        self.integral_n = clamp(new, -lim, lim)

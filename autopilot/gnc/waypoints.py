@@ -27,19 +27,10 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from autopilot.geo import wrap_pi
+
 if TYPE_CHECKING:  # pragma: no cover
     from autopilot.gnc.autopilot import NavInput
-
-TWO_PI = 2.0 * math.pi
-
-
-def wrap_pi_f(angle_rad: float) -> float:
-    """Scalar wrap to (-pi, pi], plain float (autopilot.geo.wrap_pi is numpy, slower per call)."""
-    a = math.fmod(angle_rad + math.pi, TWO_PI)
-    if a <= 0.0:
-        a += TWO_PI
-    return a - math.pi
-
 
 @dataclass(frozen=True)
 class Steer:
@@ -174,10 +165,10 @@ class WaypointGuidance:
                 xte_m=nxt.xte_m, tcpa_nd=nxt.tcpa_nd, dcpa_nd=nxt.dcpa_nd, cdh=nxt.cdh,
                 reached_index=i, reached_distance_m=d_m, reached_how=how, complete=False, thrust_off=False,
             )
-        err = wrap_pi_f(steer.psi_d_rad - nav.psi_rad)
+        err = wrap_pi(steer.psi_d_rad - nav.psi_rad)
         speed = self._speed_m_s(i, d_m, err, steer.speed_factor_nd)
         return GuidanceOutput(
-            wp_index=i, psi_d_rad=wrap_pi_f(steer.psi_d_rad), speed_cmd_m_s=speed, xte_m=xte,
+            wp_index=i, psi_d_rad=wrap_pi(steer.psi_d_rad), speed_cmd_m_s=speed, xte_m=xte,
             tcpa_nd=steer.tcpa_nd, dcpa_nd=steer.dcpa_nd, cdh=steer.cdh,
             reached_index=None, reached_distance_m=None, reached_how=None, complete=False, thrust_off=False,
         )
@@ -198,7 +189,7 @@ class WaypointGuidance:
             )
         # hold: creep back towards the waypoint, slower the closer it is
         psi_d = math.atan2(de, dn)
-        err = wrap_pi_f(psi_d - nav.psi_rad)
+        err = wrap_pi(psi_d - nav.psi_rad)
         v = min(cfg.default_speed_m_s, max(cfg.min_speed_m_s, cfg.default_speed_m_s * d_m / max(cfg.arrival_slowdown_m, 1e-6)))
         v *= max(0.0, math.cos(err))  # turn on the spot first when it is behind
         return GuidanceOutput(

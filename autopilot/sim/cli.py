@@ -89,7 +89,11 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     from autopilot.sim.calibrate import calibrate, write_params
-    from autopilot.sim.params import default_params_path, load_params, thesis_params_path
+    from autopilot.sim.params import (
+        default_params_path,
+        load_params,
+        thesis_params_path,
+    )
     from autopilot.sim.steady import check_table
 
     out = Path(args.out)

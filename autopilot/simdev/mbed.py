@@ -19,7 +19,12 @@ import asyncio
 
 from autopilot.clock import Clock
 from autopilot.drivers.framing import LineFramer
-from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, ProtocolError, decode_command, encode_ack
+from autopilot.drivers.mbed_protocol import (
+    MAX_LINE_CHARS,
+    ProtocolError,
+    decode_command,
+    encode_ack,
+)
 from autopilot.simdev.boat import SimBoat
 from autopilot.simdev.pty import PtyEndpoint
 

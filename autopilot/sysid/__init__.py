@@ -16,7 +16,14 @@ from autopilot.sysid.identify import Identification, identify
 from autopilot.sysid.output import load_effects, updated_vessel
 from autopilot.sysid.replay import initial_state, predict, prepare
 from autopilot.sysid.table import identify_table, read_table_csv, write_table_csv
-from autopilot.sysid.trials import Trial, make_trial, read_mission_log, read_trial, read_trial_csv, write_trial_csv
+from autopilot.sysid.trials import (
+    Trial,
+    make_trial,
+    read_mission_log,
+    read_trial,
+    read_trial_csv,
+    write_trial_csv,
+)
 from autopilot.sysid.workflow import run
 
 
