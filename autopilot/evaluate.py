@@ -2,7 +2,10 @@
 
 Model (``autopilot.sim.step``, RK4 at ``dt_s`` = 0.05 s) + the full GNC stack
 (``autopilot.gnc.Autopilot`` at 10 Hz, thrust held between cycles), no
-serial, simulated time. The boat starts at the mission's home (the local
+serial, simulated time. The GNC sees what it sees on the boat: the SC-30's
+measurements at their rates (``autopilot.sim.sensors``: a 1 Hz fix, the 10 Hz
+heading, ROT at 1 Hz), put together by the daemon's own navigation assembly
+(``autopilot.gnc.navigation.assemble``: dead reckoning, differenced yaw rate). The boat starts at the mission's home (the local
 origin), heading north, at rest. Each run gives a scorecard:
 
 - completed: the autopilot reached the last waypoint within the time limit;
@@ -33,10 +36,11 @@ from pathlib import Path
 from autopilot.geo import wrap_pi
 from autopilot.gnc.passes import PassTracker
 from autopilot.schema import ConfigError
+from autopilot.sim.sensors import SensorModel, SensorRates
 
 GNC_RATE_HZ = 10.0
 SIM_DT_S = 0.05
-FIX_PERIOD_S = 1.0  # GGA/RMC at 1 Hz (SPEC 10)
+EVAL_ORIGIN_DEG = (52.0, 4.4)  # where the local frame lies (any point: only the local frame matters)
 
 
 def conditions() -> dict:
@@ -152,17 +156,22 @@ def run_closed_loop(
     record: bool = False,
     mission: str = "",
     condition: str = "",
-    fix_period_s: float = FIX_PERIOD_S,
+    sensor_rates: SensorRates = SensorRates(),
 ):
     """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`."""
     import numpy as np
 
-    from autopilot.gnc import Autopilot, GncConfig, NavInput
+    from autopilot.daemon.cycle import nav_input
+    from autopilot.gnc import Autopilot, GncConfig
+    from autopilot.gnc.navigation import NavMemory, NavRules, assemble
     from autopilot.sim import step
 
     config = config or GncConfig()
     wps = [(float(n), float(e)) for n, e in waypoints_ne_m]
     ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, boat_length_m=params.length_m)
+    # the daemon's navigation: the SC-30's rates (a 1 Hz fix, dead-reckoned), the same assembly
+    sensors = SensorModel(*EVAL_ORIGIN_DEG, rates=sensor_rates)
+    rules, memory = NavRules(), NavMemory()
     if t_max_s is None:
         t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s)
     substeps = max(1, round(1.0 / (rate_hz * dt_s)))
@@ -171,21 +180,21 @@ def run_closed_loop(
     t = 0.0
     passes = PassTracker(wps)
     closest_by_wp: dict[int, float] = {}
-    next_fix_s = 0.0
     passes_open = True
     xte_sq = xte_max = energy = 0.0
     n_cycles = n_sat = n_track = 0  # n_track: cycles steering to a waypoint (the last one not yet reached)
     circling = CirclingMonitor()
     completed_at = None
-    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n")}
+    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n", "pid_i_n")}
     while t < t_max_s:
         n_m, e_m, psi, u, v, r = (float(c) for c in x)
-        nav = NavInput(north_m=n_m, east_m=e_m, psi_rad=psi, speed_m_s=math.hypot(u, v), yaw_rate_rad_s=r, course_rad=psi + math.atan2(v, u) if (u or v) else psi)
-        out = ap.step(nav, dt_ctrl)
+        nav, memory = assemble(sensors.observe(t, x), t, memory, rules, origin_lat_deg=EVAL_ORIGIN_DEG[0],
+                               origin_lon_deg=EVAL_ORIGIN_DEG[1])
+        nav_in = nav_input(nav)
+        out = ap.step(nav_in, dt_ctrl)
         ended = passes.on_target(ap.wp_index) if out.reached_index is not None else []
-        if t >= next_fix_s - 1e-9 and passes_open:  # the GPS fix of this second (noise-free)
-            ended += passes.on_fix(t, n_m, e_m, ap.wp_index)
-            next_fix_s += fix_period_s
+        if nav.new_fix and passes_open:
+            ended += passes.on_fix(nav.fix_t_s, nav.north_m, nav.east_m, ap.wp_index)
         closest_by_wp.update((p.wp_index, p.closest_approach_m) for p in ended)
         n_cycles += 1
         if out.saturation:
@@ -196,7 +205,7 @@ def run_closed_loop(
             xte_max = max(xte_max, abs(out.xte_m))
             circling.update(out.wp_index, psi)
         if record:
-            for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", out.xte_m), ("speed_m_s", nav.speed_m_s), ("speed_cmd_m_s", out.speed_cmd_m_s), ("tau_com_n", out.tau_com_n), ("tau_com_trim_n", out.tau_com_trim_n)):
+            for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", out.xte_m), ("speed_m_s", math.hypot(u, v)), ("speed_cmd_m_s", out.speed_cmd_m_s), ("tau_com_n", out.tau_com_n), ("tau_com_trim_n", out.tau_com_trim_n), ("pid_i_n", out.pid_i_n)):
                 tr[k].append(val)
         if out.complete and completed_at is None:
             completed_at = t

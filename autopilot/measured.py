@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+HULL_LENGTH_M = 3.96  # L, thesis ch. 2 (the papers give 3.91 m); SPEC 1
+
 # Table 4.2 / SPEC section 4: command level -> (voltage V, PWM duty %, thrust N).
 LEVELS: dict[str, tuple[float, float, float]] = {
     "A": (0.0, 0.0, 0.0),
@@ -20,6 +22,9 @@ LEVELS: dict[str, tuple[float, float, float]] = {
     "E": (9.6, 80.0, 21.15),
     "F": (12.0, 100.0, 32.5),
 }
+
+
+MAX_THRUST_N = LEVELS["F"][2]  # level F, 12 V: the largest thrust per thruster (Table 4.2)
 
 
 def level_thrust_n(letter: str) -> float:

@@ -70,15 +70,15 @@ def mutate(rng: random.Random, line: bytes) -> bytes:
 
 
 def check(u) -> bool:
-    for name in ("lat_deg", "lon_deg", "heading_deg", "cog_deg", "sog_kn", "rot_deg_min", "pitch_deg", "roll_deg"):
+    for name in ("lat_deg", "lon_deg", "heading_rad", "cog_rad", "sog_m_s", "yaw_rate_rad_s", "pitch_rad", "roll_rad"):
         v = getattr(u, name)
         if v is not None and not math.isfinite(v):
             return False
     if u.lat_deg is not None and not (-90 <= u.lat_deg <= 90 and -180 <= u.lon_deg <= 180):
         return False
-    for name in ("heading_deg", "cog_deg"):
+    for name in ("heading_rad", "cog_rad"):
         v = getattr(u, name)
-        if v is not None and not 0 <= v < 360:
+        if v is not None and not 0 <= v < 2 * math.pi:
             return False
     return True
 

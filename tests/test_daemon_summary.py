@@ -7,18 +7,16 @@ from types import SimpleNamespace
 import numpy as np
 
 from autopilot.daemon.app import end_summary
-from autopilot.daemon.loop import ControlLoop, LoopStats
+from autopilot.daemon.loop import LoopState
 
 
 def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True):
-    st = LoopStats(cycles=cycles, skipped=skipped)
-    fake = SimpleNamespace(
-        stats=st, clock=SimpleNamespace(now_s=lambda: 45.0, speedup=speedup), t0_s=5.0,
-        mission=SimpleNamespace(waypoints_ne_m=np.zeros((3, 2))), reached=[0, 1, 2] if complete else [0],
-        closest_m={0: 0.41, 1: 0.27, 2: float("nan")} if complete else {0: 0.41}, complete=complete,
-        failsafe_causes=list(failsafes))
-    fake.speedup_held = lambda: ControlLoop.speedup_held(fake)
-    return fake
+    st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [0],
+                   closest_m={0: 0.41, 1: 0.27, 2: float("nan")} if complete else {0: 0.41},
+                   completed_t_s=38.0 if complete else None, failsafe_causes=list(failsafes))
+    held = speedup * cycles / (cycles + skipped)  # the rate a loop at that speedup skipping so many deadlines keeps
+    return SimpleNamespace(state=st, clock=SimpleNamespace(now_s=lambda: 45.0, speedup=speedup), t0_s=5.0,
+                           mission=SimpleNamespace(waypoints_ne_m=np.zeros((3, 2))), speedup_held=lambda: held)
 
 
 def test_a_clean_run():

@@ -83,8 +83,8 @@ def test_gga_and_rmc_of_one_epoch_are_one_fix():
     drv._on_bytes(gga.encode())
     clock.t = 10.35
     drv._on_bytes(rmc.encode())
-    assert drv.nav.position.t_s == 10.15 and drv.nav.position.source == "GGA"  # the RMC repeats the epoch
-    assert drv.nav.sog_kn.value == 2.0  # what only the RMC carries is still taken
+    assert drv.sample().position.t_s == 10.15 and drv.sample().position.source == "GGA"  # the RMC repeats the epoch
+    assert drv.sample().sog_m_s.value == pytest.approx(2.0 * 1852 / 3600)  # what only the RMC carries is still taken
     clock.t = 11.15
     drv._on_bytes(gga2.encode())
-    assert drv.nav.position.t_s == 11.15  # the next epoch is a new fix
+    assert drv.sample().position.t_s == 11.15  # the next epoch is a new fix

@@ -23,7 +23,9 @@ from tests.conftest import SHARED as SHARED_ROOT
 
 SHARED = SHARED_ROOT / "nmea"
 CAPTURES = sorted(SHARED.glob("*.log"))
-KN_TO_M_S = 0.514444
+KN_TO_M_S = 0.514444  # gpsd's knot
+KNOT = 1852.0 / 3600.0  # the exact one
+R = math.radians
 
 
 # --------------------------------------------------------------------------- literal lines
@@ -32,18 +34,18 @@ KN_TO_M_S = 0.514444
 @pytest.mark.parametrize(
     "line, expect",
     [
-        ("$HEHDT,4.0,T*2B", dict(sentence="HDT", talker="HE", heading_deg=4.0, heading_valid=True)),
-        ("$GPHDT,,T*1B", dict(sentence="HDT", heading_deg=None, heading_valid=False)),
-        ("$GNTHS,244.28,A*11", dict(sentence="THS", talker="GN", heading_deg=244.28, ths_mode="A", heading_valid=True)),
-        (make_sentence("GPTHS,12.3,V"), dict(sentence="THS", heading_deg=12.3, ths_mode="V", heading_valid=False)),
+        ("$HEHDT,4.0,T*2B", dict(sentence="HDT", talker="HE", heading_rad=R(4.0), heading_valid=True)),
+        ("$GPHDT,,T*1B", dict(sentence="HDT", heading_rad=None, heading_valid=False)),
+        ("$GNTHS,244.28,A*11", dict(sentence="THS", talker="GN", heading_rad=R(244.28), ths_mode="A", heading_valid=True)),
+        (make_sentence("GPTHS,12.3,V"), dict(sentence="THS", heading_rad=R(12.3), ths_mode="V", heading_valid=False)),
         (make_sentence("GPTHS,12.3,E"), dict(sentence="THS", heading_valid=True)),
-        ("$HEROT,0.0,A*2B", dict(sentence="ROT", rot_deg_min=0.0, status_valid=True)),
-        (make_sentence("HEROT,-12.5,V"), dict(sentence="ROT", rot_deg_min=-12.5, status_valid=False)),
+        ("$HEROT,0.0,A*2B", dict(sentence="ROT", yaw_rate_rad_s=R(0.0) / 60, status_valid=True)),
+        (make_sentence("HEROT,-12.5,V"), dict(sentence="ROT", yaw_rate_rad_s=R(-12.5) / 60, status_valid=False)),
         (
             make_sentence("PFEC,GPatt,123.4,-1.2,+3.4"),
-            dict(sentence="PFEC_GPatt", heading_deg=123.4, pitch_deg=-1.2, roll_deg=3.4, heading_valid=True),
+            dict(sentence="PFEC_GPatt", heading_rad=R(123.4), pitch_rad=R(-1.2), roll_rad=R(3.4), heading_valid=True),
         ),
-        (make_sentence("PFEC,GPatt,,,"), dict(sentence="PFEC_GPatt", heading_deg=None, heading_valid=False)),
+        (make_sentence("PFEC,GPatt,,,"), dict(sentence="PFEC_GPatt", heading_rad=None, heading_valid=False)),
         (make_sentence("PFEC,GPhve,-0.123,A"), dict(sentence="PFEC_GPhve", heave_m=-0.123, status_valid=True)),
         (
             "$GPGGA,130711,5012.790800,N,00806.879600,W,2,,,,,,,*6A",
@@ -53,14 +55,14 @@ KN_TO_M_S = 0.514444
         ("$GPGGA,,,,,,0,,,,M,,M,,*66", dict(sentence="GGA", lat_deg=None, lon_deg=None, fix_quality=0, status_valid=False)),
         (
             "$GPRMC,130711.00,A,5012.790800,N,00806.879600,W,0.5,3.0,010611,,A*6A",
-            dict(sentence="RMC", lat_deg=50.21318, sog_kn=0.5, cog_deg=3.0, status_valid=True),
+            dict(sentence="RMC", lat_deg=50.21318, sog_m_s=0.5 * KNOT, cog_rad=R(3.0), status_valid=True),
         ),
         (make_sentence("GPRMC,130711.00,V,,,,,,,010611,,,N"), dict(sentence="RMC", lat_deg=None, status_valid=False)),
-        ("$GPVTG,3.0,T,,,0.50,N,,,D*16", dict(sentence="VTG", cog_deg=3.0, sog_kn=0.5, status_valid=True)),
-        ("$APHDM,218.634,M*39", dict(sentence="HDM", heading_mag_deg=218.634, heading_deg=None)),
-        ("$APXDR,A,0.135,D,PTCH*7C", dict(sentence="XDR", pitch_deg=0.135, roll_deg=None)),
-        ("$HEHDT,4.0,T*2b\r\n", dict(sentence="HDT", heading_deg=4.0)),  # lower-case hex accepted
-        ("$GPHDT,360.0,T*" + checksum("GPHDT,360.0,T"), dict(heading_deg=0.0)),
+        ("$GPVTG,3.0,T,,,0.50,N,,,D*16", dict(sentence="VTG", cog_rad=R(3.0), sog_m_s=0.5 * KNOT, status_valid=True)),
+        ("$APHDM,218.634,M*39", dict(sentence="HDM", heading_mag_rad=R(218.634), heading_rad=None)),
+        ("$APXDR,A,0.135,D,PTCH*7C", dict(sentence="XDR", pitch_rad=R(0.135), roll_rad=None)),
+        ("$HEHDT,4.0,T*2b\r\n", dict(sentence="HDT", heading_rad=R(4.0))),  # lower-case hex accepted
+        ("$GPHDT,360.0,T*" + checksum("GPHDT,360.0,T"), dict(heading_rad=R(0.0))),
     ],
 )
 def test_decode_literal(line, expect):
@@ -136,7 +138,7 @@ def test_stream_counts_every_kind_of_bad_line():
     updates += d.feed(b"x" * 1000)  # no newline: discarded, counted once
     updates += d.feed(b"y" * 1000 + b"\n" + good)
     s = d.stats.as_dict()
-    assert [u.heading_deg for u in updates] == [4.0, 4.0]
+    assert [math.degrees(u.heading_rad) for u in updates] == pytest.approx([4.0, 4.0])
     assert s == dict(
         lines_ok=2, checksum_errors=1, garbage=1, invalid=1, unknown=1, too_long=2, non_ascii=1, dropped=6
     )
@@ -166,21 +168,21 @@ def _compare(update, reports):
             if update.lat_deg is not None and "lat" in rep:
                 out.append(("lat", update.lat_deg, rep["lat"], 1e-8))
                 out.append(("lon", update.lon_deg, rep["lon"], 1e-8))
-            if update.cog_deg is not None and "track" in rep:
-                out.append(("track", update.cog_deg, rep["track"], 1e-3))
-            if update.sog_kn is not None and "speed" in rep and update.sentence == "RMC":
-                out.append(("speed", update.sog_kn * KN_TO_M_S, rep["speed"], 1e-3))
+            if update.cog_rad is not None and "track" in rep:
+                out.append(("track", math.degrees(update.cog_rad), rep["track"], 1e-3))
+            if update.sog_m_s is not None and "speed" in rep and update.sentence == "RMC":
+                out.append(("speed", update.sog_m_s / KNOT * KN_TO_M_S, rep["speed"], 1e-3))  # gpsd prints 3 decimals
         elif cls == "ATT":
-            if update.heading_deg is not None and "heading" in rep:
-                out.append(("heading", update.heading_deg, rep["heading"], 1e-3))
-            if update.rot_deg_min is not None and "rot" in rep:
-                out.append(("rot", update.rot_deg_min, rep["rot"], 1e-3))
-            if update.heading_mag_deg is not None and "mheading" in rep:
-                out.append(("mheading", update.heading_mag_deg, rep["mheading"], 1e-3))
-            if update.pitch_deg is not None and "pitch" in rep:
-                out.append(("pitch", update.pitch_deg, rep["pitch"], 1e-3))
-            if update.roll_deg is not None and "roll" in rep:
-                out.append(("roll", update.roll_deg, rep["roll"], 1e-3))
+            if update.heading_rad is not None and "heading" in rep:
+                out.append(("heading", math.degrees(update.heading_rad), rep["heading"], 1e-3))
+            if update.yaw_rate_rad_s is not None and "rot" in rep:
+                out.append(("rot", math.degrees(update.yaw_rate_rad_s) * 60.0, rep["rot"], 1e-3))
+            if update.heading_mag_rad is not None and "mheading" in rep:
+                out.append(("mheading", math.degrees(update.heading_mag_rad), rep["mheading"], 1e-3))
+            if update.pitch_rad is not None and "pitch" in rep:
+                out.append(("pitch", math.degrees(update.pitch_rad), rep["pitch"], 1e-3))
+            if update.roll_rad is not None and "roll" in rep:
+                out.append(("roll", math.degrees(update.roll_rad), rep["roll"], 1e-3))
     return out
 
 
@@ -288,8 +290,8 @@ def test_valid_sentences_decode_and_roundtrip(body):
     d = NmeaStreamDecoder()
     assert d.feed(line.encode()) == [u]
     fields = body.split(",")
-    if u.heading_deg is not None and u.sentence in ("HDT", "THS"):
-        assert_allclose(u.heading_deg, float(fields[1]))
+    if u.heading_rad is not None and u.sentence in ("HDT", "THS"):
+        assert_allclose(math.degrees(u.heading_rad), float(fields[1]) % 360.0, atol=1e-9)
     if u.lat_deg is not None:
         i = 2 if u.sentence == "GGA" else 3
         sign = 1 if fields[i + 1] == "N" else -1
@@ -316,4 +318,4 @@ def test_nan_never_decoded():
     for body in ("GPHDT,NaN,T", "GPROT,nan,A", "PFEC,GPatt,inf,0,0"):
         assert NmeaStreamDecoder().feed(make_sentence(body).encode()) == []
     u = decode_line(make_sentence("GPVTG,0.0,T,,M,0.0,N,,K,A"))
-    assert math.isfinite(u.sog_kn)
+    assert math.isfinite(u.sog_m_s)

@@ -93,8 +93,45 @@ def test_circling_monitor_resets_on_target_change():
 def test_circling_flag_fires_closed_loop_with_guards_off(params):
     """A waypoint abeam inside the turning circle, file 003's law with its tolerance at 0.1 m and
     the capture radius off: the boat overshoots and loops round it. The default guards do not."""
+    from autopilot.sim.sensors import SensorRates
+
     guards_off = {"law": "proportional", "capture_radius_m": 0.0, "proportional": {"wp_tol_m": 0.1}}
-    r = run_closed_loop(params, [(0.0, 4.0)], config=load(GncConfig, {"guidance": guards_off}), t_max_s=90.0)
+    # 10 Hz fixes (an RTK receiver): with the SC-30's 1 Hz fix the dead-reckoned position jumps and
+    # happens to land within the 0.1 m tolerance
+    fast_gps = SensorRates(fix_period_s=0.1, rot_period_s=0.1)
+    r = run_closed_loop(params, [(0.0, 4.0)], config=load(GncConfig, {"guidance": guards_off}), t_max_s=90.0,
+                        sensor_rates=fast_gps)
     assert r.circled
     r = run_closed_loop(params, [(0.0, 4.0)], config=load(GncConfig, {"guidance": {"law": "fuzzy"}}), t_max_s=90.0)
     assert r.completed and not r.circled
+
+
+def test_heading_integral_works_at_full_speed_in_a_beam_current(params):
+    """At full speed the common thrust sits at its limit every cycle. The heading integral must still
+    act (the allocation reports the turn and the common thrust apart): in a 0.3 m/s beam current with a
+    steady 4 N m yaw moment (wind on the superstructure), a 600 m leg flown with the line-of-sight law.
+    Measured with the per-thruster flag that froze the integral: I = 0 N, steady heading error -2.40
+    deg, along-leg cross-track mean +0.12 m; now I ~ -1.35 N, -0.97 deg, -0.03 m."""
+    import dataclasses
+
+    from autopilot.sim import Environment
+
+    base = GncConfig()
+    cfg = dataclasses.replace(base, guidance=dataclasses.replace(
+        base.guidance, law="los", default_speed_m_s=3.4, arrival_slowdown_m=0.0, turn_speed_floor_nd=1.0))
+
+    def moment(t_s, state):
+        zero = 0.0 * state[..., 0]
+        return zero, zero, zero + 4.0
+
+    r = run_closed_loop(params, [(600.0, 0.0)], config=cfg, env=Environment(current_speed_m_s=0.3, current_towards_deg=90.0),
+                        external_force=moment, record=True)
+    t = np.asarray(r.trace["t_s"])
+    late = t > 60.0
+    assert r.completed and r.saturation_pct > 90.0  # flown at the thrusters' limit
+    i_n = np.asarray(r.trace["pid_i_n"])[late]
+    he_deg = np.degrees(np.asarray(r.trace["heading_error_rad"]))[late]
+    xte = np.asarray(r.trace["xte_m"])[late]
+    assert i_n.mean() < -1.0  # the integral carries part of the moment (it was frozen at 0)
+    assert abs(he_deg.mean()) < 1.5  # was 2.4 deg
+    assert abs(xte.mean()) < 0.3 and r.xte_rms_m < 1.5

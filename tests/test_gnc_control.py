@@ -37,17 +37,32 @@ def test_pid_error_wraps_across_north(psi_d, psi, err):
     assert_allclose(math.degrees(t.heading_error_rad), err, atol=1e-9)
 
 
-def test_pid_anti_windup_only_shrinks_while_saturated():
+def test_pid_anti_windup_stops_growth_towards_a_limited_turn():
     pid = HeadingPid(PidConfig(ki_n_per_deg_s=0.1, integral_limit_n=50.0))
-    pid.integrate(D(10), 1.0, saturated=False)
+    pid.integrate(D(10), 1.0)
     assert pid.integral_n == pytest.approx(1.0)
-    pid.integrate(D(10), 1.0, saturated=True)  # would grow: held
+    pid.integrate(D(10), 1.0, turn_limit=+1)  # the starboard turn is cut: it may not grow that way
     assert pid.integral_n == pytest.approx(1.0)
-    pid.integrate(D(-5), 1.0, saturated=True)  # shrinks: allowed
+    pid.integrate(D(-5), 1.0, turn_limit=+1)  # shrinks: allowed
     assert pid.integral_n == pytest.approx(0.5)
+    pid.integrate(D(10), 1.0, turn_limit=-1)  # the port turn is cut: growing to starboard is fine
+    assert pid.integral_n == pytest.approx(1.5)
     for _ in range(1000):
-        pid.integrate(D(90), 1.0, saturated=False)
+        pid.integrate(D(90), 1.0)
     assert pid.integral_n == pytest.approx(50.0)  # bounded
+
+
+def test_allocation_reports_saturation_per_axis():
+    """allocate(30, 5): the full 5 N differential is delivered, only the common thrust is cut. The old
+    per-thruster report ('port_upper') froze the heading integral at full speed."""
+    a = Allocator().allocate(30.0, 5.0)
+    assert a.saturation == ("port_upper",)  # the per-thruster view, for the log
+    assert a.thrust_port_n - a.thrust_stbd_n == pytest.approx(10.0)  # 2 x tau_order: the turn is whole
+    assert (a.turn_limit, a.common_limit) == (0, 1)
+    b = Allocator().allocate(10.0, 40.0)  # more differential than the thrusters have
+    assert (b.turn_limit, b.common_limit) == (1, 1)
+    c = Allocator().allocate(0.0, -40.0)
+    assert c.turn_limit == -1
 
 
 def test_allocator_eq_8_5_8_6_unsaturated():

@@ -11,6 +11,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from autopilot.clock import Clock
+from autopilot.devices import ThrustCommand, age_s
 from autopilot.drivers.mbed import MbedDriver
 from autopilot.drivers.mbed_protocol import encode_command
 from autopilot.drivers.nmea import make_sentence
@@ -38,6 +39,12 @@ async def until(cond, timeout_wall_s=5.0):
     return cond()
 
 
+def cmd(duty_port_pct, reverse_port, duty_stbd_pct, reverse_stbd) -> ThrustCommand:
+    """A command by its duties and directions (signed duty: negative = reverse)."""
+    return ThrustCommand(duty_port_pct=-duty_port_pct if reverse_port else duty_port_pct,
+                         duty_stbd_pct=-duty_stbd_pct if reverse_stbd else duty_stbd_pct)
+
+
 class Bench:
     """A rig plus both drivers, all in one event loop."""
 
@@ -53,12 +60,12 @@ class Bench:
             origin_lon_deg=ORIGIN[1],
             **rig_kwargs,
         )
-        kw = dict(clock=self.clock, reconnect_min_s=0.1, reconnect_max_s=0.4, on_event=self._event)
+        kw = dict(clock=self.clock, reconnect_min_s=0.1, reconnect_max_s=0.4, events=self._event)
         self.sc30 = SC30Driver(self.rig.sc30_path, baudrate=self.rig.sc30.baudrate, **kw)
         self.mbed = MbedDriver(self.rig.mbed_path, **kw)
         self.tasks = []
 
-    def _event(self, name, **fields):
+    def _event(self, name, **fields):  # the drivers' event sink
         self.events.append((name, fields))
 
     def count(self, name, device):
@@ -88,18 +95,18 @@ def test_heading_and_position_match_the_boat(params, tmp_path):
         async with Bench(params, tmp_path) as b:
             headings = []
             for _ in range(15):
-                assert await until(lambda: b.sc30.nav.heading_deg is not None)
-                headings.append(b.sc30.nav.heading_deg.value)
+                assert await until(lambda: b.sc30.sample().heading_rad is not None)
+                headings.append(math.degrees(b.sc30.sample().heading_rad.value))
                 await b.clock.sleep(0.2)
-            assert await until(lambda: b.sc30.nav.position is not None and b.sc30.nav.fix_quality is not None)
-            nav = b.sc30.nav
+            assert await until(lambda: b.sc30.sample().position is not None and b.sc30.sample().fix_quality is not None)
+            nav = b.sc30.sample()
             return headings, nav, b.rig.boat.state.copy(), b.sc30.stats
 
     headings, nav, state, stats = asyncio.run(main())
     # boat at rest: heading = psi0 within 5 sigma of the 0.1 deg noise plus the 0.05 deg quantisation
     assert_allclose(headings, math.degrees(PSI0_RAD), atol=5 * 0.1 + 0.05)
     assert all(round(h * 10) == pytest.approx(h * 10, abs=1e-9) for h in headings)  # 0.1 deg resolution
-    assert nav.heading_deg.valid and nav.heading_deg.source == "HDT"
+    assert nav.heading_rad.valid and nav.heading_rad.source == "HDT"
     assert nav.fix_quality.value == 1 and nav.position.valid
     north_m, east_m = latlon_to_local(*nav.position.value, *ORIGIN)
     assert_allclose([north_m, east_m], state[:2], atol=5 * 0.3)
@@ -114,22 +121,22 @@ def test_turning_boat_heading_tracks_state(params, tmp_path):
             # hold the thrust with commands so the firmware timeout does not stop it
             errors = []
             for _ in range(30):
-                b.mbed.send(100.0, False, 0.0, False)
+                b.mbed.send(cmd(100.0, False, 0.0, False))
                 await b.clock.sleep(0.1)
-                h = b.sc30.nav.heading_deg
+                h = b.sc30.sample().heading_rad
                 if h is not None and b.clock.now_s() - h.t_s < 0.2:
                     # compare with the boat now; the sentence is at most ~0.2 s old
                     rate_deg_s = abs(math.degrees(b.rig.boat.state[5]))
-                    err = abs((h.value - b.rig.boat.heading_deg + 180) % 360 - 180)
+                    err = abs((math.degrees(h.value) - b.rig.boat.heading_deg + 180) % 360 - 180)
                     errors.append((err, rate_deg_s))
-            return errors, b.rig.boat.state.copy(), b.sc30.nav
+            return errors, b.rig.boat.state.copy(), b.sc30
 
-    errors, state, nav = asyncio.run(main())
+    errors, state, drv = asyncio.run(main())
     assert state[5] > 0.05  # turning to starboard (SPEC section 2), so the comparison means something
     assert len(errors) >= 20
     for err, rate in errors:
         assert err <= rate * 0.3 + 0.1
-    assert nav.rot_deg_min.value > 0 and nav.attitude is not None
+    assert drv.sample().yaw_rate_rad_s.value > 0 and drv.attitude is not None
 
 
 def test_mbed_commands_acked_and_applied(params, tmp_path):
@@ -137,7 +144,7 @@ def test_mbed_commands_acked_and_applied(params, tmp_path):
         async with Bench(params, tmp_path) as b:
             results = []
             for i in range(10):
-                seq = b.mbed.send(10.0 * i, i % 2 == 1, 5.0 * i, False)
+                seq = b.mbed.send(cmd(10.0 * i, i % 2 == 1, 5.0 * i, False))
                 results.append((seq, await b.mbed.wait_ack(seq, 1.0)))
                 await b.clock.sleep(0.05)
             return results, b.rig.mbed.commands, b.mbed, b.rig.boat
@@ -156,7 +163,7 @@ def test_mbed_commands_acked_and_applied(params, tmp_path):
 def test_mbed_stops_motors_after_timeout_despite_bad_lines(params, tmp_path):
     async def main():
         async with Bench(params, tmp_path, speedup=2.0) as b:
-            seq = b.mbed.send(50.0, False, 50.0, False)
+            seq = b.mbed.send(cmd(50.0, False, 50.0, False))
             assert await b.mbed.wait_ack(seq, 1.0)
             t_cmd = b.rig.mbed.last_valid_s
             # garbage, a bad checksum and an out-of-range command must not extend the timeout
@@ -181,12 +188,12 @@ def test_silent_mbed_counts_missing_acks(params, tmp_path):
             b.rig.mbed.silent = True
             seqs = []
             for _ in range(5):
-                seqs.append(b.mbed.send(20.0, False, 20.0, False))
+                seqs.append(b.mbed.send(cmd(20.0, False, 20.0, False)))
                 await b.clock.sleep(0.1)
             await b.clock.sleep(0.4)
             missing = (b.mbed.ack_missing, b.mbed.consecutive_missing)
             b.rig.mbed.silent = False
-            seq = b.mbed.send(0.0, False, 0.0, False)
+            seq = b.mbed.send(cmd(0.0, False, 0.0, False))
             ok = await b.mbed.wait_ack(seq, 1.0)
             return missing, ok, b.mbed.consecutive_missing, len(b.rig.mbed.commands)
 
@@ -199,19 +206,19 @@ def test_silent_mbed_counts_missing_acks(params, tmp_path):
 def test_unplug_replug_reconnects_both(params, tmp_path):
     async def main():
         async with Bench(params, tmp_path) as b:
-            assert await until(lambda: b.sc30.nav.heading_deg is not None)
+            assert await until(lambda: b.sc30.sample().heading_rad is not None)
             b.rig.sc30.unplug()
             b.rig.mbed.unplug()
             assert not os.path.exists(b.rig.sc30_path)
             assert await until(lambda: not b.sc30.connected and not b.mbed.connected)
-            assert b.mbed.send(10.0, False, 10.0, False) == -1
+            assert b.mbed.send(cmd(10.0, False, 10.0, False)) == -1
             await b.clock.sleep(1.0)  # several failed reopen attempts
             b.rig.sc30.replug()
             b.rig.mbed.replug()
             assert await until(lambda: b.sc30.connected and b.mbed.connected)
             t_back = b.clock.now_s()
-            assert await until(lambda: b.sc30.nav.heading_deg.t_s > t_back)
-            seq = b.mbed.send(10.0, False, 10.0, False)
+            assert await until(lambda: b.sc30.sample().heading_rad.t_s > t_back)
+            seq = b.mbed.send(cmd(10.0, False, 10.0, False))
             ok = await b.mbed.wait_ack(seq, 1.0)
             return ok, b
 
@@ -227,7 +234,7 @@ def test_unplug_replug_reconnects_both(params, tmp_path):
 def test_split_corrupt_and_random_bytes_are_counted_not_raised(params, tmp_path):
     async def main():
         async with Bench(params, tmp_path) as b:
-            assert await until(lambda: b.sc30.nav.heading_deg is not None)
+            assert await until(lambda: b.sc30.sample().heading_rad is not None)
             b.rig.sc30.split = True
             n0 = b.sc30.stats["updates"]
             await b.clock.sleep(1.5)
@@ -243,7 +250,7 @@ def test_split_corrupt_and_random_bytes_are_counted_not_raised(params, tmp_path)
             busy_s = b.rig.sc30.line_busy_until_s - t_inject  # paced at the baud rate: ~4.2 s
             await b.clock.sleep_until(b.rig.sc30.line_busy_until_s)
             t_after = b.clock.now_s()
-            assert await until(lambda: b.sc30.nav.heading_deg.t_s > t_after)
+            assert await until(lambda: b.sc30.sample().heading_rad.t_s > t_after)
             assert b.sc30.connected  # 10 kB of noise is data, not a lost port
             return split_updates, corrupt_errors, busy_s, b
 
@@ -254,24 +261,24 @@ def test_split_corrupt_and_random_bytes_are_counted_not_raised(params, tmp_path)
     stats = b.sc30.stats
     assert stats["dropped"] > 5
     assert b.count("nmea_garbage", "sc30") >= 1
-    assert b.sc30.nav.heading_deg.valid
+    assert b.sc30.sample().heading_rad.valid
 
 
 def test_fault_flags_reach_the_driver(params, tmp_path):
     async def main():
         async with Bench(params, tmp_path) as b:
-            assert await until(lambda: b.sc30.nav.fix_quality is not None and b.sc30.nav.heading_deg is not None)
+            assert await until(lambda: b.sc30.sample().fix_quality is not None and b.sc30.sample().heading_rad is not None)
             b.rig.sc30.fix_lost = True
             b.rig.sc30.heading_invalid = True
             t = b.clock.now_s()
-            assert await until(lambda: b.sc30.nav.fix_quality.t_s > t + 0.5 and b.sc30.nav.heading_deg.t_s > t)
-            lost = (b.sc30.nav.fix_quality.value, b.sc30.nav.position.valid, b.sc30.nav.heading_deg.valid)
+            assert await until(lambda: b.sc30.sample().fix_quality.t_s > t + 0.5 and b.sc30.sample().heading_rad.t_s > t)
+            lost = (b.sc30.sample().fix_quality.value, b.sc30.sample().position.valid, b.sc30.sample().heading_rad.valid)
             b.rig.sc30.heading_dropout = True
             await b.clock.sleep(0.5)
             t_drop = b.clock.now_s()
             await b.clock.sleep(0.5)
-            return lost, b.sc30.nav.heading_age_s(b.clock.now_s()), b.clock.now_s() - t_drop
+            return lost, age_s(b.sc30.sample().heading_rad, b.clock.now_s()), b.clock.now_s() - t_drop
 
-    lost, age_s, since_s = asyncio.run(main())
+    lost, heading_age_s, since_s = asyncio.run(main())
     assert lost == (0, False, False)
-    assert age_s >= since_s  # no heading sentence since the dropout
+    assert heading_age_s >= since_s  # no heading sentence since the dropout

@@ -17,7 +17,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from autopilot.clock import Clock
+from autopilot.clock import Clock, SimClock
 from autopilot.daemon.config import DaemonConfig
 from autopilot.daemon.loop import ControlLoop
 from autopilot.daemon.missionlog import MissionLog, log_path
@@ -75,8 +75,11 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
     """Load and check the mission and the directories; no device is touched. Raises ConfigError."""
     from autopilot.mission import load_mission
 
-    if not (math.isfinite(opts.speedup) and 0.01 <= opts.speedup <= 100.0):
-        raise ConfigError(f"--speedup: {opts.speedup!r} is outside the allowed range [0.01, 100]")
+    if math.isinf(opts.speedup) and opts.speedup > 0:
+        if not opts.sim:
+            raise ConfigError("--speedup max: lockstep runs only with --sim (the boat's devices keep real time)")
+    elif not (math.isfinite(opts.speedup) and 0.01 <= opts.speedup <= 100.0):
+        raise ConfigError(f"--speedup: {opts.speedup!r} is outside the allowed range [0.01, 100], or max")
     mission = load_mission(
         opts.mission_path,
         origin_lat_deg=cfg.origin_lat_deg,
@@ -109,143 +112,119 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
     return mission, log_dir, state_dir
 
 
-async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, state_dir: Path, *, keep_samples=False, result=None) -> int:
-    version = package_version()
+class DeviceEvents:
+    """The event sink every driver is given (:data:`autopilot.devices.EventSink`): each event an
+    ``info`` log line; a port that cannot be opened also told once, in words, at the terminal."""
+
+    def __init__(self, log: MissionLog, clock, t0_s: float, cfg: DaemonConfig) -> None:
+        self.log, self.clock, self.t0_s, self.cfg = log, clock, t0_s, cfg
+
+    def __call__(self, name: str, *, device: str, **fields) -> None:
+        if name == "port_open_failed":
+            s = self.cfg.serial
+            _console(f"{device}: cannot open {fields.get('path')} ({fields.get('error')}); thrust stays at zero and the "
+                     f"port is retried every {s.reconnect_min_s:g}-{s.reconnect_max_s:g} s until it appears. "
+                     "Stop with Ctrl-C (or: systemctl stop wamv-autopilot).")
+        self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message=name, device=device, **fields)
+
+
+def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, mission_path: str, sha: str):
+    """(waypoint to start at, reason to hold zero thrust or None) from the saved progress."""
+    saved = None if opts.fresh else store.resume_index(mission_path, sha)
+    if saved is None:
+        return 0, None
+    if cfg.failsafe.resume_after_restart:
+        return saved, None
+    return 0, "interrupted mission found in the state directory and failsafe.resume_after_restart is false"
+
+
+async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
+    """The simulated SC-30 and Mbed behind pseudo-terminals, and the boat behind them (``--sim``)."""
+    from autopilot.sim import Environment, default_params_path, load_params
+    from autopilot.simdev import SimRig
+
+    params = load_params(cfg.sim.vessel or default_params_path())
+    home_ne = (0.0, 0.0)
+    if mission.home_latlon is not None:
+        home_ne = latlon_to_local(mission.home_latlon[0], mission.home_latlon[1], mission.origin_lat_deg, mission.origin_lon_deg)
+    env = Environment(current_speed_m_s=cfg.sim.current_speed_m_s, current_towards_deg=cfg.sim.current_towards_deg,
+                      wind_speed_m_s=cfg.sim.wind_speed_m_s, wind_from_deg=cfg.sim.wind_from_deg)
+    rig = SimRig(params, clock, directory=directory, env=env, x0=(home_ne[0], home_ne[1], 0.0, 0.0, 0.0, 0.0),
+                 origin_lat_deg=mission.origin_lat_deg, origin_lon_deg=mission.origin_lon_deg,
+                 heading_noise_deg=cfg.sim.heading_noise_deg, position_noise_m=cfg.sim.position_noise_m,
+                 seed=cfg.sim.seed, sc30_baudrate=cfg.serial.sc30_baud,
+                 sc30_options=dict(zip(("fast_sentences", "slow_sentences"), sim_sentences(cfg))))
+    await rig.start()
+    return rig, float(params.length_m)
+
+
+def _drivers(cfg: DaemonConfig, clock, events: DeviceEvents, sc30_port: str, mbed_port: str):
     from autopilot.drivers.mbed import MbedDriver
     from autopilot.drivers.sc30 import SC30Driver
-    from autopilot.gnc import Autopilot
 
-    clock = Clock(opts.speedup)
-    notifier = Notifier()
-    mission_path = str(Path(opts.mission_path).resolve())
-    sha = file_sha256(opts.mission_path)
-    store = StateStore(state_dir)
-    log = MissionLog(log_path(log_dir, opts.mission_path))
+    s, fs = cfg.serial, cfg.failsafe
+    compass = SC30Driver(sc30_port, baudrate=s.sc30_baud, clock=clock, reconnect_min_s=s.reconnect_min_s,
+                         reconnect_max_s=s.reconnect_max_s, events=events, garbage_burst_lines=fs.nmea_garbage_lines,
+                         garbage_burst_bytes=fs.garbage_bytes)
+    thrusters = MbedDriver(mbed_port, baudrate=s.mbed_baud, clock=clock, reconnect_min_s=s.reconnect_min_s,
+                           reconnect_max_s=s.reconnect_max_s, events=events, ack_timeout_s=s.ack_timeout_s,
+                           garbage_burst_lines=fs.mbed_garbage_lines, garbage_burst_bytes=fs.garbage_bytes)
+    return compass, thrusters
 
-    start_index, hold_zero = 0, None
-    saved_index = None if opts.fresh else store.resume_index(mission_path, sha)
-    if saved_index is not None:
-        if cfg.failsafe.resume_after_restart:
-            start_index = saved_index
-        else:
-            hold_zero = "interrupted mission found in the state directory and failsafe.resume_after_restart is false"
 
-    rig = None
-    sc30_port, mbed_port = cfg.serial.sc30_port, cfg.serial.mbed_port
-    boat_length_m = cfg.boat_length_m
-    tmpdir = None
-    if opts.sim:
-        from autopilot.sim import Environment, default_params_path, load_params
-        from autopilot.simdev import SimRig
-
-        params = load_params(cfg.sim.vessel or default_params_path())
-        boat_length_m = float(params.length_m)
-        home_ne = (0.0, 0.0)
-        if mission.home_latlon is not None:
-            home_ne = latlon_to_local(mission.home_latlon[0], mission.home_latlon[1], mission.origin_lat_deg, mission.origin_lon_deg)
-        env = Environment(
-            current_speed_m_s=cfg.sim.current_speed_m_s,
-            current_towards_deg=cfg.sim.current_towards_deg,
-            wind_speed_m_s=cfg.sim.wind_speed_m_s,
-            wind_from_deg=cfg.sim.wind_from_deg,
-        )
-        tmpdir = tempfile.TemporaryDirectory(prefix="autopilot-sim-")
-        rig = SimRig(
-            params,
-            clock,
-            directory=tmpdir.name,
-            env=env,
-            x0=(home_ne[0], home_ne[1], 0.0, 0.0, 0.0, 0.0),
-            origin_lat_deg=mission.origin_lat_deg,
-            origin_lon_deg=mission.origin_lon_deg,
-            heading_noise_deg=cfg.sim.heading_noise_deg,
-            position_noise_m=cfg.sim.position_noise_m,
-            seed=cfg.sim.seed,
-            sc30_baudrate=cfg.serial.sc30_baud,
-            sc30_options=dict(zip(("fast_sentences", "slow_sentences"), sim_sentences(cfg))),
-        )
-        await rig.start()
-        sc30_port, mbed_port = rig.sc30_path, rig.mbed_path
-
-    ap = Autopilot(
-        cfg.gnc,
-        mission.waypoints_ne_m,
-        speeds_m_s=mission.speeds_m_s,
-        boat_length_m=boat_length_m,
-        start_index=start_index,
-    )
-    loop = ControlLoop(
-        cfg,
-        clock=clock,
-        autopilot=ap,
-        mission=mission,
-        mission_path=mission_path,
-        mission_sha256=sha,
-        sc30=None,
-        mbed=None,
-        log=log,
-        notifier=notifier,
-        store=store,
-        fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg),
-        hold_zero=hold_zero,
-        keep_samples=keep_samples,
-        console=_console,
-    )
-    sc30 = SC30Driver(
-        sc30_port,
-        baudrate=cfg.serial.sc30_baud,
-        clock=clock,
-        reconnect_min_s=cfg.serial.reconnect_min_s,
-        reconnect_max_s=cfg.serial.reconnect_max_s,
-        on_event=loop.on_driver_event("sc30"),
-        garbage_burst_lines=cfg.failsafe.nmea_garbage_lines,
-        garbage_burst_bytes=cfg.failsafe.garbage_bytes,
-    )
-    mbed = MbedDriver(
-        mbed_port,
-        baudrate=cfg.serial.mbed_baud,
-        clock=clock,
-        reconnect_min_s=cfg.serial.reconnect_min_s,
-        reconnect_max_s=cfg.serial.reconnect_max_s,
-        on_event=loop.on_driver_event("mbed"),
-        ack_timeout_s=cfg.serial.ack_timeout_s,
-        garbage_burst_lines=cfg.failsafe.mbed_garbage_lines,
-        garbage_burst_bytes=cfg.failsafe.garbage_bytes,
-    )
-    loop.sc30, loop.mbed = sc30, mbed
-
-    loop.t0_s = clock.now_s()
+def _log_start(log: MissionLog, cfg: DaemonConfig, opts: RunOptions, mission, mission_path: str, *, boat_length_m: float,
+               start_index: int, ports: tuple[str, str], hold_zero: str | None) -> None:
     log.event(
-        "mission_start",
-        t_s=0.0,
-        mission=mission_path,
-        mission_name=mission.name,
-        guidance=cfg.gnc.guidance.law,
-        rate_hz=cfg.rate_hz,
-        sim=opts.sim,
-        speedup=opts.speedup,
-        origin_lat_deg=mission.origin_lat_deg,
-        origin_lon_deg=mission.origin_lon_deg,
+        "mission_start", t_s=0.0, mission=mission_path, mission_name=mission.name, guidance=cfg.gnc.guidance.law,
+        rate_hz=cfg.rate_hz, sim=opts.sim, speedup=opts.speedup if math.isfinite(opts.speedup) else "max",
+        origin_lat_deg=mission.origin_lat_deg, origin_lon_deg=mission.origin_lon_deg,
         waypoints=[[float(n), float(e)] for n, e in mission.waypoints_ne_m],
         waypoint_speeds_m_s=list(mission.speeds_m_s) if mission.speeds_m_s is not None else None,
-        boat_length_m=boat_length_m,
-        config=to_dict(cfg),
-        version=version,
-        start_index=start_index,
-        sc30_port=sc30_port,
-        mbed_port=mbed_port,
-        pid=os.getpid(),
+        boat_length_m=boat_length_m, config=to_dict(cfg), version=package_version(), start_index=start_index,
+        sc30_port=ports[0], mbed_port=ports[1], pid=os.getpid(),
     )
     if hold_zero is not None:
         log.event("info", t_s=0.0, message=f"holding zero thrust: {hold_zero}")
     elif start_index:
         log.event("info", t_s=0.0, message=f"resuming interrupted mission at waypoint {start_index}")
 
-    tasks = [asyncio.create_task(sc30.run(), name="sc30"), asyncio.create_task(mbed.run(), name="mbed")]
+
+async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, state_dir: Path) -> int:
+    from autopilot.gnc import Autopilot
+
+    lockstep = opts.sim and math.isinf(opts.speedup)
+    clock = SimClock() if lockstep else Clock(opts.speedup)
+    notifier = Notifier()
+    mission_path = str(Path(opts.mission_path).resolve())
+    sha = file_sha256(opts.mission_path)
+    store = StateStore(state_dir)
+    log = MissionLog(log_path(log_dir, opts.mission_path))
+    start_index, hold_zero = _resume_index(cfg, opts, store, mission_path, sha)
+    t0_s = clock.now_s()
+    events = DeviceEvents(log, clock, t0_s, cfg)
+    tasks, rig, tmpdir = [], None, None
+    if lockstep:
+        tasks.append(asyncio.create_task(clock.drive(), name="lockstep"))
+    ports, boat_length_m = (cfg.serial.sc30_port, cfg.serial.mbed_port), cfg.boat_length_m
+    if opts.sim:
+        tmpdir = tempfile.TemporaryDirectory(prefix="autopilot-sim-")
+        rig, boat_length_m = await _sim_rig(cfg, mission, clock, tmpdir.name)
+        ports = (rig.sc30_path, rig.mbed_path)
+    compass, thrusters = _drivers(cfg, clock, events, *ports)
+    if lockstep:
+        clock.set_quiet(lambda: rig.quiet(compass, thrusters))
+    ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, boat_length_m=boat_length_m,
+                   start_index=start_index)
+    loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
+                       compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
+                       fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
+                       t0_s=t0_s)
+    _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
+               hold_zero=hold_zero)
+    tasks += [asyncio.create_task(compass.run(), name="sc30"), asyncio.create_task(thrusters.run(), name="mbed")]
     loop.install_signal_handlers()
-    # give the drivers their first chance to open the ports, so a normal start logs no port fault
-    for _ in range(20):
-        if sc30.connected and mbed.connected:
+    for _ in range(20):  # the drivers' first chance to open the ports, so a normal start logs no port fault
+        if compass.connected and thrusters.connected:
             break
         await clock.sleep(cfg.period_s / 10.0)
     reason = "error"
@@ -253,29 +232,37 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         reason = await loop.run()
     except Exception as exc:  # noqa: BLE001 - logged, then the boat is stopped
         log.event("info", t_s=clock.now_s() - loop.t0_s, message="control loop error", error=repr(exc))
-        reason = "error"
     finally:
         code = await loop.stop(reason)
-        for t in tasks:
-            t.cancel()
-        await asyncio.gather(*tasks, return_exceptions=True)
-        for dev in (sc30, mbed):
-            try:
-                await dev.close()
-            except Exception:  # noqa: BLE001 - closing best effort
-                pass
-        if rig is not None:
-            await rig.stop()
-        if tmpdir is not None:
-            tmpdir.cleanup()
+        await _shut_down(tasks, (compass, thrusters), rig, tmpdir, clock)
         log.close()
         notifier.close()
-        if result is not None:
-            result["stats"] = loop.stats
-            result["log_path"] = str(log.path)
         for line in end_summary(loop, str(log.path), sim=opts.sim):
             _console(line)
     return code
+
+
+async def _shut_down(tasks, devices, rig, tmpdir, clock) -> None:
+    for dev in devices:
+        try:
+            await dev.close()
+        except Exception:  # noqa: BLE001 - closing best effort
+            pass
+    if rig is not None:
+        await rig.stop()
+    if isinstance(clock, SimClock):
+        clock.stop()
+    for t in tasks:
+        t.cancel()
+    await asyncio.gather(*tasks, return_exceptions=True)
+    if tmpdir is not None:
+        tmpdir.cleanup()
+
+
+def run_daemon(cfg: DaemonConfig, opts: RunOptions) -> int:
+    """Check everything, then run until complete or signalled. Returns the process exit code."""
+    mission, log_dir, state_dir = prepare(cfg, opts)
+    return asyncio.run(_main(cfg, opts, mission, log_dir, state_dir))
 
 
 KEEP_UP_SKIPPED_SHARE = 0.01  # more deadlines skipped than this share: say the run could not keep up
@@ -283,24 +270,25 @@ KEEP_UP_SKIPPED_SHARE = 0.01  # more deadlines skipped than this share: say the 
 
 def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     """What the person who started the run wants to know at the end, in a few lines."""
-    st = loop.stats
+    st = loop.state
     t_s = loop.clock.now_s() - loop.t0_s
     n_wps = len(loop.mission.waypoints_ne_m)
-    reached = loop.reached
+    reached = st.reached
     lines = [f"log: {log_path}"]
-    done = "mission complete" if loop.complete else "mission not complete"
+    done = "mission complete" if st.complete else "mission not complete"
     lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached")
     for i in range(n_wps):
-        ca = loop.closest_m.get(i)
+        ca = st.closest_m.get(i)
         got = "reached" if i in reached else "not reached"
         lines.append(f"  W{i}: {got}, closest approach " + (f"{ca:.2f} m" if ca is not None and math.isfinite(ca) else "n/a"))
-    causes = [ev for ev in loop.failsafe_causes]
+    causes = list(st.failsafe_causes)
     lines.append(f"failsafes: {len(causes)}" + (f" ({', '.join(causes[:5])}{', ...' if len(causes) > 5 else ''})" if causes else ""))
     total = st.cycles + st.skipped
     if total:
         held = loop.speedup_held()
+        asked = "max (lockstep)" if math.isinf(loop.clock.speedup) else f"{loop.clock.speedup:g}"
         lines.append(f"cycles: {st.cycles} run, {st.skipped} deadline(s) skipped, {st.late_cycles} late by a period "
-                     f"or more" + (f"; speedup held ~{held:.3g} of --speedup {loop.clock.speedup:g}" if sim else ""))
+                     f"or more" + (f"; speedup held ~{held:.3g} of --speedup {asked}" if sim else ""))
         if st.skipped > KEEP_UP_SKIPPED_SHARE * total or (st.skipped and causes):
             msg = f"the loop could not keep up ({st.skipped} of {total} deadlines skipped)"
             if sim:
@@ -308,9 +296,3 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
                         "run again with a lower --speedup")
             lines.append(msg)
     return lines
-
-
-def run_daemon(cfg: DaemonConfig, opts: RunOptions, *, keep_samples: bool = False, result: dict | None = None) -> int:
-    """Check everything, then run until complete or signalled. Returns the process exit code."""
-    mission, log_dir, state_dir = prepare(cfg, opts)
-    return asyncio.run(_main(cfg, opts, mission, log_dir, state_dir, keep_samples=keep_samples, result=result))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 __all__ = ["register"]
 
@@ -20,12 +21,23 @@ def register(subparsers) -> None:
     p.add_argument("--config", required=True, metavar="FILE", help="daemon configuration (config/autopilot.yaml)")
     p.add_argument("--mission", required=True, metavar="FILE", help="mission file (waypoints)")
     p.add_argument("--sim", action="store_true", help="start simulated SC-30 and Mbed on pseudo-terminals in this process")
-    p.add_argument("--speedup", type=float, default=1.0, metavar="N",
-                   help="run the clock N times faster than real time (bench tests; default 1)")
+    p.add_argument("--speedup", type=_speedup, default=1.0, metavar="N|max",
+                   help="--sim: run the clock N times faster than real time (default 1), or max: the daemon and the "
+                   "simulated devices in lockstep on a simulated clock, as fast as the machine allows and the same "
+                   "run on a busy machine as on an idle one")
     p.add_argument("--log-dir", metavar="DIR", help="override log_dir (systemd: $LOGS_DIRECTORY)")
     p.add_argument("--state-dir", metavar="DIR", help="override state_dir (systemd: $STATE_DIRECTORY)")
     p.add_argument("--fresh", action="store_true", help="ignore mission progress saved by an interrupted run")
     p.set_defaults(func=_run)
+
+
+def _speedup(text: str) -> float:
+    if text.strip().lower() == "max":
+        return math.inf
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid float value: {text!r} (or max)") from None
 
 
 def _run(args: argparse.Namespace) -> int:

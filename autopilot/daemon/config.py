@@ -15,6 +15,7 @@ from pathlib import Path
 
 from autopilot.drivers.sc30_output import SENTENCES as SC30_SENTENCES
 from autopilot.gnc import GncConfig
+from autopilot.measured import HULL_LENGTH_M
 from autopilot.schema import ConfigError, load_yaml, param
 
 __all__ = [
@@ -114,7 +115,7 @@ class DaemonConfig:
     origin_lat_deg: float | None = param(None, unit="deg", lo=-90.0, hi=90.0, doc="local-frame origin; null = the mission file's origin")
     origin_lon_deg: float | None = param(None, unit="deg", lo=-180.0, hi=180.0, doc="local-frame origin; null = the mission file's origin")
     max_mission_range_m: float = param(2000.0, unit="m", lo=1.0, hi=50000.0, doc="refuse missions with a waypoint farther than this from the origin")
-    boat_length_m: float = param(3.96, unit="m", lo=1.0, hi=50.0, source="SPEC 1", doc="hull length L for the fuzzy guidance (the simulated vessel's own length under --sim)")
+    boat_length_m: float = param(HULL_LENGTH_M, unit="m", lo=1.0, hi=50.0, source="SPEC 1", doc="hull length L for the fuzzy guidance (the simulated vessel's own length under --sim)")
     log_dir: str = param("logs", doc="mission log directory (systemd passes $LOGS_DIRECTORY with --log-dir)")
     state_dir: str = param("state", doc="mission progress directory (systemd passes $STATE_DIRECTORY with --state-dir)")
     ready_timeout_s: float = param(30.0, unit="s", lo=0.5, hi=600.0, doc="log a warning if both devices have not answered after this")

@@ -68,9 +68,6 @@ class Notifier:
     def stopping(self, status: str = "") -> bool:
         return self.notify("STOPPING=1" + (f"\nSTATUS={status}" if status else ""))
 
-    def status(self, status: str) -> bool:
-        return self.notify(f"STATUS={status}")
-
     def close(self) -> None:
         if self._sock is not None:
             self._sock.close()

@@ -30,7 +30,6 @@ class Progress:
     mission_sha256: str
     wp_index: int
     status: str  # "running", "complete", "stopped", "aborted"
-    t_s: float = 0.0
 
 
 class StateStore:
@@ -50,18 +49,13 @@ class StateStore:
                 mission_sha256=str(data["mission_sha256"]),
                 wp_index=int(data["wp_index"]),
                 status=str(data["status"]),
-                t_s=float(data.get("t_s", 0.0)),
             )
         except (OSError, ValueError, KeyError, TypeError):
             return None
 
     def save(self, progress: Progress) -> None:
-        """Replace the file atomically; skip when nothing but the time changed."""
-        if self._last is not None and (self._last.wp_index, self._last.status, self._last.mission_sha256) == (
-            progress.wp_index,
-            progress.status,
-            progress.mission_sha256,
-        ):
+        """Replace the file atomically; skip when nothing changed."""
+        if progress == self._last:
             return
         self.dir.mkdir(parents=True, exist_ok=True)
         tmp = self.path.with_name(f".{STATE_FILE}.{os.getpid()}.tmp")

@@ -11,11 +11,13 @@ cog_deg, fix_quality, source`` (plus ``talker``, ``valid``, ``pitch_deg``,
 from __future__ import annotations
 
 import json
+import math
 import os
 import stat
 import sys
 
 from autopilot.schema import ConfigError
+from autopilot.units import m_s_to_knots, rad_s_to_deg_min
 from autopilot.userfile import check_file
 
 _FIELDS = ("lat_deg", "lon_deg", "heading_deg", "rot_deg_min", "sog_kn", "cog_deg", "fix_quality")
@@ -35,17 +37,23 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_nmea)
 
 
+def _deg(x_rad):
+    return None if x_rad is None else round(math.degrees(x_rad), 6)
+
+
 def update_record(u, t_s: float) -> dict:
-    """The JSON object of one update."""
+    """The JSON object of one update, in the units a person reads off the compass (degrees, knots)."""
     valid = u.heading_valid if u.heading_valid is not None else u.status_valid
-    rec = {"t_s": round(t_s, 6)}
-    rec.update({k: getattr(u, k) for k in _FIELDS})
+    rec = {"t_s": round(t_s, 6), "lat_deg": u.lat_deg, "lon_deg": u.lon_deg, "heading_deg": _deg(u.heading_rad),
+           "rot_deg_min": None if u.yaw_rate_rad_s is None else round(rad_s_to_deg_min(u.yaw_rate_rad_s), 6),
+           "sog_kn": None if u.sog_m_s is None else round(m_s_to_knots(u.sog_m_s), 6), "cog_deg": _deg(u.cog_rad),
+           "fix_quality": u.fix_quality}
     rec.update(
         source=u.sentence,
         talker=u.talker,
         valid=valid,
-        pitch_deg=u.pitch_deg,
-        roll_deg=u.roll_deg,
+        pitch_deg=_deg(u.pitch_rad),
+        roll_deg=_deg(u.roll_rad),
         utc=u.utc.isoformat() if u.utc is not None else None,
     )
     return rec

@@ -21,9 +21,18 @@ from __future__ import annotations
 import math
 from collections import deque
 
-__all__ = ["LineFramer", "GarbageDetector", "LINE_BYTES"]
+__all__ = ["LineFramer", "GarbageDetector", "LINE_BYTES", "xor_checksum"]
 
 LINE_BYTES = bytes(range(0x20, 0x7F)) + b"\r\n"  # what a line-based protocol may carry
+
+
+def xor_checksum(body: str) -> str:
+    """NMEA 0183's checksum (also the Mbed protocol's): XOR of the characters between ``$`` and ``*``,
+    as two upper-case hex digits."""
+    c = 0
+    for ch in body.encode("ascii"):
+        c ^= ch
+    return f"{c:02X}"
 
 
 class LineFramer:

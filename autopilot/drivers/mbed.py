@@ -1,5 +1,7 @@
 """Mbed thruster-board driver: send one command per cycle, match acknowledgements, reconnect.
 
+Implements :class:`autopilot.devices.ThrusterLink`.
+
 Protocol in docs/mbed-protocol.md (codec: :mod:`autopilot.drivers.mbed_protocol`).
 :meth:`MbedDriver.send` never blocks and never raises for a transport
 problem: a command that cannot be written returns -1 and is counted, and the
@@ -13,9 +15,10 @@ from collections import OrderedDict
 from typing import Any
 
 from autopilot.clock import Clock
+from autopilot.devices import EventSink, ThrustCommand
 from autopilot.drivers.framing import GarbageDetector, LineFramer
 from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, Ack, ProtocolError, decode_ack, encode_command
-from autopilot.drivers.serial_link import EventCallback, SerialLink
+from autopilot.drivers.serial_link import SerialLink
 
 __all__ = ["MbedDriver"]
 
@@ -33,7 +36,7 @@ class MbedDriver:
         clock: Clock,
         reconnect_min_s: float = 0.2,
         reconnect_max_s: float = 5.0,
-        on_event: EventCallback | None = None,
+        events: EventSink | None = None,
         ack_timeout_s: float = 0.3,
         garbage_burst_lines: int = 5,
         garbage_burst_bytes: int = 32,
@@ -47,7 +50,7 @@ class MbedDriver:
             on_bytes=self._on_bytes,
             reconnect_min_s=reconnect_min_s,
             reconnect_max_s=reconnect_max_s,
-            on_event=on_event,
+            events=events,
             name="mbed",
         )
         self._seq = -1
@@ -76,6 +79,11 @@ class MbedDriver:
     @property
     def connected(self) -> bool:
         return self._link.connected
+
+    @property
+    def transport(self) -> SerialLink:
+        """The serial link underneath (its byte counters)."""
+        return self._link
 
     @property
     def ack_missing(self) -> int:
@@ -116,15 +124,16 @@ class MbedDriver:
         self._waiters.clear()
 
     # ------------------------------------------------------------------ commands
-    def send(self, duty_port_pct: float, reverse_port: bool, duty_stbd_pct: float, reverse_stbd: bool) -> int:
-        """Encode and write one command; its seq, or -1 (counted) if it could not be written.
+    def send(self, command: ThrustCommand) -> int:
+        """Encode and write one command (its signed duties); its seq, or -1 (counted) if it could not be written.
 
-        Raises :class:`ProtocolError` only for a duty outside 0-100 % (a caller bug).
+        Raises :class:`ProtocolError` only for a duty outside -100..100 % (a caller bug).
         """
         now_s = self._clock.now_s()
         self._expire(now_s)
         seq = (self._seq + 1) % 65536
-        line = encode_command(seq, duty_port_pct, reverse_port, duty_stbd_pct, reverse_stbd)
+        port, stbd = command.duty_port_pct, command.duty_stbd_pct
+        line = encode_command(seq, abs(port), port < 0, abs(stbd), stbd < 0)
         self._seq = seq
         if not self._link.write(line):
             self.send_failures += 1
@@ -215,6 +224,11 @@ class MbedDriver:
         for fut in self._waiters.pop(ack.seq, []):
             if not fut.done():
                 fut.set_result(ack.ok)
+
+    @property
+    def answered(self) -> bool:
+        """At least one command was acknowledged OK (the board is there and obeys)."""
+        return self.last_ack_seq is not None
 
     def describe(self) -> dict[str, Any]:
         return dict(path=self.port_path, connected=self.connected, **self.stats)

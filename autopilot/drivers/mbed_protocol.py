@@ -21,6 +21,8 @@ import math
 import re
 from dataclasses import dataclass
 
+from autopilot.drivers.framing import xor_checksum
+
 __all__ = [
     "ProtocolError",
     "Command",
@@ -83,15 +85,8 @@ class Ack:
         return self.status == "OK"
 
 
-def _checksum(body: str) -> str:
-    c = 0
-    for ch in body.encode("ascii"):
-        c ^= ch
-    return f"{c:02X}"
-
-
 def _frame(body: str) -> bytes:
-    return f"${body}*{_checksum(body)}\r\n".encode("ascii")
+    return f"${body}*{xor_checksum(body)}\r\n".encode("ascii")
 
 
 def _duty_text(duty_pct: float, what: str) -> str:
@@ -166,8 +161,8 @@ def _split(line: bytes | str) -> list[str] | None:
         raise ProtocolError(f"malformed checksum {given!r}")
     if not body.isascii() or not body.isprintable() or any(c in body for c in "$*"):
         raise ProtocolError("reserved or non-printable character")
-    if given.upper() != _checksum(body):
-        raise ProtocolError(f"checksum {given.upper()} != {_checksum(body)}")
+    if given.upper() != xor_checksum(body):
+        raise ProtocolError(f"checksum {given.upper()} != {xor_checksum(body)}")
     return body.split(",")
 
 

@@ -18,12 +18,14 @@ raises, whatever the bytes (fuzzed in ``benchmarks/fuzz_nmea.py``).
 from __future__ import annotations
 
 import datetime as _dt
+import math
 import re
 from dataclasses import dataclass
 
 import pynmea2
 
-from autopilot.drivers.framing import LineFramer
+from autopilot.drivers.framing import LineFramer, xor_checksum
+from autopilot.units import KNOT_M_S, deg_min_to_rad_s, knots_to_m_s
 
 __all__ = [
     "NmeaError",
@@ -35,6 +37,10 @@ __all__ = [
     "decode_line",
     "checksum",
     "make_sentence",
+    "encode_heading",
+    "encode_rot",
+    "encode_position",
+    "encode_zda",
     "MAX_LINE_CHARS",
 ]
 
@@ -66,9 +72,10 @@ class SentenceError(NmeaError):
 
 @dataclass(frozen=True)
 class NmeaUpdate:
-    """What one sentence says. Fields the sentence does not carry stay None.
+    """What one sentence says, in SI (latitude/longitude in degrees). Fields it does not carry stay None.
 
-    ``heading_valid``: HDT/THS/PFEC_GPatt carried a usable true heading
+    The sentence's degrees, knots and degrees per minute are converted here and go no further
+    (:mod:`autopilot.units`). ``heading_valid``: HDT/THS/PFEC_GPatt carried a usable true heading
     (empty HDT field or THS mode other than A/E is invalid).
     ``status_valid``: the sentence's own validity flag (GGA quality > 0,
     RMC/GLL status A and mode not N, VTG mode not N, ROT status A,
@@ -80,17 +87,17 @@ class NmeaUpdate:
     lat_deg: float | None = None
     lon_deg: float | None = None
     fix_quality: int | None = None
-    heading_deg: float | None = None
+    heading_rad: float | None = None  # true heading [0, 2 pi), clockwise from north
     heading_valid: bool | None = None
     ths_mode: str | None = None
-    rot_deg_min: float | None = None
-    sog_kn: float | None = None
-    cog_deg: float | None = None
-    pitch_deg: float | None = None
-    roll_deg: float | None = None
+    yaw_rate_rad_s: float | None = None  # ROT; + = turning to starboard
+    sog_m_s: float | None = None
+    cog_rad: float | None = None  # course over ground [0, 2 pi)
+    pitch_rad: float | None = None
+    roll_rad: float | None = None
     utc: _dt.datetime | None = None
     status_valid: bool | None = None
-    heading_mag_deg: float | None = None  # HDM, magnetic: never used as heading
+    heading_mag_rad: float | None = None  # HDM, magnetic: never used as heading
     heave_m: float | None = None  # PFEC_GPhve
     fix_time: _dt.time | None = None  # GGA/RMC/GLL: UTC of the position's epoch (sentences of one epoch share it)
 
@@ -98,12 +105,7 @@ class NmeaUpdate:
 # --------------------------------------------------------------------------- helpers
 
 
-def checksum(body: str) -> str:
-    """XOR of the characters between ``$`` and ``*``, as two upper-case hex digits."""
-    c = 0
-    for ch in body.encode("ascii"):
-        c ^= ch
-    return f"{c:02X}"
+checksum = xor_checksum  # the NMEA checksum (autopilot.drivers.framing owns it)
 
 
 def make_sentence(body: str) -> str:
@@ -121,6 +123,14 @@ def _num(s: str, what: str, lo: float | None = None, hi: float | None = None) ->
     if (lo is not None and x < lo) or (hi is not None and x > hi):
         raise SentenceError(f"{what}: {x} outside [{lo}, {hi}]")
     return x
+
+
+def _rad(x_deg: float | None) -> float | None:
+    return None if x_deg is None else math.radians(x_deg)
+
+
+def _kn(x_kn: float | None) -> float | None:
+    return None if x_kn is None else knots_to_m_s(x_kn)
 
 
 def _heading(s: str, what: str = "heading") -> float | None:
@@ -223,7 +233,7 @@ def _rmc(t: str, f: list[str]) -> NmeaUpdate:
             utc = _dt.datetime.combine(d, tm)
     mode = _field(f, 11)
     valid = f[1] == "A" and mode != "N"
-    return NmeaUpdate("RMC", t, lat_deg=lat, lon_deg=lon, sog_kn=sog, cog_deg=cog, utc=utc, status_valid=valid, fix_time=tm)
+    return NmeaUpdate("RMC", t, lat_deg=lat, lon_deg=lon, sog_m_s=_kn(sog), cog_rad=_rad(cog), utc=utc, status_valid=valid, fix_time=tm)
 
 
 def _gll(t: str, f: list[str]) -> NmeaUpdate:
@@ -241,18 +251,18 @@ def _vtg(t: str, f: list[str]) -> NmeaUpdate:
     # NMEA 2.3 layout: course,T,course_mag,M,sog_kn,N,sog_kmh,K[,mode]
     sog = _num(_field(f, 4), "VTG speed", 0.0, 1000.0)
     mode = _field(f, 8)
-    return NmeaUpdate("VTG", t, cog_deg=cog, sog_kn=sog, status_valid=mode != "N")
+    return NmeaUpdate("VTG", t, cog_rad=_rad(cog), sog_m_s=_kn(sog), status_valid=mode != "N")
 
 
 def _hdt(t: str, f: list[str]) -> NmeaUpdate:
     _need(f, 1, "HDT")
     h = _heading(f[0])
-    return NmeaUpdate("HDT", t, heading_deg=h, heading_valid=h is not None)
+    return NmeaUpdate("HDT", t, heading_rad=_rad(h), heading_valid=h is not None)
 
 
 def _hdm(t: str, f: list[str]) -> NmeaUpdate:
     _need(f, 1, "HDM")
-    return NmeaUpdate("HDM", t, heading_mag_deg=_heading(f[0]))
+    return NmeaUpdate("HDM", t, heading_mag_rad=_rad(_heading(f[0])))
 
 
 def _ths(t: str, f: list[str]) -> NmeaUpdate:
@@ -263,7 +273,7 @@ def _ths(t: str, f: list[str]) -> NmeaUpdate:
         raise SentenceError(f"THS mode: {mode!r}")
     # A autonomous, E estimated (dead reckoning through a short GNSS outage) are usable;
     # M manual, S simulator, V not valid are not a heading to steer by.
-    return NmeaUpdate("THS", t, heading_deg=h, ths_mode=mode, heading_valid=h is not None and mode in ("A", "E"))
+    return NmeaUpdate("THS", t, heading_rad=_rad(h), ths_mode=mode, heading_valid=h is not None and mode in ("A", "E"))
 
 
 def _rot(t: str, f: list[str]) -> NmeaUpdate:
@@ -271,7 +281,7 @@ def _rot(t: str, f: list[str]) -> NmeaUpdate:
     rot = _num(f[0], "ROT", -10000.0, 10000.0)
     if f[1] not in ("A", "V"):
         raise SentenceError(f"ROT status: {f[1]!r}")
-    return NmeaUpdate("ROT", t, rot_deg_min=rot, status_valid=f[1] == "A" and rot is not None)
+    return NmeaUpdate("ROT", t, yaw_rate_rad_s=None if rot is None else deg_min_to_rad_s(rot), status_valid=f[1] == "A" and rot is not None)
 
 
 def _zda(t: str, f: list[str]) -> NmeaUpdate:
@@ -299,7 +309,7 @@ def _xdr(t: str, f: list[str]) -> NmeaUpdate | None:
                 roll = _num(value, "XDR roll", -180.0, 180.0)
     if pitch is None and roll is None:
         return None
-    return NmeaUpdate("XDR", t, pitch_deg=pitch, roll_deg=roll)
+    return NmeaUpdate("XDR", t, pitch_rad=_rad(pitch), roll_rad=_rad(roll))
 
 
 def _pfec(f: list[str]) -> NmeaUpdate | None:
@@ -310,7 +320,8 @@ def _pfec(f: list[str]) -> NmeaUpdate | None:
         h = _heading(f[1], "GPatt yaw")
         pitch = _num(f[2], "GPatt pitch", -90.0, 90.0)
         roll = _num(f[3], "GPatt roll", -180.0, 180.0)
-        return NmeaUpdate("PFEC_GPatt", "P", heading_deg=h, heading_valid=h is not None, pitch_deg=pitch, roll_deg=roll)
+        return NmeaUpdate("PFEC_GPatt", "P", heading_rad=_rad(h), heading_valid=h is not None, pitch_rad=_rad(pitch),
+                          roll_rad=_rad(roll))
     if kind == "GPhve":
         _need(f, 2, "PFEC,GPhve")
         heave = _num(f[1], "GPhve heave", -100.0, 100.0)
@@ -376,6 +387,76 @@ def decode_line(line: str) -> NmeaUpdate | None:
     else:
         data = fields[1:]
     return decoder(talker, data)
+
+
+# --------------------------------------------------------------------------- encoding
+# The other direction, for the simulated SC-30 and the tests: SI in, sentences out, through the
+# same field formats the decoder reads (round trips are tested). Each returns the body between
+# ``$`` and ``*``; :func:`make_sentence` frames it.
+
+
+def _ddmm(value_deg: float, deg_digits: int) -> str:
+    a = abs(value_deg)
+    d = int(a)
+    m = (a - d) * 60.0
+    if m >= 59.999995:  # rounding would print 60.00000
+        d, m = d + 1, 0.0
+    return f"{d:0{deg_digits}d}{m:08.5f}"
+
+
+def _utc_text(t_of_day_s: float) -> str:
+    secs = t_of_day_s % 86400.0
+    hh, mm, ss = int(secs // 3600), int(secs % 3600 // 60), secs % 60
+    return f"{hh:02d}{mm:02d}{ss:05.2f}"
+
+
+def _heading_text(heading_rad: float) -> str:
+    """Degrees with the SC-30's 0.1 deg resolution, [0, 360)."""
+    return f"{round(math.degrees(heading_rad) % 360.0, 1) % 360.0:.1f}"
+
+
+def _position_text(lat_deg: float, lon_deg: float) -> str:
+    return f"{_ddmm(lat_deg, 2)},{'N' if lat_deg >= 0 else 'S'},{_ddmm(lon_deg, 3)},{'E' if lon_deg >= 0 else 'W'}"
+
+
+def encode_heading(kind: str, heading_rad: float | None, talker: str = "GP") -> str:
+    """HDT, THS or PFEC_GPatt; None = the sentence the compass sends without a heading."""
+    if kind == "HDT":
+        return f"{talker}HDT,,T" if heading_rad is None else f"{talker}HDT,{_heading_text(heading_rad)},T"
+    if kind == "THS":
+        return f"{talker}THS,,V" if heading_rad is None else f"{talker}THS,{_heading_text(heading_rad)},A"
+    if kind == "PFEC_GPatt":
+        return "PFEC,GPatt,,," if heading_rad is None else f"PFEC,GPatt,{_heading_text(heading_rad)},+0.0,+0.0"
+    raise ValueError(f"not a heading sentence: {kind!r}")
+
+
+def encode_rot(yaw_rate_rad_s: float, talker: str = "GP") -> str:
+    return f"{talker}ROT,{math.degrees(yaw_rate_rad_s) * 60.0:.1f},A"
+
+
+def encode_position(kind: str, *, t_of_day_s: float, lat_deg: float | None = None, lon_deg: float | None = None,
+                    sog_m_s: float = 0.0, cog_rad: float = 0.0, talker: str = "GP") -> str:
+    """GGA, RMC, GLL or VTG of one epoch (UTC ``t_of_day_s``); ``lat_deg`` None = no fix."""
+    utc = _utc_text(t_of_day_s)
+    fix = lat_deg is not None and lon_deg is not None
+    pos = _position_text(lat_deg, lon_deg) if fix else ""
+    sog_kn = f"{sog_m_s / KNOT_M_S:.2f}"
+    cog = f"{math.degrees(cog_rad) % 360.0:.1f}"
+    if kind == "GGA":
+        return f"{talker}GGA,{utc},{pos},1,10,0.9,1.0,M,30.0,M,," if fix else f"{talker}GGA,{utc},,,,,0,00,,,M,,M,,"
+    if kind == "RMC":
+        return (f"{talker}RMC,{utc},A,{pos},{sog_kn},{cog},010624,,,A" if fix
+                else f"{talker}RMC,{utc},V,,,,,,,010624,,,N")
+    if kind == "GLL":
+        return f"{talker}GLL,{pos},{utc},A,A" if fix else f"{talker}GLL,,,,,{utc},V,N"
+    if kind == "VTG":
+        return (f"{talker}VTG,{cog},T,,M,{sog_kn},N,{sog_m_s * 3.6:.2f},K,A" if fix
+                else f"{talker}VTG,,T,,M,,N,,K,N")
+    raise ValueError(f"not a position sentence: {kind!r}")
+
+
+def encode_zda(t_of_day_s: float, talker: str = "GP") -> str:
+    return f"{talker}ZDA,{_utc_text(t_of_day_s)},01,06,2024,00,00"
 
 
 # --------------------------------------------------------------------------- stream

@@ -1,66 +1,32 @@
-"""Furuno SC-30 satellite compass driver: serial NMEA in, latest stamped navigation data out.
+"""Furuno SC-30 satellite compass driver: serial NMEA in, one stamped navigation sample in SI out.
 
 Each quantity is kept with the sentence it came from, the Clock time it was
 received and its validity (fix quality, THS mode, A/V status); the daemon
 decides when it is stale. Heading comes only from true-heading sentences,
 in priority THS > HDT > PFEC_GPatt (SPEC section 10: THS replaces HDT on
 later firmware); course over ground is never copied into the heading: the
-daemon may fall back to it explicitly and log that it did.
+daemon may fall back to it explicitly and log that it did. The GGA, RMC and
+GLL of one GNSS epoch (the same UTC time) are one fix. Units: SI from the
+codec on (:class:`autopilot.devices.NavSample`); latitude/longitude in degrees.
+Implements :class:`autopilot.devices.Compass`.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-from typing import Any
-
 from autopilot.clock import Clock
+from autopilot.devices import EventSink, NavSample, Stamped
 from autopilot.drivers.framing import GarbageDetector
 from autopilot.drivers.nmea import NmeaStreamDecoder, NmeaUpdate
-from autopilot.drivers.serial_link import EventCallback, SerialLink
+from autopilot.drivers.serial_link import SerialLink
 
-__all__ = ["Stamped", "NavData", "SC30Driver", "HEADING_PRIORITY", "SC30_BAUDRATES"]
+__all__ = ["SC30Driver", "HEADING_PRIORITY"]
 
-SC30_BAUDRATES = (4800, 38400)  # SPEC section 10
 HEADING_PRIORITY = ("THS", "HDT", "PFEC_GPatt")
-
-
-@dataclass(frozen=True)
-class Stamped:
-    """A received value, when it was received (Clock s), the sentence it came from, its validity."""
-
-    value: Any
-    t_s: float
-    source: str
-    valid: bool
-
-
-@dataclass
-class NavData:
-    """Latest value of each quantity (None until first received)."""
-
-    heading_deg: Stamped | None = None
-    position: Stamped | None = None  # value (lat_deg, lon_deg) or None when the sentence had none
-    fix_quality: Stamped | None = None
-    rot_deg_min: Stamped | None = None
-    sog_kn: Stamped | None = None
-    cog_deg: Stamped | None = None
-    attitude: Stamped | None = None  # value (pitch_deg, roll_deg)
-    utc: Stamped | None = None
-
-    @staticmethod
-    def _age(s: Stamped | None, now_s: float) -> float:
-        return math.inf if s is None else now_s - s.t_s
-
-    def heading_age_s(self, now_s: float) -> float:
-        return self._age(self.heading_deg, now_s)
-
-    def position_age_s(self, now_s: float) -> float:
-        return self._age(self.position, now_s)
+POSITION_SENTENCES = ("GGA", "RMC", "GLL")
 
 
 class SC30Driver:
-    """Reads the SC-30 on ``port_path`` and keeps :attr:`nav` up to date.
+    """Reads the SC-30 on ``port_path``; :meth:`sample` is the latest of everything it said.
 
     ``heading_window_s``: a lower-priority heading sentence is used only when
     no higher-priority one arrived within this time (so a compass sending
@@ -80,7 +46,7 @@ class SC30Driver:
         clock: Clock,
         reconnect_min_s: float = 0.2,
         reconnect_max_s: float = 5.0,
-        on_event: EventCallback | None = None,
+        events: EventSink | None = None,
         heading_window_s: float = 0.5,
         garbage_burst_lines: int = 5,
         garbage_burst_bytes: int = 32,
@@ -94,11 +60,12 @@ class SC30Driver:
             on_bytes=self._on_bytes,
             reconnect_min_s=reconnect_min_s,
             reconnect_max_s=reconnect_max_s,
-            on_event=on_event,
+            events=events,
             name="sc30",
         )
-        self.nav = NavData()
-        self.last_heading_rx_s: float | None = None
+        self._latest: dict[str, Stamped | None] = {}  # NavSample field -> value
+        self.attitude: Stamped | None = None  # (pitch_rad, roll_rad), logged by nothing yet
+        self.utc: Stamped | None = None
         self.updates = 0
         self._heading_window_s = float(heading_window_s)
         self._by_source: dict[str, Stamped] = {}
@@ -113,6 +80,11 @@ class SC30Driver:
     @property
     def connected(self) -> bool:
         return self._link.connected
+
+    @property
+    def transport(self) -> SerialLink:
+        """The serial link underneath (its byte counters)."""
+        return self._link
 
     @property
     def stats(self) -> dict[str, int]:
@@ -152,37 +124,44 @@ class SC30Driver:
         """Clock time of the latest garbage seen during a burst (None: no burst yet)."""
         return self._garbage.last_garbage_s
 
+    def sample(self) -> NavSample:
+        """The latest of each quantity (:class:`autopilot.devices.NavSample`)."""
+        return NavSample(**self._latest)
+
+    @property
+    def lines_dropped(self) -> int:
+        return self._decoder.stats.dropped
+
     def apply(self, u: NmeaUpdate, now_s: float) -> None:
-        """Fold one decoded sentence into :attr:`nav` (public so a file replay can use it)."""
+        """Fold one decoded sentence into the sample (public so a file replay can use it)."""
         self.updates += 1
-        nav = self.nav
+        latest = self._latest
         src = u.sentence
         if src in HEADING_PRIORITY:
-            self.last_heading_rx_s = now_s
-            self._by_source[src] = Stamped(u.heading_deg, now_s, src, bool(u.heading_valid))
-            nav.heading_deg = self._best_heading(now_s)
-        if u.lat_deg is not None or (src in ("GGA", "RMC", "GLL") and u.status_valid is False):
+            self._by_source[src] = Stamped(u.heading_rad, now_s, src, bool(u.heading_valid))
+            latest["heading_rad"] = self._best_heading(now_s)
+        if u.lat_deg is not None or (src in POSITION_SENTENCES and u.status_valid is False):
             pos = None if u.lat_deg is None else (u.lat_deg, u.lon_deg)
             valid = bool(u.status_valid) and pos is not None
-            old = nav.position
+            old = latest.get("position")
             # GGA, RMC and GLL of one epoch (same UTC time) are one measurement: the first keeps its stamp
             same_epoch = (u.fix_time is not None and u.fix_time == self._fix_time and old is not None
                           and old.valid == valid and now_s - old.t_s < 1.0)
             if not same_epoch:
-                nav.position = Stamped(pos, now_s, src, valid)
+                latest["position"] = Stamped(pos, now_s, src, valid)
             self._fix_time = u.fix_time
         if u.fix_quality is not None:
-            nav.fix_quality = Stamped(u.fix_quality, now_s, src, u.fix_quality > 0)
-        if u.rot_deg_min is not None or src == "ROT":
-            nav.rot_deg_min = Stamped(u.rot_deg_min, now_s, src, bool(u.status_valid))
-        if u.sog_kn is not None:
-            nav.sog_kn = Stamped(u.sog_kn, now_s, src, bool(u.status_valid))
-        if u.cog_deg is not None:
-            nav.cog_deg = Stamped(u.cog_deg, now_s, src, bool(u.status_valid))
-        if u.pitch_deg is not None or u.roll_deg is not None:
-            nav.attitude = Stamped((u.pitch_deg, u.roll_deg), now_s, src, True)
+            latest["fix_quality"] = Stamped(u.fix_quality, now_s, src, u.fix_quality > 0)
+        if u.yaw_rate_rad_s is not None or src == "ROT":
+            latest["yaw_rate_rad_s"] = Stamped(u.yaw_rate_rad_s, now_s, src, bool(u.status_valid))
+        if u.sog_m_s is not None:
+            latest["sog_m_s"] = Stamped(u.sog_m_s, now_s, src, bool(u.status_valid))
+        if u.cog_rad is not None:
+            latest["cog_rad"] = Stamped(u.cog_rad, now_s, src, bool(u.status_valid))
+        if u.pitch_rad is not None or u.roll_rad is not None:
+            self.attitude = Stamped((u.pitch_rad, u.roll_rad), now_s, src, True)
         if u.utc is not None:
-            nav.utc = Stamped(u.utc, now_s, src, True)
+            self.utc = Stamped(u.utc, now_s, src, True)
 
     def _best_heading(self, now_s: float) -> Stamped | None:
         for src in HEADING_PRIORITY:

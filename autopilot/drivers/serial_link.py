@@ -20,12 +20,20 @@ from typing import Any
 import serial
 
 from autopilot.clock import Clock
+from autopilot.devices import EventSink
 
-__all__ = ["SerialLink", "EventCallback"]
-
-EventCallback = Callable[..., Any]
+__all__ = ["SerialLink"]
 
 _READ_CHUNK = 65536
+
+
+def _pending(fd: int) -> int:
+    """Bytes waiting to be read on a tty (FIONREAD)."""
+    import fcntl
+    import struct
+    import termios
+
+    return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
 
 
 class SerialLink:
@@ -40,7 +48,7 @@ class SerialLink:
         on_bytes: Callable[[bytes], None],
         reconnect_min_s: float = 0.2,
         reconnect_max_s: float = 5.0,
-        on_event: EventCallback | None = None,
+        events: EventSink | None = None,
         name: str = "serial",
     ) -> None:
         if not (0 < reconnect_min_s <= reconnect_max_s):
@@ -50,7 +58,7 @@ class SerialLink:
         self.name = name
         self._clock = clock
         self._on_bytes = on_bytes
-        self._on_event = on_event
+        self._events = events
         self._min_s = float(reconnect_min_s)
         self._max_s = float(reconnect_max_s)
         self._serial: serial.Serial | None = None
@@ -63,6 +71,8 @@ class SerialLink:
         self.open_failures = 0
         self.write_errors = 0
         self.bytes_in = 0
+        self.bytes_out = 0
+        self.bytes_discarded = 0  # queued before the port was (re)opened: stale, thrown away
 
     # ------------------------------------------------------------------ state
     @property
@@ -70,11 +80,11 @@ class SerialLink:
         return self._fd is not None
 
     def emit(self, event: str, **fields: Any) -> None:
-        """Call the user's event callback; its failure must not stop the link."""
-        if self._on_event is None:
+        """Report an event to the sink (``sink(name, device=..., **fields)``); its failure must not stop the link."""
+        if self._events is None:
             return
         try:
-            self._on_event(event, device=self.name, **fields)
+            self._events(event, device=self.name, **fields)
         except Exception:  # noqa: BLE001 - a logging bug must not stop the thrusters' link
             pass
 
@@ -121,6 +131,7 @@ class SerialLink:
         ser.port = self.port_path
         ser.open()  # POSIX pyserial opens with O_NONBLOCK
         try:
+            self.bytes_discarded += _pending(ser.fileno())
             ser.reset_input_buffer()  # bytes queued while nobody listened are stale
         except Exception:  # noqa: BLE001
             pass
@@ -187,6 +198,7 @@ class SerialLink:
             n = os.write(fd, data)
             if n < len(data):
                 n += os.write(fd, data[n:])
+            self.bytes_out += n
             if n < len(data):
                 self.write_errors += 1
                 return False

@@ -10,8 +10,10 @@ heading PID; tau_order > 0 turns to starboard (SPEC 2).
 
 Saturation keeps the turn: the differential part is only cut when it alone
 exceeds half the thrusters' span, and the common part gives way first. The
-result reports which limit each side's request hit (``port_upper`` ...), so
-the PID can stop winding up and the log shows why.
+result reports, per axis, whether the turn and the common thrust were cut
+(:class:`Allocation`), so the heading PID stops winding up only when the turn
+is limited, and which limit each side's request hit (``port_upper`` ...) for
+the log.
 
 The per-cycle path is plain Python (numpy's per-call overhead is larger
 than the arithmetic for two scalars); the table inverse that takes a
@@ -25,7 +27,7 @@ from dataclasses import dataclass
 
 from autopilot.gnc.thrust_curve import ThrustCurve
 from autopilot.mathutil import clamp
-from autopilot.measured import MEASURED_TABLE
+from autopilot.measured import MAX_THRUST_N, MEASURED_TABLE
 from autopilot.schema import param
 
 # Straight, forward rows of Fig 8.2: speed (m/s) <-> thrust per thruster (N), monotonic.
@@ -89,14 +91,23 @@ def table_thrusts_n(speed_m_s, yaw_rate_rad_s):
 class AllocationConfig:
     """Thruster limits used by the allocator (the thrust curve's own ends if larger)."""
 
-    max_forward_n: float = param(32.5, unit="N", lo=0.0, hi=500.0, source="Table 4.2 level F", doc="largest forward thrust per thruster commanded")
-    max_reverse_n: float = param(32.5, unit="N", lo=0.0, hi=500.0, source="Table 4.2 level f", doc="largest reverse thrust magnitude per thruster commanded")
+    max_forward_n: float = param(MAX_THRUST_N, unit="N", lo=0.0, hi=500.0, source="Table 4.2 level F", doc="largest forward thrust per thruster commanded")
+    max_reverse_n: float = param(MAX_THRUST_N, unit="N", lo=0.0, hi=500.0, source="Table 4.2 level f", doc="largest reverse thrust magnitude per thruster commanded")
     allow_reverse: bool = param(True, source="Table 4.2 (reverse levels exist)", doc="let a thruster run astern to turn harder")
 
 
 @dataclass(frozen=True)
 class Allocation:
-    """One allocation: thrusts after saturation and what limited them."""
+    """One allocation: thrusts after saturation and what limited them.
+
+    ``turn_limit``: +1 when a turn to starboard (tau_order > 0) was cut, -1 a turn to port, 0 when
+    the whole differential was delivered; ``common_limit``: +1 when the common thrust was cut down
+    (the speed cannot be delivered), -1 cut up, 0 delivered. Per axis, as ArduPilot's skid-steer
+    mixer reports ``steer_left/right`` and ``throttle_upper/lower``: the heading PID's anti-windup
+    looks at the turn, the speed trim at the common thrust (a speed limit alone must not freeze the
+    heading integral that holds the course in a current). ``saturation`` lists, per thruster, the
+    limit its request went past (the log's and the review's view).
+    """
 
     tau_com_n: float
     tau_order_n: float
@@ -108,6 +119,8 @@ class Allocation:
     sat_stbd: bool
     saturation: tuple[str, ...]
     tau_order_applied_n: float  # differential thrust actually delivered
+    turn_limit: int = 0
+    common_limit: int = 0
 
 
 class Allocator:
@@ -136,8 +149,10 @@ class Allocator:
         c_lo, c_hi = lo + ad, hi - ad
         c = clamp(tau_com_n, c_lo, c_hi)
         port, stbd = c + d, c - d
-        sat: list[str] = []
         eps = 1e-9
+        turn_limit = 0 if abs(d) >= abs(tau_order_n) - eps else (1 if tau_order_n > 0 else -1)
+        common_limit = 1 if c < tau_com_n - eps else -1 if c > tau_com_n + eps else 0
+        sat: list[str] = []
         if port_req > hi + eps:
             sat.append("port_upper")
         elif port_req < lo - eps:
@@ -157,4 +172,6 @@ class Allocator:
             sat_stbd=any(s.startswith("stbd") for s in sat),
             saturation=tuple(sat),
             tau_order_applied_n=d,
+            turn_limit=turn_limit,
+            common_limit=common_limit,
         )

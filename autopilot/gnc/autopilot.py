@@ -20,6 +20,7 @@ from autopilot.gnc.pid import HeadingPid
 from autopilot.gnc.registry import make_guidance
 from autopilot.gnc.speed import SpeedTrim
 from autopilot.gnc.thrust_curve import ThrustCurve
+from autopilot.measured import HULL_LENGTH_M
 
 
 @dataclass(frozen=True)
@@ -58,11 +59,15 @@ class ControlOutput:
     sat_port: bool
     sat_stbd: bool
     saturation: tuple[str, ...]
+    turn_limit: int  # the allocation's: +1 a starboard turn cut, -1 a port turn, 0 delivered
+    common_limit: int  # +1 the common thrust cut down (speed not delivered), -1 cut up, 0 delivered
     reached_index: int | None
     reached_distance_m: float | None  # distance to the reached waypoint at the switch (m)
     reached_how: str | None  # "capture" or "passed" (autopilot.gnc.waypoints)
     complete: bool
     tau_com_trim_n: float = 0.0  # speed-over-ground trim inside tau_com_n (tau_com_n = table + trim)
+    thrust_off: bool = False  # the guidance asks for zero thrust (mission over, or holding inside the radius)
+    finished: bool = False  # the last waypoint is reached and the final action is to stop: the run may end
 
 
 class Autopilot:
@@ -74,7 +79,7 @@ class Autopilot:
         waypoints_ne_m,
         *,
         speeds_m_s=None,
-        boat_length_m: float = 3.96,
+        boat_length_m: float = HULL_LENGTH_M,
         thrust_curve: ThrustCurve = ThrustCurve(),
         start_index: int = 0,
     ) -> None:
@@ -122,10 +127,10 @@ class Autopilot:
                 trim_n -= tau_com
                 tau_com = 0.0
             alloc = self.allocator.allocate(tau_com, p_n + i_n + d_n)
-            self.pid.integrate(terms.heading_error_rad, dt_s, saturated=bool(alloc.saturation))
+            self.pid.integrate(terms.heading_error_rad, dt_s, turn_limit=alloc.turn_limit)
             # the allocator cut the common mode: more speed cannot be delivered
-            cut = 0.5 * (alloc.thrust_port_n + alloc.thrust_stbd_n) < tau_com - 1e-9
-            self.speed_trim.integrate(g.speed_cmd_m_s, speed_n, dt_s, block_up=cut, block_down=floor)
+            self.speed_trim.integrate(g.speed_cmd_m_s, speed_n, dt_s, block_up=alloc.common_limit > 0,
+                                      block_down=floor)
         return ControlOutput(
             wp_index=g.wp_index,
             tcpa_nd=g.tcpa_nd,
@@ -147,9 +152,13 @@ class Autopilot:
             sat_port=alloc.sat_port,
             sat_stbd=alloc.sat_stbd,
             saturation=alloc.saturation,
+            turn_limit=alloc.turn_limit,
+            common_limit=alloc.common_limit,
             reached_index=g.reached_index,
             reached_distance_m=g.reached_distance_m,
             reached_how=g.reached_how,
             complete=g.complete,
             tau_com_trim_n=trim_n,
+            thrust_off=g.thrust_off,
+            finished=g.finished,
         )

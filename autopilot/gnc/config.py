@@ -13,10 +13,11 @@ from autopilot.gnc.fuzzy_guidance import FuzzyConfig
 from autopilot.gnc.los import LosConfig
 from autopilot.gnc.pid import PidConfig
 from autopilot.gnc.proportional import ProportionalConfig
+from autopilot.gnc.registry import GUIDANCE_LAWS
 from autopilot.gnc.speed import SpeedTrimConfig
 from autopilot.schema import param
 
-LAWS = ("fuzzy", "los", "proportional")
+LAWS = tuple(GUIDANCE_LAWS)  # the registry owns the names
 
 
 @dataclass(frozen=True)

@@ -1,17 +1,111 @@
-"""Dead reckoning between position fixes.
+"""Navigation assembly: the compass's latest sample -> what the guidance steers by, every cycle.
 
-The SC-30 gives heading at 10 Hz but position (GGA/RMC) at 1 Hz on a 4800-baud
-line (SPEC 10). Held between fixes, the position lags the boat by up to one
-second -- 1.5 m at cruise, the size of a waypoint tolerance -- and TCPA'/DCPA'
-move in steps. The guidance therefore uses the last fix carried forward by the
-velocity over ground over the fix's age. Pure: numbers in, numbers out.
+Pure: a :class:`~autopilot.devices.NavSample` (SI, stamped on the caller's clock), the
+time now and the small :class:`NavMemory` of the previous cycle in; a :class:`Navigation`
+out. The daemon, ``autopilot evaluate`` and the campaigns call the same function, so a
+simulated run sees the sensor's 1 Hz fixes and fallbacks exactly as the boat does:
+
+- heading: the compass's while fresh (``heading_stale_s``) and valid; else, when
+  ``cog_fallback`` allows and the boat moves at least ``cog_fallback_min_sog_m_s``, the
+  course over ground (source ``COG``); else the stale or invalid heading, for the
+  failsafe to judge;
+- yaw rate: ROT while fresh and valid, else the heading differenced over the cycle;
+- position: the last fix in the local frame of the mission's origin, and that fix
+  carried forward by the velocity over ground over its age (at most
+  ``dead_reckon_max_s``: the SC-30 gives position at 1 Hz on a 4800-baud line, SPEC 10;
+  held, it lags the boat by up to a second, 1.5 m at cruise); a fix that first appears
+  this cycle is flagged ``new_fix`` (a held fix is not a new measurement).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+
+from autopilot.devices import NavSample, age_s
+from autopilot.geo import latlon_to_local, wrap_pi
+
+__all__ = ["NavRules", "NavMemory", "Navigation", "assemble", "dead_reckon_ne", "MIN_SOG_FOR_COG_M_S"]
 
 MIN_SOG_FOR_COG_M_S = 0.3  # below this the GNSS course is noise: carry along the heading instead
+
+
+@dataclass(frozen=True)
+class NavRules:
+    """The assembly's thresholds (the daemon builds them from its configuration: failsafe.* and dead_reckon_max_s)."""
+
+    heading_stale_s: float = 1.0
+    position_stale_s: float = 3.0
+    cog_fallback: bool = False
+    cog_fallback_min_sog_m_s: float = 0.5
+    dead_reckon_max_s: float = 1.5
+
+
+@dataclass(frozen=True)
+class NavMemory:
+    """What the assembly keeps from one cycle to the next."""
+
+    heading_t_s: float | None = None  # when the heading last used was taken
+    heading_rad: float | None = None
+    fix_t_s: float | None = None  # receive time of the last fix seen
+
+
+@dataclass(frozen=True)
+class Navigation:
+    """One cycle's navigation: SI, local frame, ages in seconds at ``t_s``."""
+
+    t_s: float
+    heading_rad: float | None
+    heading_source: str | None
+    heading_age_s: float
+    heading_valid: bool
+    yaw_rate_rad_s: float | None
+    lat_deg: float | None
+    lon_deg: float | None
+    north_m: float | None  # the last fix
+    east_m: float | None
+    est_north_m: float | None  # the fix carried forward (what the guidance steers by)
+    est_east_m: float | None
+    position_age_s: float
+    fix_quality: int  # 0 when the fix is invalid or absent
+    fix_t_s: float | None  # receive time of that fix
+    new_fix: bool  # the fix first appears this cycle
+    sog_m_s: float | None
+    cog_rad: float | None
+
+    @property
+    def steerable(self) -> bool:
+        """A heading and a position to steer by (the failsafe decides whether they are good enough)."""
+        return self.heading_rad is not None and self.est_north_m is not None
+
+
+def _value(s):
+    return None if s is None else s.value
+
+
+def choose_heading(sample: NavSample, now_s: float, rules: NavRules):
+    """(heading_rad, source, age_s, valid); see the module docstring."""
+    h = sample.heading_rad
+    age = age_s(h, now_s)
+    if h is not None and age <= rules.heading_stale_s and h.valid:
+        return float(h.value), h.source, age, True
+    cog, sog = sample.cog_rad, sample.sog_m_s
+    if rules.cog_fallback and cog is not None and sog is not None and cog.valid:
+        cog_age = age_s(cog, now_s)
+        if cog_age <= rules.position_stale_s and float(sog.value) >= rules.cog_fallback_min_sog_m_s:
+            return float(cog.value), "COG", cog_age, True
+    if h is None or h.value is None:
+        return None, None if h is None else h.source, age, False
+    return float(h.value), h.source, age, bool(h.valid)
+
+
+def _yaw_rate(sample: NavSample, now_s: float, heading_rad, memory: NavMemory, rules: NavRules) -> float | None:
+    rot = sample.yaw_rate_rad_s
+    if rot is not None and rot.valid and rot.value is not None and age_s(rot, now_s) <= rules.heading_stale_s:
+        return float(rot.value)
+    if heading_rad is not None and memory.heading_rad is not None and now_s > memory.heading_t_s:
+        return wrap_pi(heading_rad - memory.heading_rad) / (now_s - memory.heading_t_s)
+    return None
 
 
 def dead_reckon_ne(
@@ -37,3 +131,35 @@ def dead_reckon_ne(
         return north_m, east_m
     travel_m = sog_m_s * min(age_s, max_age_s)
     return north_m + travel_m * math.cos(direction), east_m + travel_m * math.sin(direction)
+
+
+def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules, *,
+             origin_lat_deg: float, origin_lon_deg: float) -> tuple[Navigation, NavMemory]:
+    """This cycle's :class:`Navigation` and the memory for the next one."""
+    heading_rad, source, heading_age, heading_valid = choose_heading(sample, now_s, rules)
+    yaw_rate = _yaw_rate(sample, now_s, heading_rad, memory, rules)
+    pos = sample.position
+    latlon = _value(pos)
+    lat = lon = north = east = est_n = est_e = None
+    sog, cog = _value(sample.sog_m_s), _value(sample.cog_rad)
+    position_age = age_s(pos, now_s)
+    if latlon is not None:
+        lat, lon = latlon
+        north, east = latlon_to_local(lat, lon, origin_lat_deg, origin_lon_deg)
+        est_n, est_e = dead_reckon_ne(north, east, position_age, sog, cog, heading_rad, max_age_s=rules.dead_reckon_max_s)
+    fq = _value(sample.fix_quality)
+    fix_quality = int(fq) if fq is not None else 0
+    if pos is not None and not pos.valid:
+        fix_quality = 0
+    fix_t = None if pos is None else pos.t_s
+    nav = Navigation(
+        t_s=now_s, heading_rad=heading_rad, heading_source=source, heading_age_s=heading_age,
+        heading_valid=heading_valid, yaw_rate_rad_s=yaw_rate, lat_deg=lat, lon_deg=lon, north_m=north, east_m=east,
+        est_north_m=est_n, est_east_m=est_e, position_age_s=position_age, fix_quality=fix_quality, fix_t_s=fix_t,
+        new_fix=latlon is not None and fix_t != memory.fix_t_s, sog_m_s=sog, cog_rad=cog,
+    )
+    if heading_rad is not None:
+        memory = NavMemory(heading_t_s=now_s, heading_rad=heading_rad, fix_t_s=fix_t)
+    else:
+        memory = NavMemory(heading_t_s=memory.heading_t_s, heading_rad=memory.heading_rad, fix_t_s=fix_t)
+    return nav, memory

@@ -11,8 +11,9 @@ in psi_d (a waypoint switch) gives no derivative kick. tau_order > 0 turns
 to starboard (SPEC 2).
 
 Anti-windup: the integral is bounded by ``integral_limit_n`` and, while the
-allocator reports saturation, it may only shrink in magnitude (as ArduPilot's
-AC_PID with limit flags). P, I and D are exposed for the cycle log.
+allocator reports the turn to one side cut, it may not grow towards that side
+(as ArduPilot's AC_PID with its steering limit flags); a common-thrust limit (full
+speed) does not stop it. P, I and D are exposed for the cycle log.
 
 Default gains: the thesis's Kp = 0.18, Ki = 0.001, Kd = 0.33 (tuned on the
 Nomoto model of the printed Table 5.1 set, which turns 6-9 times slower than
@@ -91,12 +92,13 @@ class HeadingPid:
             heading_error_rad=err,
         )
 
-    def integrate(self, heading_error_rad: float, dt_s: float, *, saturated: bool) -> None:
-        """Advance the integral by one cycle; while ``saturated`` it may only shrink."""
+    def integrate(self, heading_error_rad: float, dt_s: float, *, turn_limit: int = 0) -> None:
+        """Advance the integral by one cycle. ``turn_limit`` (the allocation's, +1 / -1 / 0): while the
+        turn to that side is cut, the integral may not grow towards it (it may still shrink)."""
         cfg = self.config
         new = self.integral_n + cfg.ki_n_per_deg_s * heading_error_rad * _DEG * dt_s
         lim = cfg.integral_limit_n
         new = clamp(new, -lim, lim)
-        if saturated and abs(new) > abs(self.integral_n):
+        if (turn_limit > 0 and new > self.integral_n) or (turn_limit < 0 and new < self.integral_n):
             return
         self.integral_n = new

@@ -6,6 +6,7 @@ from autopilot.gnc.fuzzy_guidance import FuzzyGuidance
 from autopilot.gnc.los import LosGuidance
 from autopilot.gnc.proportional import ProportionalGuidance
 from autopilot.gnc.waypoints import WaypointGuidance
+from autopilot.measured import HULL_LENGTH_M
 
 GUIDANCE_LAWS: dict[str, type[WaypointGuidance]] = {
     "fuzzy": FuzzyGuidance,
@@ -14,7 +15,7 @@ GUIDANCE_LAWS: dict[str, type[WaypointGuidance]] = {
 }
 
 
-def make_guidance(config, waypoints_ne_m, *, speeds_m_s=None, boat_length_m: float = 3.96, start_index: int = 0) -> WaypointGuidance:
+def make_guidance(config, waypoints_ne_m, *, speeds_m_s=None, boat_length_m: float = HULL_LENGTH_M, start_index: int = 0) -> WaypointGuidance:
     """The guidance law named by ``config.law`` (a GuidanceConfig) for a route."""
     try:
         cls = GUIDANCE_LAWS[config.law]

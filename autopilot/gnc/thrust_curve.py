@@ -16,8 +16,6 @@ import numpy as np
 from autopilot.measured import LEVELS
 from autopilot.schema import param
 
-SUPPLY_VOLTAGE_V = 12.0  # battery voltage at 100 % duty (thesis 4.3)
-
 _FORWARD_DUTY = tuple(v[1] for v in LEVELS.values())
 _FORWARD_THRUST = tuple(v[2] for v in LEVELS.values())
 
@@ -94,8 +92,3 @@ class ThrustCurve:
         duty, reverse = self.duty_pct(thrust_n)
         out = np.where(reverse, -duty, duty)
         return float(out) if np.ndim(out) == 0 else out
-
-    @staticmethod
-    def voltage_v(duty_pct):
-        """Motor voltage (V) of a duty (%): 100 % = 12 V (thesis 4.3)."""
-        return np.asarray(duty_pct, dtype=float) / 100.0 * SUPPLY_VOLTAGE_V

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from autopilot.geo import wrap_pi
+from autopilot.measured import HULL_LENGTH_M
 
 if TYPE_CHECKING:  # pragma: no cover
     from autopilot.gnc.autopilot import NavInput
@@ -61,6 +62,13 @@ class GuidanceOutput:
     complete: bool
     thrust_off: bool  # stop: command zero thrust (mission complete, or holding inside the radius)
 
+    @property
+    def finished(self) -> bool:
+        """Nothing more to do: the last waypoint is reached and the final action is to stop."""
+        return self.complete and self.final_stop
+
+    final_stop: bool = False  # the final action is "stop" (not "hold")
+
 
 class WaypointGuidance:
     """Route bookkeeping shared by every law; subclasses implement :meth:`_steer`."""
@@ -73,7 +81,7 @@ class WaypointGuidance:
         waypoints_ne_m: Any,
         *,
         speeds_m_s: Any = None,
-        boat_length_m: float = 3.96,
+        boat_length_m: float = HULL_LENGTH_M,
         start_index: int = 0,
     ) -> None:
         wps = [(float(p[0]), float(p[1])) for p in waypoints_ne_m]
@@ -155,7 +163,7 @@ class WaypointGuidance:
                 return GuidanceOutput(
                     wp_index=i, psi_d_rad=out.psi_d_rad, speed_cmd_m_s=out.speed_cmd_m_s, xte_m=xte,
                     tcpa_nd=steer.tcpa_nd, dcpa_nd=steer.dcpa_nd, cdh=steer.cdh,
-                    reached_index=i, reached_distance_m=d_m, reached_how=how, complete=True, thrust_off=out.thrust_off,
+                    reached_index=i, reached_distance_m=d_m, reached_how=how, complete=True, thrust_off=out.thrust_off, final_stop=out.final_stop,
                 )
             self.index = i + 1
             # steer to the new target in the same cycle: no cycle without a valid command
@@ -185,7 +193,7 @@ class WaypointGuidance:
             return GuidanceOutput(
                 wp_index=i, psi_d_rad=nav.psi_rad, speed_cmd_m_s=0.0, xte_m=xte, tcpa_nd=None,
                 dcpa_nd=None, cdh=None, reached_index=None, reached_distance_m=None, reached_how=None, complete=True,
-                thrust_off=True,
+                thrust_off=True, final_stop=cfg.final_action == "stop",
             )
         # hold: creep back towards the waypoint, slower the closer it is
         psi_d = math.atan2(de, dn)

@@ -22,6 +22,7 @@ import numpy as np
 
 from autopilot.geo import local_to_latlon, wrap_180, wrap_360
 from autopilot.gnc.thrust_curve import ThrustCurve
+from autopilot.measured import HULL_LENGTH_M
 
 THESIS_SIM_WAYPOINTS_NE_M = ((10.0, 5.0), (35.0, 20.0), (50.0, 16.0))  # SPEC section 7
 DEFAULT_ORIGIN_DEG = (59.4370, 10.5880)
@@ -47,7 +48,7 @@ def write_synthetic_log(
     waypoints_ne_m=THESIS_SIM_WAYPOINTS_NE_M,
     speed_m_s: float = 1.5,
     weave_m: float = 1.0,
-    boat_length_m: float = 3.96,
+    boat_length_m: float = HULL_LENGTH_M,
     origin_deg: tuple[float, float] = DEFAULT_ORIGIN_DEG,
     loop: bool = False,
     failsafe_at_s: float | None = None,
@@ -222,6 +223,8 @@ def write_synthetic_log(
         "nmea_dropped": (nmea_dropped, "%d", None),
         "est_north_m": (north_true, "%.3f", moving), "est_east_m": (east_true, "%.3f", moving),
         "tau_com_trim_n": (np.zeros(n), "%.3f", moving), "skipped_cycles": (np.zeros(n, dtype=int), "%d", None),
+        "turn_limit": (np.where(sat_port & ~sat_stbd & (tau_order > 0), 1, np.where(sat_stbd & ~sat_port & (tau_order < 0), -1, 0)), "%d", None),
+        "common_limit": (np.zeros(n, dtype=int), "%d", None),
     }
     path = Path(path)
     origin_lat, origin_lon = origin_deg

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from autopilot.measured import HULL_LENGTH_M, MAX_THRUST_N
 from autopilot.resources import default_params_path, thesis_params_path  # noqa: F401 - the model's files, re-exported
 from autopilot.schema import load_yaml, param
 
@@ -27,7 +28,7 @@ class VesselParams:
     name: str = param("wamv", doc="name of this parameter set")
     description: str = param("", doc="where these numbers come from")
     # -- hull and mass (thesis ch. 2, Table 2.1) --
-    length_m: float = param(3.96, unit="m", lo=0.5, hi=20.0, source="thesis ch. 2 (papers: 3.91 m)", doc="hull length L")
+    length_m: float = param(HULL_LENGTH_M, unit="m", lo=0.5, hi=20.0, source="thesis ch. 2 (papers: 3.91 m)", doc="hull length L")
     draft_m: float = param(0.165, unit="m", lo=0.01, hi=2.0, source="thesis ch. 2", doc="draft d")
     beam_m: float = param(2.44, unit="m", lo=0.1, hi=10.0, source="thesis ch. 2", doc="overall width")
     mass_kg: float = param(255.0, unit="kg", lo=1.0, hi=10000.0, source="thesis ch. 2, full load", doc="displacement m")
@@ -43,8 +44,7 @@ class VesselParams:
     y_p_m: float = param(1.0, unit="m", lo=0.1, hi=5.0, source="SPEC 1: pontoon centre lines ~2 m apart", doc="thrust line to centre line")
     thrust_deduction: float = param(0.25, unit="-", lo=0.0, hi=0.9, source="Eq 3.6, t_P", doc="t_P")
     moment_deduction: float = param(0.25, unit="-", lo=0.0, hi=0.9, source="Eq 3.6, d_NP", doc="d_NP")
-    max_thrust_n: float = param(32.5, unit="N", lo=0.1, hi=1000.0, source="Table 4.2 level F", doc="largest forward thrust per side")
-    max_reverse_thrust_n: float = param(32.5, unit="N", lo=0.1, hi=1000.0, source="Table 4.2 level f", doc="largest reverse thrust per side")
+    max_thrust_n: float = param(MAX_THRUST_N, unit="N", lo=0.1, hi=1000.0, source="Table 4.2 level F", doc="largest forward thrust per side")
     # -- resistance (thesis 4.2, SPEC 5): R(U) = r1 u + r2 |u| u --
     resistance_linear_n_s_m: float = param(14.07, unit="N s/m", lo=0.0, hi=1000.0, source="SPEC 5: R/U from straight rows", doc="linear resistance")
     resistance_quadratic_n_s2_m2: float = param(0.0, unit="N s^2/m^2", lo=0.0, hi=1000.0, source="SPEC 5: ~0 over trial range", doc="quadratic resistance")

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from autopilot.geo import local_to_latlon, wrap_360
+from autopilot.geo import local_to_latlon
 from autopilot.gnc.thrust_curve import ThrustCurve
 from autopilot.sim import Environment, step
 
@@ -65,22 +65,28 @@ class SimBoat:
             )
             self.t_s += dt
 
-    # ------------------------------------------------------------------ what sensors see
+    # ------------------------------------------------------------------ what sensors see (SI)
     @property
-    def heading_deg(self) -> float:
-        return float(wrap_360(math.degrees(self.state[2])))
+    def psi_rad(self) -> float:
+        """Heading [0, 2 pi)."""
+        return float(self.state[2]) % (2.0 * math.pi)
 
     @property
-    def yaw_rate_deg_min(self) -> float:
-        return math.degrees(self.state[5]) * 60.0
+    def r_rad_s(self) -> float:
+        return float(self.state[5])
 
     @property
     def sog_m_s(self) -> float:
         return float(math.hypot(self.state[3], self.state[4]))
 
     @property
-    def cog_deg(self) -> float:
-        return float(wrap_360(math.degrees(self.state[2] + math.atan2(self.state[4], self.state[3]))))
+    def cog_rad(self) -> float:
+        """Course over ground [0, 2 pi)."""
+        return float(self.state[2] + math.atan2(self.state[4], self.state[3])) % (2.0 * math.pi)
+
+    @property
+    def heading_deg(self) -> float:
+        return math.degrees(self.psi_rad)
 
     def latlon_deg(self, north_noise_m: float = 0.0, east_noise_m: float = 0.0) -> tuple[float, float]:
         lat, lon = local_to_latlon(

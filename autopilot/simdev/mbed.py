@@ -92,6 +92,11 @@ class SimulatedMbed:
         return self._endpoint.plugged
 
     @property
+    def endpoint(self) -> PtyEndpoint:
+        """The pseudo-terminal underneath (its byte counters)."""
+        return self._endpoint
+
+    @property
     def thrusting(self) -> bool:
         return self.outputs[0] > 0 or self.outputs[2] > 0
 

@@ -29,6 +29,8 @@ class PtyEndpoint:
         self._slave_fd: int | None = None
         self.slave_name: str | None = None
         self.plugs = 0
+        self.bytes_written = 0  # to the driver (lockstep: compared with what it read)
+        self.bytes_read = 0  # from the driver
         self._plug()
 
     @property
@@ -77,9 +79,11 @@ class PtyEndpoint:
         if fd is None:
             return 0
         try:
-            return os.write(fd, data)
+            n = os.write(fd, data)
         except (BlockingIOError, OSError):
             return 0
+        self.bytes_written += n
+        return n
 
     def read(self) -> bytes:
         """What the driver wrote, b'' if nothing (or unplugged)."""
@@ -87,6 +91,8 @@ class PtyEndpoint:
         if fd is None:
             return b""
         try:
-            return os.read(fd, 65536)
+            data = os.read(fd, 65536)
         except (BlockingIOError, OSError):
             return b""
+        self.bytes_read += len(data)
+        return data

@@ -66,6 +66,16 @@ class SimRig:
     def mbed_path(self) -> str:
         return self.mbed.path
 
+    def quiet(self, compass, thrusters) -> bool:
+        """Nothing in flight on either line: every byte one end wrote, the other has read (lockstep).
+
+        ``compass``, ``thrusters``: the daemon's drivers on these devices' paths.
+        """
+        c, t = compass.transport, thrusters.transport
+        sc30, mbed = self.sc30.endpoint, self.mbed.endpoint
+        return (sc30.bytes_written == c.bytes_in + c.bytes_discarded and t.bytes_out == mbed.bytes_read
+                and mbed.bytes_written == t.bytes_in + t.bytes_discarded)
+
     async def start(self) -> None:
         await self.mbed.start()
         await self.sc30.start()

@@ -29,33 +29,24 @@ sentences), ``unplug()``, ``replug()``.
 from __future__ import annotations
 
 import asyncio
+import math
 from collections import deque
 
 import numpy as np
 
 from autopilot.clock import Clock
-from autopilot.drivers.nmea import checksum
+from autopilot.drivers.nmea import checksum, encode_heading, encode_position, encode_rot, encode_zda
 from autopilot.drivers.sc30_output import default_sentences
 from autopilot.simdev.boat import SimBoat
 from autopilot.simdev.pty import PtyEndpoint
 
 __all__ = ["SimulatedSC30", "default_sentences"]
 
-KN_PER_M_S = 1.0 / 0.514444
 HEADING_SENTENCES = ("HDT", "THS", "PFEC_GPatt")
 POSITION_SENTENCES = ("GGA", "RMC", "GLL", "VTG")
 MAX_BACKLOG_S = 0.5
 RAW = "RAW"  # a queue item of injected raw bytes (not a sentence)
 RAW_CHUNK = 16  # injected bytes reach the pty this many at a time, each when its last would have
-
-
-def _ddmm(value_deg: float, deg_digits: int) -> str:
-    a = abs(value_deg)
-    d = int(a)
-    m = (a - d) * 60.0
-    if m >= 59.999995:  # rounding would print 60.00000
-        d, m = d + 1, 0.0
-    return f"{d:0{deg_digits}d}{m:08.5f}"
 
 
 class SimulatedSC30:
@@ -138,6 +129,11 @@ class SimulatedSC30:
     def plugged(self) -> bool:
         return self._endpoint.plugged
 
+    @property
+    def endpoint(self) -> PtyEndpoint:
+        """The pseudo-terminal underneath (its byte counters)."""
+        return self._endpoint
+
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
         self._queue = asyncio.Queue()
@@ -156,58 +152,30 @@ class SimulatedSC30:
         self._endpoint.close()
 
     # ------------------------------------------------------------------ sentences
-    def _heading_text(self) -> str:
-        h = self.boat.heading_deg + self._rng.normal(0.0, self.heading_noise_deg) if self.heading_noise_deg else self.boat.heading_deg
-        h = round(h % 360.0, 1) % 360.0  # 0.1 deg resolution
-        self.last_heading_sent_deg = h
-        return f"{h:.1f}"
+    def _heading_rad(self) -> float | None:
+        """What the compass measures now: the true heading plus its noise (None: reported invalid)."""
+        if self.heading_invalid:
+            return None
+        noise_rad = math.radians(self._rng.normal(0.0, self.heading_noise_deg)) if self.heading_noise_deg else 0.0
+        h = self.boat.psi_rad + noise_rad
+        self.last_heading_sent_deg = round(math.degrees(h) % 360.0, 1) % 360.0  # the 0.1 deg the sentence carries
+        return h
 
     def _body(self, kind: str, t_s: float) -> str | None:
-        b, tk = self.boat, self.talker
-        if kind in HEADING_SENTENCES and self.heading_dropout:
-            return None
-        if kind in POSITION_SENTENCES and self.position_dropout:
-            return None
-        if kind in POSITION_SENTENCES:  # the position sentences of one second report one epoch
-            t_s = self._epoch["t_s"]
-        # UTC from the clock: the simulated day starts at 00:00:00 on 2024-06-01
-        secs = t_s % 86400.0
-        hh, mm, ss = int(secs // 3600), int(secs % 3600 // 60), secs % 60
-        utc = f"{hh:02d}{mm:02d}{ss:05.2f}"
-        if kind == "HDT":
-            return f"{tk}HDT,,T" if self.heading_invalid else f"{tk}HDT,{self._heading_text()},T"
-        if kind == "THS":
-            return f"{tk}THS,,V" if self.heading_invalid else f"{tk}THS,{self._heading_text()},A"
-        if kind == "PFEC_GPatt":
-            if self.heading_invalid:
-                return "PFEC,GPatt,,,"
-            return f"PFEC,GPatt,{self._heading_text()},+0.0,+0.0"
+        if kind in HEADING_SENTENCES:
+            return None if self.heading_dropout else encode_heading(kind, self._heading_rad(), self.talker)
         if kind == "ROT":
-            return f"{tk}ROT,{b.yaw_rate_deg_min:.1f},A"
-        ep = self._epoch
-        lat, lon = ep["lat_deg"], ep["lon_deg"]
-        pos = f"{_ddmm(lat, 2)},{'N' if lat >= 0 else 'S'},{_ddmm(lon, 3)},{'E' if lon >= 0 else 'W'}"
-        sog = f"{ep['sog_m_s'] * KN_PER_M_S:.2f}"
-        cog = f"{ep['cog_deg']:.1f}"
-        if kind == "GGA":
-            if self.fix_lost:
-                return f"{tk}GGA,{utc},,,,,0,00,,,M,,M,,"
-            return f"{tk}GGA,{utc},{pos},1,10,0.9,1.0,M,30.0,M,,"
-        if kind == "RMC":
-            if self.fix_lost:
-                return f"{tk}RMC,{utc},V,,,,,,,010624,,,N"
-            return f"{tk}RMC,{utc},A,{pos},{sog},{cog},010624,,,A"
-        if kind == "GLL":
-            if self.fix_lost:
-                return f"{tk}GLL,,,,,{utc},V,N"
-            return f"{tk}GLL,{pos},{utc},A,A"
-        if kind == "VTG":
-            if self.fix_lost:
-                return f"{tk}VTG,,T,,M,,N,,K,N"
-            return f"{tk}VTG,{cog},T,,M,{sog},N,{ep['sog_m_s'] * 3.6:.2f},K,A"
+            return encode_rot(self.boat.r_rad_s, self.talker)
+        # UTC from the clock: the simulated day starts at 00:00:00 on 2024-06-01
         if kind == "ZDA":
-            return f"{tk}ZDA,{utc},01,06,2024,00,00"
-        raise ValueError(f"unknown sentence kind {kind!r}")
+            return encode_zda(t_s, self.talker)
+        if self.position_dropout:
+            return None
+        ep = self._epoch  # the position sentences of one second report one epoch
+        return encode_position(
+            kind, t_of_day_s=ep["t_s"], lat_deg=None if self.fix_lost else ep["lat_deg"], lon_deg=ep["lon_deg"],
+            sog_m_s=ep["sog_m_s"], cog_rad=ep["cog_rad"], talker=self.talker,
+        )
 
     def _take_epoch(self, t_s: float) -> None:
         """The GNSS fix of this second: position (with its error), speed and course, reported by every
@@ -215,7 +183,7 @@ class SimulatedSC30:
         b = self.boat
         n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
         lat, lon = b.latlon_deg(n_m, e_m)
-        self._epoch = {"t_s": t_s, "lat_deg": lat, "lon_deg": lon, "sog_m_s": b.sog_m_s, "cog_deg": b.cog_deg}
+        self._epoch = {"t_s": t_s, "lat_deg": lat, "lon_deg": lon, "sog_m_s": b.sog_m_s, "cog_rad": b.cog_rad}
 
     def _frame(self, body: str) -> bytes:
         cs = checksum(body)

@@ -1,0 +1,129 @@
+"""One control cycle as a short chain of pure steps (the loop in :mod:`autopilot.daemon.loop` wires them).
+
+    NavSample --assemble--> Navigation --observe--> Observation --Failsafe.update--> Decision
+    Decision --arbitrate--> (Mode, drive) --steer (GNC)--> ControlOutput --command--> ThrustCommand
+    everything --cycle_record--> the cycle line (autopilot.logschema.CYCLE)
+
+Each step takes numbers and returns numbers: no I/O, no clock (times are arguments),
+so each is tested with literals. ``assemble`` is :func:`autopilot.gnc.navigation.assemble`,
+shared with ``autopilot evaluate`` and the campaigns.
+"""
+
+from __future__ import annotations
+
+import math
+
+from autopilot.daemon.config import DaemonConfig
+from autopilot.daemon.failsafe import Decision, Observation
+from autopilot.devices import ZERO_THRUST, ThrustCommand
+from autopilot.geo import wrap_180, wrap_360
+from autopilot.gnc import ControlOutput, NavInput
+from autopilot.gnc.navigation import Navigation, NavRules
+from autopilot.logschema import CYCLE_KEYS, Mode
+
+__all__ = ["nav_rules", "observe", "arbitrate", "step_dt_s", "nav_input", "command", "mode_after", "cycle_record",
+           "GNC_FIELDS"]
+
+MAX_STEP_DT_S = 1.0  # a GNC step after a long pause integrates at most this much
+
+
+def nav_rules(cfg: DaemonConfig) -> NavRules:
+    """The navigation assembly's thresholds, from the configuration."""
+    fs = cfg.failsafe
+    return NavRules(heading_stale_s=fs.heading_stale_s, position_stale_s=fs.position_stale_s,
+                    cog_fallback=fs.cog_fallback, cog_fallback_min_sog_m_s=fs.cog_fallback_min_sog_m_s,
+                    dead_reckon_max_s=cfg.dead_reckon_max_s)
+
+
+def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, thrusters_connected: bool,
+            acks_missing_in_a_row: int, compass_garbage_s: float | None, thruster_garbage_s: float | None) -> Observation:
+    """What the failsafe judges (times on the daemon's clock)."""
+    return Observation(
+        t_s=nav.t_s, heading_age_s=nav.heading_age_s, heading_valid=nav.heading_valid,
+        position_age_s=nav.position_age_s, fix_quality=nav.fix_quality,
+        ack_consecutive_missing=int(acks_missing_in_a_row), compass_connected=bool(compass_connected),
+        mbed_connected=bool(thrusters_connected), last_garbage_t_s=compass_garbage_s,
+        last_mbed_garbage_t_s=thruster_garbage_s, north_m=nav.north_m, east_m=nav.east_m,
+        mission_time_s=mission_time_s,
+    )
+
+
+def arbitrate(decision: Decision, *, hold_zero: bool, steerable: bool) -> tuple[Mode, bool]:
+    """(mode before the GNC runs, drive): the GNC drives when the failsafe allows it, nothing
+    holds the boat at zero (an interrupted mission not to be resumed) and there is a heading and a
+    position; ``auto`` may still become ``complete`` or ``hold`` from the GNC's output."""
+    drive = decision.thrust_allowed and not hold_zero and steerable
+    if decision.mode == "auto":
+        return (Mode.AUTO if drive else Mode.WAITING), drive
+    return Mode(decision.mode), False
+
+
+def step_dt_s(now_s: float, last_step_s: float | None, period_s: float) -> float:
+    """The time step of this GNC step: since the last one (a first step takes one period)."""
+    if last_step_s is None:
+        return period_s
+    return min(max(now_s - last_step_s, 1e-3), MAX_STEP_DT_S)
+
+
+def nav_input(nav: Navigation) -> NavInput:
+    """The GNC's view of one cycle: the dead-reckoned position; no speed or yaw rate = 0; no course = the heading."""
+    return NavInput(
+        north_m=float(nav.est_north_m), east_m=float(nav.est_east_m), psi_rad=float(nav.heading_rad),
+        speed_m_s=0.0 if nav.sog_m_s is None else float(nav.sog_m_s),
+        yaw_rate_rad_s=0.0 if nav.yaw_rate_rad_s is None else float(nav.yaw_rate_rad_s),
+        course_rad=float(nav.heading_rad) if nav.cog_rad is None else float(nav.cog_rad),
+    )
+
+
+def command(out: ControlOutput | None) -> ThrustCommand:
+    """The thrusters' command: the GNC's, zero when it did not run or asks for none."""
+    if out is None or out.thrust_off:
+        return ZERO_THRUST
+    return ThrustCommand(out.thrust_port_n, out.thrust_stbd_n, out.pwm_port_pct, out.pwm_stbd_pct)
+
+
+def mode_after(mode: Mode, out: ControlOutput | None) -> Mode:
+    """``auto`` becomes ``complete`` (final action stop) or ``hold`` once the last waypoint is reached."""
+    if mode is Mode.AUTO and out is not None and out.complete:
+        return Mode.COMPLETE if out.finished else Mode.HOLD
+    return mode
+
+
+GNC_FIELDS = ("tcpa_nd", "dcpa_nd", "cdh", "xte_m", "speed_cmd_m_s", "pid_p_n", "pid_i_n", "pid_d_n", "tau_com_n",
+              "tau_com_trim_n", "tau_order_n")
+
+
+def _deg(x_rad: float | None, wrap) -> float | None:
+    return None if x_rad is None or not math.isfinite(x_rad) else float(wrap(math.degrees(x_rad)))
+
+
+def cycle_record(*, cycle: int, t_s: float, mode: Mode, nav: Navigation, out: ControlOutput | None,
+                 cmd: ThrustCommand, wp_index: int, steering: bool, lateness_s: float, skipped: int,
+                 heading_latency_s: float | None, seq: int, ack_missing: int, nmea_dropped: int,
+                 active_faults) -> dict:
+    """The cycle line: every key of :data:`autopilot.logschema.CYCLE`, in its units (degrees for people)."""
+    gnc = {k: None for k in GNC_FIELDS} if out is None else {k: getattr(out, k) for k in GNC_FIELDS}
+    rec = {
+        "cycle": cycle, "mode": mode, "lat_deg": nav.lat_deg, "lon_deg": nav.lon_deg,
+        "north_m": nav.north_m, "east_m": nav.east_m,
+        "est_north_m": nav.est_north_m if steering else None, "est_east_m": nav.est_east_m if steering else None,
+        "heading_deg": _deg(nav.heading_rad, wrap_360), "heading_source": nav.heading_source,
+        "yaw_rate_deg_s": None if nav.yaw_rate_rad_s is None else math.degrees(nav.yaw_rate_rad_s),
+        "sog_m_s": nav.sog_m_s, "cog_deg": _deg(nav.cog_rad, wrap_360), "fix_quality": nav.fix_quality,
+        "heading_age_s": nav.heading_age_s, "position_age_s": nav.position_age_s, "wp_index": int(wp_index),
+        **gnc,
+        "psi_d_deg": None if out is None else _deg(out.psi_d_rad, wrap_360),
+        "heading_error_deg": None if out is None else _deg(out.heading_error_rad, wrap_180),
+        "thrust_port_n": float(cmd.thrust_port_n), "thrust_stbd_n": float(cmd.thrust_stbd_n),
+        "pwm_port_pct": float(cmd.duty_port_pct), "pwm_stbd_pct": float(cmd.duty_stbd_pct),
+        "sat_port": bool(out is not None and not out.thrust_off and out.sat_port),
+        "sat_stbd": bool(out is not None and not out.thrust_off and out.sat_stbd),
+        "saturation": [] if out is None or out.thrust_off else list(out.saturation),
+        "turn_limit": 0 if out is None or out.thrust_off else int(out.turn_limit),
+        "common_limit": 0 if out is None or out.thrust_off else int(out.common_limit),
+        "lateness_ms": lateness_s * 1e3, "skipped_cycles": int(skipped),
+        "heading_latency_ms": None if heading_latency_s is None else heading_latency_s * 1e3,
+        "seq": int(seq), "ack_missing": int(ack_missing), "nmea_dropped": int(nmea_dropped),
+        "active_faults": list(active_faults),
+    }
+    return {k: rec[k] for k in CYCLE_KEYS}  # the schema's keys, in its order (a missing one is a KeyError here)

@@ -1,0 +1,177 @@
+"""The control cycle's pure steps with literals, and the whole loop on a clock the test steps.
+
+The loop runs deterministically on :class:`autopilot.clock.SimClock` against test doubles of the
+two device interfaces (autopilot.devices.Compass / ThrusterLink): no ports, no sleeping.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+import numpy as np
+import pytest
+
+from autopilot.clock import SimClock
+from autopilot.daemon import cycle as steps
+from autopilot.daemon.config import DaemonConfig
+from autopilot.daemon.failsafe import Decision
+from autopilot.daemon.loop import ControlLoop
+from autopilot.daemon.missionlog import MissionLog
+from autopilot.daemon.sd_notify import Notifier
+from autopilot.daemon.state import StateStore
+from autopilot.devices import ZERO_THRUST, Compass, NavSample, Stamped, ThrusterLink
+from autopilot.geo import local_to_latlon
+from autopilot.gnc import Autopilot
+from autopilot.gnc.navigation import NavMemory, NavRules, assemble
+from autopilot.logschema import CYCLE_KEYS, Mode
+from autopilot.mission import Mission
+
+ORIGIN = (52.0, 4.4)
+
+
+def _nav(**kw):
+    s = NavSample(heading_rad=Stamped(0.1, 9.95, "HDT", True), position=Stamped(ORIGIN, 9.5, "GGA", True),
+                  fix_quality=Stamped(1, 9.5, "GGA", True), sog_m_s=Stamped(1.0, 9.5, "RMC", True),
+                  cog_rad=Stamped(0.1, 9.5, "RMC", True))
+    nav, _ = assemble(s, 10.0, NavMemory(), NavRules(), origin_lat_deg=ORIGIN[0], origin_lon_deg=ORIGIN[1])
+    return nav
+
+
+@pytest.mark.parametrize("fs_mode, allowed, hold_zero, steerable, expect", [
+    ("waiting", False, False, True, (Mode.WAITING, False)),
+    ("auto", True, False, True, (Mode.AUTO, True)),
+    ("auto", True, True, True, (Mode.WAITING, False)),  # an interrupted mission not to be resumed
+    ("auto", True, False, False, (Mode.WAITING, False)),  # nothing to steer by
+    ("failsafe", False, False, True, (Mode.FAILSAFE, False)),
+])
+def test_arbitrate(fs_mode, allowed, hold_zero, steerable, expect):
+    d = Decision(mode=fs_mode, thrust_allowed=allowed, active=())
+    assert steps.arbitrate(d, hold_zero=hold_zero, steerable=steerable) == expect
+
+
+def test_step_dt():
+    assert steps.step_dt_s(5.0, None, 0.1) == 0.1
+    assert steps.step_dt_s(5.0, 4.9, 0.1) == pytest.approx(0.1)
+    assert steps.step_dt_s(50.0, 4.9, 0.1) == steps.MAX_STEP_DT_S
+
+
+def test_command_and_mode_after_the_gnc():
+    ap = Autopilot(DaemonConfig().gnc, [(0.5, 0.0)])
+    nav = _nav()
+    out = ap.step(steps.nav_input(nav), 0.1)  # within the capture radius: complete at once, final action stop
+    assert out.complete and out.finished and out.thrust_off
+    assert steps.command(out) is ZERO_THRUST and steps.command(None) is ZERO_THRUST
+    assert steps.mode_after(Mode.AUTO, out) is Mode.COMPLETE
+    assert steps.mode_after(Mode.FAILSAFE, out) is Mode.FAILSAFE
+    far = Autopilot(DaemonConfig().gnc, [(30.0, 0.0)]).step(steps.nav_input(nav), 0.1)
+    cmd = steps.command(far)
+    assert (cmd.duty_port_pct, cmd.duty_stbd_pct) == (far.pwm_port_pct, far.pwm_stbd_pct) and not cmd.is_zero
+
+
+def test_cycle_record_has_exactly_the_schema_keys():
+    nav = _nav()
+    out = Autopilot(DaemonConfig().gnc, [(30.0, 0.0)]).step(steps.nav_input(nav), 0.1)
+    for o, cmd in ((out, steps.command(out)), (None, ZERO_THRUST)):
+        rec = steps.cycle_record(cycle=3, t_s=1.0, mode=Mode.AUTO, nav=nav, out=o, cmd=cmd, wp_index=0, steering=o is not None,
+                                 lateness_s=0.001, skipped=0, heading_latency_s=0.05, seq=7, ack_missing=0, nmea_dropped=0,
+                                 active_faults=())
+        assert tuple(rec) == CYCLE_KEYS
+    assert 0 <= rec["heading_deg"] < 360 and rec["est_north_m"] is None and rec["psi_d_deg"] is None
+
+
+def test_observe_carries_what_the_failsafe_judges():
+    nav = _nav()
+    obs = steps.observe(nav, mission_time_s=12.0, compass_connected=True, thrusters_connected=False,
+                        acks_missing_in_a_row=3, compass_garbage_s=None, thruster_garbage_s=9.0)
+    assert obs.t_s == 10.0 and obs.heading_age_s == pytest.approx(0.05) and obs.position_age_s == pytest.approx(0.5)
+    assert (obs.mbed_connected, obs.ack_consecutive_missing, obs.last_mbed_garbage_t_s) == (False, 3, 9.0)
+
+
+# ---------------------------------------------------------------------------------------------- the loop
+
+
+class FakeCompass:
+    """A compass that reports a boat steaming north at 1 m/s from the origin, until told to go quiet."""
+
+    def __init__(self, clock):
+        self.clock, self.quiet_from_s = clock, math.inf
+        self.connected, self.last_garbage_s, self.lines_dropped = True, None, 0
+
+    def sample(self) -> NavSample:
+        t = min(self.clock.now_s(), self.quiet_from_s)
+        fix_t = math.floor(t)
+        lat, lon = local_to_latlon(fix_t * 1.0, 0.0, *ORIGIN)
+        return NavSample(heading_rad=Stamped(0.0, math.floor(t * 10) / 10, "HDT", True),
+                         position=Stamped((lat, lon), fix_t, "GGA", True), fix_quality=Stamped(1, fix_t, "GGA", True),
+                         sog_m_s=Stamped(1.0, fix_t, "RMC", True), cog_rad=Stamped(0.0, fix_t, "RMC", True))
+
+    async def run(self):
+        pass
+
+    async def close(self):
+        pass
+
+
+class FakeThrusters:
+    def __init__(self):
+        self.connected, self.last_garbage_s, self.consecutive_missing, self.ack_missing = True, None, 0, 0
+        self.answered, self.commands = True, []
+
+    def send(self, command):
+        self.commands.append(command)
+        return len(self.commands) - 1
+
+    async def wait_ack(self, seq, timeout_s):
+        return True
+
+    async def run(self):
+        pass
+
+    async def close(self):
+        pass
+
+
+def _run_loop(tmp_path, quiet_from_s: float, until_s: float):
+    cfg = DaemonConfig()
+    mission = Mission("north", np.array([[200.0, 0.0]]), (None,), None, *ORIGIN)
+
+    async def main():
+        clock = SimClock()
+        compass, thrusters = FakeCompass(clock), FakeThrusters()
+        assert isinstance(compass, Compass) and isinstance(thrusters, ThrusterLink)  # the interfaces, typed
+        compass.quiet_from_s = quiet_from_s
+        log = MissionLog(tmp_path / "log.jsonl", console=None)
+        loop = ControlLoop(cfg, clock=clock, autopilot=Autopilot(cfg.gnc, mission.waypoints_ne_m), mission=mission,
+                           mission_path="m.yaml", mission_sha256="x", compass=compass, thrusters=thrusters, log=log,
+                           notifier=Notifier(None), store=StateStore(tmp_path / "state"))
+        task = asyncio.create_task(loop.run())
+        t = 0.0
+        while t < until_s:  # the test is the clock: every deadline, by hand
+            t = round(t + 0.05, 6)
+            clock.advance_to(t)
+            for _ in range(3):
+                await asyncio.sleep(0)
+        loop.request_stop("SIGTERM")
+        clock.advance_to(until_s + 1.0)
+        assert await task == "signal"
+        log.close()
+        return thrusters.commands, loop.state
+
+    return asyncio.run(main())
+
+
+def test_the_loop_on_a_stepped_clock_is_deterministic_and_stops_on_a_stale_heading(tmp_path):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    cmds, st = _run_loop(tmp_path / "a", quiet_from_s=6.0, until_s=10.0)
+    cmds2, _ = _run_loop(tmp_path / "b", quiet_from_s=6.0, until_s=10.0)
+    assert cmds == cmds2  # the same commands, bit for bit
+    assert len(cmds) == 100  # one per 0.1 s deadline, 0 to 9.9 s
+    driving = [k for k, c in enumerate(cmds) if not c.is_zero]
+    assert driving[0] == 10  # control starts after failsafe.start_valid_s (1 s) of valid data
+    # the last heading is from 6.0 s: stale once older than heading_stale_s (1 s), so zero thrust from
+    # the cycle at 7.0 s (the deadline sum lands a hair past 7.0) or 7.1 s on, and it stays zero
+    assert driving[-1] in (69, 70) and all(c.is_zero for c in cmds[71:])
+    assert driving == list(range(10, driving[-1] + 1))
+    assert st.failsafe_causes == ["heading_stale"] and st.cycles == 100
