@@ -158,6 +158,7 @@ CYCLE: tuple[Field, ...] = (
 CYCLE_KEYS: tuple[str, ...] = tuple(f.name for f in CYCLE)
 
 _CAUSE = _f("cause", "string", "-", "one of " + ", ".join(f"`{c}`" for c in FAULT_CAUSES))
+_RECOVERY = (_CAUSE, _f("valid_for_s", "float", "s", "how long the data have been valid"))
 
 EVENTS: tuple[EventSpec, ...] = (
     EventSpec("mission_start", "first line of every log", (
@@ -203,10 +204,8 @@ EVENTS: tuple[EventSpec, ...] = (
     EventSpec("fault_cleared", "a cause went away", (_CAUSE,)),
     EventSpec("failsafe", "the boat was under control and a fault stopped it", (
         _CAUSE, _f("action", "string", "-", "`zero_thrust`"))),
-    EventSpec("failsafe_cleared", "no cause for `failsafe.resume_valid_s`", (
-        _CAUSE, _f("valid_for_s", "float", "s", "how long the data have been valid"))),
-    EventSpec("resume", "the GNC drives again (integrators reset)", (
-        _CAUSE, _f("valid_for_s", "float", "s", "how long the data have been valid"))),
+    EventSpec("failsafe_cleared", "no cause for `failsafe.resume_valid_s`", _RECOVERY),
+    EventSpec("resume", "the GNC drives again (integrators reset)", _RECOVERY),
     EventSpec("stop", "the last line of a log unless the process was killed (SIGKILL, power loss)", (
         _f("reason", "string", "-", "one of " + ", ".join(f"`{r}`" for r in STOP_REASONS)),
         _f("signal", "string", "-", "`SIGTERM`, `SIGINT` or null"),

@@ -319,3 +319,45 @@ def test_nan_never_decoded():
         assert NmeaStreamDecoder().feed(make_sentence(body).encode()) == []
     u = decode_line(make_sentence("GPVTG,0.0,T,,M,0.0,N,,K,A"))
     assert math.isfinite(u.sog_m_s)
+
+
+# --------------------------------------------------------------------------- the encoder, round trips
+
+@_SETTINGS
+@given(st.floats(0.0, 2 * math.pi, exclude_max=True), st.sampled_from(["HDT", "THS", "PFEC_GPatt"]))
+def test_heading_round_trip(heading_rad, kind):
+    from autopilot.drivers.nmea import encode_heading
+
+    u = decode_line(make_sentence(encode_heading(kind, heading_rad)))
+    assert u.sentence == kind and u.heading_valid
+    err_deg = (math.degrees(u.heading_rad - heading_rad) + 180.0) % 360.0 - 180.0
+    assert abs(err_deg) <= 0.05 + 1e-9  # the SC-30's 0.1 deg resolution
+    assert decode_line(make_sentence(encode_heading(kind, None))).heading_valid is False
+
+
+@_SETTINGS
+@given(st.floats(-89.9, 89.9), st.floats(-179.9, 179.9), st.floats(0.0, 5.0), st.floats(0.0, 2 * math.pi, exclude_max=True),
+       st.sampled_from(["GGA", "RMC", "GLL", "VTG"]), st.floats(0.0, 86399.0))
+def test_position_round_trip(lat, lon, sog, cog, kind, t_day):
+    from autopilot.drivers.nmea import encode_position
+
+    u = decode_line(make_sentence(encode_position(kind, t_of_day_s=t_day, lat_deg=lat, lon_deg=lon, sog_m_s=sog,
+                                                  cog_rad=cog)))
+    assert u.sentence == kind and u.status_valid
+    if kind != "VTG":
+        assert_allclose([u.lat_deg, u.lon_deg], [lat, lon], atol=1e-6)  # 1e-5 minutes
+        assert u.fix_time is not None and abs(u.fix_time.hour * 3600 + u.fix_time.minute * 60 + u.fix_time.second
+                                              + u.fix_time.microsecond / 1e6 - round(t_day, 2)) < 0.006
+    if kind in ("RMC", "VTG"):
+        assert abs(u.sog_m_s - sog) <= 0.005 * KNOT + 1e-9
+        assert abs((math.degrees(u.cog_rad - cog) + 180) % 360 - 180) <= 0.05 + 1e-9
+    lost = decode_line(make_sentence(encode_position(kind, t_of_day_s=t_day)))
+    assert lost.status_valid is False and lost.lat_deg is None
+
+
+def test_rot_round_trip():
+    from autopilot.drivers.nmea import encode_rot
+
+    for r in (-1.6, -0.01, 0.0, 0.35):
+        u = decode_line(make_sentence(encode_rot(r)))
+        assert u.yaw_rate_rad_s == pytest.approx(r, abs=math.radians(0.05) / 60)

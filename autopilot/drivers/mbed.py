@@ -16,17 +16,20 @@ from typing import Any
 
 from autopilot.clock import Clock
 from autopilot.devices import EventSink, ThrustCommand
-from autopilot.drivers.framing import GarbageDetector, LineFramer
+from autopilot.drivers.framing import LineFramer
+from autopilot.drivers.line_device import LineDevice
 from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, Ack, ProtocolError, decode_ack, encode_command
-from autopilot.drivers.serial_link import SerialLink
 
 __all__ = ["MbedDriver"]
 
 _MAX_PENDING = 256  # commands awaiting an ack; older ones are counted missing
 
 
-class MbedDriver:
+class MbedDriver(LineDevice):
     """Commands to the Mbed on ``port_path``; counts acks missing after ``ack_timeout_s``."""
+
+    name = "mbed"
+    garbage_event = "mbed_garbage"
 
     def __init__(
         self,
@@ -41,24 +44,15 @@ class MbedDriver:
         garbage_burst_lines: int = 5,
         garbage_burst_bytes: int = 32,
     ) -> None:
-        self._clock = clock
         self.ack_timeout_s = float(ack_timeout_s)
-        self._link = SerialLink(
-            port_path,
-            baudrate=baudrate,
-            clock=clock,
-            on_bytes=self._on_bytes,
-            reconnect_min_s=reconnect_min_s,
-            reconnect_max_s=reconnect_max_s,
-            events=events,
-            name="mbed",
-        )
+        super().__init__(port_path, baudrate=baudrate, clock=clock, reconnect_min_s=reconnect_min_s,
+                         reconnect_max_s=reconnect_max_s, events=events, garbage_burst_lines=garbage_burst_lines,
+                         garbage_burst_bytes=garbage_burst_bytes)
         self._seq = -1
         self._pending: OrderedDict[int, float] = OrderedDict()  # seq -> send time (Clock s)
         self._waiters: dict[int, list[asyncio.Future[bool]]] = {}
         self._acked_recent: OrderedDict[int, bool] = OrderedDict()  # seq -> applied (OK)
         self._framer = LineFramer(MAX_LINE_CHARS)
-        self._garbage = GarbageDetector(max_lines=garbage_burst_lines, max_bytes=garbage_burst_bytes)
         self._malformed = 0
         self._ack_missing = 0
         self._consecutive_missing = 0
@@ -72,19 +66,6 @@ class MbedDriver:
         self.acks_late = 0
 
     # ------------------------------------------------------------------ properties
-    @property
-    def port_path(self) -> str:
-        return self._link.port_path
-
-    @property
-    def connected(self) -> bool:
-        return self._link.connected
-
-    @property
-    def transport(self) -> SerialLink:
-        """The serial link underneath (its byte counters)."""
-        return self._link
-
     @property
     def ack_missing(self) -> int:
         """Commands not acknowledged (OK) within ``ack_timeout_s``, cumulative."""
@@ -112,11 +93,8 @@ class MbedDriver:
         )
 
     # ------------------------------------------------------------------ lifecycle
-    async def run(self) -> None:
-        await self._link.run()
-
     async def close(self) -> None:
-        await self._link.close()
+        await super().close()
         for futs in self._waiters.values():
             for f in futs:
                 if not f.done():
@@ -183,19 +161,12 @@ class MbedDriver:
         now_s = self._clock.now_s()
         for line in self._framer.feed(data):
             self._line(line, now_s)
-        if self._garbage.feed(now_s, self.bad_lines, self._framer.invalid_bytes):
-            lines, bad_bytes = self._garbage.window_counts()
-            self._link.emit("mbed_garbage", bad_lines=lines, bad_bytes=bad_bytes, window_s=self._garbage.window_s)
+        self._check_garbage(now_s, self.bad_lines, self._framer.invalid_bytes)
 
     @property
     def bad_lines(self) -> int:
         """Lines from the Mbed that are not valid protocol lines (malformed or too long), cumulative."""
         return self._malformed + self._framer.too_long
-
-    @property
-    def last_garbage_s(self) -> float | None:
-        """Clock time of the latest garbage seen during a burst on the Mbed line (None: no burst yet)."""
-        return self._garbage.last_garbage_s
 
     def _line(self, line: bytes, now_s: float) -> None:
         try:

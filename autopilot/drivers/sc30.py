@@ -15,9 +15,8 @@ from __future__ import annotations
 
 from autopilot.clock import Clock
 from autopilot.devices import EventSink, NavSample, Stamped
-from autopilot.drivers.framing import GarbageDetector
+from autopilot.drivers.line_device import LineDevice
 from autopilot.drivers.nmea import NmeaStreamDecoder, NmeaUpdate
-from autopilot.drivers.serial_link import SerialLink
 
 __all__ = ["SC30Driver", "HEADING_PRIORITY"]
 
@@ -25,7 +24,7 @@ HEADING_PRIORITY = ("THS", "HDT", "PFEC_GPatt")
 POSITION_SENTENCES = ("GGA", "RMC", "GLL")
 
 
-class SC30Driver:
+class SC30Driver(LineDevice):
     """Reads the SC-30 on ``port_path``; :meth:`sample` is the latest of everything it said.
 
     ``heading_window_s``: a lower-priority heading sentence is used only when
@@ -37,6 +36,9 @@ class SC30Driver:
     ``nmea_garbage`` event when it starts, and :attr:`last_garbage_s` for the
     failsafe while it lasts.
     """
+
+    name = "sc30"
+    garbage_event = "nmea_garbage"
 
     def __init__(
         self,
@@ -51,18 +53,10 @@ class SC30Driver:
         garbage_burst_lines: int = 5,
         garbage_burst_bytes: int = 32,
     ) -> None:
-        self._clock = clock
         self._decoder = NmeaStreamDecoder()
-        self._link = SerialLink(
-            port_path,
-            baudrate=baudrate,
-            clock=clock,
-            on_bytes=self._on_bytes,
-            reconnect_min_s=reconnect_min_s,
-            reconnect_max_s=reconnect_max_s,
-            events=events,
-            name="sc30",
-        )
+        super().__init__(port_path, baudrate=baudrate, clock=clock, reconnect_min_s=reconnect_min_s,
+                         reconnect_max_s=reconnect_max_s, events=events, garbage_burst_lines=garbage_burst_lines,
+                         garbage_burst_bytes=garbage_burst_bytes)
         self._latest: dict[str, Stamped | None] = {}  # NavSample field -> value
         self.attitude: Stamped | None = None  # (pitch_rad, roll_rad), logged by nothing yet
         self.utc: Stamped | None = None
@@ -70,22 +64,8 @@ class SC30Driver:
         self._heading_window_s = float(heading_window_s)
         self._by_source: dict[str, Stamped] = {}
         self._fix_time = None  # UTC time of the epoch of the last position sentence
-        self._garbage = GarbageDetector(max_lines=garbage_burst_lines, max_bytes=garbage_burst_bytes)
 
     # ------------------------------------------------------------------ public
-    @property
-    def port_path(self) -> str:
-        return self._link.port_path
-
-    @property
-    def connected(self) -> bool:
-        return self._link.connected
-
-    @property
-    def transport(self) -> SerialLink:
-        """The serial link underneath (its byte counters)."""
-        return self._link
-
     @property
     def stats(self) -> dict[str, int]:
         """Decoder line counters plus link counters (``reconnects`` = losses of the port)."""
@@ -99,30 +79,12 @@ class SC30Driver:
         )
         return d
 
-    async def run(self) -> None:
-        await self._link.run()
-
-    async def close(self) -> None:
-        await self._link.close()
-
     # ------------------------------------------------------------------ decoding
     def _on_bytes(self, data: bytes) -> None:
         now_s = self._clock.now_s()
         for u in self._decoder.feed(data):
             self.apply(u, now_s)
-        self._check_garbage(now_s)
-
-    def _check_garbage(self, now_s: float) -> None:
-        dec = self._decoder
-        if self._garbage.feed(now_s, dec.stats.dropped, dec.invalid_bytes):
-            lines, bad_bytes = self._garbage.window_counts()
-            self._link.emit("nmea_garbage", rejected_lines=lines, bad_bytes=bad_bytes, window_s=self._garbage.window_s,
-                            stats=self.stats)
-
-    @property
-    def last_garbage_s(self) -> float | None:
-        """Clock time of the latest garbage seen during a burst (None: no burst yet)."""
-        return self._garbage.last_garbage_s
+        self._check_garbage(now_s, self._decoder.stats.dropped, self._decoder.invalid_bytes, stats=self.stats)
 
     def sample(self) -> NavSample:
         """The latest of each quantity (:class:`autopilot.devices.NavSample`)."""
