@@ -111,6 +111,9 @@ class ThrusterLink(Protocol):
     @property
     def answered(self) -> bool: ...  # at least one command acknowledged
 
+    @property
+    def battery_v(self) -> float | None: ...  # the battery voltage the board reports (V), None if it does not
+
     def send(self, command: ThrustCommand) -> int: ...  # the sequence number, -1 if it could not be written
 
     async def wait_ack(self, seq: int, timeout_s: float) -> bool: ...

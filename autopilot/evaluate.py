@@ -19,9 +19,21 @@ origin), heading north, at rest. Each run gives a scorecard:
 - circled: the heading turned through more than 360 deg while steering to
   one waypoint (a boat circling a waypoint it cannot hit).
 
+Missions with a hold item (``hold_s``) are also scored on holding, over every
+control cycle station keeping ran, from the true (simulated) position and heading:
+
+- hold_position_error_rms_m / _p95_m: distance from the point held;
+- hold_heading_error_rms_deg: from the heading held (the given one, or the
+  least-effort one station keeping chose);
+- hold_energy_n_s: integral of |T_port| + |T_stbd| dt while holding;
+- vrx_score: the Virtual RobotX station-keeping score, the mean over the hold
+  of d + 0.75^d |heading error (rad)| (lower is better; osrf/vrx
+  ``stationkeeping_scoring_plugin``).
+
 Conditions: ``calm``; ``current_n/e/s/w``: 0.2 m/s flowing FROM that side;
 ``sinusoidal``: file 003 Eq 7 force (A = B = 10 N, 0.628 rad/s, at 45 deg);
-``wind``: 5 m/s from the north-east.
+``wind``: 5 m/s from the north-east; ``current_wind``: 0.2 m/s from the north and
+5 m/s of wind from the east.
 """
 
 from __future__ import annotations
@@ -58,10 +70,56 @@ def conditions() -> dict:
         "current_w": current_from(270.0),
         "sinusoidal": Environment(sinusoidal=SinusoidalDisturbance()),
         "wind": Environment(wind_speed_m_s=5.0, wind_from_deg=45.0),
+        "current_wind": Environment(current_speed_m_s=0.2, current_towards_deg=180.0, wind_speed_m_s=5.0,
+                                    wind_from_deg=90.0),
     }
 
 
-CONDITION_NAMES = ("calm", "current_n", "current_e", "current_s", "current_w", "sinusoidal", "wind")
+CONDITION_NAMES = ("calm", "current_n", "current_e", "current_s", "current_w", "sinusoidal", "wind", "current_wind")
+VRX_HEADING_BASE = 0.75  # pose error = d + 0.75^d |heading error|
+
+
+@dataclass(frozen=True)
+class HoldScore:
+    """How well station keeping held (true position and heading, over the cycles it ran)."""
+
+    time_s: float
+    position_error_rms_m: float
+    position_error_p95_m: float
+    position_error_max_m: float
+    heading_error_rms_deg: float
+    energy_n_s: float
+    vrx_score: float
+
+    def as_json(self) -> dict:
+        return {
+            "hold_time_s": round(self.time_s, 1),
+            "hold_position_error_rms_m": round(self.position_error_rms_m, 3),
+            "hold_position_error_p95_m": round(self.position_error_p95_m, 3),
+            "hold_position_error_max_m": round(self.position_error_max_m, 3),
+            "hold_heading_error_rms_deg": round(self.heading_error_rms_deg, 2),
+            "hold_energy_n_s": round(self.energy_n_s, 1),
+            "vrx_score": round(self.vrx_score, 3),
+        }
+
+
+def hold_score(distance_m, heading_error_rad, thrust_abs_sum_n, dt_s: float) -> HoldScore | None:
+    """The hold's score from per-cycle samples (equal steps of ``dt_s``); None without samples."""
+    import numpy as np
+
+    d = np.asarray(distance_m, float)
+    if d.size == 0:
+        return None
+    h = np.abs(np.asarray(heading_error_rad, float))
+    return HoldScore(
+        time_s=d.size * dt_s,
+        position_error_rms_m=float(np.sqrt(np.mean(d * d))),
+        position_error_p95_m=float(np.percentile(d, 95)),
+        position_error_max_m=float(d.max()),
+        heading_error_rms_deg=float(np.degrees(np.sqrt(np.mean(h * h)))),
+        energy_n_s=float(np.sum(thrust_abs_sum_n) * dt_s),
+        vrx_score=float(np.mean(d + VRX_HEADING_BASE ** d * h)),
+    )
 
 
 @dataclass
@@ -77,9 +135,13 @@ class RunResult:
     energy_ns: float
     saturation_pct: float
     circled: bool
+    hold: HoldScore | None = None
     trace: dict = field(default_factory=dict, repr=False)
 
     def as_json(self) -> dict:
+        return {**self._as_json(), **({} if self.hold is None else self.hold.as_json())}
+
+    def _as_json(self) -> dict:
         return {
             "mission": self.mission,
             "guidance": self.guidance,
@@ -132,14 +194,15 @@ def circled(wp_index, psi_rad, *, limit_rad: float = 2.0 * math.pi) -> bool:
     return mon.circled
 
 
-def time_limit_s(waypoints_ne_m, speed_m_s: float) -> float:
-    """Generous limit: three times the polyline length at the wanted speed, plus two minutes."""
+def time_limit_s(waypoints_ne_m, speed_m_s: float, holds_s=()) -> float:
+    """Generous limit: three times the polyline length at the wanted speed, plus two minutes, plus the holds."""
     length = 0.0
     prev = (0.0, 0.0)
     for n, e in waypoints_ne_m:
         length += math.hypot(n - prev[0], e - prev[1])
         prev = (n, e)
-    return 120.0 + 3.0 * length / max(speed_m_s, 0.1)
+    held = sum(h for h in (holds_s or ()) if h is not None and math.isfinite(h))
+    return 120.0 + 3.0 * length / max(speed_m_s, 0.1) + held
 
 
 def run_closed_loop(
@@ -148,6 +211,7 @@ def run_closed_loop(
     *,
     config=None,
     speeds_m_s=None,
+    holds_s=None,
     env=None,
     external_force=None,
     t_max_s: float | None = None,
@@ -157,6 +221,9 @@ def run_closed_loop(
     mission: str = "",
     condition: str = "",
     sensor_rates: SensorRates = SensorRates(),
+    position_noise_m: float = 0.0,
+    heading_noise_deg: float = 0.0,
+    seed: int = 0,
 ):
     """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`."""
     import numpy as np
@@ -168,12 +235,13 @@ def run_closed_loop(
 
     config = config or GncConfig()
     wps = [(float(n), float(e)) for n, e in waypoints_ne_m]
-    ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, boat_length_m=params.length_m)
+    ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, holds_s=holds_s, boat_length_m=params.length_m)
     # the daemon's navigation: the SC-30's rates (a 1 Hz fix, dead-reckoned), the same assembly
-    sensors = SensorModel(*EVAL_ORIGIN_DEG, rates=sensor_rates)
+    sensors = SensorModel(*EVAL_ORIGIN_DEG, rates=sensor_rates, position_noise_m=position_noise_m,
+                          heading_noise_deg=heading_noise_deg, rng=np.random.default_rng(seed))
     rules, memory = NavRules(), NavMemory()
     if t_max_s is None:
-        t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s)
+        t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s, holds_s)
     substeps = max(1, round(1.0 / (rate_hz * dt_s)))
     dt_ctrl = substeps * dt_s
     x = np.zeros(6)
@@ -185,7 +253,8 @@ def run_closed_loop(
     n_cycles = n_sat = n_track = 0  # n_track: cycles steering to a waypoint (the last one not yet reached)
     circling = CirclingMonitor()
     completed_at = None
-    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n", "pid_i_n")}
+    hold_d, hold_h, hold_t = [], [], []  # per cycle station keeping ran: true distance, heading error, |T|+|T|
+    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n", "pid_i_n", "mode", "hold_error_m")}
     while t < t_max_s:
         n_m, e_m, psi, u, v, r = (float(c) for c in x)
         nav, memory = assemble(sensors.observe(t, x), t, memory, rules, origin_lat_deg=EVAL_ORIGIN_DEG[0],
@@ -199,21 +268,25 @@ def run_closed_loop(
         n_cycles += 1
         if out.saturation:
             n_sat += 1
-        if not out.complete:
+        if out.holding:
+            hold_d.append(math.hypot(n_m - out.hold_target_ne_m[0], e_m - out.hold_target_ne_m[1]))
+            hold_h.append(wrap_pi(psi - out.hold_heading_rad))
+            hold_t.append(abs(out.thrust_port_n) + abs(out.thrust_stbd_n))
+        if not out.complete and out.xte_m is not None:
             n_track += 1
             xte_sq += out.xte_m * out.xte_m
             xte_max = max(xte_max, abs(out.xte_m))
             circling.update(out.wp_index, psi)
         if record:
-            for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", out.xte_m), ("speed_m_s", math.hypot(u, v)), ("speed_cmd_m_s", out.speed_cmd_m_s), ("tau_com_n", out.tau_com_n), ("tau_com_trim_n", out.tau_com_trim_n), ("pid_i_n", out.pid_i_n)):
+            for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", math.nan if out.xte_m is None else out.xte_m), ("speed_m_s", math.hypot(u, v)), ("speed_cmd_m_s", out.speed_cmd_m_s), ("tau_com_n", out.tau_com_n), ("tau_com_trim_n", out.tau_com_trim_n), ("pid_i_n", out.pid_i_n), ("mode", out.mode.value), ("hold_error_m", out.hold_error_m)):
                 tr[k].append(val)
         if out.complete and completed_at is None:
             completed_at = t
         if passes_open and completed_at is not None and t - completed_at >= config.guidance.final_pass_s - 1e-9:
             passes_open = False  # the last pass has ended (autopilot.gnc.passes)
             closest_by_wp.update((p.wp_index, p.closest_approach_m) for p in passes.finish())
-        if not passes_open and config.guidance.final_action == "stop":
-            break  # thrust has been zero since completion
+        if not passes_open and out.finished:
+            break  # the mission ended with stop: thrust has been zero since
         for _ in range(substeps):
             x = step(params, x, out.thrust_port_n, out.thrust_stbd_n, dt_s, t_s=t, env=env, external_force=external_force)
             t += dt_s
@@ -233,6 +306,7 @@ def run_closed_loop(
         energy_ns=energy,
         saturation_pct=100.0 * n_sat / max(n_cycles, 1),
         circled=circling.circled,
+        hold=hold_score(hold_d, hold_h, hold_t, dt_ctrl),
         trace={**tr, "waypoints": wps} if record else {},
     )
 
@@ -259,7 +333,7 @@ def evaluate(mission_paths, laws, condition_names, *, params=None, base_config=N
             cfg = replace(base_config, guidance=replace(base_config.guidance, law=law))
             for cond in condition_names:
                 yield run_closed_loop(
-                    params, m.waypoints_ne_m, config=cfg, speeds_m_s=m.speeds_m_s, env=envs[cond],
+                    params, m.waypoints_ne_m, config=cfg, speeds_m_s=m.speeds_m_s, holds_s=m.holds_s, env=envs[cond],
                     record=record, mission=m.name, condition=cond,
                 )
 
@@ -270,6 +344,9 @@ def format_row(r: RunResult) -> str:
         f"{r.mission:<14} {r.guidance:<12} {r.condition:<10} {'yes' if r.completed else 'NO ':<4} "
         f"{r.xte_rms_m:6.2f} {r.xte_max_m:6.2f} {r.time_s:7.1f} {r.energy_ns:8.0f} {r.saturation_pct:5.1f} "
         f"{'CIRCLED' if r.circled else '-':<7} {ca}"
+        + ("" if r.hold is None else
+           f"  hold: rms {r.hold.position_error_rms_m:.2f} m, p95 {r.hold.position_error_p95_m:.2f} m, heading rms "
+           f"{r.hold.heading_error_rms_deg:.1f} deg, {r.hold.energy_n_s:.0f} N s, VRX {r.hold.vrx_score:.2f}")
     )
 
 
@@ -321,7 +398,9 @@ def register(subparsers) -> None:
             "20 Hz) with the whole GNC stack at 10 Hz, no serial. One scorecard per run: completed, closest "
             "approach per waypoint (over its pass, from 1 Hz fixes), cross-track RMS and maximum, time, "
             "thrust energy, saturation time, circling. Conditions: calm; current_n/e/s/w (0.2 m/s from that "
-            "side); sinusoidal (file 003 Eq 7 force); wind (5 m/s from the north-east)."
+            "side); sinusoidal (file 003 Eq 7 force); wind (5 m/s from the north-east); current_wind (0.2 m/s from "
+            "the north, 5 m/s of wind from the east). Missions with a hold item are also scored on holding "
+            "(position and heading error, energy, the VRX station-keeping score)."
         ),
     )
     p.add_argument("--json", action="store_true", help="one JSON object per run")

@@ -20,6 +20,8 @@ __all__ = [
     "HEADING_SOURCES",
     "FAULT_CAUSES",
     "LATCHED_CAUSES",
+    "FAILSAFE_ACTIONS",
+    "COMMANDS",
     "STOP_REASONS",
     "INFO_MESSAGES",
     "CYCLE",
@@ -55,11 +57,14 @@ class EventSpec:
 class Mode(str, enum.Enum):
     """What the daemon is doing in a cycle (the ``mode`` of every cycle line)."""
 
-    WAITING = "waiting"  # waiting for valid data before the mission starts (zero thrust)
-    AUTO = "auto"  # flying the mission
-    FAILSAFE = "failsafe"  # a fault: zero thrust until the data are valid again
-    COMPLETE = "complete"  # the last waypoint reached: zero thrust
-    HOLD = "hold"  # the last waypoint reached: holding station on it (gnc.guidance.final_action: hold)
+    WAITING = "waiting"  # waiting for valid data before control starts (zero thrust)
+    AUTO = "auto"  # flying the mission (a hold item holds station inside it)
+    HOLD = "hold"  # station keeping at a point (commanded, a failsafe action, or the mission's end)
+    PAUSED = "paused"  # holding where it was; resume continues from the same waypoint
+    RTL = "rtl"  # returning to the launch point, then hold there
+    STOP = "stop"  # zero thrust, latched until commanded
+    FAILSAFE = "failsafe"  # a sensor or link fault: zero thrust until the data are valid again
+    COMPLETE = "complete"  # the mission ended with stop: zero thrust, the run ends
 
     def __str__(self) -> str:
         return self.value
@@ -80,8 +85,13 @@ FAULT_CAUSES: tuple[str, ...] = (
     "geofence",
     "max_mission_time",
     "max_distance",
+    "battery_low",
+    "battery_critical",
 )
-LATCHED_CAUSES = frozenset({"geofence", "max_mission_time", "max_distance"})
+LATCHED_CAUSES = frozenset({"geofence", "max_mission_time", "max_distance", "battery_low", "battery_critical"})
+# what a failsafe may do (ArduPilot's FS_ACTION); "stop" needs nothing, the others a position and a heading
+FAILSAFE_ACTIONS: tuple[str, ...] = ("stop", "hold", "rtl")
+COMMANDS: tuple[str, ...] = ("status", "hold", "pause", "resume", "rtl", "stop")  # the operator's (autopilot ctl)
 STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_time")
 INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("port_opened, port_lost, port_open_failed, nmea_garbage, mbed_garbage",
@@ -147,6 +157,13 @@ CYCLE: tuple[Field, ...] = (
     _f("saturation", "list", "-", "limits the thrusters' requests went past: `port_upper`, `port_lower`, `stbd_upper`, `stbd_lower`"),
     _f("turn_limit", "int", "-", "the turn the allocation could not deliver in full: +1 to starboard, -1 to port, 0 none (the heading integral may not grow towards it)"),
     _f("common_limit", "int", "-", "the common thrust cut: +1 down (the speed cannot be delivered), -1 up, 0 none"),
+    _f("hold_north_m", "float", "m", "the point station keeping holds (null when not holding)"),
+    _f("hold_east_m", "float", "m", "see `hold_north_m`"),
+    _f("hold_error_m", "float", "m", "distance from the estimated position to that point"),
+    _f("hold_heading_deg", "float", "deg", "the heading station keeping holds: the given one, or the least-effort one it chose"),
+    _f("hold_disturbance_n", "float", "N", "station keeping's estimate of the thrust per thruster the current and wind take (along `hold_heading_deg`)"),
+    _f("battery_v", "float", "V", "battery voltage from the Mbed's last acknowledgement, under load (null: the firmware does not report it)"),
+    _f("battery_rest_v", "float", "V", "the resting voltage estimate the battery failsafe judges: `battery_v` + `failsafe.battery_sag_v` x (d_port^3 + d_stbd^3) / 2"),
     _f("lateness_ms", "float", "ms", "how late this cycle started after its absolute deadline"),
     _f("skipped_cycles", "int", "-", "deadlines skipped so far because the loop fell more than a period behind (cumulative)"),
     _f("heading_latency_ms", "float", "ms", "time from the heading sentence's arrival to this command"),
@@ -202,10 +219,29 @@ EVENTS: tuple[EventSpec, ...] = (
     EventSpec("fault", "a failsafe cause appeared (once per cause until it clears)", (
         _CAUSE, _f("detail", "string", "-", "what was seen"))),
     EventSpec("fault_cleared", "a cause went away", (_CAUSE,)),
-    EventSpec("failsafe", "the boat was under control and a fault stopped it", (
-        _CAUSE, _f("action", "string", "-", "`zero_thrust`"))),
+    EventSpec("failsafe", "a fault took the boat out of the operator's mode, or (`stop`) stopped it", (
+        _CAUSE,
+        _f("action", "string", "-", "the action taken: " + ", ".join(f"`{a}`" for a in FAILSAFE_ACTIONS)),
+        _f("configured", "string", "-", "the action configured for the cause (`failsafe.actions`)"),
+        _f("fallback", "string", "-", "why the configured action was not taken (it needs a position and a heading), or null"),
+    )),
     EventSpec("failsafe_cleared", "no cause for `failsafe.resume_valid_s`", _RECOVERY),
     EventSpec("resume", "the GNC drives again (integrators reset)", _RECOVERY),
+    EventSpec("mode", "the mode changed (the mission's own steps, an operator command, a failsafe)", (
+        _f("mode", "string", "-", "the new mode"),
+        _f("from", "string", "-", "the mode before"),
+        _f("cause", "string", "-", "why: `ctl hold`, `failsafe battery_low`, `mission: hold at waypoint 2`, ..."),
+    )),
+    EventSpec("command", "an operator command arrived (`autopilot ctl`, the MAVLink link)", (
+        _f("command", "string", "-", "one of " + ", ".join(f"`{c}`" for c in COMMANDS) + ", or what was sent when malformed"),
+        _f("source", "string", "-", "`ctl` (the Unix socket) or `mavlink`"),
+        _f("accepted", "bool", "-", "the command was carried out"),
+        _f("answer", "string", "-", "the new mode, or the refusal (`rtl refused: position stale`)"),
+    )),
+    EventSpec("launch", "the launch point was set: where the boat was when control first started (`rtl` returns there)", (
+        _f("north_m", "float", "m", "local frame"),
+        _f("east_m", "float", "m", "local frame"),
+    )),
     EventSpec("stop", "the last line of a log unless the process was killed (SIGKILL, power loss)", (
         _f("reason", "string", "-", "one of " + ", ".join(f"`{r}`" for r in STOP_REASONS)),
         _f("signal", "string", "-", "`SIGTERM`, `SIGINT` or null"),
@@ -238,10 +274,15 @@ def _table(fields, *, header=("key", "type", "unit", "meaning")) -> list[str]:
 
 _MODE_DOCS = {
     Mode.WAITING: "waiting for valid data before control starts; zero thrust",
-    Mode.AUTO: "flying the mission",
-    Mode.FAILSAFE: "a fault: zero thrust on both sides, sent every cycle while it lasts",
-    Mode.COMPLETE: "the last waypoint reached; zero thrust",
-    Mode.HOLD: "the last waypoint reached; holding station on it (`gnc.guidance.final_action: hold`)",
+    Mode.AUTO: "flying the mission; a waypoint with `hold_s` or `hold: true` holds station there inside `auto`",
+    Mode.HOLD: "station keeping (`autopilot/gnc/station_keeping.py`): `autopilot ctl hold`, a failsafe action, "
+               "the mission's end (`gnc.guidance.final_action: hold`), or `rtl` arrived",
+    Mode.PAUSED: "`autopilot ctl pause`: holding where it was; `resume` continues from the same waypoint",
+    Mode.RTL: "returning to the launch point (`launch` event) with the mission's guidance law, then `hold` there",
+    Mode.STOP: "zero thrust, latched until an operator command (`autopilot ctl stop`, or a failsafe action)",
+    Mode.FAILSAFE: "a sensor or Mbed-link fault: zero thrust on both sides, every cycle while it lasts; the mode "
+                   "before it comes back when the data have been valid for `failsafe.resume_valid_s`",
+    Mode.COMPLETE: "the mission ended with `stop`: zero thrust; the run ends",
 }
 
 
@@ -299,12 +340,20 @@ def render_markdown() -> str:
         "",
         "## Failsafe sequence",
         "",
-        "A fault appears: `fault` (per cause, once) and, if the boat was under control, one",
-        "`failsafe` with the first cause; zero thrust from that cycle on. Each cause that goes away",
-        "gets `fault_cleared`. When no cause has been active for `failsafe.resume_valid_s`:",
-        "`failsafe_cleared` and `resume` (same fields), and the GNC drives again (integrator reset).",
-        ", ".join(f"`{c}`" for c in sorted(LATCHED_CAUSES)) + " are latched: they never clear;",
-        "`max_mission_time` ends the run (`stop`, reason `max_mission_time`).",
+        "A fault appears: `fault` (per cause, once). Sensor and Mbed-link faults (heading, position,",
+        "ports, garbage, acknowledgements) stop the boat: one `failsafe` (action `stop`) with the first",
+        "cause, mode `failsafe`, zero thrust from that cycle on. Each cause that goes away gets",
+        "`fault_cleared`. When no such cause has been active for `failsafe.resume_valid_s`:",
+        "`failsafe_cleared` and `resume` (same fields), the mode before comes back and the GNC drives",
+        "again (integrators reset).",
+        "",
+        ", ".join(f"`{c}`" for c in FAULT_CAUSES if c in LATCHED_CAUSES) + " are latched: they never",
+        "clear. Each takes its configured action once (`failsafe.actions`: `stop`, `hold` or `rtl`;",
+        "`battery_critical` always `stop`), logged as `failsafe` and `mode`. An action that needs a",
+        "position and a heading falls back to `stop` when either is missing, or when the fault is a",
+        "position or heading fault (`fallback` says why). While one is latched the operator may still",
+        "command `hold`, `rtl` or `stop`, but not `resume` the mission. `max_mission_time` with action",
+        "`stop` ends the run (`stop`, reason `max_mission_time`).",
         "",
         "## Closest approach",
         "",

@@ -7,14 +7,21 @@ Formats (chosen by file extension):
   ``origin: {lat_deg, lon_deg}`` and ``home: {lat_deg, lon_deg}``, and
   ``waypoints``: a list of mappings with those keys and an optional
   ``speed_m_s`` for the leg to that waypoint (or of bare ``[north, east]``
-  pairs in the local frame).
+  pairs in the local frame). A waypoint may carry ``hold_s`` (hold station
+  there that long, then go on) or ``hold: true`` (hold until an operator
+  says ``resume``); the last item may be ``rtl`` (return to the launch point,
+  then hold there).
 - ``.csv``: a header naming ``north_m,east_m`` or ``lat_deg,lon_deg``, plus
   optional ``speed_m_s``; ``#`` starts a comment line.
 - ``.waypoints``: Mission Planner's "QGC WPL 110" text format; row 0 is home;
   MAV_CMD_NAV_WAYPOINT (16) rows are waypoints, MAV_CMD_DO_CHANGE_SPEED (178)
-  sets the speed of the following legs; other commands are refused.
+  sets the speed of the following legs, NAV_LOITER_TIME (19, param1 seconds)
+  and NAV_LOITER_UNLIM (17) are waypoints with ``hold_s`` / ``hold: true`` (at
+  latitude and longitude 0, "here": a hold at the waypoint before), and
+  NAV_RETURN_TO_LAUNCH (20) ends the mission with ``rtl``; other commands are
+  refused.
 - ``.plan``: QGroundControl JSON; ``mission.plannedHomePosition`` is home,
-  ``SimpleItem`` waypoints (16) and speed changes (178) as above;
+  ``SimpleItem`` items of the same commands as above;
   ``mission.cruiseSpeed`` is the default speed of legs.
 
 Latitude/longitude are converted to local (north_m, east_m) around an
@@ -25,7 +32,8 @@ by the caller. A local-frame mission's origin is where the boat starts.
 Refused, with a message naming the file, the waypoint (1-based) and the
 problem: no waypoints, non-numbers or NaN, latitude outside +-90 or
 longitude outside +-180, a waypoint farther than ``max_range_m`` from the
-origin, two consecutive identical waypoints, a speed that is not > 0.
+origin, two consecutive identical waypoints, a speed that is not > 0, a hold
+outside [0, 86400] s, anything after a return to launch.
 """
 
 from __future__ import annotations
@@ -46,7 +54,11 @@ from autopilot.userfile import csv_rows, read_text
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
 NAV_WAYPOINT = 16
+NAV_LOITER_UNLIM = 17  # hold at the point until commanded
+NAV_LOITER_TIME = 19  # hold at the point for param1 seconds
+NAV_RETURN_TO_LAUNCH = 20
 DO_CHANGE_SPEED = 178
+MAX_HOLD_S = 86400.0
 
 
 class MissionError(ConfigError):
@@ -63,6 +75,11 @@ class Mission:
     home_latlon: tuple[float, float] | None
     origin_lat_deg: float | None
     origin_lon_deg: float | None
+    holds_s: tuple = ()  # one per waypoint: hold there this long (s) before going on; inf = until commanded; None = no hold
+    rtl: bool = False  # the last item returns to the launch point (then holds there)
+
+    def hold_s(self, i: int) -> float | None:
+        return self.holds_s[i] if i < len(self.holds_s) else None
 
 
 @dataclass(frozen=True)
@@ -70,6 +87,7 @@ class _RawPoint:
     a: Any  # north_m or lat_deg
     b: Any  # east_m or lon_deg
     speed: Any = None
+    hold: Any = None  # seconds, or math.inf (until commanded)
 
 
 def _num(where: str, what: str, value: Any) -> float:
@@ -93,6 +111,7 @@ def _finish(
     home: tuple[Any, Any] | None,
     origin: tuple[float | None, float | None],
     max_range_m: float,
+    rtl: bool = False,
 ) -> Mission:
     if not points:
         raise MissionError(f"{path}: the mission has no waypoints")
@@ -117,6 +136,7 @@ def _finish(
             o_lat, o_lon = home_ll
     ne: list[tuple[float, float]] = []
     speeds: list[float | None] = []
+    holds: list[float | None] = []
     for k, p in enumerate(points, start=1):
         where = f"{path}: waypoint {k}"
         a = _num(where, "latitude" if latlon else "north_m", p.a)
@@ -138,6 +158,7 @@ def _finish(
                 raise MissionError(f"{where}: speed {speed:g} m/s outside (0, {MAX_SPEED_M_S:g}] m/s")
         ne.append((n, e))
         speeds.append(speed)
+        holds.append(_hold_s(where, p.hold))
     return Mission(
         name=name,
         waypoints_ne_m=np.asarray(ne, dtype=float),
@@ -145,7 +166,22 @@ def _finish(
         home_latlon=home_ll,
         origin_lat_deg=o_lat,
         origin_lon_deg=o_lon,
+        holds_s=tuple(holds),
+        rtl=bool(rtl),
     )
+
+
+def _hold_s(where: str, hold: Any) -> float | None:
+    if hold is None:
+        return None
+    if hold is True or (isinstance(hold, float) and math.isinf(hold)):
+        return math.inf
+    if hold is False:
+        return None
+    x = _num(where, "hold_s", hold)
+    if not 0.0 <= x <= MAX_HOLD_S:
+        raise MissionError(f"{where}: hold_s {x:g} s outside [0, {MAX_HOLD_S:g}] s (or hold: true, until commanded)")
+    return x
 
 
 def _check_latlon(where: str, lat: float, lon: float) -> None:
@@ -157,6 +193,7 @@ def _check_latlon(where: str, lat: float, lon: float) -> None:
 
 # ------------------------------------------------------------------------- YAML
 _YAML_KEYS = {"name", "frame", "origin", "home", "waypoints", "description"}
+_WAYPOINT_OPTIONS = ("speed_m_s", "name", "hold_s", "hold")
 
 
 def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
@@ -180,15 +217,26 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
     if not isinstance(wps, list):
         raise MissionError(f"{path}: waypoints: expected a list")
     points = []
+    rtl = False
     for k, w in enumerate(wps, start=1):
+        if w == "rtl" or w == {"rtl": True}:  # return to launch: the last item only
+            if k != len(wps):
+                raise MissionError(f"{path}: waypoint {k}: rtl must be the last item")
+            rtl = True
+            continue
         if isinstance(w, dict):
-            extra = sorted(set(w) - {*keys, "speed_m_s", "name"})
+            extra = sorted(set(w) - {*keys, *_WAYPOINT_OPTIONS})
             if extra:
-                raise MissionError(f"{path}: waypoint {k}: unknown key {extra[0]!r} (allowed: {', '.join(keys)}, speed_m_s, name)")
+                raise MissionError(f"{path}: waypoint {k}: unknown key {extra[0]!r} (allowed: {', '.join(keys)}, "
+                                   f"{', '.join(_WAYPOINT_OPTIONS)})")
             missing = [key for key in keys if key not in w]
             if missing:
                 raise MissionError(f"{path}: waypoint {k}: missing {missing[0]}")
-            points.append(_RawPoint(w[keys[0]], w[keys[1]], w.get("speed_m_s")))
+            if "hold" in w and "hold_s" in w:
+                raise MissionError(f"{path}: waypoint {k}: give hold_s (seconds) or hold: true (until commanded), not both")
+            if "hold" in w and not isinstance(w["hold"], bool):
+                raise MissionError(f"{path}: waypoint {k}: hold: expected true or false, got {w['hold']!r}")
+            points.append(_RawPoint(w[keys[0]], w[keys[1]], w.get("speed_m_s"), w.get("hold_s", w.get("hold"))))
         elif isinstance(w, (list, tuple)) and len(w) in (2, 3):
             points.append(_RawPoint(*w))
         else:
@@ -207,7 +255,8 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
     if file_origin is not None:
         o = (_num(f"{path}: origin", "latitude", file_origin[0]), _num(f"{path}: origin", "longitude", file_origin[1]))
         origin = o if origin[0] is None else origin
-    return _finish(path, str(data.get("name") or path.stem), points, latlon=latlon, home=home, origin=origin, max_range_m=max_range_m)
+    return _finish(path, str(data.get("name") or path.stem), points, latlon=latlon, home=home, origin=origin,
+                   max_range_m=max_range_m, rtl=rtl)
 
 
 # ------------------------------------------------------------------------- CSV
@@ -233,6 +282,35 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
 
 
 # ------------------------------------------------------------------------- Mission Planner
+_SUPPORTED = "supported: waypoint 16, loiter unlimited 17, loiter time 19, return to launch 20, change speed 178"
+
+
+def _loiter(cmd: int, param1: Any):
+    """The hold of a MAVLink item: loiter time (19) holds param1 seconds, loiter unlimited (17) until commanded."""
+    if cmd == NAV_LOITER_UNLIM:
+        return math.inf
+    if cmd == NAV_LOITER_TIME:
+        return param1
+    return None
+
+
+def _add_item(points: list, where: str, cmd: int, lat: Any, lon: Any, speed: Any, param1: Any) -> None:
+    """A waypoint or loiter item. A loiter at latitude and longitude 0 (MAVLink: "here") holds at the
+    waypoint before it, as Mission Planner and QGroundControl write it."""
+    hold = _loiter(cmd, param1)
+    try:
+        here = hold is not None and float(lat) == 0.0 and float(lon) == 0.0
+    except (TypeError, ValueError):
+        here = False
+    if here:
+        if not points:
+            raise MissionError(f"{where}: a loiter at the current position (latitude and longitude 0) needs a "
+                               "waypoint before it")
+        prev = points[-1]
+        points[-1] = _RawPoint(prev.a, prev.b, prev.speed, hold)
+        return
+    points.append(_RawPoint(lat, lon, speed, hold))
+
 def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
     lines = [ln for ln in text.splitlines() if ln.strip()]
     if not lines or not lines[0].startswith("QGC WPL 110"):
@@ -240,6 +318,7 @@ def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
     home = None
     points: list[_RawPoint] = []
     speed = None
+    rtl = False
     for row_no, ln in enumerate(lines[1:]):
         f = ln.split("\t") if "\t" in ln else ln.split()
         if len(f) != 12:
@@ -250,13 +329,18 @@ def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
             raise MissionError(f"{path}: row {row_no}: command {f[3]!r} is not a number") from None
         if row_no == 0:
             home = (f[8], f[9])
-        elif cmd == NAV_WAYPOINT:
-            points.append(_RawPoint(f[8], f[9], speed))
+            continue
+        if rtl:
+            raise MissionError(f"{path}: row {row_no}: nothing may follow return to launch (20)")
+        if cmd in (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM):
+            _add_item(points, f"{path}: row {row_no}", cmd, f[8], f[9], speed, f[4])
         elif cmd == DO_CHANGE_SPEED:
             speed = f[5]
+        elif cmd == NAV_RETURN_TO_LAUNCH:
+            rtl = True
         else:
-            raise MissionError(f"{path}: row {row_no}: command {cmd} not supported (only waypoint 16 and change speed 178)")
-    return _finish(path, path.stem, points, latlon=True, home=home, origin=origin, max_range_m=max_range_m)
+            raise MissionError(f"{path}: row {row_no}: command {cmd} not supported ({_SUPPORTED})")
+    return _finish(path, path.stem, points, latlon=True, home=home, origin=origin, max_range_m=max_range_m, rtl=rtl)
 
 
 # ------------------------------------------------------------------------- QGroundControl
@@ -276,19 +360,24 @@ def _parse_plan(path: Path, text: str, origin, max_range_m: float) -> Mission:
     speed = mission.get("cruiseSpeed")
     speed = speed if speed else None
     points: list[_RawPoint] = []
+    rtl = False
     for k, item in enumerate(mission.get("items") or [], start=1):
         if not isinstance(item, dict) or item.get("type") != "SimpleItem":
             raise MissionError(f"{path}: item {k}: only SimpleItem is supported (got {item.get('type') if isinstance(item, dict) else item!r})")
         cmd, params = item.get("command"), item.get("params") or []
-        if cmd == NAV_WAYPOINT:
+        if rtl:
+            raise MissionError(f"{path}: item {k}: nothing may follow return to launch (20)")
+        if cmd in (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM):
             if len(params) < 6:
-                raise MissionError(f"{path}: item {k}: waypoint needs 7 params")
-            points.append(_RawPoint(params[4], params[5], speed))
+                raise MissionError(f"{path}: item {k}: command {cmd} needs 7 params")
+            _add_item(points, f"{path}: item {k}", cmd, params[4], params[5], speed, params[0])
         elif cmd == DO_CHANGE_SPEED:
             speed = params[1] if len(params) > 1 else None
+        elif cmd == NAV_RETURN_TO_LAUNCH:
+            rtl = True
         else:
-            raise MissionError(f"{path}: item {k}: command {cmd} not supported (only waypoint 16 and change speed 178)")
-    return _finish(path, path.stem, points, latlon=True, home=home, origin=origin, max_range_m=max_range_m)
+            raise MissionError(f"{path}: item {k}: command {cmd} not supported ({_SUPPORTED})")
+    return _finish(path, path.stem, points, latlon=True, home=home, origin=origin, max_range_m=max_range_m, rtl=rtl)
 
 
 _PARSERS = {".yaml": _parse_yaml, ".yml": _parse_yaml, ".csv": _parse_csv, ".waypoints": _parse_wpl, ".plan": _parse_plan}

@@ -38,16 +38,25 @@ def _nav(**kw):
     return nav
 
 
-@pytest.mark.parametrize("fs_mode, allowed, hold_zero, steerable, expect", [
-    ("waiting", False, False, True, (Mode.WAITING, False)),
-    ("auto", True, False, True, (Mode.AUTO, True)),
-    ("auto", True, True, True, (Mode.WAITING, False)),  # an interrupted mission not to be resumed
-    ("auto", True, False, False, (Mode.WAITING, False)),  # nothing to steer by
-    ("failsafe", False, False, True, (Mode.FAILSAFE, False)),
+@pytest.mark.parametrize("fs_mode, allowed, steerable, expect", [
+    ("waiting", False, True, (Mode.WAITING, False)),
+    ("auto", True, True, (None, True)),  # the helm runs: its own mode is the cycle's
+    ("auto", True, False, (Mode.FAILSAFE, False)),  # nothing to steer by
+    ("failsafe", False, True, (Mode.FAILSAFE, False)),
 ])
-def test_arbitrate(fs_mode, allowed, hold_zero, steerable, expect):
+def test_arbitrate(fs_mode, allowed, steerable, expect):
     d = Decision(mode=fs_mode, thrust_allowed=allowed, active=())
-    assert steps.arbitrate(d, hold_zero=hold_zero, steerable=steerable) == expect
+    assert steps.arbitrate(d, steerable=steerable) == expect
+
+
+def test_helm_nav_names_the_missing_measurement():
+    nav = _nav()
+    ok = Decision(mode="auto", thrust_allowed=True, active=())
+    assert steps.helm_nav(nav, ok)[0] is not None
+    stale = Decision(mode="failsafe", thrust_allowed=False, active=("position_stale", "mbed_ack_missing"))
+    assert steps.helm_nav(nav, stale) == (None, "position stale")
+    latched = Decision(mode="auto", thrust_allowed=True, active=("geofence",))  # not a position fault
+    assert steps.helm_nav(nav, latched)[0] is not None
 
 
 def test_step_dt():
@@ -62,8 +71,7 @@ def test_command_and_mode_after_the_gnc():
     out = ap.step(steps.nav_input(nav), 0.1)  # within the capture radius: complete at once, final action stop
     assert out.complete and out.finished and out.thrust_off
     assert steps.command(out) is ZERO_THRUST and steps.command(None) is ZERO_THRUST
-    assert steps.mode_after(Mode.AUTO, out) is Mode.COMPLETE
-    assert steps.mode_after(Mode.FAILSAFE, out) is Mode.FAILSAFE
+    assert out.mode is Mode.COMPLETE
     far = Autopilot(DaemonConfig().gnc, [(30.0, 0.0)]).step(steps.nav_input(nav), 0.1)
     cmd = steps.command(far)
     assert (cmd.duty_port_pct, cmd.duty_stbd_pct) == (far.pwm_port_pct, far.pwm_stbd_pct) and not cmd.is_zero
@@ -116,7 +124,7 @@ class FakeCompass:
 class FakeThrusters:
     def __init__(self):
         self.connected, self.last_garbage_s, self.consecutive_missing, self.ack_missing = True, None, 0, 0
-        self.answered, self.commands = True, []
+        self.answered, self.commands, self.battery_v = True, [], 12.6
 
     def send(self, command):
         self.commands.append(command)

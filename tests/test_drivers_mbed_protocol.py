@@ -58,11 +58,28 @@ def test_encode_command_refuses(args):
         (make_sentence("MBACK,1,REJ,WHY").encode(), None),
         (make_sentence("GPHDT,1.0,T").encode(), None),
         (b"$MBACK,1,OK,F,10.0,F,1\xff.0*00\r\n", None),
+        (make_sentence("MBACK,1,OK,F,10.0,F,10.0,12.4,1").encode(), None),  # one field too many
+        (make_sentence("MBACK,1,OK,F,10.0,F,10.0,124.0").encode(), None),  # battery_v: 1-2 integer digits
+        (make_sentence("MBACK,1,OK,F,10.0,F,10.0,-1.0").encode(), None),
+        (make_sentence("MBACK,1,OK,F,10.0,F,10.0,12.345").encode(), None),
+        (make_sentence("MBACK,1,OK,F,10.0,F,10.0,V").encode(), None),
     ],
 )
 def test_decode_ack_rejects(line, reason):
     with pytest.raises(ProtocolError):
         decode_ack(line)
+
+
+def test_battery_voltage_field_is_optional_and_old_acks_still_decode():
+    """docs/mbed-protocol.md: the 7th field of OK, volts; firmware without it sends six fields."""
+    line = encode_ack(42, "OK", 60.0, False, 20.0, True, battery_v=12.43)
+    assert line == make_sentence("MBACK,42,OK,F,60.0,R,20.0,12.43").encode()
+    assert decode_ack(line).battery_v == 12.43
+    assert decode_ack(make_sentence("MBACK,42,OK,F,60.0,R,20.0").encode()).battery_v is None  # old firmware
+    assert decode_ack(make_sentence("MBACK,42,OK,F,60.0,R,20.0,").encode()).battery_v is None  # cannot measure
+    assert decode_ack(make_sentence("MBACK,7,OK,F,0.0,F,0.0,9.8").encode()).battery_v == 9.8
+    with pytest.raises(ProtocolError):
+        encode_ack(1, "OK", battery_v=float("nan"))
 
 
 def test_decode_ack_ignores_blank_and_status_lines():

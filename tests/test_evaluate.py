@@ -132,6 +132,7 @@ def test_heading_integral_works_at_full_speed_in_a_beam_current(params):
     i_n = np.asarray(r.trace["pid_i_n"])[late]
     he_deg = np.degrees(np.asarray(r.trace["heading_error_rad"]))[late]
     xte = np.asarray(r.trace["xte_m"])[late]
+    xte = xte[np.isfinite(xte)]  # none once the leg is done
     assert i_n.mean() < -1.0  # the integral carries part of the moment (it was frozen at 0)
     assert abs(he_deg.mean()) < 1.5  # was 2.4 deg
     assert abs(xte.mean()) < 0.3 and r.xte_rms_m < 1.5

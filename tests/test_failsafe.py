@@ -1,11 +1,24 @@
-"""The failsafe state machine alone: each fault trips it, recovery needs valid data for a while."""
+"""The failsafe state machine alone: each fault trips it, recovery needs valid data for a while; latched
+faults ask for their configured action, guarded (issue 15)."""
 
+import dataclasses
 import math
 
 import pytest
 
-from autopilot.daemon.config import FailsafeConfig
-from autopilot.daemon.failsafe import CAUSES, LATCHED, Failsafe, Observation, detect, inside_polygon
+from autopilot.daemon.config import FailsafeActions, FailsafeConfig
+from autopilot.daemon.failsafe import (
+    CAUSES,
+    FAULT_CLASS,
+    LATCHED,
+    Failsafe,
+    Observation,
+    Request,
+    detect,
+    guarded_action,
+    inside_polygon,
+    resting_voltage_v,
+)
 
 CFG = FailsafeConfig(heading_stale_s=1.0, position_stale_s=3.0, ack_missing_n=5, garbage_hold_s=1.0,
                      resume_valid_s=2.0, start_valid_s=1.0, max_mission_time_s=600.0, max_distance_m=100.0)
@@ -28,7 +41,7 @@ def run_until_auto(fs: Failsafe, t_s: float = 0.0, dt_s: float = 0.1) -> float:
     return t_s
 
 
-FAULTS = [
+TRANSIENT = [
     ("heading_stale", dict(heading_age_s=1.2)),
     ("heading_stale", dict(heading_age_s=math.inf, heading_valid=False)),
     ("heading_invalid", dict(heading_valid=False)),
@@ -39,14 +52,16 @@ FAULTS = [
     ("mbed_port_lost", dict(mbed_connected=False)),
     ("nmea_garbage", dict(last_garbage_t_s=-0.5)),  # relative to t_s, patched below
     ("mbed_garbage", dict(last_mbed_garbage_t_s=-0.5)),  # relative to t_s, patched below
+]
+LATCHING = [
     ("geofence", dict(north_m=60.0, east_m=0.0)),
     ("max_distance", dict(north_m=80.0, east_m=-80.0, _fence=False)),
     ("max_mission_time", dict(mission_time_s=600.0)),
 ]
 
 
-@pytest.mark.parametrize("cause, change", FAULTS, ids=[f"{c}-{i}" for i, (c, _) in enumerate(FAULTS)])
-def test_each_fault_trips_zero_thrust_in_the_same_cycle(cause, change):
+@pytest.mark.parametrize("cause, change", TRANSIENT, ids=[f"{c}-{i}" for i, (c, _) in enumerate(TRANSIENT)])
+def test_each_sensor_or_link_fault_trips_zero_thrust_in_the_same_cycle(cause, change):
     change = dict(change)
     fence = None if change.pop("_fence", True) is False else SQUARE
     fs = Failsafe(CFG, fence_ne_m=fence)
@@ -60,7 +75,80 @@ def test_each_fault_trips_zero_thrust_in_the_same_cycle(cause, change):
     assert cause in d.active
     names = [(e.name, e.fields.get("cause")) for e in d.events]
     assert ("fault", cause) in names and ("failsafe", cause) in names
-    assert next(e for e in d.events if e.name == "failsafe").fields["action"] == "zero_thrust"
+    ev = next(e for e in d.events if e.name == "failsafe").fields
+    assert ev["action"] == "stop" and ev["configured"] == "stop" and ev["fallback"] is None
+    assert d.requests == ()  # the failsafe itself stops the GNC: nothing for the helm
+
+
+@pytest.mark.parametrize("cause, change", LATCHING, ids=[c for c, _ in LATCHING])
+def test_each_latched_fault_asks_once_for_its_configured_action(cause, change):
+    change = dict(change)
+    fence = None if change.pop("_fence", True) is False else SQUARE
+    fs = Failsafe(CFG, fence_ne_m=fence)
+    t = run_until_auto(fs)
+    d = fs.update(good(t + 0.1, **change))
+    assert d.thrust_allowed and cause in d.active  # the helm carries the action out
+    assert d.requests == (Request(cause, fs.configured(cause), fs.configured(cause), None),)
+    assert ("fault", cause) in [(e.name, e.fields.get("cause")) for e in d.events]
+    assert fs.update(good(t + 0.2, **change)).requests == ()  # once
+    assert fs.action_of(cause) == fs.configured(cause)
+
+
+def test_the_actions_are_configured_per_class():
+    acts = FailsafeActions(geofence="hold", max_distance="stop", max_mission_time="rtl", battery_low="hold")
+    fs = Failsafe(dataclasses.replace(CFG, actions=acts))
+    assert [fs.configured(c) for c in ("geofence", "max_distance", "max_mission_time", "battery_low")] == [
+        "hold", "stop", "rtl", "hold"]
+    assert fs.configured("mbed_ack_missing") == "stop" and fs.configured("battery_critical") == "stop"
+    assert {FAULT_CLASS[c] for c in CAUSES} >= {"position", "heading", "mbed"}
+
+
+@pytest.mark.parametrize("configured, cls, missing, expect", [
+    ("rtl", "geofence", None, ("rtl", None)),
+    ("hold", "battery_low", None, ("hold", None)),
+    ("rtl", "battery_low", "position stale", ("stop", "rtl needs a position and a heading: position stale")),
+    ("rtl", "position", None, ("stop", "rtl needs a position and a heading: this is a position fault")),
+    ("hold", "heading", None, ("stop", "hold needs a position and a heading: this is a heading fault")),
+    ("rtl", "mbed", None, ("stop", None)),
+    ("stop", "geofence", "heading stale", ("stop", None)),
+])
+def test_the_guard_never_takes_hold_or_rtl_without_a_position_and_heading(configured, cls, missing, expect):
+    assert guarded_action(configured, cls, missing) == expect
+
+
+def test_a_latched_fault_while_the_position_is_stale_takes_stop():
+    fs = Failsafe(CFG, fence_ne_m=SQUARE)
+    t = run_until_auto(fs)
+    d = fs.update(good(t, north_m=60.0, east_m=0.0, position_age_s=5.0))  # outside, and the fix is old
+    assert d.requests == (Request("geofence", "stop", "rtl", "rtl needs a position and a heading: position stale"),)
+    assert d.mode == "failsafe"  # the stale position stops the GNC too
+
+
+def test_battery_stages_need_the_voltage_low_for_their_time():
+    cfg = dataclasses.replace(CFG, battery_low_v=12.0, battery_low_s=10.0, battery_critical_v=11.7,
+                              battery_critical_s=5.0)
+    fs = Failsafe(cfg)
+    t = run_until_auto(fs)
+    for k in range(95):  # a sag shorter than battery_low_s is not an empty battery
+        assert fs.update(good(t + 0.1 * k, battery_v=11.9)).requests == ()
+    assert fs.update(good(t + 9.6, battery_v=12.3)).requests == ()  # it recovered: the timer starts again
+    t2 = t + 10.0
+    reqs = [fs.update(good(t2 + 0.1 * k, battery_v=11.9)).requests for k in range(102)]
+    got = [(k, r) for k, r in enumerate(reqs) if r]
+    assert got == [(100, (Request("battery_low", "rtl", "rtl", None),))]
+    t3 = t2 + 11.0
+    reqs = [fs.update(good(t3 + 0.1 * k, battery_v=11.5)).requests for k in range(52)]
+    got = [(k, r) for k, r in enumerate(reqs) if r]
+    assert got == [(50, (Request("battery_critical", "stop", "stop", None),))]
+    assert set(fs.latched) == {"battery_low", "battery_critical"}
+    assert fs.update(good(t3 + 6.0, battery_v=None)).active[-2:] == ("battery_low", "battery_critical")  # latched
+
+
+def test_resting_voltage_takes_out_the_sag_of_the_duties():
+    assert resting_voltage_v(None, 50.0, 50.0, 1.2) is None
+    assert resting_voltage_v(11.5, 100.0, -100.0, 1.2) == pytest.approx(12.7)  # reverse draws the same
+    assert resting_voltage_v(12.3, 0.0, 0.0, 1.2) == 12.3
+    assert resting_voltage_v(12.0, 50.0, 50.0, 1.2) == pytest.approx(12.0 + 1.2 * 0.125)
 
 
 def test_thresholds_are_not_faults():
@@ -112,7 +200,7 @@ def test_latched_faults_never_clear(cause, change):
     fs.update(good(t, **change))
     for k in range(1, 100):
         d = fs.update(good(t + 0.1 * k))
-        assert not d.thrust_allowed and cause in d.active
+        assert cause in d.active and d.requests == ()
         assert all(e.name != "fault_cleared" for e in d.events)
     assert cause in fs.latched
 

@@ -53,6 +53,7 @@ class Daemon:
     mission: dict
     config: dict = field(default_factory=dict)
     position_noise_m: float = 0.3
+    rig_options: dict = field(default_factory=dict)  # more SimRig keywords (battery, env, ...)
     rig: SimRig | None = None
     proc: asyncio.subprocess.Process | None = None
     clock: Clock = field(default_factory=lambda: Clock(SPEEDUP))
@@ -68,6 +69,7 @@ class Daemon:
                 position_noise_m=self.position_noise_m,
                 heading_noise_deg=0.1,
                 stop_timeout_s=STOP_TIMEOUT_S,
+                **self.rig_options,
             )
             await self.rig.start()
         cfg = {
@@ -77,6 +79,7 @@ class Daemon:
             "serial": {"sc30_port": self.rig.sc30_path, "mbed_port": self.rig.mbed_path, "ack_timeout_s": ACK_TIMEOUT_S,
                        "reconnect_min_s": 0.2, "reconnect_max_s": 1.0},
             "failsafe": dict(FAILSAFE),
+            "runtime_dir": str(self.runtime_dir),
         }
         for k, v in self.config.items():
             if isinstance(v, dict):
@@ -92,6 +95,18 @@ class Daemon:
             args.append("--fresh")
         self.proc = await asyncio.create_subprocess_exec(*args, cwd=self.tmp, stdout=asyncio.subprocess.DEVNULL,
                                                          stderr=asyncio.subprocess.PIPE)
+
+    @property
+    def runtime_dir(self) -> Path:
+        return self.tmp / "run"
+
+    async def ctl(self, *args: str) -> tuple[int, str]:
+        """``autopilot ctl`` as an operator types it (a subprocess: this loop keeps driving the rig)."""
+        p = await asyncio.create_subprocess_exec(sys.executable, "-m", "autopilot", "ctl", "--runtime-dir",
+                                                 str(self.runtime_dir), *args, stdout=asyncio.subprocess.PIPE,
+                                                 stderr=asyncio.subprocess.STDOUT)
+        out, _ = await p.communicate()
+        return p.returncode, out.decode().strip()
 
     def log(self) -> list[dict]:
         """Complete lines of the current daemon's log (a line being written is left out)."""
@@ -290,12 +305,13 @@ def test_recoverable_faults_stop_the_boat_in_time_and_the_mission_resumes_and_co
 
 
 @pytest.mark.slow
-def test_geofence_crossing_stops_the_boat_and_stays_stopped(tmp_path):
+def test_geofence_crossing_with_action_stop_stops_the_boat_and_stays_stopped(tmp_path):
     fence = [[-5.0, -5.0], [-5.0, 5.0], [8.0, 5.0], [8.0, -5.0]]
     mission = {"name": "fence", "frame": "local", "waypoints": [[30.0, 0.0]]}
+    config = {"geofence": {"frame": "local", "polygon": fence}, "failsafe": {"actions": {"geofence": "stop"}}}
 
     async def scenario():
-        d = Daemon(tmp_path, mission, config={"geofence": {"frame": "local", "polygon": fence}}, position_noise_m=0.0)
+        d = Daemon(tmp_path, mission, config=config, position_noise_m=0.0)
         try:
             await d.start()
             boat = d.rig.boat

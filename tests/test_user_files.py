@@ -170,7 +170,7 @@ def test_version_and_shipped_files():
 def test_evaluate_help_is_whole_sentences():
     text = " ".join(run_cli("evaluate", "--help").stdout.split())
     assert "Each run gives a scorecard:" not in text and "One scorecard per run:" in text
-    assert "wind (5 m/s from the north-east)." in text
+    assert "wind (5 m/s from the north-east); current_wind (0.2 m/s from the north, 5 m/s of wind from the east)." in text
 
 
 def test_manoeuvre_options_are_documented():

@@ -37,6 +37,7 @@ class RunOptions:
     speedup: float = 1.0
     log_dir: str | None = None
     state_dir: str | None = None
+    runtime_dir: str | None = None
     fresh: bool = False
 
 
@@ -109,7 +110,38 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
             raise ConfigError(f"{name} {d}: cannot create ({exc.strerror})") from exc
         if not os.access(d, os.W_OK | os.X_OK):
             raise ConfigError(f"{name} {d}: not writable by this user")
+    path = control_socket(cfg, opts)
+    if _answers(path):
+        raise ConfigError(f"another autopilot daemon is running: it answers on {path} (autopilot ctl status); "
+                          "stop it first, or give this one its own --runtime-dir")
     return mission, log_dir, state_dir
+
+
+def control_socket(cfg: DaemonConfig, opts: RunOptions) -> Path:
+    """The control socket's path. Two daemons must never drive the same thrusters, so a second one on
+    the same runtime directory is refused; a second bench run (--sim, no directory given) takes its own."""
+    from autopilot.daemon.control import SOCKET_NAME, daemon_runtime_dir
+
+    given = opts.runtime_dir or cfg.runtime_dir or None
+    path = daemon_runtime_dir(given) / SOCKET_NAME
+    if opts.sim and given is None and _answers(path):
+        path = path.parent.with_name(f"{path.parent.name}-sim-{os.getpid()}") / SOCKET_NAME
+    return path
+
+
+def _answers(path: Path) -> bool:
+    """A daemon is listening on this socket (a stale file from a killed one does not answer)."""
+    import socket
+
+    if not path.exists():
+        return False
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as probe:
+        probe.settimeout(0.5)
+        try:
+            probe.connect(str(path))
+        except OSError:
+            return False
+    return True
 
 
 class DeviceEvents:
@@ -141,6 +173,7 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, missio
 async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
     """The simulated SC-30 and Mbed behind pseudo-terminals, and the boat behind them (``--sim``)."""
     from autopilot.sim import Environment, default_params_path, load_params
+    from autopilot.sim.battery import BatteryConfig
     from autopilot.simdev import SimRig
 
     params = load_params(cfg.sim.vessel or default_params_path())
@@ -153,7 +186,9 @@ async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
                  origin_lat_deg=mission.origin_lat_deg, origin_lon_deg=mission.origin_lon_deg,
                  heading_noise_deg=cfg.sim.heading_noise_deg, position_noise_m=cfg.sim.position_noise_m,
                  seed=cfg.sim.seed, sc30_baudrate=cfg.serial.sc30_baud,
-                 sc30_options=dict(zip(("fast_sentences", "slow_sentences"), sim_sentences(cfg))))
+                 sc30_options=dict(zip(("fast_sentences", "slow_sentences"), sim_sentences(cfg))),
+                 battery=BatteryConfig(capacity_ah=cfg.sim.battery_capacity_ah, initial_soc=cfg.sim.battery_initial_soc))
+    rig.mbed.report_battery = cfg.sim.mbed_reports_battery
     await rig.start()
     return rig, float(params.length_m)
 
@@ -198,6 +233,15 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     mission_path = str(Path(opts.mission_path).resolve())
     sha = file_sha256(opts.mission_path)
     store = StateStore(state_dir)
+    from autopilot.daemon.control import ControlServer
+
+    holder: dict = {}
+    control = ControlServer(control_socket(cfg, opts), submit=lambda req, answer: holder["loop"].submit(req, answer),
+                            status=lambda: holder["loop"].state.status if "loop" in holder else {"mode": "starting"},
+                            log=lambda name, **f: holder["loop"].log_event(name, **f) if "loop" in holder else None)
+    await control.start()  # before the log and the ports: a second daemon stops here
+    if opts.sim:
+        _console(f"control socket {control.path}: autopilot ctl --runtime-dir {control.path.parent} status")
     log = MissionLog(log_path(log_dir, opts.mission_path))
     start_index, hold_zero = _resume_index(cfg, opts, store, mission_path, sha)
     t0_s = clock.now_s()
@@ -213,12 +257,13 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     compass, thrusters = _drivers(cfg, clock, events, *ports)
     if lockstep:
         clock.set_quiet(lambda: rig.quiet(compass, thrusters))
-    ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, boat_length_m=boat_length_m,
-                   start_index=start_index)
+    ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
+                   rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index)
     loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
                        compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
                        fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
                        t0_s=t0_s)
+    holder["loop"] = loop
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
     tasks += [asyncio.create_task(compass.run(), name="sc30"), asyncio.create_task(thrusters.run(), name="mbed")]
@@ -234,6 +279,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         log.event("info", t_s=clock.now_s() - loop.t0_s, message="control loop error", error=repr(exc))
     finally:
         code = await loop.stop(reason)
+        await control.close()
         await _shut_down(tasks, (compass, thrusters), rig, tmpdir, clock)
         log.close()
         notifier.close()

@@ -27,8 +27,30 @@ def register(subparsers) -> None:
                    "run on a busy machine as on an idle one")
     p.add_argument("--log-dir", metavar="DIR", help="override log_dir (systemd: $LOGS_DIRECTORY)")
     p.add_argument("--state-dir", metavar="DIR", help="override state_dir (systemd: $STATE_DIRECTORY)")
+    p.add_argument("--runtime-dir", metavar="DIR", help="override runtime_dir: where the control socket goes "
+                   "(systemd: $RUNTIME_DIRECTORY)")
     p.add_argument("--fresh", action="store_true", help="ignore mission progress saved by an interrupted run")
     p.set_defaults(func=_run)
+
+    c = subparsers.add_parser(
+        "ctl",
+        help="command the running daemon: status, hold, pause, resume, rtl, stop",
+        description=(
+            "Talk to the running daemon over its control socket (/run/wamv-autopilot/control.sock for the "
+            "service; members of its group may use it). Each command answers with the new mode or a refusal "
+            "that says why (rtl refused: position stale). status: mode, waypoint, position, battery, faults. "
+            "hold: keep station here (least-effort heading, or --heading); pause: hold here, resume continues "
+            "the mission from the same waypoint; resume: back to the mission (ends a hold item early); rtl: "
+            "return to the launch point and hold there; stop: zero thrust until the next command. "
+            "Exit 0 accepted, 1 refused, 3 no daemon."
+        ),
+    )
+    c.add_argument("command", choices=("status", "hold", "pause", "resume", "rtl", "stop"))
+    c.add_argument("--heading", type=float, metavar="DEG", help="hold: the heading to keep (deg from north)")
+    c.add_argument("--runtime-dir", metavar="DIR", help="the daemon's runtime directory (default: the service's, "
+                   "then $XDG_RUNTIME_DIR/autopilot)")
+    c.add_argument("--json", action="store_true", help="print the daemon's answer as JSON")
+    c.set_defaults(func=_ctl)
 
 
 def _speedup(text: str) -> float:
@@ -51,9 +73,76 @@ def _run(args: argparse.Namespace) -> int:
         speedup=args.speedup,
         log_dir=args.log_dir,
         state_dir=args.state_dir,
+        runtime_dir=args.runtime_dir,
         fresh=args.fresh,
     )
     try:
         return run_daemon(cfg, opts)
     except KeyboardInterrupt:  # a Ctrl-C before the signal handlers are installed
         return 130
+
+
+def _ctl(args: argparse.Namespace) -> int:
+    import errno
+    import json
+    import sys
+
+    from autopilot.daemon.control import request, socket_candidates
+
+    req: dict = {"command": args.command}
+    if args.heading is not None:
+        if args.command != "hold":
+            print("autopilot ctl: error: --heading is for hold only", file=sys.stderr)
+            return 2
+        req["heading_deg"] = args.heading % 360.0
+    tried = socket_candidates(args.runtime_dir)
+    reply, problems = None, []
+    for path in tried:
+        try:
+            reply = request(path, req)
+            break
+        except FileNotFoundError:
+            problems.append(f"no socket at {path}")
+        except PermissionError:
+            problems.append(f"{path}: permission denied (the socket is for the service's user and group: "
+                            "add yourself to the group wamv-autopilot)")
+        except OSError as exc:
+            reason = "no daemon answers" if exc.errno in (errno.ECONNREFUSED, errno.ENOENT) else exc.strerror
+            problems.append(f"{path}: {reason or exc}")
+        except ValueError:
+            problems.append(f"{path}: the answer was not JSON")
+    if reply is None:
+        print("autopilot ctl: no running daemon answered (" + "; ".join(problems) + ")", file=sys.stderr)
+        return 3
+    if args.json:
+        print(json.dumps(reply, indent=2 if args.command == "status" else None))
+    elif args.command == "status" and reply.get("ok"):
+        for line in _status_lines(reply["status"]):
+            print(line)
+    else:
+        text = reply.get("answer", "")
+        print(text + (f" ({reply['note']})" if reply.get("note") else ""))
+    return 0 if reply.get("ok") else 1
+
+
+def _status_lines(st: dict) -> list[str]:
+    def num(key, fmt, unit=""):
+        v = st.get(key)
+        return "n/a" if v is None else f"{v:{fmt}}{unit}"
+
+    lines = [f"mode: {st.get('mode')}" + (f" (helm: {st['helm_mode']})" if st.get("helm_mode") not in (None, st.get("mode"))
+                                         else ""),
+             f"mission time: {num('t_s', '.1f', ' s')}, cycle {st.get('cycle')}"]
+    if "wp_index" in st:
+        done = ", complete" if st.get("mission_complete") else ""
+        lines.append(f"waypoint: {st['wp_index']} of {st.get('wp_count')}{done}")
+    lines.append(f"position: north {num('north_m', '.1f', ' m')}, east {num('east_m', '.1f', ' m')}; heading "
+                 f"{num('heading_deg', '.1f', ' deg')}; speed {num('sog_m_s', '.2f', ' m/s')}")
+    if st.get("hold_north_m") is not None:
+        lines.append(f"holding: north {st['hold_north_m']:.1f} m, east {st['hold_east_m']:.1f} m, "
+                     f"error {num('hold_error_m', '.2f', ' m')}")
+    lines.append(f"battery: {num('battery_v', '.2f', ' V')}")
+    faults = st.get("active_faults") or []
+    lines.append("faults: " + (", ".join(faults) if faults else "none")
+                 + (f" (latched: {', '.join(st['latched_faults'])})" if st.get("latched_faults") else ""))
+    return lines

@@ -15,12 +15,14 @@ from pathlib import Path
 
 from autopilot.drivers.sc30_output import SENTENCES as SC30_SENTENCES
 from autopilot.gnc import GncConfig
+from autopilot.logschema import FAILSAFE_ACTIONS
 from autopilot.measured import HULL_LENGTH_M
 from autopilot.schema import ConfigError, load_yaml, param
 
 __all__ = [
     "SerialConfig",
     "FailsafeConfig",
+    "FailsafeActions",
     "GeofenceConfig",
     "SimConfig",
     "DaemonConfig",
@@ -69,9 +71,33 @@ class GeofenceConfig:
                     raise ConfigError(f"geofence.polygon[{i}]: [{lat}, {lon}] is not a latitude in [-90, 90] deg and longitude in [-180, 180] deg")
 
 
+_ACTIONS = FAILSAFE_ACTIONS
+
+
+@dataclass(frozen=True)
+class FailsafeActions:
+    """What each fault class does (ArduPilot's FS_ACTION). ``hold`` and ``rtl`` need a position and a
+    heading: for a position or heading fault, or when either is missing, they fall back to ``stop``
+    (logged). Mbed-link faults and ``battery_critical`` always stop: the firmware stops anyway, and an
+    empty battery cannot bring the boat home."""
+
+    position: str = param("stop", choices=_ACTIONS, source="issue 15 (the guard makes hold and rtl stop)",
+                          doc="position stale, no fix")
+    heading: str = param("stop", choices=_ACTIONS, source="issue 15 (the guard makes hold and rtl stop)",
+                         doc="heading stale or invalid, compass port lost, garbage on the compass line")
+    geofence: str = param("rtl", choices=_ACTIONS, source="ArduPilot FENCE_ACTION (RTL or hold)",
+                          doc="the boat left the geofence")
+    max_distance: str = param("rtl", choices=_ACTIONS, source="as the geofence",
+                              doc="farther than max_distance_m from the origin")
+    max_mission_time: str = param("stop", choices=_ACTIONS,
+                                  doc="mission time limit; stop ends the run (exit, stop reason max_mission_time)")
+    battery_low: str = param("rtl", choices=_ACTIONS, source="issue 15; ArduPilot BATT_FS_LOW_ACT",
+                             doc="battery below battery_low_v for battery_low_s")
+
+
 @dataclass(frozen=True)
 class FailsafeConfig:
-    """Detection thresholds and the recovery rule (issue 7). Any fault -> zero thrust on both sides."""
+    """Detection thresholds, the recovery rule and the action per fault class (issues 7, 15)."""
 
     heading_stale_s: float = param(1.0, unit="s", lo=0.05, hi=10.0, doc="heading older than this is a fault (SC-30 sends it at 10 Hz)")
     position_stale_s: float = param(3.0, unit="s", lo=0.1, hi=30.0, doc="position older than this is a fault (GGA/RMC at 1 Hz)")
@@ -87,6 +113,24 @@ class FailsafeConfig:
     resume_after_restart: bool = param(False, doc="after a restart, continue from the saved waypoint (else refuse to move)")
     cog_fallback: bool = param(False, doc="steer on course over ground when the heading is lost (logged as heading_source COG)")
     cog_fallback_min_sog_m_s: float = param(0.5, unit="m/s", lo=0.0, hi=10.0, doc="COG is meaningless below this speed")
+    battery_sag_v: float = param(1.2, unit="V", lo=0.0, hi=5.0,
+                                 source="~60 A x 20 mOhm; measure it: resting voltage minus voltage at full thrust",
+                                 doc="voltage drop at 100 % duty on both thrusters; the failsafe judges the resting voltage "
+                                     "estimate V + sag (d_port^3 + d_stbd^3) / 2 (0 = the voltage as measured)")
+    battery_low_v: float = param(12.0, unit="V", lo=0.0, hi=30.0,
+                                 source="12 V lead-acid resting: ~30 % charge, enough to come home (SPEC 1: 105 Ah)",
+                                 doc="resting voltage estimate below this for battery_low_s: battery_low (0 = off)")
+    battery_low_s: float = param(10.0, unit="s", lo=0.0, hi=600.0, source="ArduPilot BATT_LOW_TIMER",
+                                 doc="how long it must stay low (a short sag is not an empty battery)")
+    battery_critical_v: float = param(11.7, unit="V", lo=0.0, hi=30.0, source="12 V lead-acid resting: ~10 % charge",
+                                      doc="below this for battery_critical_s: battery_critical, always stop (0 = off)")
+    battery_critical_s: float = param(5.0, unit="s", lo=0.0, hi=600.0, doc="how long it must stay that low")
+    actions: FailsafeActions = param(default_factory=FailsafeActions, doc="the action per fault class")
+
+    def __post_init__(self) -> None:
+        if self.battery_critical_v > self.battery_low_v:
+            raise ConfigError(f"failsafe.battery_critical_v: {self.battery_critical_v:g} V is above "
+                              f"failsafe.battery_low_v ({self.battery_low_v:g} V)")
 
 
 @dataclass(frozen=True)
@@ -105,6 +149,10 @@ class SimConfig:
     current_towards_deg: float = param(0.0, unit="deg", lo=0.0, hi=360.0, doc="current direction (towards)")
     wind_speed_m_s: float = param(0.0, unit="m/s", lo=0.0, hi=30.0, doc="wind speed")
     wind_from_deg: float = param(0.0, unit="deg", lo=0.0, hi=360.0, doc="wind direction (from)")
+    battery_capacity_ah: float = param(105.0, unit="Ah", lo=0.001, hi=1000.0, source="SPEC 1",
+                                       doc="the simulated battery's capacity (autopilot/sim/battery.py)")
+    battery_initial_soc: float = param(1.0, unit="-", lo=0.0, hi=1.0, doc="its state of charge at the start")
+    mbed_reports_battery: bool = param(True, doc="the simulated Mbed reports the battery voltage (false: old firmware)")
 
 
 @dataclass(frozen=True)
@@ -118,6 +166,7 @@ class DaemonConfig:
     boat_length_m: float = param(HULL_LENGTH_M, unit="m", lo=1.0, hi=50.0, source="SPEC 1", doc="hull length L for the fuzzy guidance (the simulated vessel's own length under --sim)")
     log_dir: str = param("logs", doc="mission log directory (systemd passes $LOGS_DIRECTORY with --log-dir)")
     state_dir: str = param("state", doc="mission progress directory (systemd passes $STATE_DIRECTORY with --state-dir)")
+    runtime_dir: str = param("", doc="directory of the control socket (autopilot ctl); empty = $RUNTIME_DIRECTORY (systemd), else $XDG_RUNTIME_DIR/autopilot, else /tmp/autopilot-<uid>")
     ready_timeout_s: float = param(30.0, unit="s", lo=0.5, hi=600.0, doc="log a warning if both devices have not answered after this")
     stop_ack_timeout_s: float = param(1.0, unit="s", lo=0.05, hi=10.0, doc="on SIGTERM, wait this long for the zero-thrust acknowledgement")
     dead_reckon_max_s: float = param(

@@ -1,7 +1,8 @@
 """One control cycle as a short chain of pure steps (the loop in :mod:`autopilot.daemon.loop` wires them).
 
     NavSample --assemble--> Navigation --observe--> Observation --Failsafe.update--> Decision
-    Decision --arbitrate--> (Mode, drive) --steer (GNC)--> ControlOutput --command--> ThrustCommand
+    Decision.requests, operator commands --the helm (autopilot.gnc.Autopilot.request)--> the helm's mode
+    Decision --arbitrate--> drive? --steer (the helm)--> ControlOutput --command--> ThrustCommand
     everything --cycle_record--> the cycle line (autopilot.logschema.CYCLE)
 
 Each step takes numbers and returns numbers: no I/O, no clock (times are arguments),
@@ -21,7 +22,7 @@ from autopilot.gnc import ControlOutput, NavInput
 from autopilot.gnc.navigation import Navigation, NavRules
 from autopilot.logschema import CYCLE_KEYS, Mode
 
-__all__ = ["nav_rules", "observe", "arbitrate", "step_dt_s", "nav_input", "command", "mode_after", "cycle_record",
+__all__ = ["nav_rules", "observe", "arbitrate", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
            "GNC_FIELDS"]
 
 MAX_STEP_DT_S = 1.0  # a GNC step after a long pause integrates at most this much
@@ -36,7 +37,8 @@ def nav_rules(cfg: DaemonConfig) -> NavRules:
 
 
 def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, thrusters_connected: bool,
-            acks_missing_in_a_row: int, compass_garbage_s: float | None, thruster_garbage_s: float | None) -> Observation:
+            acks_missing_in_a_row: int, compass_garbage_s: float | None, thruster_garbage_s: float | None,
+            battery_v: float | None = None) -> Observation:
     """What the failsafe judges (times on the daemon's clock)."""
     return Observation(
         t_s=nav.t_s, heading_age_s=nav.heading_age_s, heading_valid=nav.heading_valid,
@@ -44,18 +46,30 @@ def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, 
         ack_consecutive_missing=int(acks_missing_in_a_row), compass_connected=bool(compass_connected),
         mbed_connected=bool(thrusters_connected), last_garbage_t_s=compass_garbage_s,
         last_mbed_garbage_t_s=thruster_garbage_s, north_m=nav.north_m, east_m=nav.east_m,
-        mission_time_s=mission_time_s,
+        mission_time_s=mission_time_s, battery_v=battery_v,
     )
 
 
-def arbitrate(decision: Decision, *, hold_zero: bool, steerable: bool) -> tuple[Mode, bool]:
-    """(mode before the GNC runs, drive): the GNC drives when the failsafe allows it, nothing
-    holds the boat at zero (an interrupted mission not to be resumed) and there is a heading and a
-    position; ``auto`` may still become ``complete`` or ``hold`` from the GNC's output."""
-    drive = decision.thrust_allowed and not hold_zero and steerable
-    if decision.mode == "auto":
-        return (Mode.AUTO if drive else Mode.WAITING), drive
-    return Mode(decision.mode), False
+def arbitrate(decision: Decision, *, steerable: bool) -> tuple[Mode | None, bool]:
+    """(the mode when the helm does not run, drive): the helm runs when the failsafe allows it and
+    there is a heading and a position; then its own mode is the cycle's (None here)."""
+    if decision.mode == "waiting":
+        return Mode.WAITING, False
+    if not decision.thrust_allowed or not steerable:
+        return Mode.FAILSAFE, False
+    return None, True
+
+
+def helm_nav(nav: Navigation, decision: Decision) -> tuple[NavInput | None, str]:
+    """What a command that needs a position and a heading may use: the navigation, or None and why not."""
+    from autopilot.daemon.failsafe import FAULT_CLASS, NAV_CLASSES
+
+    for cause in decision.active:
+        if FAULT_CLASS[cause] in NAV_CLASSES:
+            return None, cause.replace("_", " ")
+    if not nav.steerable:
+        return None, "no position and heading yet"
+    return nav_input(nav), ""
 
 
 def step_dt_s(now_s: float, last_step_s: float | None, period_s: float) -> float:
@@ -82,13 +96,6 @@ def command(out: ControlOutput | None) -> ThrustCommand:
     return ThrustCommand(out.thrust_port_n, out.thrust_stbd_n, out.pwm_port_pct, out.pwm_stbd_pct)
 
 
-def mode_after(mode: Mode, out: ControlOutput | None) -> Mode:
-    """``auto`` becomes ``complete`` (final action stop) or ``hold`` once the last waypoint is reached."""
-    if mode is Mode.AUTO and out is not None and out.complete:
-        return Mode.COMPLETE if out.finished else Mode.HOLD
-    return mode
-
-
 GNC_FIELDS = ("tcpa_nd", "dcpa_nd", "cdh", "xte_m", "speed_cmd_m_s", "pid_p_n", "pid_i_n", "pid_d_n", "tau_com_n",
               "tau_com_trim_n", "tau_order_n")
 
@@ -100,9 +107,10 @@ def _deg(x_rad: float | None, wrap) -> float | None:
 def cycle_record(*, cycle: int, t_s: float, mode: Mode, nav: Navigation, out: ControlOutput | None,
                  cmd: ThrustCommand, wp_index: int, steering: bool, lateness_s: float, skipped: int,
                  heading_latency_s: float | None, seq: int, ack_missing: int, nmea_dropped: int,
-                 active_faults) -> dict:
+                 active_faults, battery_v: float | None = None, battery_rest_v: float | None = None) -> dict:
     """The cycle line: every key of :data:`autopilot.logschema.CYCLE`, in its units (degrees for people)."""
     gnc = {k: None for k in GNC_FIELDS} if out is None else {k: getattr(out, k) for k in GNC_FIELDS}
+    hold = None if out is None else out.hold_target_ne_m
     rec = {
         "cycle": cycle, "mode": mode, "lat_deg": nav.lat_deg, "lon_deg": nav.lon_deg,
         "north_m": nav.north_m, "east_m": nav.east_m,
@@ -121,6 +129,11 @@ def cycle_record(*, cycle: int, t_s: float, mode: Mode, nav: Navigation, out: Co
         "saturation": [] if out is None or out.thrust_off else list(out.saturation),
         "turn_limit": 0 if out is None or out.thrust_off else int(out.turn_limit),
         "common_limit": 0 if out is None or out.thrust_off else int(out.common_limit),
+        "hold_north_m": None if hold is None else hold[0], "hold_east_m": None if hold is None else hold[1],
+        "hold_error_m": None if hold is None else out.hold_error_m,
+        "hold_heading_deg": None if hold is None else _deg(out.hold_heading_rad, wrap_360),
+        "hold_disturbance_n": None if hold is None else out.hold_disturbance_n,
+        "battery_v": battery_v, "battery_rest_v": battery_rest_v,
         "lateness_ms": lateness_s * 1e3, "skipped_cycles": int(skipped),
         "heading_latency_ms": None if heading_latency_s is None else heading_latency_s * 1e3,
         "seq": int(seq), "ack_missing": int(ack_missing), "nmea_dropped": int(nmea_dropped),

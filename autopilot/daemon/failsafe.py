@@ -1,21 +1,30 @@
-"""The failsafe state machine: when is it safe to let the GNC drive the thrusters? (issue 7)
+"""The failsafe state machine: when may the GNC drive, and what does a fault do? (issues 7, 15)
 
-Pure: one :class:`Observation` (ages, flags and position already read by the
-daemon from the drivers on its clock) in, one :class:`Decision` out, no I/O
-and no clock. The daemon calls :meth:`Failsafe.update` once per control
-cycle and sends zero thrust on both sides whenever ``thrust_allowed`` is
-false.
+Pure: one :class:`Observation` (ages, flags, position and battery voltage already
+read by the daemon from the drivers on its clock) in, one :class:`Decision` out, no
+I/O and no clock. The daemon calls :meth:`Failsafe.update` once per control cycle.
 
-States::
+Two kinds of fault:
 
-    waiting --(no fault for start_valid_s)--> auto
-    auto    --(any fault)--------------------> failsafe
-    failsafe --(no fault for resume_valid_s)-> auto
-    any     --(latched fault)----------------> failsafe, for good
+- sensor and link faults (heading, position, ports, garbage, acknowledgements) are
+  transient: zero thrust while they last, the mode before comes back when the data
+  have been valid for ``resume_valid_s``::
 
-While ``waiting``, missing data (WAITING_QUIET) is not reported as a fault
-event: the devices are still starting. Latched faults (geofence, max distance, max mission time) never clear: the
-boat stays stopped until an operator restarts the daemon.
+      waiting  --(no such fault for start_valid_s)--> auto
+      auto     --(any such fault)--------------------> failsafe (zero thrust)
+      failsafe --(none for resume_valid_s)-----------> auto
+
+- latched faults (geofence, max distance, max mission time, battery low and
+  critical) never clear. Each asks once for its configured action
+  (``failsafe.actions``: stop, hold or rtl; Mbed faults and battery_critical always
+  stop) as a :class:`Request` for the helm; they do not themselves stop the GNC.
+
+The guard (ArduPilot's ``requires_position()``): hold and rtl need a position and a
+heading. A position or heading fault never takes them, and a latched fault that
+trips while either is missing takes ``stop`` instead; the request says why.
+
+While ``waiting``, missing data (WAITING_QUIET) is not reported as a fault event:
+the devices are still starting.
 """
 
 from __future__ import annotations
@@ -26,13 +35,24 @@ from dataclasses import dataclass, field
 from autopilot.daemon.config import FailsafeConfig
 from autopilot.logschema import FAULT_CAUSES, LATCHED_CAUSES
 
-__all__ = ["CAUSES", "LATCHED", "WAITING_QUIET", "Observation", "Event", "Decision", "Failsafe", "detect", "inside_polygon"]
+__all__ = ["CAUSES", "LATCHED", "WAITING_QUIET", "resting_voltage_v", "FAULT_CLASS", "NAV_CLASSES", "Observation", "Event", "Request",
+           "Decision", "Failsafe", "detect", "inside_polygon", "guarded_action"]
 
 CAUSES = FAULT_CAUSES  # the log schema owns the causes' names and order
 LATCHED = LATCHED_CAUSES
 # before control first starts, missing data is expected (devices starting): shown in each cycle
 # line's active_faults, but not logged as fault events
 WAITING_QUIET = frozenset({"heading_stale", "heading_invalid", "position_stale", "no_fix"})
+# the class of each cause: its action is failsafe.actions.<class>; "mbed" and "battery_critical" always stop
+FAULT_CLASS: dict[str, str] = {
+    "heading_stale": "heading", "heading_invalid": "heading", "compass_port_lost": "heading",
+    "nmea_garbage": "heading", "position_stale": "position", "no_fix": "position",
+    "mbed_ack_missing": "mbed", "mbed_port_lost": "mbed", "mbed_garbage": "mbed",
+    "geofence": "geofence", "max_distance": "max_distance", "max_mission_time": "max_mission_time",
+    "battery_low": "battery_low", "battery_critical": "battery_critical",
+}
+NAV_CLASSES = frozenset({"position", "heading"})  # faults of what hold and rtl need
+ALWAYS_STOP = frozenset({"mbed", "battery_critical"})
 
 
 @dataclass(frozen=True)
@@ -52,6 +72,7 @@ class Observation:
     north_m: float | None = None
     east_m: float | None = None
     mission_time_s: float = 0.0
+    battery_v: float | None = None  # resting voltage estimate (resting_voltage_v); None: the firmware does not report it
 
 
 @dataclass(frozen=True)
@@ -63,11 +84,44 @@ class Event:
 
 
 @dataclass(frozen=True)
+class Request:
+    """A latched fault's action for the helm (logged by the daemon as ``failsafe`` once the helm answered)."""
+
+    cause: str
+    action: str  # the action to take: stop, hold or rtl (after the guard)
+    configured: str  # the one configured for the cause
+    fallback: str | None = None  # why the configured one is not taken
+
+
+@dataclass(frozen=True)
 class Decision:
-    mode: str  # "waiting", "auto" or "failsafe"
-    thrust_allowed: bool
-    active: tuple[str, ...]  # causes active now, in CAUSES order
+    mode: str  # "waiting", "auto" or "failsafe" (a transient fault: zero thrust)
+    thrust_allowed: bool  # the GNC may drive (the helm's mode decides what it does)
+    active: tuple[str, ...]  # causes active now, in CAUSES order (latched ones included)
     events: tuple[Event, ...] = ()
+    requests: tuple[Request, ...] = ()
+
+
+def resting_voltage_v(battery_v: float | None, duty_port_pct: float, duty_stbd_pct: float,
+                      sag_v: float) -> float | None:
+    """The battery's resting voltage estimated from the voltage under load and the duties it was under:
+    a propeller's battery current grows about as the cube of the duty (autopilot/sim/battery.py), and
+    ``sag_v`` is the drop at full duty on both sides."""
+    if battery_v is None:
+        return None
+    dp, ds = abs(duty_port_pct) / 100.0, abs(duty_stbd_pct) / 100.0
+    return battery_v + sag_v * 0.5 * (dp ** 3 + ds ** 3)
+
+
+def guarded_action(configured: str, fault_class: str, nav_missing: str | None) -> tuple[str, str | None]:
+    """(action taken, why not the configured one): hold and rtl need a position and a heading."""
+    if fault_class in ALWAYS_STOP or configured == "stop":
+        return "stop", None
+    if fault_class in NAV_CLASSES:
+        return "stop", f"{configured} needs a position and a heading: this is a {fault_class} fault"
+    if nav_missing is not None:
+        return "stop", f"{configured} needs a position and a heading: {nav_missing}"
+    return configured, None
 
 
 def inside_polygon(north_m: float, east_m: float, polygon_ne_m) -> bool:
@@ -122,6 +176,14 @@ def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, 
     return faults
 
 
+def _nav_missing(faults: dict[str, str]) -> str | None:
+    """The first position or heading fault, as a reason ("position stale"), or None."""
+    for cause in CAUSES:
+        if cause in faults and FAULT_CLASS[cause] in NAV_CLASSES:
+            return cause.replace("_", " ")
+    return None
+
+
 class Failsafe:
     """Per-cycle decision with hysteresis on recovery. See the module docstring."""
 
@@ -132,18 +194,48 @@ class Failsafe:
         self._active: dict[str, str] = {}
         self._reported: set[str] = set()
         self._latched: dict[str, str] = {}
+        self._actions: dict[str, str] = {}  # latched cause -> the action it took
         self._valid_since_s: float | None = None
         self._trip_cause: str | None = None
+        self._low_since_s: dict[str, float] = {}
 
     @property
     def latched(self) -> tuple[str, ...]:
         return tuple(c for c in CAUSES if c in self._latched)
 
+    def action_of(self, cause: str) -> str | None:
+        """The action a latched cause took (None if it has not tripped)."""
+        return self._actions.get(cause)
+
+    def configured(self, cause: str) -> str:
+        cls = FAULT_CLASS[cause]
+        return "stop" if cls in ALWAYS_STOP else getattr(self.cfg.actions, cls)
+
+    def _battery(self, obs: Observation) -> dict[str, str]:
+        """battery_low / battery_critical once the voltage has stayed below its threshold long enough."""
+        cfg, out = self.cfg, {}
+        for cause, limit_v, hold_s in (("battery_low", cfg.battery_low_v, cfg.battery_low_s),
+                                       ("battery_critical", cfg.battery_critical_v, cfg.battery_critical_s)):
+            v = obs.battery_v
+            if v is None or limit_v <= 0.0 or not v < limit_v:
+                self._low_since_s.pop(cause, None)
+                continue
+            since = self._low_since_s.setdefault(cause, obs.t_s)
+            if obs.t_s - since >= hold_s:
+                out[cause] = f"battery (resting estimate) {v:.2f} V below {limit_v:g} V for {obs.t_s - since:.1f} s"
+        return out
+
     def update(self, obs: Observation) -> Decision:
         found = detect(obs, self.cfg, self.fence_ne_m)
-        for cause, detail in found.items():
-            if cause in LATCHED:
-                self._latched.setdefault(cause, detail)
+        found.update(self._battery(obs))
+        requests: list[Request] = []
+        for cause in CAUSES:
+            if cause in found and cause in LATCHED and cause not in self._latched:
+                self._latched[cause] = found[cause]
+                configured = self.configured(cause)
+                action, why = guarded_action(configured, FAULT_CLASS[cause], _nav_missing(found))
+                self._actions[cause] = action
+                requests.append(Request(cause, action, configured, why))
         now = dict(found)
         now.update({c: d for c, d in self._latched.items() if c not in now})
         events: list[Event] = []
@@ -155,14 +247,18 @@ class Failsafe:
             elif cause in self._reported and cause not in now:
                 self._reported.discard(cause)
                 events.append(Event("fault_cleared", {"cause": cause}))
-        new_causes = [c for c in CAUSES if c in now and c not in self._active]
-        self._active = now
+        transient = {c: d for c, d in now.items() if c not in LATCHED}
+        new_causes = [c for c in CAUSES if c in transient and c not in self._active]
+        self._active = transient
 
-        if now:
+        if transient:
             self._valid_since_s = None
-            if self.mode == "auto" or (self.mode == "waiting" and self._latched):
-                self._trip_cause = new_causes[0] if new_causes else next(c for c in CAUSES if c in now)
-                events.append(Event("failsafe", {"cause": self._trip_cause, "action": "zero_thrust"}))
+            if self.mode == "auto":
+                self._trip_cause = new_causes[0] if new_causes else next(c for c in CAUSES if c in transient)
+                configured = self.configured(self._trip_cause)
+                _, why = guarded_action(configured, FAULT_CLASS[self._trip_cause], None)
+                events.append(Event("failsafe", {"cause": self._trip_cause, "action": "stop", "configured": configured,
+                                                 "fallback": why}))
                 self.mode = "failsafe"
         else:
             if self._valid_since_s is None:
@@ -178,4 +274,5 @@ class Failsafe:
                 events.append(Event("resume", dict(fields)))
                 self._trip_cause = None
         active = tuple(c for c in CAUSES if c in now)
-        return Decision(mode=self.mode, thrust_allowed=self.mode == "auto", active=active, events=tuple(events))
+        return Decision(mode=self.mode, thrust_allowed=self.mode == "auto", active=active, events=tuple(events),
+                        requests=tuple(requests))

@@ -4,10 +4,12 @@ One asyncio process. The loop runs on absolute deadlines of the injected clock
 (``next_due += period``: no drift); when it falls behind by more than a period
 it skips to the next deadline and counts the skipped cycles. Each cycle reads
 the compass's latest :class:`~autopilot.devices.NavSample`, assembles the
-navigation, asks the failsafe whether thrust is allowed, steps the GNC when it
-is, sends exactly one :class:`~autopilot.devices.ThrustCommand` and writes
-exactly one ``cycle`` line (:mod:`autopilot.logschema`). Everything it
-remembers between cycles is in one :class:`LoopState`.
+navigation, asks the failsafe whether thrust is allowed, hands the failsafe's
+actions and the operator's queued commands to the helm (:class:`autopilot.gnc.Autopilot`,
+between cycles' steps, never waiting on a socket), steps the helm when allowed, sends
+exactly one :class:`~autopilot.devices.ThrustCommand` and writes exactly one
+``cycle`` line (:mod:`autopilot.logschema`). Everything it remembers between cycles
+is in one :class:`LoopState`.
 
 SIGTERM/SIGINT end the loop at the next cycle: zero thrust is sent and its
 acknowledgement awaited (bounded), ``stop`` logged, the log closed, exit 0.
@@ -16,17 +18,18 @@ acknowledgement awaited (bounded), ``stop`` logged, the log closed, exit 0.
 from __future__ import annotations
 
 import asyncio
+import collections
 import math
 import signal
 from dataclasses import dataclass, field
 
 from autopilot.daemon import cycle as steps
 from autopilot.daemon.config import DaemonConfig
-from autopilot.daemon.failsafe import Failsafe
+from autopilot.daemon.failsafe import Failsafe, resting_voltage_v
 from autopilot.daemon.missionlog import MissionLog
 from autopilot.daemon.sd_notify import Notifier
 from autopilot.daemon.state import Progress, StateStore
-from autopilot.devices import ZERO_THRUST, Compass, ThrusterLink
+from autopilot.devices import ZERO_THRUST, Compass, ThrustCommand, ThrusterLink
 from autopilot.gnc import Autopilot
 from autopilot.gnc.navigation import NavMemory, assemble
 from autopilot.gnc.passes import PassTracker
@@ -62,6 +65,9 @@ class LoopState:
     ready_warned: bool = False
     last_watchdog_s: float = -math.inf
     stop_signal: str | None = None
+    mode: str = "waiting"  # the last cycle's
+    last_cmd: ThrustCommand = ZERO_THRUST
+    status: dict = field(default_factory=dict)  # the last cycle's, for `autopilot ctl status`
 
     @property
     def complete(self) -> bool:
@@ -81,9 +87,12 @@ class ControlLoop:
         self.log, self.notifier, self.store = log, notifier, store
         self.failsafe = Failsafe(cfg.failsafe, fence_ne_m=fence_ne_m)
         self.rules = steps.nav_rules(cfg)
-        self.hold_zero = hold_zero  # a reason never to drive (an interrupted mission, no resume)
+        self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
         self.state = LoopState()
+        self.commands: collections.deque = collections.deque()  # (request, answer callback), from the socket
+        if hold_zero is not None:
+            self.ap.request("stop", None, cause=f"start: {hold_zero}")
         self.t0_s = clock.now_s() if t0_s is None else t0_s  # mission time 0
         self._wall_start_s = clock.wall_elapsed_s()
 
@@ -102,17 +111,30 @@ class ControlLoop:
         sample = self.compass.sample()
         nav, st.nav = assemble(sample, now_s, st.nav, self.rules,
                                origin_lat_deg=self.mission.origin_lat_deg, origin_lon_deg=self.mission.origin_lon_deg)
+        battery_v = self.thrusters.battery_v  # under the last command's load
+        battery_rest_v = resting_voltage_v(battery_v, st.last_cmd.duty_port_pct, st.last_cmd.duty_stbd_pct,
+                                           self.cfg.failsafe.battery_sag_v)
         decision = self.failsafe.update(steps.observe(
             nav, mission_time_s=t_s, compass_connected=self.compass.connected,
             thrusters_connected=self.thrusters.connected, acks_missing_in_a_row=self.thrusters.consecutive_missing,
-            compass_garbage_s=self.compass.last_garbage_s, thruster_garbage_s=self.thrusters.last_garbage_s))
+            compass_garbage_s=self.compass.last_garbage_s, thruster_garbage_s=self.thrusters.last_garbage_s,
+            battery_v=battery_rest_v))
         self._log_events(decision.events, t_s)
-        mode, drive = steps.arbitrate(decision, hold_zero=self.hold_zero is not None, steerable=nav.steerable)
+        helm_nav, unavailable = steps.helm_nav(nav, decision)
+        for req in decision.requests:
+            self._failsafe_action(req, helm_nav, unavailable, t_s)
+        while self.commands:
+            request, answer = self.commands.popleft()
+            answer(self._command(request, helm_nav, unavailable, decision, t_s))
+        mode, drive = steps.arbitrate(decision, steerable=nav.steerable)
         st.driving = st.driving and drive
         out = self._steer(nav, now_s, t_s) if drive else None
-        mode = steps.mode_after(mode, out)
+        if out is not None:
+            mode = out.mode
+        self._log_helm_events(t_s)
         cmd = steps.command(out)
         st.seq = self.thrusters.send(cmd)
+        st.last_cmd = cmd
         self._track_pass(nav, t_s)
         heading = sample.heading_rad
         self.log.event("cycle", t_s=t_s, **steps.cycle_record(
@@ -120,7 +142,9 @@ class ControlLoop:
             steering=drive, lateness_s=lateness_s, skipped=st.skipped,
             heading_latency_s=None if heading is None else self.clock.now_s() - heading.t_s, seq=st.seq,
             ack_missing=self.thrusters.ack_missing, nmea_dropped=self.compass.lines_dropped,
-            active_faults=decision.active))
+            active_faults=decision.active, battery_v=battery_v, battery_rest_v=battery_rest_v))
+        st.mode = mode.value
+        st.status = self._status(t_s, mode, nav, out, decision, battery_v)
         st.cycles += 1
         self._notify(now_s, lateness_s)
 
@@ -143,8 +167,75 @@ class ControlLoop:
             st.completed_t_s = t_s
             self.log.event("mission_complete", t_s=t_s, wp_count=len(self.mission.waypoints_ne_m))
             self._save("complete")
-        st.finished = st.finished or out.finished
+        st.finished = out.finished
         return out
+
+    # ---- the helm's commands: failsafe actions and the operator's --------------------------
+    def _failsafe_action(self, req, helm_nav, unavailable: str, t_s: float) -> None:
+        """A latched fault's action to the helm; refused (rtl without a launch point) -> stop."""
+        action, fallback = req.action, req.fallback
+        ok, answer = self.ap.request(action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
+        if not ok:
+            action, fallback = "stop", answer
+            self.ap.request("stop", None, cause=f"failsafe {req.cause}")
+        self.log.event("failsafe", t_s=t_s, cause=req.cause, action=action, configured=req.configured,
+                       fallback=fallback)
+        self.state.failsafe_causes.append(req.cause)
+
+    def log_event(self, name: str, **fields) -> None:
+        """An event from outside the cycle (the control socket's refusals), on mission time."""
+        self.log.event(name, t_s=self.clock.now_s() - self.t0_s, **fields)
+
+    def submit(self, request: dict, answer) -> None:
+        """Queue an operator command (``{"command": ..., ...}``); ``answer(reply dict)`` is called from the
+        next cycle, between its steps: the caller never runs inside the loop's timing."""
+        self.commands.append((request, answer))
+
+    def _command(self, request: dict, helm_nav, unavailable: str, decision, t_s: float) -> dict:
+        from autopilot.daemon.control import check_request
+
+        source = str(request.get("source", "ctl"))
+        problem = check_request(request)
+        command = str(request.get("command", ""))[:32]
+        if problem is not None:
+            ok, answer = False, problem
+        else:
+            heading = request.get("heading_deg")
+            latched = [c for c in self.failsafe.latched]
+            if command == "resume" and latched:
+                ok, answer = False, (f"resume refused: {', '.join(latched)} latched (a failsafe took the boat; "
+                                     "hold, rtl and stop are allowed)")
+            else:
+                ok, answer = self.ap.request(command, helm_nav, cause=f"{source} {command}", unavailable=unavailable,
+                                             heading_rad=None if heading is None else math.radians(float(heading)))
+        self.log.event("command", t_s=t_s, command=command, source=source, accepted=ok, answer=answer)
+        reply = {"ok": ok, "answer": answer, "mode": self.ap.mode.value}
+        if ok and decision.mode != "auto":
+            reply["note"] = ("zero thrust until the failsafe clears: " + ", ".join(decision.active)
+                             if decision.mode == "failsafe" else "waiting for valid data before control starts")
+        return reply
+
+    def _log_helm_events(self, t_s: float) -> None:
+        for name, fields in self.ap.pop_events():
+            self.log.event(name, t_s=t_s, **fields)
+
+    def _status(self, t_s: float, mode, nav, out, decision, battery_v) -> dict:
+        """What `autopilot ctl status` shows: this cycle, in SI and degrees for people."""
+        hold = None if out is None else out.hold_target_ne_m
+        return {
+            "t_s": round(t_s, 2), "mode": mode.value, "helm_mode": self.ap.mode.value, "cycle": self.state.cycles,
+            "wp_index": int(self.ap.wp_index), "wp_count": len(self.mission.waypoints_ne_m),
+            "mission_complete": bool(self.ap.complete),
+            "north_m": nav.north_m, "east_m": nav.east_m, "lat_deg": nav.lat_deg, "lon_deg": nav.lon_deg,
+            "heading_deg": None if nav.heading_rad is None else round(math.degrees(nav.heading_rad) % 360.0, 1),
+            "sog_m_s": nav.sog_m_s, "battery_v": battery_v, "active_faults": list(decision.active),
+            "latched_faults": list(self.failsafe.latched),
+            "hold_north_m": None if hold is None else hold[0], "hold_east_m": None if hold is None else hold[1],
+            "hold_error_m": None if hold is None else out.hold_error_m,
+            "launch_ne_m": None if self.ap.launch_ne_m is None else list(self.ap.launch_ne_m),
+            "thrust_port_n": None if out is None else out.thrust_port_n,
+            "thrust_stbd_n": None if out is None else out.thrust_stbd_n,
+        }
 
     def _track_pass(self, nav, t_s: float) -> None:
         """A new fix goes to the pass tracker (autopilot.gnc.passes), attributed to the waypoint steered
@@ -224,7 +315,7 @@ class ControlLoop:
             next_due += period_s
             if self.state.finished and self.state.passes_done:
                 return "complete"
-            if "max_mission_time" in self.failsafe.latched:
+            if self.failsafe.action_of("max_mission_time") == "stop":
                 return "max_mission_time"
 
     async def stop(self, reason: str) -> int:

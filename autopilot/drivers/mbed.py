@@ -23,6 +23,7 @@ from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, Ack, ProtocolError, 
 __all__ = ["MbedDriver"]
 
 _MAX_PENDING = 256  # commands awaiting an ack; older ones are counted missing
+BATTERY_STALE_S = 2.0  # a battery voltage older than this is not reported
 
 
 class MbedDriver(LineDevice):
@@ -59,6 +60,7 @@ class MbedDriver(LineDevice):
         self.last_ack_seq: int | None = None
         self.last_ack: Ack | None = None
         self.last_ack_rx_s: float | None = None
+        self._battery: tuple[float, float] | None = None  # (volts, received at)
         self.sent = 0
         self.send_failures = 0
         self.acks_ok = 0
@@ -178,6 +180,8 @@ class MbedDriver(LineDevice):
             return
         self._expire(now_s)
         self.last_ack, self.last_ack_rx_s = ack, now_s
+        if ack.battery_v is not None:
+            self._battery = (ack.battery_v, now_s)
         if ack.seq not in self._pending:
             self.acks_late += 1  # already counted missing (or not ours): the count stands
         elif ack.ok:
@@ -195,6 +199,14 @@ class MbedDriver(LineDevice):
         for fut in self._waiters.pop(ack.seq, []):
             if not fut.done():
                 fut.set_result(ack.ok)
+
+    @property
+    def battery_v(self) -> float | None:
+        """The battery voltage of the last acknowledgement that carried one (V), if younger than
+        BATTERY_STALE_S; None when the firmware does not report it (old firmware) or the line went quiet."""
+        if self._battery is None or self._clock.now_s() - self._battery[1] > BATTERY_STALE_S:
+            return None
+        return self._battery[0]
 
     @property
     def answered(self) -> bool:

@@ -79,6 +79,7 @@ class Ack:
     duty_stbd_pct: float | None = None
     reverse_stbd: bool | None = None
     reason: str | None = None
+    battery_v: float | None = None  # the optional 7th field of OK (firmware that measures it), volts
 
     @property
     def ok(self) -> bool:
@@ -95,6 +96,25 @@ def _duty_text(duty_pct: float, what: str) -> str:
     if not 0.0 <= duty_pct <= 100.0:
         raise ProtocolError(f"{what}: duty {duty_pct} outside [0, 100] %")
     return f"{round(duty_pct, 1):.1f}"
+
+
+BATTERY_MAX_V = 99.99  # the field's range: 0.00 to 99.99 V, 1-2 integer digits, up to two decimals
+_BATTERY_RE = re.compile(r"\d{1,2}(\.\d{1,2})?\Z")
+
+
+def _battery_text(v: float) -> str:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0.0 <= v <= BATTERY_MAX_V:
+        raise ProtocolError(f"battery voltage must be in [0, {BATTERY_MAX_V}] V, got {v!r}")
+    return f"{v:.2f}"
+
+
+def _battery_field(text: str) -> float | None:
+    """The optional battery field: empty = not measured."""
+    if text == "":
+        return None
+    if not _BATTERY_RE.match(text):
+        raise ProtocolError(f"battery voltage {text!r} is not 0.00-99.99 V")
+    return float(text)
 
 
 def _seq_value(seq: int) -> int:
@@ -123,13 +143,15 @@ def encode_ack(
     reverse_stbd: bool = False,
     *,
     reason: str = "RANGE",
+    battery_v: float | None = None,
 ) -> bytes:
-    """The firmware's reply (used by the simulated Mbed and tests)."""
+    """The firmware's reply (used by the simulated Mbed and tests); ``battery_v`` None = old firmware."""
     seq = _seq_value(seq)
     if status == "OK":
         p = _duty_text(duty_port_pct, "port")
         s = _duty_text(duty_stbd_pct, "stbd")
-        return _frame(f"MBACK,{seq},OK,{'R' if reverse_port else 'F'},{p},{'R' if reverse_stbd else 'F'},{s}")
+        v = "" if battery_v is None else f",{_battery_text(battery_v)}"
+        return _frame(f"MBACK,{seq},OK,{'R' if reverse_port else 'F'},{p},{'R' if reverse_stbd else 'F'},{s}{v}")
     if status == "REJ":
         if reason not in ACK_REASONS:
             raise ProtocolError(f"reason must be one of {ACK_REASONS}, got {reason!r}")
@@ -210,11 +232,11 @@ def decode_ack(line: bytes | str) -> Ack | None:
         raise ProtocolError("MBACK needs seq and status")
     seq = _seq_field(f[1])
     if f[2] == "OK":
-        if len(f) != 7:
-            raise ProtocolError(f"MBACK OK has {len(f) - 1} fields, need 6")
+        if len(f) not in (7, 8):
+            raise ProtocolError(f"MBACK OK has {len(f) - 1} fields, need 6 (or 7 with the battery voltage)")
         rp, dp = _dir_duty(f[3], f[4], "port")
         rs, ds = _dir_duty(f[5], f[6], "stbd")
-        return Ack(seq, "OK", dp, rp, ds, rs)
+        return Ack(seq, "OK", dp, rp, ds, rs, battery_v=_battery_field(f[7]) if len(f) == 8 else None)
     if f[2] == "REJ":
         if len(f) != 4 or f[3] not in ACK_REASONS:
             raise ProtocolError(f"MBACK REJ needs one reason in {ACK_REASONS}")

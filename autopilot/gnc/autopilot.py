@@ -1,9 +1,15 @@
-"""The double-loop autopilot (thesis ch. 7-8): guidance -> heading PID -> thrust allocation.
+"""The helm: the operator's modes over the double-loop autopilot (thesis ch. 7-8).
 
-    nav (position, heading, speed, yaw rate) --> guidance law --> psi_d, speed
-    psi_d, psi, r                            --> PID (Eq 7.1)  --> tau_order
-    speed cmd, speed over ground             --> Fig 8.2 table + PI trim --> tau_com
-    tau_com, tau_order                       --> Eq 8.5-8.6, saturation --> T_port, T_stbd --> PWM
+    nav --> the current mode (autopilot.gnc.modes) --> a course (psi_d, speed), a force (psi_d, tau_com) or off
+    course: psi_d, psi, r            --> PID (Eq 7.1)  --> tau_order
+            speed cmd, speed over ground --> Fig 8.2 table + PI trim --> tau_com (never astern)
+    force:  psi_d, psi, r            --> PID (Eq 7.1)  --> tau_order;  tau_com from station keeping (ahead or astern)
+    tau_com, tau_order               --> Eq 8.5-8.6, saturation --> T_port, T_stbd --> PWM
+
+Every mode shares the one PID, allocation and thrust curve. Commands
+(:meth:`Autopilot.request`: hold, pause, resume, rtl, stop) come from the operator
+or a failsafe; each answer is the new mode or a refusal, and every change of
+mode is an event with its cause (:meth:`Autopilot.pop_events`).
 
 Pure: the caller (daemon, simulator, evaluation) supplies the navigation
 data and the time step; nothing here reads a clock or a device.
@@ -16,10 +22,11 @@ from dataclasses import dataclass
 
 from autopilot.gnc.allocation import Allocator, common_thrust_n
 from autopilot.gnc.config import GncConfig
+from autopilot.gnc.modes import AutoMode, CompleteMode, Handover, HoldMode, PausedMode, RtlMode, Steering, StopMode
 from autopilot.gnc.pid import HeadingPid
-from autopilot.gnc.registry import make_guidance
 from autopilot.gnc.speed import SpeedTrim
 from autopilot.gnc.thrust_curve import ThrustCurve
+from autopilot.logschema import Mode
 from autopilot.measured import HULL_LENGTH_M
 
 
@@ -39,13 +46,14 @@ class NavInput:
 class ControlOutput:
     """One cycle's command and the reasons for it (the GNC fields of a log `cycle` line)."""
 
+    mode: Mode  # the helm's mode this cycle (after any hand-over)
     wp_index: int
     tcpa_nd: float | None
     dcpa_nd: float | None
     cdh: float | None
     psi_d_rad: float
     heading_error_rad: float
-    xte_m: float
+    xte_m: float | None  # None when no leg is followed (holding, stopped)
     speed_cmd_m_s: float
     pid_p_n: float
     pid_i_n: float
@@ -66,12 +74,20 @@ class ControlOutput:
     reached_how: str | None  # "capture" or "passed" (autopilot.gnc.waypoints)
     complete: bool
     tau_com_trim_n: float = 0.0  # speed-over-ground trim inside tau_com_n (tau_com_n = table + trim)
-    thrust_off: bool = False  # the guidance asks for zero thrust (mission over, or holding inside the radius)
-    finished: bool = False  # the last waypoint is reached and the final action is to stop: the run may end
+    thrust_off: bool = False  # zero thrust on both sides (stopped, complete, drifting inside the hold radius)
+    finished: bool = False  # the mission ended with stop (mode complete): the run may end
+    hold_target_ne_m: tuple[float, float] | None = None  # station keeping's point, when it ran
+    holding: bool = False  # the hold proper (timed and scored), not station keeping closing on the point
+    hold_error_m: float | None = None
+    hold_heading_rad: float | None = None  # the heading it holds (given or least effort)
+    hold_disturbance_n: float | None = None  # its estimate of the steady thrust the disturbance takes
+
+
+_MODE_OF_COMMAND = {"hold": Mode.HOLD, "pause": Mode.PAUSED, "rtl": Mode.RTL, "stop": Mode.STOP}
 
 
 class Autopilot:
-    """Guidance + PID + allocation for one route. ``step`` once per control cycle."""
+    """The helm for one mission: modes, then PID and allocation. ``step`` once per control cycle."""
 
     def __init__(
         self,
@@ -79,67 +95,190 @@ class Autopilot:
         waypoints_ne_m,
         *,
         speeds_m_s=None,
+        holds_s=None,
+        rtl: bool = False,
+        launch_ne_m: tuple[float, float] | None = None,
         boat_length_m: float = HULL_LENGTH_M,
         thrust_curve: ThrustCurve = ThrustCurve(),
         start_index: int = 0,
     ) -> None:
         self.config = config
-        self.guidance = make_guidance(
-            config.guidance, waypoints_ne_m, speeds_m_s=speeds_m_s, boat_length_m=boat_length_m, start_index=start_index
-        )
+        self.boat_length_m = float(boat_length_m)
+        self.auto = AutoMode(config, waypoints_ne_m, speeds_m_s=speeds_m_s, holds_s=holds_s, rtl=rtl,
+                             boat_length_m=boat_length_m, start_index=start_index)
+        self.guidance = self.auto.guidance  # the mission's route (wp_index, waypoints)
+        self.current = self.auto
+        self.paused_from = None  # the mode a pause interrupted (resume goes back to it)
+        self.launch_ne_m = None if launch_ne_m is None else (float(launch_ne_m[0]), float(launch_ne_m[1]))
         self.pid = HeadingPid(config.pid)
         self.allocator = Allocator(config.allocation, thrust_curve)
         self.speed_trim = SpeedTrim(config.speed)
+        self._events: list[tuple[str, dict]] = []
+        self._last_kind: str | None = None
+
+    # ---------------------------------------------------------------- state
+    @property
+    def mode(self) -> Mode:
+        return self.current.mode
 
     @property
     def wp_index(self) -> int:
-        """Index of the waypoint being steered to."""
+        """Index of the mission waypoint being steered to."""
         return self.guidance.index
 
     @property
     def complete(self) -> bool:
-        """The last waypoint has been reached."""
+        """The mission's last waypoint has been reached."""
         return self.guidance.complete
+
+    @property
+    def finished(self) -> bool:
+        """The mission ended with stop: nothing more to do."""
+        return self.current.mode is Mode.COMPLETE
+
+    def hold_target(self) -> tuple[float, float] | None:
+        keeper = getattr(self.current, "keeper", None) or (self.auto.item_keeper if self.current is self.auto else None)
+        return None if keeper is None else keeper.target
+
+    def pop_events(self) -> list[tuple[str, dict]]:
+        """(event name, fields) since the last call: ``mode`` {mode, from, cause}, ``launch`` {north_m, east_m}."""
+        out, self._events = self._events, []
+        return out
 
     def reset_integrator(self) -> None:
         """Zero the heading and speed integrals (after a failsafe, before resuming)."""
         self.pid.reset()
         self.speed_trim.reset()
 
+    # ---------------------------------------------------------------- commands
+    def request(self, command: str, nav: NavInput | None, *, cause: str, heading_rad: float | None = None,
+                unavailable: str = "no position and heading") -> tuple[bool, str]:
+        """An operator's or a failsafe's command -> (accepted, the new mode or the refusal).
+
+        ``nav`` is None when the position or the heading cannot be trusted (``unavailable`` says why):
+        then only ``stop`` is accepted. ``heading_rad``: the heading a ``hold`` keeps (None = least effort).
+        """
+        if command == "stop":
+            if self.current.mode is not Mode.STOP:
+                self._switch(StopMode(), cause)
+            return True, Mode.STOP.value
+        if command not in ("hold", "pause", "resume", "rtl"):
+            return False, f"{command} refused: unknown command (hold, pause, resume, rtl, stop)"
+        if nav is None:
+            return False, f"{command} refused: {unavailable}"
+        mode = self.current.mode
+        if command == "resume":
+            return self._resume(nav, cause)
+        if command == "pause" and mode not in (Mode.AUTO, Mode.RTL):
+            return False, f"pause refused: mode {mode.value} (pause holds a running mission or return)"
+        if command == "rtl" and self.launch_ne_m is None:
+            return False, "rtl refused: no launch point yet (control has not started)"
+        if mode is _MODE_OF_COMMAND[command] and not (command == "hold" and heading_rad is not None):
+            return True, mode.value
+        here = (nav.north_m, nav.east_m)
+        if command == "hold":
+            self._switch(HoldMode(self.config.hold, here, heading_rad=heading_rad, initial_heading_rad=nav.psi_rad), cause)
+        elif command == "pause":
+            self.paused_from = self.current
+            self._switch(PausedMode(self.config.hold, here, heading_rad=None, initial_heading_rad=nav.psi_rad), cause)
+        else:
+            self._switch(RtlMode(self.config, self.launch_ne_m, boat_length_m=self.boat_length_m), cause)
+        return True, self.current.mode.value
+
+    def _resume(self, nav: NavInput, cause: str) -> tuple[bool, str]:
+        if self.current is self.auto:
+            if self.auto.end_item_hold():
+                self._events.append(("mode", {"mode": Mode.AUTO.value, "from": Mode.AUTO.value,
+                                              "cause": f"{cause}: the waypoint's hold ended"}))
+                return True, Mode.AUTO.value
+            return True, Mode.AUTO.value
+        if self.current.mode is Mode.PAUSED and self.paused_from is not None:
+            back, self.paused_from = self.paused_from, None
+            self._switch(back, cause)
+            return True, back.mode.value
+        if self.auto.guidance.complete and not self.auto.item_keeper:
+            return False, "resume refused: the mission is complete (hold, rtl and stop are available)"
+        self._switch(self.auto, cause)
+        return True, Mode.AUTO.value
+
+    def _switch(self, new, cause: str) -> None:
+        old = self.current.mode
+        if not isinstance(new, PausedMode):  # a pause ends with whatever replaces it
+            self.paused_from = None
+        self.current = new
+        self.reset_integrator()
+        self._last_kind = None
+        self._events.append(("mode", {"mode": new.mode.value, "from": old.value, "cause": cause}))
+
+    def _hand_over(self, h: Handover, nav: NavInput) -> None:
+        if h.mode is Mode.HOLD:
+            target = h.target_ne_m if h.target_ne_m is not None else (nav.north_m, nav.east_m)
+            new = HoldMode(self.config.hold, target, heading_rad=None, initial_heading_rad=nav.psi_rad, keeper=h.keeper)
+        elif h.mode is Mode.RTL:
+            if self.launch_ne_m is None:  # pragma: no cover - set on the first step
+                self.launch_ne_m = (nav.north_m, nav.east_m)
+            new = RtlMode(self.config, self.launch_ne_m, boat_length_m=self.boat_length_m)
+        elif h.mode is Mode.COMPLETE:
+            new = CompleteMode()
+        else:  # pragma: no cover - the modes hand over to these only
+            raise ValueError(f"no hand-over to {h.mode}")
+        self._switch(new, h.cause)
+
+    # ---------------------------------------------------------------- the cycle
     def step(self, nav: NavInput, dt_s: float) -> ControlOutput:
         """One control cycle: navigation data and the time since the last cycle -> command."""
         if not (math.isfinite(nav.north_m) and math.isfinite(nav.east_m) and math.isfinite(nav.psi_rad)):
             raise ValueError("NavInput position and heading must be finite")
-        g = self.guidance.update(nav, dt_s)
-        terms = self.pid.terms(g.psi_d_rad, nav.psi_rad, nav.yaw_rate_rad_s)
-        if g.thrust_off:
-            self.pid.reset()
-            self.speed_trim.reset()
+        if self.launch_ne_m is None:
+            self.launch_ne_m = (nav.north_m, nav.east_m)
+            self._events.append(("launch", {"north_m": nav.north_m, "east_m": nav.east_m}))
+        s = self.current.update(nav, dt_s)
+        reached = s.guidance if self.current is self.auto else None  # rtl's own arrival is not a mission waypoint
+        for _ in range(3):  # a hand-over steers with the new mode in the same cycle (rtl -> hold, auto -> rtl)
+            if s.then is None:
+                break
+            self._hand_over(s.then, nav)
+            s = self.current.update(nav, dt_s)
+        return self._inner(nav, dt_s, s, reached)
+
+    def _inner(self, nav: NavInput, dt_s: float, s: Steering, reached) -> ControlOutput:
+        if s.kind != self._last_kind:  # a new kind of demand: nothing integrated for the old one counts
+            self.reset_integrator()
+            self._last_kind = s.kind
+        terms = self.pid.terms(s.psi_d_rad, nav.psi_rad, nav.yaw_rate_rad_s)
+        trim_n = 0.0
+        if s.kind == "off":
             alloc = self.allocator.allocate(0.0, 0.0)
-            p_n = i_n = d_n = trim_n = 0.0
+            p_n = i_n = d_n = 0.0
         else:
             p_n, i_n, d_n = terms.p_n, terms.i_n, terms.d_n
-            speed_n = nav.speed_m_s if math.isfinite(nav.speed_m_s) else g.speed_cmd_m_s  # no speed: table only
-            trim_n = self.speed_trim.terms(g.speed_cmd_m_s, speed_n).trim_n
-            tau_com = common_thrust_n(g.speed_cmd_m_s) + trim_n
-            floor = tau_com <= 0.0
-            if floor:  # never astern common mode (see autopilot.gnc.speed)
-                trim_n -= tau_com
-                tau_com = 0.0
+            floor = False
+            if s.kind == "course":
+                speed_n = nav.speed_m_s if math.isfinite(nav.speed_m_s) else s.speed_cmd_m_s  # no speed: table only
+                trim_n = self.speed_trim.terms(s.speed_cmd_m_s, speed_n).trim_n
+                tau_com = common_thrust_n(s.speed_cmd_m_s) + trim_n
+                floor = tau_com <= 0.0
+                if floor:  # never astern common mode on a course (see autopilot.gnc.speed)
+                    trim_n -= tau_com
+                    tau_com = 0.0
+            else:  # force: station keeping's own along-hull thrust, ahead or astern
+                tau_com = s.tau_com_n
             alloc = self.allocator.allocate(tau_com, p_n + i_n + d_n)
             self.pid.integrate(terms.heading_error_rad, dt_s, turn_limit=alloc.turn_limit)
-            # the allocator cut the common mode: more speed cannot be delivered
-            self.speed_trim.integrate(g.speed_cmd_m_s, speed_n, dt_s, block_up=alloc.common_limit > 0,
-                                      block_down=floor)
+            if s.kind == "course":  # the allocator cut the common mode: more speed cannot be delivered
+                self.speed_trim.integrate(s.speed_cmd_m_s, speed_n, dt_s, block_up=alloc.common_limit > 0,
+                                          block_down=floor)
+        g, h = s.guidance, s.hold
         return ControlOutput(
-            wp_index=g.wp_index,
-            tcpa_nd=g.tcpa_nd,
-            dcpa_nd=g.dcpa_nd,
-            cdh=g.cdh,
-            psi_d_rad=g.psi_d_rad,
+            mode=self.current.mode,
+            wp_index=self.guidance.index,
+            tcpa_nd=None if g is None else g.tcpa_nd,
+            dcpa_nd=None if g is None else g.dcpa_nd,
+            cdh=None if g is None else g.cdh,
+            psi_d_rad=s.psi_d_rad,
             heading_error_rad=terms.heading_error_rad,
-            xte_m=g.xte_m,
-            speed_cmd_m_s=g.speed_cmd_m_s,
+            xte_m=None if g is None or s.kind != "course" else g.xte_m,
+            speed_cmd_m_s=s.speed_cmd_m_s if s.kind == "course" else 0.0,
             pid_p_n=p_n,
             pid_i_n=i_n,
             pid_d_n=d_n,
@@ -154,11 +293,16 @@ class Autopilot:
             saturation=alloc.saturation,
             turn_limit=alloc.turn_limit,
             common_limit=alloc.common_limit,
-            reached_index=g.reached_index,
-            reached_distance_m=g.reached_distance_m,
-            reached_how=g.reached_how,
-            complete=g.complete,
+            reached_index=None if reached is None else reached.reached_index,
+            reached_distance_m=None if reached is None else reached.reached_distance_m,
+            reached_how=None if reached is None else reached.reached_how,
+            complete=self.guidance.complete,
             tau_com_trim_n=trim_n,
-            thrust_off=g.thrust_off,
-            finished=g.finished,
+            thrust_off=s.kind == "off",
+            finished=self.finished,
+            hold_target_ne_m=s.hold_target_ne_m,
+            holding=s.holding,
+            hold_error_m=None if h is None else h.error_m,
+            hold_heading_rad=None if h is None else h.psi_ref_rad,
+            hold_disturbance_n=None if h is None else h.disturbance_n,
         )

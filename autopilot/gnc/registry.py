@@ -15,10 +15,12 @@ GUIDANCE_LAWS: dict[str, type[WaypointGuidance]] = {
 }
 
 
-def make_guidance(config, waypoints_ne_m, *, speeds_m_s=None, boat_length_m: float = HULL_LENGTH_M, start_index: int = 0) -> WaypointGuidance:
+def make_guidance(config, waypoints_ne_m, *, speeds_m_s=None, boat_length_m: float = HULL_LENGTH_M, start_index: int = 0,
+                  stop_indices=()) -> WaypointGuidance:
     """The guidance law named by ``config.law`` (a GuidanceConfig) for a route."""
     try:
         cls = GUIDANCE_LAWS[config.law]
     except KeyError:
         raise ValueError(f"unknown guidance law {config.law!r} (known: {', '.join(GUIDANCE_LAWS)})") from None
-    return cls(config, waypoints_ne_m, speeds_m_s=speeds_m_s, boat_length_m=boat_length_m, start_index=start_index)
+    return cls(config, waypoints_ne_m, speeds_m_s=speeds_m_s, boat_length_m=boat_length_m, start_index=start_index,
+               stop_indices=stop_indices)

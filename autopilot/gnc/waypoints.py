@@ -12,9 +12,10 @@ must be the same for every law so that laws can be compared fairly:
   the law's own test) and the distance then are reported (the closest approach
   over the whole pass is :mod:`autopilot.gnc.passes`' job);
 - the wanted speed: per-leg speed or the default, slowed in large heading
-  errors (``turn_speed_floor_nd``) and on the approach to the last waypoint;
-- the last waypoint: ``stop`` (zero thrust, mission complete) or ``hold``
-  (station keeping within ``hold_radius_m``).
+  errors (``turn_speed_floor_nd``) and on the approach to the last waypoint and
+  to every waypoint it stops at to hold (``stop_indices``);
+- the last waypoint: zero thrust and ``complete``; what follows (stop, hold,
+  return to launch) is the modes' business (:mod:`autopilot.gnc.modes`).
 - the signed cross-track error from the current leg (+ = starboard of it);
   the first leg starts where the boat was at the first step.
 
@@ -60,14 +61,7 @@ class GuidanceOutput:
     reached_distance_m: float | None  # distance to the reached waypoint at the switch (m)
     reached_how: str | None  # "capture" (within capture_radius_m) or "passed" (the law's test)
     complete: bool
-    thrust_off: bool  # stop: command zero thrust (mission complete, or holding inside the radius)
-
-    @property
-    def finished(self) -> bool:
-        """Nothing more to do: the last waypoint is reached and the final action is to stop."""
-        return self.complete and self.final_stop
-
-    final_stop: bool = False  # the final action is "stop" (not "hold")
+    thrust_off: bool  # command zero thrust: the route is complete
 
 
 class WaypointGuidance:
@@ -83,6 +77,7 @@ class WaypointGuidance:
         speeds_m_s: Any = None,
         boat_length_m: float = HULL_LENGTH_M,
         start_index: int = 0,
+        stop_indices=(),
     ) -> None:
         wps = [(float(p[0]), float(p[1])) for p in waypoints_ne_m]
         if not wps:
@@ -100,6 +95,8 @@ class WaypointGuidance:
         self.waypoints = wps
         self.speeds = [None if s is None else float(s) for s in speeds]
         self.boat_length_m = float(boat_length_m)
+        # the boat slows on the approach to these (and to the last): it stops there to hold
+        self.stop_indices = frozenset(int(i) for i in stop_indices) | {len(wps) - 1}
         self.index = start_index
         self.complete = False
         self._leg_start: tuple[float, float] | None = (
@@ -135,7 +132,7 @@ class WaypointGuidance:
         v = self.speeds[i] if self.speeds[i] is not None else cfg.default_speed_m_s
         if cfg.turn_speed_floor_nd < 1.0:
             v *= max(cfg.turn_speed_floor_nd, math.cos(heading_error_rad))
-        if i == len(self.waypoints) - 1 and cfg.arrival_slowdown_m > 0.0:
+        if i in self.stop_indices and cfg.arrival_slowdown_m > 0.0:
             v = min(v, max(cfg.min_speed_m_s, v * distance_m / cfg.arrival_slowdown_m))
         return v * factor
 
@@ -163,7 +160,7 @@ class WaypointGuidance:
                 return GuidanceOutput(
                     wp_index=i, psi_d_rad=out.psi_d_rad, speed_cmd_m_s=out.speed_cmd_m_s, xte_m=xte,
                     tcpa_nd=steer.tcpa_nd, dcpa_nd=steer.dcpa_nd, cdh=steer.cdh,
-                    reached_index=i, reached_distance_m=d_m, reached_how=how, complete=True, thrust_off=out.thrust_off, final_stop=out.final_stop,
+                    reached_index=i, reached_distance_m=d_m, reached_how=how, complete=True, thrust_off=True,
                 )
             self.index = i + 1
             # steer to the new target in the same cycle: no cycle without a valid command
@@ -182,25 +179,10 @@ class WaypointGuidance:
         )
 
     def _after_end(self, nav: NavInput) -> GuidanceOutput:
-        """Past the last waypoint: stop, or hold station on it."""
+        """Past the last waypoint: zero thrust (the modes decide what comes next)."""
         i = len(self.waypoints) - 1
-        wn, we = self.waypoints[i]
-        dn, de = wn - nav.north_m, we - nav.east_m
-        d_m = math.hypot(dn, de)
-        xte = self._xte_m(nav.north_m, nav.east_m, i)
-        cfg = self.config
-        if cfg.final_action == "stop" or d_m <= cfg.hold_radius_m:
-            return GuidanceOutput(
-                wp_index=i, psi_d_rad=nav.psi_rad, speed_cmd_m_s=0.0, xte_m=xte, tcpa_nd=None,
-                dcpa_nd=None, cdh=None, reached_index=None, reached_distance_m=None, reached_how=None, complete=True,
-                thrust_off=True, final_stop=cfg.final_action == "stop",
-            )
-        # hold: creep back towards the waypoint, slower the closer it is
-        psi_d = math.atan2(de, dn)
-        err = wrap_pi(psi_d - nav.psi_rad)
-        v = min(cfg.default_speed_m_s, max(cfg.min_speed_m_s, cfg.default_speed_m_s * d_m / max(cfg.arrival_slowdown_m, 1e-6)))
-        v *= max(0.0, math.cos(err))  # turn on the spot first when it is behind
         return GuidanceOutput(
-            wp_index=i, psi_d_rad=psi_d, speed_cmd_m_s=v, xte_m=xte, tcpa_nd=None, dcpa_nd=None,
-            cdh=None, reached_index=None, reached_distance_m=None, reached_how=None, complete=True, thrust_off=False,
+            wp_index=i, psi_d_rad=nav.psi_rad, speed_cmd_m_s=0.0, xte_m=self._xte_m(nav.north_m, nav.east_m, i),
+            tcpa_nd=None, dcpa_nd=None, cdh=None, reached_index=None, reached_distance_m=None, reached_how=None,
+            complete=True, thrust_off=True,
         )

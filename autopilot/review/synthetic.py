@@ -193,10 +193,11 @@ def write_synthetic_log(
         if fs_idx is not None:
             events_at.setdefault(fs_idx, []).extend([
                 _line("fault", t[fs_idx], cause="heading_stale", detail="no heading for 0.5 s"),
-                _line("failsafe", t[fs_idx], cause="heading_stale", action="zero_thrust"),
+                _line("failsafe", t[fs_idx], cause="heading_stale", action="stop", configured="stop", fallback=None),
             ])
 
     mode = np.where(moving, "auto", "failsafe")
+    battery_rest = 12.65 - 0.3 * t / max(float(t[-1]), 1.0)
     fields = {
         "lat_deg": (lat, "%.8f", valid_pos), "lon_deg": (lon, "%.8f", valid_pos),
         "north_m": (north, "%.3f", valid_pos), "east_m": (east, "%.3f", valid_pos),
@@ -225,6 +226,15 @@ def write_synthetic_log(
         "tau_com_trim_n": (np.zeros(n), "%.3f", moving), "skipped_cycles": (np.zeros(n, dtype=int), "%d", None),
         "turn_limit": (np.where(sat_port & ~sat_stbd & (tau_order > 0), 1, np.where(sat_stbd & ~sat_port & (tau_order < 0), -1, 0)), "%d", None),
         "common_limit": (np.zeros(n, dtype=int), "%d", None),
+        "hold_north_m": (np.zeros(n), "%.3f", np.zeros(n, dtype=bool)),
+        "hold_east_m": (np.zeros(n), "%.3f", np.zeros(n, dtype=bool)),
+        "hold_error_m": (np.zeros(n), "%.3f", np.zeros(n, dtype=bool)),
+        "hold_heading_deg": (np.zeros(n), "%.2f", np.zeros(n, dtype=bool)),
+        "hold_disturbance_n": (np.zeros(n), "%.3f", np.zeros(n, dtype=bool)),
+        # a 105 Ah battery slowly discharging, sagging with the thrust (autopilot/sim/battery.py's shape)
+        "battery_v": (battery_rest - 1.2 * 0.5 * ((np.abs(pwm_port) / 100) ** 3 + (np.abs(pwm_stbd) / 100) ** 3), "%.2f",
+                      t > 0.5),
+        "battery_rest_v": (battery_rest, "%.2f", t > 0.5),
     }
     path = Path(path)
     origin_lat, origin_lon = origin_deg

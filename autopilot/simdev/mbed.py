@@ -10,7 +10,9 @@ Records for tests: ``commands`` (every applied command:
 and ``thrust_log`` (every change of the outputs:
 ``(t_s, duty_port_pct, reverse_port, duty_stbd_pct, reverse_stbd, cause)``,
 cause "command" or "timeout"). Faults: ``silent`` (obeys, never acks),
-``ack_delay_s``, ``unplug()``, ``replug()``.
+``ack_delay_s``, ``unplug()``, ``replug()``. The battery (:mod:`autopilot.sim.battery`)
+drains with the duties applied and its voltage, sagging under load, is in every ``OK``
+acknowledgement; ``report_battery = False`` is old firmware without the field.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from autopilot.drivers.mbed_protocol import (
     decode_command,
     encode_ack,
 )
+from autopilot.sim.battery import Battery, BatteryConfig
 from autopilot.simdev.boat import SimBoat
 from autopilot.simdev.pty import PtyEndpoint
 
@@ -40,6 +43,7 @@ class SimulatedMbed:
         directory,
         stop_timeout_s: float = 0.5,
         name: str = "mbed",
+        battery: BatteryConfig = BatteryConfig(),
     ) -> None:
         self.boat = boat
         self.clock = clock
@@ -51,6 +55,9 @@ class SimulatedMbed:
         self.commands: list[tuple[float, int, float, bool, float, bool]] = []
         self.thrust_log: list[tuple[float, float, bool, float, bool, str]] = []
         self.outputs: tuple[float, bool, float, bool] = (0.0, False, 0.0, False)
+        self.battery = Battery(battery)
+        self.report_battery = True
+        self._battery_t_s: float | None = None
         self._malformed = 0
         self.rejected = 0
         self.timeouts = 0
@@ -161,9 +168,9 @@ class SimulatedMbed:
         self.commands.append((now_s, cmd.seq, cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct, cmd.reverse_stbd))
         self._set((cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct, cmd.reverse_stbd), now_s, "command")
         self._armed.set()
-        self._reply(
-            encode_ack(cmd.seq, "OK", cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct, cmd.reverse_stbd)
-        )
+        volts = self.battery.voltage_v(cmd.duty_port_pct, cmd.duty_stbd_pct) if self.report_battery else None
+        self._reply(encode_ack(cmd.seq, "OK", cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct,
+                               cmd.reverse_stbd, battery_v=None if volts is None else min(volts, 99.99)))
 
     def _reply(self, line: bytes) -> None:
         if self.silent:
@@ -179,6 +186,9 @@ class SimulatedMbed:
 
     def _set(self, outputs: tuple[float, bool, float, bool], now_s: float, cause: str) -> None:
         self.boat.advance_to(now_s)  # the old thrust acted until now
+        if self._battery_t_s is not None:  # ... and drew its current until now
+            self.battery.drain(self.outputs[0], self.outputs[2], now_s - self._battery_t_s)
+        self._battery_t_s = now_s
         if outputs != self.outputs or not self.thrust_log:
             self.thrust_log.append((now_s, *outputs, cause))
         self.outputs = outputs

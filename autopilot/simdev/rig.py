@@ -33,6 +33,7 @@ class SimRig:
         stop_timeout_s: float = 0.5,
         advance_period_s: float = 0.05,
         sc30_options: dict | None = None,
+        battery=None,
     ) -> None:
         self.clock = clock
         self.boat = SimBoat(
@@ -54,7 +55,8 @@ class SimRig:
             seed=seed,
             **(sc30_options or {}),
         )
-        self.mbed = SimulatedMbed(self.boat, clock, directory=directory, stop_timeout_s=stop_timeout_s)
+        self.mbed = SimulatedMbed(self.boat, clock, directory=directory, stop_timeout_s=stop_timeout_s,
+                                  **({} if battery is None else {"battery": battery}))
         self.advance_period_s = float(advance_period_s)
         self._task: asyncio.Task | None = None
 

@@ -1,0 +1,209 @@
+"""The operator's modes, each a small object with one ``update`` (ArduPilot Rover's mode classes).
+
+A mode turns one cycle's navigation into a :class:`Steering` for the inner loop
+(:class:`autopilot.gnc.autopilot.Autopilot`): a course and a speed (the waypoint
+path), a heading and a common thrust (station keeping), or nothing (zero thrust).
+A mode may hand over to another (``then``): the mission ends in a hold or a return
+to launch, a return to launch ends holding at the launch point. ``requires_position``:
+the mode cannot run without a position and a heading (ArduPilot's
+``requires_position()``); a failsafe never chooses such a mode for a position or
+heading fault. The names are :class:`autopilot.logschema.Mode`'s. Pure.
+
+    auto      the mission: waypoint guidance; a waypoint's hold_s / hold holds station there,
+              then the mission goes on; at its end: complete (stop), hold, or rtl
+    hold      station keeping at a point, at a given heading or the least-effort one
+    paused    hold where the boat was; resume continues the mission at the same waypoint
+    rtl       steer to the launch point with the mission's guidance law, then hold there
+    stop      zero thrust, latched until commanded
+    complete  the mission ended with stop: zero thrust, the run may end
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from autopilot.gnc.registry import make_guidance
+from autopilot.gnc.station_keeping import HoldOutput, StationKeeper
+from autopilot.gnc.waypoints import GuidanceOutput
+from autopilot.logschema import Mode
+
+__all__ = ["Steering", "Handover", "AutoMode", "HoldMode", "PausedMode", "RtlMode", "StopMode", "CompleteMode"]
+
+
+@dataclass(frozen=True)
+class Handover:
+    """A mode's request to be replaced (the helm makes the new mode)."""
+
+    mode: Mode
+    cause: str
+    target_ne_m: tuple[float, float] | None = None  # where a hold holds (None: where the boat is)
+    keeper: StationKeeper | None = None  # the keeper that closed on that point (the hold goes on with it)
+
+
+@dataclass(frozen=True)
+class Steering:
+    """What a mode asks of the inner loop this cycle."""
+
+    kind: str  # "course" (psi_d, speed), "force" (psi_d, signed tau_com), "off" (zero thrust)
+    psi_d_rad: float = 0.0
+    speed_cmd_m_s: float = 0.0
+    tau_com_n: float = 0.0
+    guidance: GuidanceOutput | None = None  # the waypoint guidance's own terms, when it ran
+    hold: HoldOutput | None = None  # station keeping's, when it ran
+    hold_target_ne_m: tuple[float, float] | None = None
+    holding: bool = False  # the hold proper (scored, timed); False while station keeping only closes on the point
+    then: Handover | None = None
+
+
+def keep_station(keeper: StationKeeper, nav, dt_s: float, guidance: GuidanceOutput | None = None, *,
+                 holding: bool = True) -> Steering:
+    """One station-keeping step as a Steering."""
+    h = keeper.step(nav.north_m, nav.east_m, nav.psi_rad, nav.speed_m_s, nav.course_rad, dt_s)
+    kind = "off" if h.drifting else "course" if h.approach else "force"
+    return Steering(kind, psi_d_rad=h.psi_d_rad, speed_cmd_m_s=h.speed_cmd_m_s, tau_com_n=h.tau_com_n,
+                    guidance=guidance, hold=h, hold_target_ne_m=keeper.target, holding=holding)
+
+
+class Closing:
+    """The last ``hold.approach_m`` to a point the boat will hold: station keeping steers (it brakes
+    astern, on the braking-limited speed profile) while the route's guidance still decides when the
+    point is reached. The same keeper then holds, its disturbance estimate already learning."""
+
+    def __init__(self, hold_config) -> None:
+        self.config = hold_config
+        self.keeper: StationKeeper | None = None
+
+    def near(self, nav, point) -> bool:
+        return math.hypot(point[0] - nav.north_m, point[1] - nav.east_m) < self.config.approach_m
+
+    def keeper_for(self, point, nav) -> StationKeeper:
+        p = (float(point[0]), float(point[1]))
+        if self.keeper is None or self.keeper.target != p:
+            self.keeper = StationKeeper(self.config, p, initial_heading_rad=nav.psi_rad)
+        return self.keeper
+
+    def take(self, point, nav) -> StationKeeper:
+        """The keeper for the point (the closing one if it was closing on it); closing ends."""
+        k, self.keeper = self.keeper_for(point, nav), None
+        return k
+
+
+class StopMode:
+    mode = Mode.STOP
+    requires_position = False
+
+    def update(self, nav, dt_s: float) -> Steering:
+        return Steering("off", psi_d_rad=nav.psi_rad)
+
+
+class CompleteMode(StopMode):
+    mode = Mode.COMPLETE
+
+
+class HoldMode:
+    """Station keeping at ``target_ne_m`` (:mod:`autopilot.gnc.station_keeping`)."""
+
+    mode = Mode.HOLD
+    requires_position = True
+
+    def __init__(self, hold_config, target_ne_m, *, heading_rad: float | None, initial_heading_rad: float,
+                 keeper: StationKeeper | None = None) -> None:
+        self.keeper = keeper if keeper is not None and heading_rad is None else StationKeeper(
+            hold_config, target_ne_m, heading_rad=heading_rad, initial_heading_rad=initial_heading_rad)
+
+    def update(self, nav, dt_s: float) -> Steering:
+        return keep_station(self.keeper, nav, dt_s)
+
+
+class PausedMode(HoldMode):
+    mode = Mode.PAUSED
+
+
+class RtlMode:
+    """Back to the launch point with the mission's guidance law, then a hold there."""
+
+    mode = Mode.RTL
+    requires_position = True
+
+    def __init__(self, config, launch_ne_m, *, boat_length_m: float) -> None:
+        self.launch = (float(launch_ne_m[0]), float(launch_ne_m[1]))
+        self.guidance = make_guidance(config.guidance, [self.launch], boat_length_m=boat_length_m)
+        self.closing = Closing(config.hold)
+        self.arrived_keeper: StationKeeper | None = None  # handed to the hold at the launch point
+
+    def update(self, nav, dt_s: float) -> Steering:
+        g = self.guidance.update(nav, dt_s)
+        if g.complete:
+            self.arrived_keeper = self.closing.take(self.launch, nav)
+            return Steering("off", psi_d_rad=nav.psi_rad, guidance=g,
+                            then=Handover(Mode.HOLD, "rtl: at the launch point", self.launch, self.arrived_keeper))
+        if self.closing.near(nav, self.launch):
+            return keep_station(self.closing.keeper_for(self.launch, nav), nav, dt_s, guidance=g, holding=False)
+        return Steering("course", psi_d_rad=g.psi_d_rad, speed_cmd_m_s=g.speed_cmd_m_s, guidance=g)
+
+
+class AutoMode:
+    """The mission: its guidance (kept across pauses and holds), its hold items, its end."""
+
+    mode = Mode.AUTO
+    requires_position = True
+
+    def __init__(self, config, waypoints_ne_m, *, speeds_m_s=None, holds_s=None, rtl: bool = False,
+                 boat_length_m: float, start_index: int = 0) -> None:
+        self.config = config
+        self.holds_s = tuple(holds_s or ())
+        stops = [i for i in range(len(self.holds_s)) if self._hold_s(i) is not None]
+        self.guidance = make_guidance(config.guidance, waypoints_ne_m, speeds_m_s=speeds_m_s,
+                                      boat_length_m=boat_length_m, start_index=start_index, stop_indices=stops)
+        self.rtl = rtl
+        self.closing = Closing(config.hold)
+        self.item_keeper: StationKeeper | None = None  # holding at a waypoint of the mission
+        self.item_left_s = 0.0
+        self.item_index: int | None = None
+
+    def end_item_hold(self) -> bool:
+        """Resume: end a hold item early (True if there was one)."""
+        held = self.item_keeper is not None
+        self.item_keeper = self.item_index = None
+        return held
+
+    def _hold_s(self, i: int) -> float | None:
+        h = self.holds_s[i] if i < len(self.holds_s) else None
+        return None if h is None or h <= 0.0 else h
+
+    def update(self, nav, dt_s: float) -> Steering:
+        if self.item_keeper is not None:
+            self.item_left_s -= dt_s
+            if self.item_left_s > 0.0:
+                return keep_station(self.item_keeper, nav, dt_s)
+            self.end_item_hold()
+        if self.guidance.complete:
+            return self._end(nav)
+        g = self.guidance.update(nav, dt_s)
+        i = g.reached_index
+        if i is not None and self._hold_s(i) is not None:
+            self.item_index, self.item_left_s = i, self._hold_s(i)
+            self.item_keeper = self.closing.take(self.guidance.waypoints[i], nav)
+            return keep_station(self.item_keeper, nav, dt_s, guidance=g)
+        if g.complete:
+            return self._end(nav, g)
+        target = self.guidance.waypoints[g.wp_index]
+        if self._stops_at(g.wp_index) and self.closing.near(nav, target):
+            return keep_station(self.closing.keeper_for(target, nav), nav, dt_s, guidance=g, holding=False)
+        return Steering("course", psi_d_rad=g.psi_d_rad, speed_cmd_m_s=g.speed_cmd_m_s, guidance=g)
+
+    def _stops_at(self, i: int) -> bool:
+        """The boat holds at waypoint i: a hold item, or the last waypoint when the mission ends holding."""
+        last = i == len(self.guidance.waypoints) - 1
+        return self._hold_s(i) is not None or (last and not self.rtl and self.config.guidance.final_action == "hold")
+
+    def _end(self, nav, g: GuidanceOutput | None = None) -> Steering:
+        last = self.guidance.waypoints[-1]
+        if self.rtl:
+            then = Handover(Mode.RTL, "mission: return to launch")
+        elif self.config.guidance.final_action == "hold":
+            then = Handover(Mode.HOLD, "mission end: hold at the last waypoint", last, self.closing.take(last, nav))
+        else:
+            then = Handover(Mode.COMPLETE, "mission end: stop")
+        return Steering("off", psi_d_rad=nav.psi_rad, guidance=g, then=then)

@@ -1,0 +1,175 @@
+"""Station keeping (HOLD) for a catamaran with two fixed thrusters and no rudder.
+
+The boat can push along its hull, ahead or astern (the reverse curve of SPEC 4), and
+turn; it cannot push sideways. So it holds a point the way a weathervaning vessel
+does (Fossen's weather-optimal positioning): it lies with its bow into the resultant
+of current and wind, holds the distance along the hull with the common thrust, and
+steers a lateral error away with a small heading correction.
+
+    e          = target - position (north, east)                the error, earth frame
+    D         += ki e dt, near the point, |D| <= integral_limit   the thrust per thruster the current and
+                                                                  wind take, earth frame, estimated on line
+    psi_ref    = the given hold heading, else the direction of D  least effort: bow into the resultant, where
+                 (rate-limited; held while |D| < disturbance_min)  the hull's drag is lowest
+    e_a, v_a   = e and the ground speed along the hull (actual heading)
+    v_ref      = sqrt_controller(e_a, speed_gain, brake)          the speed to close with: linear near the
+                                                                  point, braking-limited farther out
+    tau_com    = kv (v_ref - v_a) + D . u_hull                    per thruster (N), ahead or astern
+    e_l        = e to starboard of psi_ref
+    psi_d      = psi_ref + atan(+-e_l / lookahead), within +-max_correction (the sign of tau_com: astern,
+                 the stern leads)
+
+tau_com and psi_d go to the same heading PID and allocation as every mode
+(:class:`autopilot.gnc.autopilot.Autopilot`). Farther than ``approach_m`` from the
+point the boat first steers to it at ``approach_speed_m_s`` (the course path), as a
+waypoint; inside it the speed to close with never asks for more braking than
+``brake_m_s2`` (the position -> velocity square-root law of ArduPilot's position
+controllers), so the boat arrives without overshooting on what two thrusters astern
+can stop. With ``radius_m`` > 0 it drifts at zero thrust inside the radius and drives
+back when it reaches it (ArduPilot's loiter for boats: ``LOIT_RADIUS``), until it is
+within half the radius; 0 = hold precisely. Pure: numbers in, numbers out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from autopilot.geo import wrap_pi
+from autopilot.mathutil import clamp
+from autopilot.schema import param
+
+__all__ = ["HoldConfig", "HoldOutput", "StationKeeper"]
+
+
+@dataclass(frozen=True)
+class HoldConfig:
+    """The ``gnc.hold`` block: station keeping's gains and limits (tuned in simulation: README, Modes)."""
+
+    radius_m: float = param(0.0, unit="m", lo=0.0, hi=100.0, source="ArduPilot LOIT_RADIUS (drift, then return)",
+                            doc="drift at zero thrust inside this radius, drive back at it; 0 = hold precisely")
+    speed_gain_per_s: float = param(0.55, unit="1/s", lo=0.01, hi=10.0, source="tuned in simulation (autopilot evaluate)",
+                                    doc="near the point, the speed to close with per metre of error along the hull")
+    brake_m_s2: float = param(0.25, unit="m/s^2", lo=0.01, hi=2.0,
+                              source="two thrusters astern (~2 x 25 N) on ~300 kg with added mass, with margin",
+                              doc="farther out, the speed to close with is what this deceleration can stop")
+    kv_n_s_per_m: float = param(90.0, unit="N s/m", lo=0.0, hi=500.0, source="tuned in simulation",
+                                doc="common thrust per thruster per m/s the speed along the hull misses that speed")
+    ki_n_per_m_s: float = param(0.4, unit="N/(m s)", lo=0.0, hi=50.0, source="tuned in simulation",
+                                doc="growth of the disturbance estimate per metre of error along the hull")
+    learn_within_m: float = param(5.0, unit="m", lo=0.1, hi=50.0, source="chosen",
+                                  doc="the disturbance estimate learns only this close to the point (not from an approach)")
+    learn_below_m_s: float = param(0.2, unit="m/s", lo=0.01, hi=3.0, source="chosen",
+                                   doc="... and only below this ground speed (holding, not overshooting)")
+    learn_error_m: float = param(1.5, unit="m", lo=0.05, hi=50.0, source="chosen",
+                                 doc="at most this much error drives the estimate (a large error is a transient)")
+    integral_limit_n: float = param(28.0, unit="N", lo=0.0, hi=100.0, source="below the 32.5 N of a thruster",
+                                    doc="largest disturbance estimate (per thruster)")
+    disturbance_min_n: float = param(1.0, unit="N", lo=0.0, hi=30.0, source="chosen",
+                                     doc="below this estimate the heading held so far is kept (no resultant to face)")
+    heading_rate_deg_s: float = param(9.0, unit="deg/s", lo=0.1, hi=90.0, source="chosen",
+                                      doc="how fast the least-effort heading may swing")
+    lookahead_m: float = param(5.0, unit="m", lo=0.5, hi=100.0, source="chosen, ~1 boat length",
+                               doc="heading correction atan(lateral error / lookahead)")
+    max_correction_deg: float = param(40.0, unit="deg", lo=0.0, hi=90.0, source="chosen",
+                                      doc="largest heading correction for a lateral error")
+    approach_m: float = param(8.0, unit="m", lo=1.0, hi=500.0, source="chosen, two boat lengths",
+                              doc="farther than this the boat first steers to the point as to a waypoint")
+    approach_speed_m_s: float = param(1.0, unit="m/s", lo=0.1, hi=3.4, source="Fig 8.2 (CC)",
+                                      doc="speed of that approach")
+
+
+@dataclass(frozen=True)
+class HoldOutput:
+    """One station-keeping step: a course demand (``approach``), a force demand, or drift (zero thrust)."""
+
+    psi_d_rad: float
+    tau_com_n: float  # per thruster, negative = astern (force demand only)
+    speed_cmd_m_s: float  # the approach's speed (course demand only)
+    approach: bool  # steer to the point as to a waypoint (the course path)
+    drifting: bool  # inside the radius: zero thrust
+    error_m: float
+    psi_ref_rad: float  # the heading it holds (given, or least effort)
+    disturbance_n: float  # the steady thrust the disturbance takes, along psi_ref, per thruster
+
+
+def sqrt_controller(error: float, gain: float, accel: float) -> float:
+    """Rate for an error: ``gain * error`` near zero, ``sqrt(2 accel |error|)`` farther out (continuous at the
+    knee ``accel / gain^2``), so closing at that rate can always be stopped at ``accel``."""
+    knee = accel / (gain * gain)
+    if abs(error) <= knee:
+        return gain * error
+    return math.copysign(math.sqrt(2.0 * accel * (abs(error) - 0.5 * knee)), error)
+
+
+class StationKeeper:
+    """Holds one point (and a heading, or the least-effort one). :meth:`step` once per control cycle."""
+
+    def __init__(self, config: HoldConfig, target_ne_m: tuple[float, float], *, heading_rad: float | None = None,
+                 initial_heading_rad: float = 0.0) -> None:
+        self.config = config
+        self.target = (float(target_ne_m[0]), float(target_ne_m[1]))
+        self.heading_rad = heading_rad
+        self._psi_ref = heading_rad if heading_rad is not None else float(initial_heading_rad)
+        self._d_n = (0.0, 0.0)  # the disturbance estimate D (north, east), N per thruster
+        self._drifting = False
+
+    @property
+    def disturbance_ne_n(self) -> tuple[float, float]:
+        return self._d_n
+
+    def step(self, north_m: float, east_m: float, psi_rad: float, sog_m_s: float, cog_rad: float,
+             dt_s: float) -> HoldOutput:
+        cfg = self.config
+        en, ee = self.target[0] - north_m, self.target[1] - east_m
+        d = math.hypot(en, ee)
+        if cfg.radius_m > 0.0:  # drift inside the radius, come back from its edge to half of it
+            if self._drifting and d >= cfg.radius_m:
+                self._drifting = False
+            elif not self._drifting and d <= 0.5 * cfg.radius_m:
+                self._drifting = True
+        if self._drifting:
+            return self._out(psi_rad, 0.0, 0.0, False, True, d)
+        if d > cfg.approach_m:
+            return self._out(math.atan2(ee, en), 0.0, cfg.approach_speed_m_s, True, False, d)
+        slow = not math.isfinite(sog_m_s) or sog_m_s < cfg.learn_below_m_s
+        if d < cfg.learn_within_m and slow:  # learn from holding, not from an approach or an overshoot
+            w = min(1.0, cfg.learn_error_m / max(d, 1e-9))  # at most learn_error_m of error counts
+            dn = self._d_n[0] + cfg.ki_n_per_m_s * en * w * dt_s
+            de = self._d_n[1] + cfg.ki_n_per_m_s * ee * w * dt_s
+            size = math.hypot(dn, de)
+            if size > cfg.integral_limit_n:
+                dn, de = dn * cfg.integral_limit_n / size, de * cfg.integral_limit_n / size
+            self._d_n = (dn, de)
+        self._update_reference(dt_s)
+        c, s = math.cos(psi_rad), math.sin(psi_rad)
+        e_a = en * c + ee * s  # the thrust acts along the hull as it lies now
+        v_a = sog_m_s * math.cos(cog_rad - psi_rad) if math.isfinite(sog_m_s) else 0.0
+        v_ref = clamp(sqrt_controller(e_a, cfg.speed_gain_per_s, cfg.brake_m_s2), -cfg.approach_speed_m_s,
+                      cfg.approach_speed_m_s)
+        tau_com = cfg.kv_n_s_per_m * (v_ref - v_a) + self._d_n[0] * c + self._d_n[1] * s
+        e_l = -en * math.sin(self._psi_ref) + ee * math.cos(self._psi_ref)
+        limit = math.radians(cfg.max_correction_deg)
+        lead = 1.0 if tau_com >= 0.0 else -1.0  # astern, turning the other way moves the boat the same way
+        psi_d = self._psi_ref + clamp(math.atan2(lead * e_l, cfg.lookahead_m), -limit, limit)
+        return self._out(wrap_pi(psi_d), tau_com, 0.0, False, False, d)
+
+    def _update_reference(self, dt_s: float) -> None:
+        """Least effort: the bow swings (rate-limited) towards the direction of the disturbance estimate,
+        once there is one to face."""
+        cfg = self.config
+        if self.heading_rad is not None:
+            self._psi_ref = self.heading_rad
+            return
+        dn, de = self._d_n
+        if math.hypot(dn, de) < cfg.disturbance_min_n:
+            return
+        turn = wrap_pi(math.atan2(de, dn) - self._psi_ref)
+        step = math.radians(cfg.heading_rate_deg_s) * dt_s
+        self._psi_ref = wrap_pi(self._psi_ref + clamp(turn, -step, step))
+
+    def _out(self, psi_d, tau_com, speed, approach, drifting, d) -> HoldOutput:
+        dn, de = self._d_n
+        along = dn * math.cos(self._psi_ref) + de * math.sin(self._psi_ref)
+        return HoldOutput(psi_d_rad=psi_d, tau_com_n=tau_com, speed_cmd_m_s=speed, approach=approach,
+                          drifting=drifting, error_m=d, psi_ref_rad=self._psi_ref, disturbance_n=along)

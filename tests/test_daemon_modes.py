@@ -1,0 +1,265 @@
+"""Modes, failsafe actions and the battery through the real daemon over pseudo-terminals (issue 15).
+
+The daemon is a subprocess without --sim, as on the boat, against the simulated SC-30 and Mbed
+hosted here (tests/test_failsafe_faults.py's Daemon, clock 10x); the operator's commands are
+`autopilot ctl` subprocesses on the daemon's control socket.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import socket
+
+import pytest
+
+from autopilot.sim.battery import BatteryConfig
+from tests.test_failsafe_faults import Daemon, square_mission
+
+
+def _modes(d: Daemon) -> list[tuple[str, str, str]]:
+    return [(r["from"], r["mode"], r["cause"]) for r in d.events("mode")]
+
+
+def _last_cycle(d: Daemon) -> dict:
+    cycles = [r for r in d.log() if r["event"] == "cycle"]
+    return cycles[-1] if cycles else {}
+
+
+def _boat_ne(d: Daemon) -> tuple[float, float]:
+    x = d.rig.boat.state
+    return float(x[0]), float(x[1])
+
+
+async def _wait_mode(d: Daemon, mode: str, limit_s: float = 30.0) -> None:
+    await d.wait(lambda: _last_cycle(d).get("mode") == mode, limit_s, f"mode {mode}")
+
+
+def _raw(path, payload: bytes) -> dict:
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+        s.settimeout(10.0)
+        s.connect(str(path))
+        s.sendall(payload)
+        try:
+            s.shutdown(socket.SHUT_WR)
+        except OSError:
+            pass
+        data = b""
+        while True:
+            chunk = s.recv(65536)
+            if not chunk:
+                break
+            data += chunk
+    return json.loads(data)
+
+
+def test_each_mode_by_ctl_and_rtl_ends_holding_at_launch(tmp_path):
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=25.0, laps=2))
+        try:
+            await d.start()
+            await d.steady_thrust(2.0)
+            code, text = await d.ctl("status")
+            assert code == 0 and "mode: auto" in text and "battery:" in text, text
+            launch = d.events("launch")[0]
+
+            code, text = await d.ctl("pause")
+            assert (code, text) == (0, "paused")
+            await _wait_mode(d, "paused")
+            wp_paused = _last_cycle(d)["wp_index"]
+            await d.clock.sleep(5.0)
+            c = _last_cycle(d)
+            assert c["hold_north_m"] is not None and c["hold_error_m"] < 3.0 and c["wp_index"] == wp_paused
+
+            code, text = await d.ctl("resume")
+            assert (code, text) == (0, "auto")
+            await _wait_mode(d, "auto")
+            assert _last_cycle(d)["wp_index"] == wp_paused  # the same waypoint
+
+            code, text = await d.ctl("hold", "--heading", "90")
+            assert (code, text) == (0, "hold")
+            await _wait_mode(d, "hold")
+            await d.clock.sleep(15.0)
+            assert abs(((_last_cycle(d)["heading_deg"] - 90.0) + 180.0) % 360.0 - 180.0) < 15.0
+
+            code, text = await d.ctl("stop")
+            assert (code, text) == (0, "stop")
+            await d.wait(lambda: not d.rig.mbed.thrusting and _last_cycle(d)["mode"] == "stop", 3.0, "stopped")
+            await d.clock.sleep(2.0)
+            assert not d.rig.mbed.thrusting  # latched
+
+            code, text = await d.ctl("rtl")
+            assert (code, text) == (0, "rtl")
+            await _wait_mode(d, "hold", 150.0)  # arrived: holds at the launch point
+            await d.clock.sleep(20.0)
+            n, e = _boat_ne(d)
+            assert math.hypot(n - launch["north_m"], e - launch["east_m"]) <= 2.0
+
+            commands = [(r["command"], r["accepted"], r["answer"]) for r in d.events("command")]
+            assert commands == [("pause", True, "paused"), ("resume", True, "auto"), ("hold", True, "hold"),
+                                ("stop", True, "stop"), ("rtl", True, "rtl")]  # status is not an event
+            assert [m[1] for m in _modes(d)] == ["paused", "auto", "hold", "stop", "rtl", "hold"]
+            assert _modes(d)[-1][2] == "rtl: at the launch point"
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
+
+
+def test_malformed_and_oversized_requests_are_refused_and_logged(tmp_path):
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=20.0))
+        try:
+            await d.start()
+            await d.steady_thrust(1.0)
+            path = d.runtime_dir / "control.sock"
+            loop = asyncio.get_running_loop()
+            answers = []
+            for payload in (b"{not json\n", b'{"command": "launch"}\n', b'{"command": "hold", "heading_deg": 400}\n',
+                            b'{"command": "rtl", "speed": 3}\n', b"x" * 5000 + b"\n", b"\xff\xfe\n"):
+                answers.append(await loop.run_in_executor(None, _raw, path, payload))
+            assert all(a["ok"] is False for a in answers)
+            texts = [a["answer"] for a in answers]
+            assert texts[0].startswith("malformed request: not JSON")
+            assert "command 'launch' is not one of status, hold, pause, resume, rtl, stop" in texts[1]
+            assert "heading_deg 400 outside [0, 360) deg" in texts[2]
+            assert "unknown field 'speed'" in texts[3]
+            assert texts[4] == "request too large (limit 1024 bytes)"
+            assert texts[5] == "malformed request: not UTF-8 text"
+            refused = [r for r in d.events("command") if not r["accepted"]]
+            assert len(refused) == 6
+            assert _last_cycle(d)["mode"] == "auto" and d.rig.mbed.thrusting  # nothing changed
+            mode = oct((path.stat().st_mode) & 0o777)
+            assert mode == "0o660"
+            code, text = await d.ctl("resume", "--heading", "10")
+            assert code == 2 and "--heading is for hold only" in text
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+            assert not path.exists()  # removed on the way out
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
+
+
+@pytest.mark.parametrize("action", ["stop", "hold", "rtl"])
+def test_geofence_takes_its_configured_action(tmp_path, action):
+    fence = [[-8.0, -8.0], [-8.0, 12.0], [12.0, 12.0], [12.0, -8.0]]
+    cfg = {"geofence": {"frame": "local", "polygon": fence}, "failsafe": {"actions": {"geofence": action}}}
+
+    async def scenario():
+        d = Daemon(tmp_path, {"name": "out", "frame": "local", "waypoints": [[40.0, 0.0]]}, config=cfg)
+        try:
+            await d.start()
+            await d.wait(lambda: d.events("failsafe"), 60.0, "geofence")
+            fs = d.events("failsafe")[0]
+            assert (fs["cause"], fs["action"], fs["configured"], fs["fallback"]) == ("geofence", action, action, None)
+            expected = {"stop": "stop", "hold": "hold", "rtl": "rtl"}[action]
+            await _wait_mode(d, expected, 5.0)
+            assert _modes(d)[0] == ("auto", expected, "failsafe geofence")
+            if action == "stop":
+                await d.clock.sleep(1.0)
+                assert not d.rig.mbed.thrusting
+                code, text = await d.ctl("resume")
+                assert code == 1 and text.startswith("resume refused: geofence latched"), text
+                code, text = await d.ctl("rtl")  # the operator may still bring it home
+                assert (code, text) == (0, "rtl")
+            elif action == "hold":
+                n0 = fs["t_s"]
+                await d.clock.sleep(20.0)
+                c = _last_cycle(d)
+                assert c["mode"] == "hold" and c["hold_error_m"] < 3.0 and c["t_s"] > n0
+            else:
+                await _wait_mode(d, "hold", 120.0)
+                launch = d.events("launch")[0]
+                await d.clock.sleep(10.0)
+                n, e = _boat_ne(d)
+                assert math.hypot(n - launch["north_m"], e - launch["east_m"]) <= 2.0
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
+
+
+def test_position_fault_never_takes_rtl_the_guard_falls_back_to_stop(tmp_path):
+    cfg = {"failsafe": {"actions": {"position": "rtl"}}}
+
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=20.0), config=cfg)
+        try:
+            await d.start()
+            await d.steady_thrust(2.0)
+            t_fault = d.clock.now_s()
+            d.rig.sc30.position_dropout = True
+            await d.time_to_stop(t_fault, 6.0)
+            await d.wait(lambda: d.events("failsafe"), 5.0, "failsafe event")
+            fs = d.events("failsafe")[0]
+            assert (fs["cause"], fs["action"], fs["configured"]) == ("position_stale", "stop", "rtl")
+            assert fs["fallback"] == "rtl needs a position and a heading: this is a position fault"
+            assert _last_cycle(d)["mode"] == "failsafe" and not d.rig.mbed.thrusting
+            code, text = await d.ctl("rtl")
+            assert code == 1 and text == "rtl refused: position stale", text
+            d.rig.sc30.position_dropout = False
+            await d.wait(lambda: d.rig.mbed.thrusting, 20.0, "resume")  # the mission goes on
+            assert _last_cycle(d)["mode"] == "auto"
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
+
+
+def test_battery_low_returns_home_then_critical_stops(tmp_path):
+    # a small, partly empty battery so that both stages come within minutes; the default thresholds
+    battery = BatteryConfig(capacity_ah=0.5, initial_soc=0.5)
+    cfg = {"failsafe": {"battery_low_s": 3.0, "battery_critical_s": 2.0}}
+
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=30.0, laps=3), config=cfg, rig_options={"battery": battery})
+        try:
+            await d.start()
+            await d.wait(lambda: any(r["cause"] == "battery_low" for r in d.events("failsafe")), 200.0, "battery low")
+            low = next(r for r in d.events("failsafe") if r["cause"] == "battery_low")
+            assert low["action"] == "rtl"
+            await d.wait(lambda: any(r["cause"] == "battery_critical" for r in d.events("failsafe")), 400.0,
+                         "battery critical")
+            crit = next(r for r in d.events("failsafe") if r["cause"] == "battery_critical")
+            assert crit["action"] == "stop" and crit["t_s"] > low["t_s"]
+            await d.clock.sleep(1.0)
+            assert not d.rig.mbed.thrusting and _last_cycle(d)["mode"] == "stop"
+            volts = [r["battery_v"] for r in d.log() if r["event"] == "cycle" and r["battery_v"] is not None]
+            rest = [r["battery_rest_v"] for r in d.log() if r["event"] == "cycle" and r["battery_rest_v"] is not None]
+            assert len(volts) > 100 and min(rest) < 11.7 < 12.0 < max(rest)
+            assert min(volts) < min(rest) - 0.1  # it sagged under thrust, and the estimate took the sag out
+            faults = [r["cause"] for r in d.events("fault")]
+            assert "battery_low" in faults and "battery_critical" in faults
+            assert [m[1:] for m in _modes(d)] == [("rtl", "failsafe battery_low"), ("stop", "failsafe battery_critical")]
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
+
+
+def test_old_firmware_without_the_battery_field_still_works(tmp_path):
+    async def scenario():
+        d = Daemon(tmp_path, {"name": "short", "frame": "local", "waypoints": [[8.0, 0.0]]})
+        try:
+            await d.start()
+            d.rig.mbed.report_battery = False
+            code = await d.finish(120.0)
+            assert code == 0
+            cycles = [r for r in d.log() if r["event"] == "cycle"]
+            assert cycles and all(r["battery_v"] is None for r in cycles[5:])
+            assert d.events("mission_complete") and not d.events("failsafe")
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
