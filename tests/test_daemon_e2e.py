@@ -213,6 +213,8 @@ def test_lockstep_runs_give_the_same_log_and_run_faster_than_real_time(tmp_path)
         sim_s = log[-1]["t_s"]
         assert sim_s / wall_s > 5.0, (sim_s, wall_s)  # ~40 s of mission in a few seconds of wall time
         assert log[-1]["reason"] == "complete" and log[-1]["skipped_cycles"] == 0
+        # the final zero thrust is acknowledged on the simulated clock too (it timed out at once in wall time)
+        assert log[-1]["ack_received"] is True
         assert all(r["lateness_ms"] == 0.0 for r in log if r["event"] == "cycle")
     assert len(logs[0]) == len(logs[1]) > 300
     for a, b in zip(*logs):

@@ -263,3 +263,14 @@ def test_old_firmware_without_the_battery_field_still_works(tmp_path):
             await d.close()
 
     asyncio.run(scenario())
+
+
+def test_ctl_without_a_daemon_says_so(tmp_path):
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "autopilot", "ctl", "--runtime-dir", str(tmp_path), "status"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 3
+    assert r.stderr.strip() == f"autopilot ctl: no running daemon answered (no socket at {tmp_path}/control.sock)"
+    assert "Traceback" not in r.stderr

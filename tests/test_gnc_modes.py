@@ -89,6 +89,7 @@ def test_inside_the_radius_it_drifts_and_it_drives_back_from_the_edge():
     back = sk.step(-2.1, 0.0, 0.0, 0.0, 0.0, 0.1)
     assert not back.drifting and back.tau_com_n > 0.0  # at the edge: thrust ahead, towards the point
     assert not sk.step(-1.5, 0.0, 0.0, 0.3, 0.0, 0.1).drifting  # until within half the radius
+    assert not sk.step(-0.9, 0.0, 0.0, 0.5, 0.0, 0.1).drifting  # ... and slow: it would coast out again
     assert sk.step(-0.9, 0.0, 0.0, 0.1, 0.0, 0.1).drifting
 
 

@@ -135,11 +135,13 @@ class MbedDriver(LineDevice):
             return self._acked_recent[seq]
         fut: asyncio.Future[bool] = asyncio.get_running_loop().create_future()
         self._waiters.setdefault(seq, []).append(fut)
+        # the timeout runs on the driver's clock (a lockstep clock has no fixed relation to wall time)
+        timer = asyncio.ensure_future(self._clock.sleep(timeout_s))
         try:
-            return await asyncio.wait_for(fut, self._clock.to_wall_s(timeout_s))
-        except asyncio.TimeoutError:
-            return False
+            await asyncio.wait({fut, timer}, return_when=asyncio.FIRST_COMPLETED)
+            return bool(fut.result()) if fut.done() and not fut.cancelled() else False
         finally:
+            timer.cancel()
             futs = self._waiters.get(seq)
             if futs and fut in futs:
                 futs.remove(fut)

@@ -27,7 +27,8 @@ waypoint; inside it the speed to close with never asks for more braking than
 controllers), so the boat arrives without overshooting on what two thrusters astern
 can stop. With ``radius_m`` > 0 it drifts at zero thrust inside the radius and drives
 back when it reaches it (ArduPilot's loiter for boats: ``LOIT_RADIUS``), until it is
-within half the radius; 0 = hold precisely. Pure: numbers in, numbers out.
+within half the radius and slow again (else it coasts through and out the other side);
+0 = hold precisely. Pure: numbers in, numbers out.
 """
 
 from __future__ import annotations
@@ -123,10 +124,11 @@ class StationKeeper:
         cfg = self.config
         en, ee = self.target[0] - north_m, self.target[1] - east_m
         d = math.hypot(en, ee)
-        if cfg.radius_m > 0.0:  # drift inside the radius, come back from its edge to half of it
+        if cfg.radius_m > 0.0:  # drift inside the radius; come back from its edge to half of it, and stop there
+            slow = not math.isfinite(sog_m_s) or sog_m_s < cfg.learn_below_m_s
             if self._drifting and d >= cfg.radius_m:
                 self._drifting = False
-            elif not self._drifting and d <= 0.5 * cfg.radius_m:
+            elif not self._drifting and d <= 0.5 * cfg.radius_m and slow:
                 self._drifting = True
         if self._drifting:
             return self._out(psi_rad, 0.0, 0.0, False, True, d)
