@@ -233,12 +233,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     mission_path = str(Path(opts.mission_path).resolve())
     sha = file_sha256(opts.mission_path)
     store = StateStore(state_dir)
-    from autopilot.daemon.control import ControlServer
-
     holder: dict = {}
-    control = ControlServer(control_socket(cfg, opts), submit=lambda req, answer: holder["loop"].submit(req, answer),
-                            status=lambda: holder["loop"].state.status if "loop" in holder else {"mode": "starting"},
-                            log=lambda name, **f: holder["loop"].log_event(name, **f) if "loop" in holder else None)
+    control = _control_server(control_socket(cfg, opts), holder)
     await control.start()  # before the log and the ports: a second daemon stops here
     if opts.sim:
         _console(f"control socket {control.path}: autopilot ctl --runtime-dir {control.path.parent} status")
@@ -286,6 +282,21 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         for line in end_summary(loop, str(log.path), sim=opts.sim):
             _console(line)
     return code
+
+
+def _control_server(path: Path, holder: dict):
+    """The control socket, bound before the loop exists: requests reach ``holder["loop"]`` once it does."""
+    from autopilot.daemon.control import ControlServer
+
+    def submit(req, answer):
+        if "loop" in holder:
+            holder["loop"].submit(req, answer)
+        else:
+            answer({"ok": False, "answer": f"{req.get('command')} refused: the daemon is starting"})
+
+    return ControlServer(path, submit=submit,
+                         status=lambda: holder["loop"].state.status if "loop" in holder else {"mode": "starting"},
+                         log=lambda name, **f: holder["loop"].log_event(name, **f) if "loop" in holder else None)
 
 
 async def _shut_down(tasks, devices, rig, tmpdir, clock) -> None:
