@@ -12,6 +12,7 @@ import pytest
 
 from autopilot.cli import main
 from autopilot.review.synthetic import write_synthetic_log
+from tests.test_review_modes import write_daemon_log
 
 CHROMIUM = shutil.which("chromium") or ("/usr/bin/chromium" if os.path.exists("/usr/bin/chromium") else None)
 
@@ -48,8 +49,9 @@ def reviewed(tmp_path_factory):
     d = tmp_path_factory.mktemp("browser")
     write_synthetic_log(d / "a.jsonl")
     write_synthetic_log(d / "b.jsonl", failsafe_at_s=25.0, weave_m=2.0)
+    write_daemon_log(d).rename(d / "c.jsonl")  # modes, holds and a failing battery (issue 15)
     out = d / "out"
-    assert main(["review", str(d / "a.jsonl"), str(d / "b.jsonl"), "--out", str(out)]) == 0
+    assert main(["review", *(str(d / f"{k}.jsonl") for k in "abc"), "--out", str(out)]) == 0
     return d, out
 
 
@@ -68,12 +70,15 @@ def test_screenshot_is_not_blank(reviewed, tmp_path):
     assert np.mean(gray < 0.5) > 0.005  # some dark ink: text, lines
 
 
-@pytest.mark.parametrize("page", ["report.html", "1-a/report.html", "2-b/report.html"])
+@pytest.mark.parametrize("page", ["report.html", "1-a/report.html", "2-b/report.html", "3-c/report.html"])
 def test_no_broken_images(reviewed, tmp_path, page):
     _need_chromium()
     _, out = reviewed
     images, broken = _image_check(tmp_path, out / page)
     assert images >= 1 and broken == 0
+    if page != "report.html":  # every figure, the battery panel among them, is on the page and loaded
+        html = (out / page).read_text()
+        assert images == html.count("<img ") and 'src="battery.png"' in html
 
 
 def test_the_check_sees_a_broken_image(reviewed, tmp_path):

@@ -9,6 +9,14 @@ Time integrals treat each cycle's command as held until the next cycle
 (zero-order hold, as the thrusters see it); a gap in the log longer than
 ``GAP_FACTOR`` nominal periods is not integrated over (nothing is known
 about it) and is reported as log-gap time.
+
+Station keeping is scored over the hold proper, as ``autopilot evaluate``
+scores it (``autopilot.evaluate.HoldScore``): not while it only closes on the point, the last
+``gnc.hold.approach_m`` of a return to launch or of the mission's way to a
+hold item (autopilot/gnc/modes.py ``Closing``). The log has no flag for that,
+so it is told by the mode: ``hold`` and ``paused`` hold; ``auto`` holds at a
+point once the waypoint there was reached (a hold item); ``rtl``, and ``auto``
+before that, close on it.
 """
 
 from __future__ import annotations
@@ -19,12 +27,16 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from autopilot.gnc.passes import closest_per_pass
-from autopilot.review.reader import MODES, MissionLog
+from autopilot.logschema import Mode
+from autopilot.review.reader import MODES, UNKNOWN_CODE, MissionLog, _is_number
 
 GAP_FACTOR = 5.0  # dt above this many nominal periods is a hole in the log
 STALE_HEADING_S = 0.5  # heading data older than this counts as stale (10 Hz source)
 STALE_POSITION_S = 2.0  # position older than this counts as stale (1 Hz GGA)
 LATENESS_PERCENTILES = (50.0, 90.0, 99.0, 99.9)
+HOLD_POINT_TOLERANCE_M = 1e-3  # logged hold points closer than this are one point (the daemon logs the target's own floats)
+HOLD_ERROR_PERCENTILE = 95.0  # the hold's achieved radius: this percentile of hold_error_m over its cycles
+UNKNOWN_MODE = "unknown"  # mode_time_s key of cycles whose mode is missing or not in the schema
 
 
 @dataclass
@@ -38,6 +50,24 @@ class WaypointScore:
     closest_north_m: float
     closest_east_m: float
     logged_closest_approach_m: float  # from waypoint_reached (NaN if absent)
+
+
+@dataclass
+class HoldStats:
+    """Station keeping at one point of the log (every stretch at that point together)."""
+
+    number: int  # 1, 2, ... in order of first appearance (the track plot's "hold 2")
+    north_m: float
+    east_m: float
+    first_t_s: float  # first cycle at the point, closing included
+    hold_s: float  # time of the hold proper
+    closing_s: float  # time station keeping only closed on the point
+    cycles: int  # cycles of the hold proper
+    error_rms_m: float  # of hold_error_m over those cycles (NaN: never held proper)
+    error_p95_m: float
+    error_max_m: float
+    energy_n_s: float  # (|T_port| + |T_stbd|) dt over the hold proper
+    modes: list  # the modes it held in ("auto": a hold item; "hold", "paused")
 
 
 @dataclass
@@ -69,6 +99,10 @@ class Scorecard:
     waypoints: list = field(default_factory=list)  # [WaypointScore]
     skipped_lines: int = 0
     read_notes: list = field(default_factory=list)
+    mode_time_s: dict = field(default_factory=dict)  # every schema mode (0 when absent), "unknown" if any
+    holds: list = field(default_factory=list)  # [HoldStats]; empty when the log has no hold point
+    battery_v: dict = field(default_factory=dict)  # "min", "max" under load; empty when not logged
+    battery_rest_v: dict = field(default_factory=dict)  # "min", "max" of the resting estimate; empty when not logged
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -103,6 +137,10 @@ class Scorecard:
             ("loop lateness p50 / p99 / max",
              f"{_fmt(lat.get('p50'), 'ms', 2)} / {_fmt(lat.get('p99'), 'ms', 2)} / {_fmt(lat.get('max'), 'ms', 2)}"),
             ("thrust unknown (not logged)", _fmt(self.thrust_unknown_s, "s", 1)),
+            ("time per mode", ", ".join(f"{m} {v:.1f} s" for m, v in self.mode_time_s.items() if v > 0) or "n/a"),
+            ("station keeping", _fmt_holds(self.holds)),
+            ("battery under load, min / max", _fmt_range(self.battery_v, "V")),
+            ("battery resting estimate, min / max", _fmt_range(self.battery_rest_v, "V")),
             ("stop", f"{self.stop_reason or 'no stop line'}" + (", mission complete" if self.complete else "")),
             ("log lines skipped", f"{self.skipped_lines}"),
         ]
@@ -125,6 +163,21 @@ def _fmt(x, unit: str, digits: int) -> str:
     if x is None or not math.isfinite(x):
         return "n/a"
     return f"{x:.{digits}f} {unit}"
+
+
+def _fmt_range(d: dict, unit: str) -> str:
+    return f"{d['min']:.2f} / {d['max']:.2f} {unit}" if d else "n/a (not logged)"
+
+
+def _fmt_holds(holds: list) -> str:
+    if not holds:
+        return "none"
+    held = [h for h in holds if h.cycles]
+    text = f"{len(holds)} point(s), {sum(h.hold_s for h in holds):.1f} s held"
+    if held:
+        text += "; p95 error " + ", ".join(f"hold {h.number}: {h.error_p95_m:.2f} m" for h in held[:5])
+        text += ", ..." if len(held) > 5 else ""
+    return text
 
 
 def _fmt_count(x) -> str:
@@ -272,6 +325,80 @@ def _fault_times(log: MissionLog, t_end_s: float) -> dict:
     return out
 
 
+def holding_proper(log: MissionLog) -> np.ndarray:
+    """Per cycle: station keeping held its point (the hold proper), rather than closing on it (module docstring)."""
+    t = log.col("t_s")
+    hn, he = log.col("hold_north_m"), log.col("hold_east_m")
+    at_point = np.isfinite(hn) & np.isfinite(he)
+    mode = log.mode
+    held = at_point & ((mode == MODES.index(Mode.HOLD.value)) | (mode == MODES.index(Mode.PAUSED.value)))
+    in_auto = at_point & (mode == MODES.index(Mode.AUTO.value))
+    wps = log.waypoints_ne_m
+    reached = [(float(ev["t_s"]), ev["wp_index"]) for ev in log.events_named("waypoint_reached")
+               if _is_number(ev.get("t_s")) and isinstance(ev.get("wp_index"), int)
+               and not isinstance(ev.get("wp_index"), bool) and 0 <= ev["wp_index"] < len(wps)]
+    if in_auto.any() and reached:
+        reached.sort()
+        when = np.array([r[0] for r in reached])
+        where = wps[[r[1] for r in reached]]
+        last = np.searchsorted(when, t, side="right") - 1  # the waypoint reached last, at or before each cycle
+        ok = in_auto & (last >= 0)
+        k = last[ok]
+        held[ok] |= np.hypot(where[k, 0] - hn[ok], where[k, 1] - he[ok]) < HOLD_POINT_TOLERANCE_M
+    return held
+
+
+def hold_stats(log: MissionLog, cycle_s: np.ndarray) -> list[HoldStats]:
+    """One :class:`HoldStats` per distinct hold point; ``cycle_s`` is each cycle's duration (:func:`hold_durations_s`)."""
+    hn, he = log.col("hold_north_m"), log.col("hold_east_m")
+    rows = np.nonzero(np.isfinite(hn) & np.isfinite(he))[0]
+    if len(rows) == 0:
+        return []
+    key = np.round(np.column_stack([hn[rows], he[rows]]) / HOLD_POINT_TOLERANCE_M).astype(np.int64)
+    _, first, point_of = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    point_of = point_of.ravel()
+    proper = holding_proper(log)[rows]
+    t, err = log.col("t_s"), log.col("hold_error_m")
+    thrust = np.abs(log.col("thrust_port_n")) + np.abs(log.col("thrust_stbd_n"))
+    out = []
+    for number, p in enumerate(np.argsort(first), start=1):
+        here = rows[point_of == p]
+        held = here[proper[point_of == p]]
+        e = err[held]
+        e = e[np.isfinite(e)]
+        known = held[np.isfinite(thrust[held])]
+        out.append(HoldStats(
+            number=number, north_m=float(hn[here[0]]), east_m=float(he[here[0]]), first_t_s=float(t[here[0]]),
+            hold_s=float(np.sum(cycle_s[held])),
+            closing_s=float(np.sum(cycle_s[here])) - float(np.sum(cycle_s[held])),
+            cycles=len(held),
+            error_rms_m=float(np.sqrt(np.mean(e * e))) if len(e) else math.nan,
+            error_p95_m=float(np.percentile(e, HOLD_ERROR_PERCENTILE)) if len(e) else math.nan,
+            error_max_m=float(np.max(e)) if len(e) else math.nan,
+            energy_n_s=float(np.sum(thrust[known] * cycle_s[known])) if len(known) else math.nan,
+            modes=[m for i, m in enumerate(MODES) if np.any(log.mode[held] == i)],
+        ))
+    return out
+
+
+def mode_times_s(log: MissionLog, cycle_s: np.ndarray) -> dict:
+    """Seconds per mode (each cycle's duration to its mode); every schema mode, "unknown" only when present.
+
+    With the log-gap time they add up to the time the cycles cover: ``mission_time_s`` plus the
+    last cycle's period.
+    """
+    out = {m: float(np.sum(cycle_s[log.mode == i])) for i, m in enumerate(MODES)}
+    unknown = log.mode == UNKNOWN_CODE
+    if unknown.any():
+        out[UNKNOWN_MODE] = float(np.sum(cycle_s[unknown]))
+    return out
+
+
+def _min_max(x: np.ndarray) -> dict:
+    x = x[np.isfinite(x)]
+    return {"min": float(x.min()), "max": float(x.max())} if len(x) else {}
+
+
 def _max_count(log: MissionLog, column: str, stop_key: str) -> float:
     values = log.col(column)
     best = float(np.nanmax(values)) if np.isfinite(values).any() else math.nan
@@ -364,4 +491,6 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
         complete=bool(log.events_named("mission_complete")),
         waypoints=closest_approaches(log), skipped_lines=log.stats.skipped,
         read_notes=log.stats.describe(),
+        mode_time_s=mode_times_s(log, hold), holds=hold_stats(log, hold),
+        battery_v=_min_max(log.col("battery_v")), battery_rest_v=_min_max(log.col("battery_rest_v")),
     )

@@ -3,7 +3,9 @@
 Long logs are decimated for drawing only: signals keep each block's minimum
 and maximum (peaks and saturation stay visible), boolean masks keep "any in
 the block", the track keeps every k-th point and breaks wherever a block
-held a gap. Gaps (NaN) are drawn as breaks, never bridged. Each function
+held a gap. Gaps (NaN) are drawn as breaks, never bridged. Every panel with
+time on x has the daemon's mode as a coloured band underneath (``_time_figure``,
+one colour per schema mode, one legend). Each function
 writes one PNG and returns its path, or None when the log has nothing to
 draw (the report then says so instead of showing an empty frame).
 """
@@ -16,14 +18,33 @@ from pathlib import Path
 
 import numpy as np
 
+from autopilot.logschema import Mode
 from autopilot.plotting import pyplot, track_frame
-from autopilot.review.metrics import LATENESS_PERCENTILES, Scorecard, gap_after
+from autopilot.review.metrics import HOLD_ERROR_PERCENTILE, LATENESS_PERCENTILES, Scorecard, gap_after, nominal_period_s
 from autopilot.review.reader import MODES, MissionLog
 
 MAX_POINTS = 4000  # per signal on a time axis (min/max pairs)
 MAX_TRACK_POINTS = 20000
 PORT_COLOR, STBD_COLOR = "#c62828", "#2e7d32"  # red to port, green to starboard
 _DPI = 100
+# one colour per mode of the schema (a test fails when a mode has none); the time panels' band and the timeline
+MODE_COLORS: dict[str, str] = {
+    Mode.WAITING.value: "#9e9e9e",
+    Mode.AUTO.value: "#1565c0",
+    Mode.HOLD.value: "#f9a825",
+    Mode.PAUSED.value: "#8e24aa",
+    Mode.RTL.value: "#00897b",
+    Mode.STOP.value: "#3e2723",
+    Mode.FAILSAFE.value: "#d50000",
+    Mode.COMPLETE.value: "#66bb6a",
+}
+UNKNOWN_MODE_COLOR = "#e0e0e0"  # a cycle without a mode, or one the schema does not know
+MODE_STRIP_IN = 0.28  # height of the mode band under the time panels
+_LEGEND_IN = 0.35  # room under a time figure for the mode legend
+_MIN_BAND_FRACTION = 0.002  # a mode shorter than this share of the log is widened to it: a 0.1 s failsafe in an hour stays visible
+HOLD_COLOR = "#ef6c00"
+MAX_LABELLED_HOLDS = 30  # more hold labels than this would hide the track (a long patrol of pauses)
+LAUNCH_COLOR = MODE_COLORS[Mode.RTL.value]  # where rtl returns
 
 
 def time_scale(t_s: np.ndarray) -> tuple[float, str]:
@@ -128,6 +149,84 @@ def _shade(ax, t, mask, color, label=None):
                     transform=ax.get_xaxis_transform(), label=label)
 
 
+def mode_runs(t_s: np.ndarray, mode: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(mode code, start s, end s) of each run of one mode, spanning what the scorecard's mode times
+    count (:func:`autopilot.review.metrics.hold_durations_s`): a run ends where the next begins, at its
+    last cycle before a hole in the log (nothing is known in a hole), one period after the last cycle."""
+    n = len(t_s)
+    if n == 0:
+        return np.zeros(0, dtype=int), np.zeros(0), np.zeros(0)
+    holes = gap_after(t_s)
+    starts = np.concatenate([[0], np.nonzero((np.diff(mode) != 0) | holes[:-1])[0] + 1])
+    last = np.concatenate([starts[1:] - 1, [n - 1]])
+    ends = np.where(holes[last], t_s[last], t_s[np.minimum(last + 1, n - 1)])
+    ends[-1] = t_s[-1] + nominal_period_s(t_s)
+    return mode[starts].astype(int), t_s[starts], ends
+
+
+def _mode_name(code: int) -> str:
+    return MODES[code] if 0 <= code < len(MODES) else "unknown"
+
+
+def _mode_band(ax, log: MissionLog, scale: float, *, y0: float = 0.0, height: float = 1.0) -> list[str]:
+    """The daemon's mode as coloured bars from ``y0``; returns the modes drawn, in schema order."""
+    codes, start, end = mode_runs(log.col("t_s"), log.mode)
+    if len(codes) == 0:
+        return []
+    min_width = _MIN_BAND_FRACTION * (end[-1] - start[0])
+    drawn = []
+    for code in sorted(set(codes.tolist()), key=lambda c: c if c >= 0 else len(MODES)):
+        sel = codes == code
+        name = _mode_name(code)
+        bars = np.column_stack([start[sel] / scale, np.maximum(end[sel] - start[sel], min_width) / scale])
+        ax.broken_barh(bars, (y0, height), color=MODE_COLORS.get(name, UNKNOWN_MODE_COLOR), lw=0)
+        drawn.append(name)
+    return drawn
+
+
+def _mode_legend(fig, names: list[str]) -> None:
+    """One legend of the mode colours, under the figure."""
+    from matplotlib.patches import Patch
+
+    if names:
+        handles = [Patch(color=MODE_COLORS.get(m, UNKNOWN_MODE_COLOR), label=m) for m in names]
+        fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False,
+                   title="mode", title_fontsize=8, bbox_to_anchor=(0.5, 0.0))
+
+
+def _time_figure(row_heights_in, *, top_heights_in=(), width_in: float = 11.0):
+    """A figure of time panels sharing x, with the mode band under them (and optional panels above
+    them that do not share the time axis). Returns (figure, top axes, time axes, mode axes)."""
+    plt = pyplot()
+    heights = [*row_heights_in, MODE_STRIP_IN]
+    fig = plt.figure(figsize=(width_in, sum(heights) + sum(top_heights_in) + 1.2 + _LEGEND_IN))
+    top = []
+    if top_heights_in:  # its own grid: the top panels' x labels do not space out the time panels
+        outer = fig.add_gridspec(2, 1, height_ratios=[sum(top_heights_in), sum(heights)])
+        above = outer[0].subgridspec(len(top_heights_in), 1, height_ratios=top_heights_in)
+        top = [fig.add_subplot(above[i]) for i in range(len(top_heights_in))]
+        grid = outer[1].subgridspec(len(heights), 1, height_ratios=heights)
+    else:
+        grid = fig.add_gridspec(len(heights), 1, height_ratios=heights)
+    first = fig.add_subplot(grid[0])
+    rows = [first] + [fig.add_subplot(grid[i], sharex=first) for i in range(1, len(row_heights_in))]
+    strip = fig.add_subplot(grid[-1], sharex=first)
+    for ax in rows:
+        ax.tick_params(labelbottom=False)
+    return fig, top, rows, strip
+
+
+def _finish_time_figure(fig, strip, log: MissionLog, scale: float, xlabel: str) -> None:
+    """Mode band, its legend, the time label; then the layout with room for the legend."""
+    names = _mode_band(strip, log, scale)
+    strip.set_yticks([])
+    strip.set_ylim(0.0, 1.0)
+    strip.set_ylabel("mode", rotation=0, ha="right", va="center", fontsize=8)
+    strip.set_xlabel(xlabel)
+    _mode_legend(fig, names)
+    fig.tight_layout(rect=(0.0, _LEGEND_IN / fig.get_figheight(), 1.0, 1.0), h_pad=0.4)
+
+
 def _save(fig, path: Path) -> Path:
     fig.savefig(path, dpi=_DPI)
     pyplot().close(fig)
@@ -139,7 +238,7 @@ def _has(*arrays) -> bool:
 
 
 def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
-    """Track in the local frame with waypoints, closest approaches, start, faults and failsafes."""
+    """Track in the local frame with waypoints, closest approaches, start, faults, failsafes, holds and launch."""
     n, e = log.col("north_m"), log.col("east_m")
     wps = log.waypoints_ne_m
     if not _has(n, e) and len(wps) == 0:
@@ -179,9 +278,41 @@ def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
         if pts:
             arr = np.asarray(pts)
             ax.plot(arr[:, 1], arr[:, 0], marker=marker, color=color, ms=13, ls="none", label=name)
+    _hold_circles(ax, log, card)
+    launch = log.launch_ne_m
+    if launch is not None:
+        ax.plot(launch[1], launch[0], marker="p", color=LAUNCH_COLOR, mec="black", ms=12, ls="none", label="launch")
     track_frame(ax, n, e, title=f"{log.name}: track")
     fig.tight_layout()
     return _save(fig, path)
+
+
+def _hold_circles(ax, log: MissionLog, card: Scorecard) -> None:
+    """Each hold point, the radius it held (the p95 of its error) and the configured drift radius (dashed)."""
+    from matplotlib.patches import Circle
+
+    if not card.holds:
+        return
+    drift_m = log.config_number("gnc", "hold", "radius_m")
+    pts = np.array([[h.east_m, h.north_m] for h in card.holds])
+    ax.plot(pts[:, 0], pts[:, 1], marker="P", color=HOLD_COLOR, mec="black", mew=0.5, ms=10, ls="none",
+            label="hold point")
+    achieved = drift = False
+    for h in card.holds:
+        if math.isfinite(h.error_p95_m):
+            ax.add_patch(Circle((h.east_m, h.north_m), h.error_p95_m, fill=False, color=HOLD_COLOR, lw=1.4,
+                                label=None if achieved else f"hold error p{HOLD_ERROR_PERCENTILE:g}"))
+            achieved = True
+        if drift_m is not None and drift_m > 0.0:  # 0 = hold precisely: no drift circle
+            ax.add_patch(Circle((h.east_m, h.north_m), drift_m, fill=False, color=HOLD_COLOR, lw=1.0, ls="--",
+                                label=None if drift else f"gnc.hold.radius_m = {drift_m:g} m"))
+            drift = True
+        if h.number <= MAX_LABELLED_HOLDS:
+            text = (f"hold {h.number}: p{HOLD_ERROR_PERCENTILE:g} {h.error_p95_m:.2f} m"
+                    if math.isfinite(h.error_p95_m) else f"hold {h.number}: closing only")
+            ax.annotate(text, (h.east_m, h.north_m), textcoords="offset points", xytext=(9, -12), fontsize=9,
+                        color="#bf360c",
+                        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.75})
 
 
 def plot_thrust(log: MissionLog, path: Path) -> Path | None:
@@ -191,10 +322,9 @@ def plot_thrust(log: MissionLog, path: Path) -> Path | None:
     pp, ps = log.col("pwm_port_pct"), log.col("pwm_stbd_pct")
     if not _has(tp, ts, pp, ps):
         return None
-    plt = pyplot()
     scale, xlabel = time_scale(t)
     ts_x = t / scale
-    fig, axes = plt.subplots(2, 1, figsize=(11, 6.5), sharex=True)
+    fig, _, axes, strip = _time_figure((2.7, 2.7))
     sat_p, sat_s = log.col("sat_port") > 0.5, log.col("sat_stbd") > 0.5
     for ax, (port, stbd), unit in ((axes[0], (tp, ts), "thrust (N)"), (axes[1], (pp, ps), "PWM duty (%, - = reverse)")):
         ax.plot(*envelope(ts_x, port), color=PORT_COLOR, lw=0.9, label="port")
@@ -205,9 +335,8 @@ def plot_thrust(log: MissionLog, path: Path) -> Path | None:
         ax.grid(True, alpha=0.3)
         ax.axhline(0.0, color="black", lw=0.5)
     axes[0].legend(loc="upper right", fontsize=8, ncol=4)
-    axes[1].set_xlabel(xlabel)
     axes[0].set_title(f"{log.name}: thrust and PWM per side")
-    fig.tight_layout()
+    _finish_time_figure(fig, strip, log, scale, xlabel)
     return _save(fig, path)
 
 
@@ -226,9 +355,8 @@ def plot_guidance(log: MissionLog, path: Path) -> Path | None:
               ("heading_error_deg", "heading error (deg)"))
     if not _has(*(log.col(k) for k, _ in series)):
         return None
-    plt = pyplot()
     scale, xlabel = time_scale(t)
-    fig, axes = plt.subplots(4, 1, figsize=(11, 9), sharex=True)
+    fig, _, axes, strip = _time_figure((1.8, 1.8, 1.8, 1.8))
     for ax, (key, label) in zip(axes, series):
         y = log.col(key)
         if np.isfinite(y).any():
@@ -240,9 +368,8 @@ def plot_guidance(log: MissionLog, path: Path) -> Path | None:
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
     axes[2].set_ylim(-0.05, 1.05)
-    axes[-1].set_xlabel(xlabel)
     axes[0].set_title(f"{log.name}: fuzzy guidance (dashed: waypoint reached)")
-    fig.tight_layout()
+    _finish_time_figure(fig, strip, log, scale, xlabel)
     return _save(fig, path)
 
 
@@ -252,9 +379,8 @@ def plot_motion(log: MissionLog, path: Path) -> Path | None:
     sog, cmd, r = log.col("sog_m_s"), log.col("speed_cmd_m_s"), log.col("yaw_rate_deg_s")
     if not _has(sog, cmd, r):
         return None
-    plt = pyplot()
     scale, xlabel = time_scale(t)
-    fig, axes = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
+    fig, _, axes, strip = _time_figure((2.4, 2.4))
     axes[0].plot(*envelope(t / scale, sog), color="#1565c0", lw=0.9, label="speed over ground")
     axes[0].plot(*envelope(t / scale, cmd), color="#ef6c00", lw=0.9, ls="--", label="commanded")
     axes[0].set_ylabel("speed (m/s)")
@@ -263,20 +389,20 @@ def plot_motion(log: MissionLog, path: Path) -> Path | None:
     axes[1].set_ylabel("yaw rate (deg/s, + = starboard)")
     for ax in axes:
         ax.grid(True, alpha=0.3)
-    axes[1].set_xlabel(xlabel)
     axes[0].set_title(f"{log.name}: speed and yaw rate")
-    fig.tight_layout()
+    _finish_time_figure(fig, strip, log, scale, xlabel)
     return _save(fig, path)
 
 
 def plot_lateness(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
-    """Histogram of control-loop lateness with its percentiles."""
-    lat = log.col("lateness_ms")
-    lat = lat[np.isfinite(lat)]
+    """Control-loop lateness: histogram with its percentiles, and over time (with the mode band)."""
+    t = log.col("t_s")
+    lat_all = log.col("lateness_ms")
+    lat = lat_all[np.isfinite(lat_all)]
     if len(lat) == 0:
         return None
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(9, 5))
+    scale, xlabel = time_scale(t)
+    fig, (ax, ), (ax_t, ), strip = _time_figure((2.2, ), top_heights_in=(3.6, ), width_in=9.0)
     hi = max(float(lat.max()), 1e-3)
     ax.hist(lat, bins=np.linspace(min(0.0, float(lat.min())), hi, 80), color="#90a4ae", log=True)
     colors = ("#2e7d32", "#f9a825", "#ef6c00", "#d50000")
@@ -290,7 +416,49 @@ def plot_lateness(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
     ax.legend(fontsize=8)
     ax.grid(True, alpha=0.3)
     ax.set_title(f"{log.name}: control-loop lateness ({len(lat)} cycles)")
-    fig.tight_layout()
+    ax_t.plot(*envelope(t / scale, lat_all), color="#546e7a", lw=0.7)
+    ax_t.set_ylabel("lateness (ms)")
+    ax_t.grid(True, alpha=0.3)
+    _finish_time_figure(fig, strip, log, scale, xlabel)
+    return _save(fig, path)
+
+
+def plot_battery(log: MissionLog, path: Path) -> Path | None:
+    """Battery voltage under load and the resting estimate the failsafe judges, its thresholds and faults.
+
+    None when the log has no battery voltage (firmware that does not report it): no figure at all.
+    """
+    t = log.col("t_s")
+    v_load, v_rest = log.col("battery_v"), log.col("battery_rest_v")
+    if not _has(v_load):
+        return None
+    scale, xlabel = time_scale(t)
+    fig, _, (ax, ), strip = _time_figure((4.0, ))
+    ax.plot(*envelope(t / scale, v_load), color="#90a4ae", lw=0.8, label="battery_v (under load)")
+    if _has(v_rest):
+        ax.plot(*envelope(t / scale, v_rest), color="#1565c0", lw=1.3, label="battery_rest_v (resting estimate)")
+    for key, cause, color in (("battery_low", "battery_low", "#ef6c00"),
+                              ("battery_critical", "battery_critical", "#d50000")):
+        limit_v = log.config_number("failsafe", f"{key}_v")
+        if limit_v is not None and limit_v > 0.0:  # 0 = that failsafe is off
+            for_s = log.config_number("failsafe", f"{key}_s")
+            ax.axhline(limit_v, color=color, ls="--", lw=1.0,
+                       label=f"{key}_v {limit_v:.2f} V" + (f" (for {for_s:g} s)" if for_s is not None else ""))
+        marks = []
+        for ev in log.events_named("fault"):
+            k = _nearest_index(t, ev.get("t_s")) if ev.get("cause") == cause else None
+            if k is not None:
+                y = v_rest[k] if math.isfinite(v_rest[k]) else v_load[k]
+                marks.append((float(ev["t_s"]) / scale, y if math.isfinite(y) else limit_v or math.nan))
+        if marks:
+            arr = np.asarray(marks, dtype=float)
+            ax.plot(arr[:, 0], arr[:, 1], marker="X", ms=11, color=color, ls="none", mec="black", mew=0.6,
+                    label=f"{cause} fault")
+    ax.set_ylabel("battery (V)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(f"{log.name}: battery voltage")
+    _finish_time_figure(fig, strip, log, scale, xlabel)
     return _save(fig, path)
 
 
@@ -302,13 +470,12 @@ _TIMELINE_ROWS = (
     ("failsafe", "failsafe", "#d50000", "*"),
     ("failsafe_cleared", "failsafe cleared", "#ef9a9a", "P"),
     ("resume", "resume", "#1565c0", ">"),
+    ("mode", "mode change", "#455a64", "|"),
+    ("command", "operator command", "#8e24aa", "v"),
+    ("launch", "launch point set", LAUNCH_COLOR, "p"),
     ("stop", "stop", "#212121", "s"),
     ("info", "info", "#757575", "."),
 )
-_MODE_COLORS = {"auto": "#1565c0", "failsafe": "#d50000", "complete": "#2e7d32", "hold": "#f9a825",
-                "waiting": "#9e9e9e"}
-
-
 def plot_timeline(log: MissionLog, path: Path) -> Path | None:
     """Events on a time line, with the daemon's mode as a coloured band underneath."""
     t = log.col("t_s")
@@ -317,7 +484,7 @@ def plot_timeline(log: MissionLog, path: Path) -> Path | None:
         return None
     plt = pyplot()
     scale, xlabel = time_scale(t if len(t) else np.asarray([x for x in ev_t if isinstance(x, (int, float))]))
-    fig, ax = plt.subplots(figsize=(11, 4.5))
+    fig, ax = plt.subplots(figsize=(11, 4.5 + _LEGEND_IN))
     labels = ["mode"]
     for row, (name, label, color, marker) in enumerate(_TIMELINE_ROWS, start=1):
         xs = [ev["t_s"] / scale for ev in log.events_named(name)
@@ -325,27 +492,14 @@ def plot_timeline(log: MissionLog, path: Path) -> Path | None:
         labels.append(label)
         if xs:
             ax.plot(xs, [row] * len(xs), marker=marker, color=color, ls="none", ms=9)
-    if len(t):
-        k = max(1, int(math.ceil(len(t) / MAX_POINTS)))
-        tm, mm = t[::k] / scale, log.mode[::k]
-        change = np.nonzero(np.diff(mm))[0] + 1
-        bounds = np.concatenate([[0], change, [len(mm)]])
-        for a, b in zip(bounds[:-1], bounds[1:]):
-            code = int(mm[a])
-            name = MODES[code] if 0 <= code < len(MODES) else "unknown"
-            end = tm[b] if b < len(tm) else t[-1] / scale
-            ax.broken_barh([(tm[a], max(end - tm[a], 0.0))], (-0.35, 0.7),
-                           color=_MODE_COLORS.get(name, "#e0e0e0"))
-        for name, color in _MODE_COLORS.items():
-            ax.plot([], [], color=color, lw=6, label=name)
-        ax.legend(loc="upper right", fontsize=7, ncol=5, title="mode", title_fontsize=7)
+    _mode_legend(fig, _mode_band(ax, log, scale, y0=-0.35, height=0.7))
     ax.set_yticks(range(len(labels)))
     ax.set_yticklabels(labels, fontsize=8)
-    ax.set_ylim(-0.7, len(labels) + 0.8)
+    ax.set_ylim(-0.7, len(labels) - 0.3)
     ax.set_xlabel(xlabel)
     ax.grid(True, axis="x", alpha=0.3)
     ax.set_title(f"{log.name}: events")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, _LEGEND_IN / fig.get_figheight(), 1.0, 1.0))
     return _save(fig, path)
 
 

@@ -140,6 +140,25 @@ class MissionLog:
             return float(lat), float(lon)
         return None
 
+    @property
+    def launch_ne_m(self) -> tuple[float, float] | None:
+        """(north, east) of the last ``launch`` event (where ``rtl`` returns), if the log has one."""
+        for ev in reversed(self.events_named("launch")):
+            n, e = ev.get("north_m"), ev.get("east_m")
+            if _is_number(n) and _is_number(e):
+                return float(n), float(e)
+        return None
+
+    def config_number(self, *keys: str) -> float | None:
+        """A number of the configuration in ``mission_start`` (``config_number("gnc", "hold", "radius_m")``);
+        None when the log does not state it (older logs, a partial config)."""
+        node = (self.start or {}).get("config")
+        for k in keys:
+            if not isinstance(node, dict):
+                return None
+            node = node.get(k)
+        return float(node) if _is_number(node) else None
+
     def events_named(self, *names: str) -> list[dict]:
         return [e for e in self.events if e.get("event") in names]
 

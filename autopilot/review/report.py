@@ -55,16 +55,19 @@ window.addEventListener('load', function () {
 </script>
 """
 
-# (file name, caption, function(log, card, path))
+# (file name, caption, function(log, card, path)); the time panels carry the mode band underneath
 FIGURES = (
     ("track.png", "Track in the local frame: waypoints, closest approach to each (x, dotted), start, "
-     "faults and failsafes where they happened.", lambda lg, c, p: plots.plot_track(lg, c, p)),
+     "faults and failsafes where they happened, each hold point with the p95 of its error (circle) and the "
+     "configured drift radius (dashed), and the launch point.", lambda lg, c, p: plots.plot_track(lg, c, p)),
     ("thrust.png", "Thrust and PWM duty per side; shaded where that side was saturated.",
      lambda lg, c, p: plots.plot_thrust(lg, p)),
     ("guidance.png", "TCPA', DCPA', CDH and heading error (thesis Fig 9.1-9.4, panel d).",
      lambda lg, c, p: plots.plot_guidance(lg, p)),
     ("motion.png", "Speed over ground and yaw rate.", lambda lg, c, p: plots.plot_motion(lg, p)),
-    ("lateness.png", "Control-loop lateness: histogram and percentiles.",
+    ("battery.png", "Battery voltage under load and the resting estimate the battery failsafe judges, with "
+     "its thresholds (dashed) and the battery faults.", lambda lg, c, p: plots.plot_battery(lg, p)),
+    ("lateness.png", "Control-loop lateness: histogram and percentiles, and over time.",
      lambda lg, c, p: plots.plot_lateness(lg, c, p)),
     ("timeline.png", "Events and the daemon's mode over time.", lambda lg, c, p: plots.plot_timeline(lg, p)),
 )
@@ -124,6 +127,20 @@ def _waypoint_table(card: Scorecard) -> str:
                    "closest approach (m), logged", "at t (s)"], rows) + more
 
 
+def _hold_table(card: Scorecard) -> str:
+    rows = [[f"hold {h.number}", _num(h.north_m, 1), _num(h.east_m, 1), ", ".join(h.modes) or "-",
+             _num(h.first_t_s, 1), _num(h.hold_s, 1), _num(h.closing_s, 1), _num(h.error_rms_m),
+             _num(h.error_p95_m), _num(h.error_max_m), _num(h.energy_n_s, 0)]
+            for h in card.holds[:MAX_WAYPOINT_ROWS]]
+    more = (f"<p>... and {len(card.holds) - MAX_WAYPOINT_ROWS} more hold points (see summary.json).</p>"
+            if len(card.holds) > MAX_WAYPOINT_ROWS else "")
+    return _table(["hold", "north (m)", "east (m)", "mode", "first at t (s)", "held (s)", "closing (s)",
+                   "error RMS (m)", "error p95 (m)", "error max (m)", "energy (N s)"], rows) + more + (
+        "<p>Held: the hold proper, as <code>autopilot evaluate</code> scores it; closing: station keeping "
+        "only closing on the point (the last <code>gnc.hold.approach_m</code> of a return or of the way to a "
+        "hold item). Errors are <code>hold_error_m</code> over the cycles held.</p>")
+
+
 def review_one(log: MissionLog, out_dir, *, formats=(), with_plots: bool = True) -> LogReview:
     """Scorecard, figures, exports and report.html of one log in ``out_dir``."""
     out_dir = Path(out_dir)
@@ -158,6 +175,8 @@ def _single_html(r: LogReview) -> str:
                  + ("<li>no cycle lines: nothing to plot</li>" if log.n_cycles == 0 else "") + "</ul>")
     parts.append("<h2>Summary</h2>" + _table(["quantity", "value"], [list(x) for x in card.table_rows()]))
     parts.append("<h2>Closest approach per waypoint</h2>" + _waypoint_table(card))
+    if card.holds:
+        parts.append("<h2>Station keeping per hold point</h2>" + _hold_table(card))
     if card.lateness_ms:
         parts.append("<h2>Control-loop lateness (ms)</h2>" + _table(
             list(card.lateness_ms), [[_num(v, 3) for v in card.lateness_ms.values()]], numeric_from=0))
