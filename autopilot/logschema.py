@@ -65,6 +65,7 @@ class Mode(str, enum.Enum):
     STOP = "stop"  # zero thrust, latched until commanded
     FAILSAFE = "failsafe"  # a sensor or link fault: zero thrust until the data are valid again
     COMPLETE = "complete"  # the mission ended with stop: zero thrust, the run ends
+    MANUAL = "manual"  # the operator's sticks (MAVLink MANUAL_CONTROL) through the allocation
 
     def __str__(self) -> str:
         return self.value
@@ -91,7 +92,7 @@ FAULT_CAUSES: tuple[str, ...] = (
 LATCHED_CAUSES = frozenset({"geofence", "max_mission_time", "max_distance", "battery_low", "battery_critical"})
 # what a failsafe may do (ArduPilot's FS_ACTION); "stop" needs nothing, the others a position and a heading
 FAILSAFE_ACTIONS: tuple[str, ...] = ("stop", "hold", "rtl")
-COMMANDS: tuple[str, ...] = ("status", "hold", "pause", "resume", "rtl", "stop")  # the operator's (autopilot ctl)
+COMMANDS: tuple[str, ...] = ("status", "hold", "pause", "resume", "rtl", "stop", "arm", "disarm")  # autopilot ctl's
 STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_time")
 INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("port_opened, port_lost, port_open_failed, nmea_garbage, mbed_garbage",
@@ -102,6 +103,10 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("holding zero thrust: ...", "an interrupted mission found in the state directory and resuming is not configured"),
     ("resuming interrupted mission at waypoint N", "`failsafe.resume_after_restart: true`"),
     ("control loop error", "an exception in the loop (`error`); the boat is stopped"),
+    ("mavlink link open", "the MAVLink endpoints are open (`endpoints`, `signing`)"),
+    ("mavlink message not handled", "a message that broke its handler (`kind`, `error`), once per kind: a bug to report"),
+    ("mavlink link closed", "at the end: what the link received (`stats`: messages by type, bad frames, dropped datagrams, refusals)"),
+    ("start refused", "an endpoint could not be opened (`error`); the run stops, exit 2"),
     ("state not saved", "the progress file could not be written (`error`)"),
     ("zero-thrust on stop failed", "the final command could not be sent (`error`)"),
 )
@@ -160,6 +165,7 @@ CYCLE: tuple[Field, ...] = (
     _f("hold_north_m", "float", "m", "the point station keeping holds (null when not holding)"),
     _f("hold_east_m", "float", "m", "see `hold_north_m`"),
     _f("hold_error_m", "float", "m", "distance from the estimated position to that point"),
+    _f("holding", "bool", "-", "the hold proper (what `hold_s` times and the scores count); false while station keeping only closes on the point (the last `gnc.hold.approach_m`)"),
     _f("hold_heading_deg", "float", "deg", "the heading station keeping holds: the given one, or the least-effort one it chose"),
     _f("hold_disturbance_n", "float", "N", "station keeping's estimate of the thrust per thruster the current and wind take (along `hold_heading_deg`)"),
     _f("battery_v", "float", "V", "battery voltage from the Mbed's last acknowledgement, under load (null: the firmware does not report it)"),
@@ -171,6 +177,7 @@ CYCLE: tuple[Field, ...] = (
     _f("ack_missing", "int", "-", "Mbed acknowledgements missing so far (cumulative)"),
     _f("nmea_dropped", "int", "-", "NMEA lines dropped so far (bad checksum, garbage; cumulative)"),
     _f("active_faults", "list", "-", "failsafe causes active this cycle (empty when none)"),
+    _f("armed", "bool", "-", "armed: false = disarmed (MAVLink or `autopilot ctl disarm`): zero thrust whatever the mode, latched until armed"),
 )
 CYCLE_KEYS: tuple[str, ...] = tuple(f.name for f in CYCLE)
 
@@ -238,6 +245,28 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("accepted", "bool", "-", "the command was carried out"),
         _f("answer", "string", "-", "the new mode, or the refusal (`rtl refused: position stale`)"),
     )),
+    EventSpec("arming", "armed or disarmed (disarmed: zero thrust, latched until armed)", (
+        _f("armed", "bool", "-", "the new state"),
+        _f("cause", "string", "-", "who: `ctl disarm`, `mavlink disarm`, ..."),
+    )),
+    EventSpec("mission_replaced", "a new mission replaced the running one between two cycles (MAVLink upload, or cleared)", (
+        _f("source", "string", "-", "`mavlink`"),
+        _f("waypoints", "list", "m", "the new waypoints, `[north_m, east_m]` (empty: cleared)"),
+        _f("path", "string", "-", "where it was saved (the state directory), so a restart continues it; null when cleared"),
+        _f("sha256", "string", "-", "its content's hash (the progress file names it)"),
+    )),
+    EventSpec("param", "a parameter was set over the link (applied between two cycles)", (
+        _f("param", "string", "-", "MAVLink parameter name"),
+        _f("key", "string", "-", "the configuration key it is (`gnc.pid.kp_n_per_deg`)"),
+        _f("old", "float", "-", "value before, in the key's unit"),
+        _f("new", "float", "-", "value after"),
+        _f("source", "string", "-", "`mavlink`"),
+    )),
+    EventSpec("gcs", "the ground station's heartbeat was lost or came back (`mavlink.gcs_timeout_s`)", (
+        _f("state", "string", "-", "`lost` or `back`"),
+        _f("silent_s", "float", "s", "how long its heartbeat had been silent (wall time)"),
+        _f("action", "string", "-", "lost: the configured `mavlink.gcs_lost_action` (`continue`, `hold`, `rtl`)"),
+    )),
     EventSpec("launch", "the launch point was set: where the boat was when control first started (`rtl` returns there)", (
         _f("north_m", "float", "m", "local frame"),
         _f("east_m", "float", "m", "local frame"),
@@ -283,6 +312,9 @@ _MODE_DOCS = {
     Mode.FAILSAFE: "a sensor or Mbed-link fault: zero thrust on both sides, every cycle while it lasts; the mode "
                    "before it comes back when the data have been valid for `failsafe.resume_valid_s`",
     Mode.COMPLETE: "the mission ended with `stop`: zero thrust; the run ends",
+    Mode.MANUAL: "the operator drives (MAVLink `MANUAL_CONTROL`, a ground station's joystick): forward and turn "
+                 "through the allocation and its limits; no input for `mavlink.manual_timeout_s` gives "
+                 "`mavlink.manual_timeout_action` (hold or stop)",
 }
 
 

@@ -400,3 +400,102 @@ def load_mission(
     except ConfigError as exc:
         raise MissionError(str(exc)) from None
     return parser(path, text, (origin_lat_deg, origin_lon_deg), max_range_m)
+
+
+# ------------------------------------------------------------------------- MAVLink items
+MAVLINK_GLOBAL_FRAMES = (0, 3, 5, 6)  # MAV_FRAME_GLOBAL, _RELATIVE_ALT and their _INT forms: lat/lon degrees
+MAVLINK_MISSION_FRAME = 2  # MAV_FRAME_MISSION: items without a position (RTL, change speed)
+
+
+class MissionItemError(MissionError):
+    """A refused MAVLink mission item: ``seq`` (the item number) and ``field`` (``command``, ``frame``,
+    ``x``, ``y``, ``param1``, ``sequence`` or ``mission``) for the MISSION_ACK error code."""
+
+    def __init__(self, message: str, *, seq: int, field: str) -> None:
+        super().__init__(message)
+        self.seq, self.field = seq, field
+
+
+def mission_from_items(items, *, origin_lat_deg: float, origin_lon_deg: float, max_range_m: float = 2000.0,
+                       name: str = "uploaded") -> Mission:
+    """A mission from MAVLink mission items (dicts: seq, frame, command, param1, param2, lat_deg, lon_deg), item 0
+    being home (ArduPilot's convention, ignored: the local frame stays the running mission's). The same
+    checks as a mission file; MissionItemError names the item."""
+    where = Path("uploaded mission")
+    points: list[_RawPoint] = []
+    speed = None
+    rtl = False
+    for k, it in enumerate(items):
+        seq = int(it.get("seq", k))
+        if seq != k:
+            raise MissionItemError(f"{where}: item {k} arrived as item {seq}", seq=k, field="sequence")
+        if k == 0:
+            continue
+        cmd = int(it["command"])
+        here = f"{where}: item {k}"
+        if rtl:
+            raise MissionItemError(f"{here}: nothing may follow return to launch (20)", seq=k, field="command")
+        if cmd in (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM):
+            if int(it.get("frame", 0)) not in MAVLINK_GLOBAL_FRAMES:
+                raise MissionItemError(f"{here}: frame {it.get('frame')} not supported (global latitude/longitude "
+                                       "frames 0, 3, 5, 6)", seq=k, field="frame")
+            lat, lon = it.get("lat_deg"), it.get("lon_deg")
+            for what, v, lim, fld in (("latitude", lat, 90.0, "x"), ("longitude", lon, 180.0, "y")):
+                if not isinstance(v, (int, float)) or not math.isfinite(v) or abs(v) > lim:
+                    raise MissionItemError(f"{here}: {what} {v!r} outside -{lim:g}..{lim:g} deg", seq=k, field=fld)
+            hold = it.get("param1") if cmd == NAV_LOITER_TIME else None
+            if hold is not None and not (math.isfinite(hold) and 0.0 <= hold <= MAX_HOLD_S):
+                raise MissionItemError(f"{here}: loiter time {hold:g} s outside [0, {MAX_HOLD_S:g}] s", seq=k,
+                                       field="param1")
+            try:
+                _add_item(points, here, cmd, lat, lon, speed, it.get("param1"))
+            except MissionError as exc:
+                raise MissionItemError(str(exc), seq=k, field="mission") from None
+        elif cmd == DO_CHANGE_SPEED:
+            speed = it.get("param2")
+        elif cmd == NAV_RETURN_TO_LAUNCH:
+            rtl = True
+        else:
+            raise MissionItemError(f"{here}: command {cmd} not supported ({_SUPPORTED})", seq=k, field="command")
+    try:
+        return _finish(where, name, points, latlon=True, home=None, origin=(origin_lat_deg, origin_lon_deg),
+                       max_range_m=max_range_m, rtl=rtl)
+    except MissionItemError:
+        raise
+    except MissionError as exc:
+        raise MissionItemError(str(exc), seq=len(items) - 1, field="mission") from None
+
+
+def mission_to_items(mission: Mission, home_latlon: tuple[float, float] | None = None) -> list[dict]:
+    """The mission as MAVLink items (item 0 home, then one item per waypoint and an RTL at the end)."""
+    from autopilot.geo import local_to_latlon
+
+    o = (mission.origin_lat_deg, mission.origin_lon_deg)
+    home = home_latlon or mission.home_latlon or o
+    out = [dict(seq=0, frame=0, command=NAV_WAYPOINT, param1=0.0, param2=0.0, lat_deg=home[0], lon_deg=home[1])]
+    for i, (n, e) in enumerate(mission.waypoints_ne_m):
+        lat, lon = local_to_latlon(float(n), float(e), *o)
+        hold = mission.hold_s(i)
+        cmd = NAV_WAYPOINT if hold is None else (NAV_LOITER_UNLIM if math.isinf(hold) else NAV_LOITER_TIME)
+        out.append(dict(seq=len(out), frame=3, command=cmd, param1=0.0 if hold is None or math.isinf(hold) else hold,
+                        param2=0.0, lat_deg=lat, lon_deg=lon))
+    if mission.rtl:
+        out.append(dict(seq=len(out), frame=MAVLINK_MISSION_FRAME, command=NAV_RETURN_TO_LAUNCH, param1=0.0,
+                        param2=0.0, lat_deg=0.0, lon_deg=0.0))
+    return out
+
+
+def to_waypoints_text(mission: Mission) -> str:
+    """The mission as a Mission Planner file (QGC WPL 110), home = its origin: read back, the same mission."""
+    rows = ["QGC WPL 110"]
+    speeds = list(mission.speeds_m_s) if mission.speeds_m_s is not None else [None] * len(mission.waypoints_ne_m)
+    seq, last_speed = 0, None
+    for it in mission_to_items(mission, home_latlon=(mission.origin_lat_deg, mission.origin_lon_deg)):
+        k = it["seq"] - 1
+        if 0 <= k < len(speeds) and speeds[k] is not None and speeds[k] != last_speed:
+            rows.append(f"{seq}\t0\t2\t{DO_CHANGE_SPEED}\t0\t{speeds[k]!r}\t0\t0\t0\t0\t0\t1")
+            seq, last_speed = seq + 1, speeds[k]
+        rows.append(f"{seq}\t{1 if seq == 0 else 0}\t{it['frame']}\t{it['command']}\t{it['param1']!r}\t0\t0\t0\t"
+                    f"{it['lat_deg']:.9f}\t{it['lon_deg']:.9f}\t0\t1")
+        seq += 1
+    return "\n".join(rows) + "\n"

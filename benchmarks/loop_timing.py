@@ -13,6 +13,12 @@ duration, stops it with SIGTERM, and reports from its own log and from the kerne
 
     python benchmarks/loop_timing.py                       # 5 min at 10 Hz, then 1 min at 50 Hz
     python benchmarks/loop_timing.py --duration-s 60 --rate-hz 10 [--json]
+    python benchmarks/loop_timing.py --duration-s 120 --link compare   # no link, then a flooding ground station
+
+--link flood: the daemon has a MAVLink endpoint (udpin on loopback) and a ground station in this
+process floods it with valid traffic: heartbeats, parameter lists (each answered with every
+parameter), mission downloads and message requests, ~1000 messages a second, reading every reply.
+--link compare runs the same duration without the link and with the flood, one after the other.
 """
 
 from __future__ import annotations
@@ -22,9 +28,11 @@ import json
 import math
 import os
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -44,7 +52,33 @@ def looping_mission(duration_s: float, speed_m_s: float = 1.0) -> dict:
     return {"name": "timing-square", "frame": "local", "waypoints": wps}
 
 
-def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800) -> dict:
+def flood(port: int, stop: threading.Event, counts: dict) -> None:
+    """A ground station that never rests: ~1000 valid requests a second, every reply read."""
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    mav = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.setblocking(False)
+    requests = [mav.heartbeat_encode(6, 8, 0, 0, 0), mav.param_request_list_encode(1, 1),
+                mav.mission_request_list_encode(1, 1), mav.param_request_read_encode(1, 1, b"HDG_KP", -1),
+                mav.command_long_encode(1, 1, 512, 0, 148, 0, 0, 0, 0, 0, 0)]
+    frames = [m.pack(mav) for m in requests]
+    k = 0
+    while not stop.is_set():
+        for _ in range(10):
+            sock.sendto(frames[k % len(frames)], ("127.0.0.1", port))
+            k += 1
+        counts["sent"] = k
+        try:
+            while True:
+                data = sock.recv(65536)
+                counts["received_bytes"] = counts.get("received_bytes", 0) + len(data)
+        except BlockingIOError:
+            pass
+        time.sleep(0.01)
+
+
+def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800, link: str = "none") -> dict:
     with tempfile.TemporaryDirectory(prefix="loop-timing-") as tmp:
         tmp_path = Path(tmp)
         cfg = yaml.safe_load((ROOT / "config" / "autopilot.yaml").read_text())
@@ -55,12 +89,34 @@ def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800) -> dict:
         (tmp_path / "mission.yaml").write_text(yaml.safe_dump(looping_mission(duration_s)))
         cmd = [sys.executable, "-m", "autopilot", "run", "--config", str(tmp_path / "autopilot.yaml"),
                "--mission", str(tmp_path / "mission.yaml"), "--sim", "--log-dir", str(tmp_path / "logs"),
-               "--state-dir", str(tmp_path / "state")]
+               "--state-dir", str(tmp_path / "state"), "--runtime-dir", str(tmp_path / "run")]
+        stop_flood, counts = threading.Event(), {}
+        if link == "flood":
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+                s.bind(("127.0.0.1", 0))
+                port = s.getsockname()[1]
+            cmd += ["--mavlink", f"udpin:127.0.0.1:{port}"]
         t0 = time.monotonic()
-        proc = subprocess.Popen(cmd, cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(duration_s)
-        proc.send_signal(signal.SIGTERM)
+        err = open(tmp_path / "stderr.txt", "w+")  # noqa: SIM115 - read below
+        proc = subprocess.Popen(cmd, cwd=tmp, stdout=subprocess.DEVNULL, stderr=err)
+        flooder = None
+        if link == "flood":
+            time.sleep(2.0)
+            flooder = threading.Thread(target=flood, args=(port, stop_flood, counts), daemon=True)
+            flooder.start()
+            time.sleep(duration_s - 2.0)
+        else:
+            time.sleep(duration_s)
+        stop_flood.set()
+        # os.kill, not proc.send_signal: that polls, and a poll would reap the child before wait4 sees it
+        try:
+            os.kill(proc.pid, signal.SIGTERM)
+        except ProcessLookupError:
+            pass
         _, status, usage = os.wait4(proc.pid, 0)
+        if os.waitstatus_to_exitcode(status) != 0:
+            err.seek(0)
+            raise RuntimeError(f"the daemon exited with {os.waitstatus_to_exitcode(status)}: {err.read()[-2000:]}")
         wall_s = time.monotonic() - t0
         proc.returncode = os.waitstatus_to_exitcode(status)
         (log_file,) = list((tmp_path / "logs").glob("mission-*.jsonl"))
@@ -84,6 +140,9 @@ def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800) -> dict:
     lat_ms = np.array(first_use)
     stop = recs[-1]
     return {
+        "link": link,
+        "flood_sent": counts.get("sent", 0),
+        "flood_received_mb": round(counts.get("received_bytes", 0) / 1e6, 2),
         "rate_hz": rate_hz,
         "sc30_baud": sc30_baud,
         "duration_s": round(wall_s, 1),
@@ -109,16 +168,20 @@ def main() -> int:
     ap.add_argument("--duration-s", type=float, default=None, help="one run of this length (default: 300 s at 10 Hz and 60 s at 50 Hz)")
     ap.add_argument("--rate-hz", type=float, default=10.0)
     ap.add_argument("--sc30-baud", type=int, default=4800, help="SC-30 line speed (4800 or 38400): sets how late headings arrive")
+    ap.add_argument("--link", choices=("none", "flood", "compare"), default="none")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     plan = [(args.duration_s, args.rate_hz)] if args.duration_s else [(300.0, 10.0), (60.0, 50.0)]
-    results = [run(d, r, args.sc30_baud) for d, r in plan]
+    links = ("none", "flood") if args.link == "compare" else (args.link,)
+    results = [run(d, r, args.sc30_baud, link) for d, r in plan for link in links]
     if args.json:
         print(json.dumps(results, indent=2))
     else:
         for res in results:
             print(f"--sim, real time, {res['rate_hz']:g} Hz, SC-30 at {res['sc30_baud']} baud, {res['duration_s']:g} s, {res['cycles']} cycles "
-                  f"({res['skipped_cycles']} skipped), exit {res['exit_code']}")
+                  f"({res['skipped_cycles']} skipped), exit {res['exit_code']}, link {res['link']}"
+                  + (f" ({res['flood_sent']} messages sent, {res['flood_received_mb']} MB of replies)"
+                     if res["link"] == "flood" else ""))
             print(f"  lateness p50 {res['lateness_p50_ms']:.3f} ms, p99 {res['lateness_p99_ms']:.3f} ms, max {res['lateness_max_ms']:.3f} ms")
             print(f"  heading arrival -> first command using it p99 {res['heading_to_command_p99_ms']} ms "
                   f"({res['headings_used']} headings); age of the heading a command used p99 {res['heading_age_at_command_p99_ms']} ms")

@@ -80,8 +80,11 @@ def test_each_mode_by_ctl_and_rtl_ends_holding_at_launch(tmp_path):
             code, text = await d.ctl("hold", "--heading", "90")
             assert (code, text) == (0, "hold")
             await _wait_mode(d, "hold")
-            await d.clock.sleep(15.0)
-            assert abs(((_last_cycle(d)["heading_deg"] - 90.0) + 180.0) % 360.0 - 180.0) < 15.0
+            await d.clock.sleep(40.0)  # it brakes from the mission's speed, turns, and settles on the point
+            c = _last_cycle(d)
+            assert c["hold_heading_deg"] == pytest.approx(90.0)  # the heading asked for
+            # the hull keeps it within the lateral correction (at most 40 deg) while it steers the offset away
+            assert abs(((c["heading_deg"] - 90.0) + 180.0) % 360.0 - 180.0) < 20.0, c
 
             code, text = await d.ctl("stop")
             assert (code, text) == (0, "stop")

@@ -86,7 +86,8 @@ def test_model_check_evaluate_and_sysid_table_run_from_the_install(installed, tm
     r = run(bin_dir, work, "evaluate", "--guidance", "fuzzy", "--condition", "calm", "--json")
     assert r.returncode == 0, r.stderr
     rows = [json.loads(x) for x in r.stdout.splitlines()]
-    assert len(rows) == 6 and all(row["completed"] for row in rows)  # the six shipped missions
+    assert len(rows) == 7 and all(row["completed"] for row in rows)  # the seven shipped missions
+    assert any("hold_position_error_rms_m" in row for row in rows)  # station-keep.yaml, scored on its hold
     table = shipped(bin_dir, work)["measured-table.csv"]
     r = run(bin_dir, work, "sysid", "--table", str(table), "--out", str(tmp_path / "sysid"), "--no-report")
     assert r.returncode == 0 and r.stdout.startswith("verdict:"), r.stderr

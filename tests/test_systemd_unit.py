@@ -60,7 +60,11 @@ def test_unit_has_the_required_settings():
     assert d["ProtectSystem"] == ["strict"]
     assert d["DevicePolicy"] == ["closed"]
     assert sorted(d["DeviceAllow"]) == ["/dev/mbed rw", "/dev/sc30 rw"]
-    assert d["PrivateNetwork"] == ["yes"] and d["IPAddressDeny"] == ["any"] and d["RestrictAddressFamilies"] == ["AF_UNIX"]
+    # the network for the MAVLink link only: everything denied but the boat itself (a drop-in allows the
+    # ground station's network), and no address family but UNIX and IP
+    assert "PrivateNetwork" not in d and d["IPAddressDeny"] == ["any"] and d["IPAddressAllow"] == ["localhost"]
+    assert d["RestrictAddressFamilies"] == ["AF_UNIX AF_INET AF_INET6"]
+    assert d["RuntimeDirectory"] == ["wamv-autopilot"] and "--runtime-dir ${RUNTIME_DIRECTORY}" in d["ExecStart"][0]
     assert "dialout" in d["SupplementaryGroups"][0]
     assert d["User"] == ["wamv-autopilot"]
     assert "--log-dir ${LOGS_DIRECTORY}" in d["ExecStart"][0] and "--state-dir ${STATE_DIRECTORY}" in d["ExecStart"][0]

@@ -10,6 +10,7 @@ both data streams have been valid for ``failsafe.start_valid_s``.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import math
 import os
 import sys
@@ -39,6 +40,7 @@ class RunOptions:
     state_dir: str | None = None
     runtime_dir: str | None = None
     fresh: bool = False
+    mavlink: tuple[str, ...] = ()  # endpoints added on the command line (--mavlink)
 
 
 def _console(text: str) -> None:
@@ -114,7 +116,24 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
     if _answers(path):
         raise ConfigError(f"another autopilot daemon is running: it answers on {path} (autopilot ctl status); "
                           "stop it first, or give this one its own --runtime-dir")
-    return mission, log_dir, state_dir
+    for url in opts.mavlink:
+        from autopilot.link.endpoint import parse_endpoint
+
+        try:
+            parse_endpoint(url)
+        except ValueError as exc:
+            raise ConfigError(f"--mavlink: {exc}") from None
+    if cfg.mavlink.signing_key_file and (cfg.mavlink.endpoints or opts.mavlink):
+        from autopilot.link.link import load_signing_key
+
+        load_signing_key(cfg.mavlink.signing_key_file)
+    uploaded = None if opts.fresh else StateStore(state_dir).uploaded_to_continue()
+    if uploaded is not None:  # a mission uploaded over MAVLink was running: a restart continues it
+        try:
+            mission = load_mission(uploaded, max_range_m=cfg.max_mission_range_m)
+        except ConfigError:
+            uploaded = None
+    return mission, log_dir, state_dir, uploaded
 
 
 def control_socket(cfg: DaemonConfig, opts: RunOptions) -> Path:
@@ -262,18 +281,24 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     holder["loop"] = loop
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
-    tasks += [asyncio.create_task(compass.run(), name="sc30"), asyncio.create_task(thrusters.run(), name="mbed")]
-    loop.install_signal_handlers()
-    for _ in range(20):  # the drivers' first chance to open the ports, so a normal start logs no port fault
-        if compass.connected and thrusters.connected:
-            break
-        await clock.sleep(cfg.period_s / 10.0)
-    reason = "error"
+    link, reason, refused = None, "error", None
     try:
+        link = await _start_link(cfg, opts, loop)
+        tasks += [asyncio.create_task(compass.run(), name="sc30"), asyncio.create_task(thrusters.run(), name="mbed")]
+        loop.install_signal_handlers()
+        for _ in range(20):  # the drivers' first chance to open the ports, so a normal start logs no port fault
+            if compass.connected and thrusters.connected:
+                break
+            await clock.sleep(cfg.period_s / 10.0)
         reason = await loop.run()
+    except ConfigError as exc:  # an endpoint that cannot be opened: stop as a bad configuration does
+        refused = exc
+        log.event("info", t_s=clock.now_s() - loop.t0_s, message="start refused", error=str(exc))
     except Exception as exc:  # noqa: BLE001 - logged, then the boat is stopped
         log.event("info", t_s=clock.now_s() - loop.t0_s, message="control loop error", error=repr(exc))
     finally:
+        if link is not None:  # before the stop line: it is the log's last
+            await link.close()
         code = await loop.stop(reason)
         await control.close()
         await _shut_down(tasks, (compass, thrusters), rig, tmpdir, clock)
@@ -281,7 +306,22 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         notifier.close()
         for line in end_summary(loop, str(log.path), sim=opts.sim):
             _console(line)
+    if refused is not None:
+        raise refused
     return code
+
+
+async def _start_link(cfg: DaemonConfig, opts: RunOptions, loop):
+    """The MAVLink link, when an endpoint is configured (nothing listens otherwise)."""
+    urls = tuple(cfg.mavlink.endpoints) + tuple(opts.mavlink)
+    if not urls:
+        return None
+    from autopilot.link.link import MavlinkLink
+
+    link = MavlinkLink(cfg.mavlink, loop=loop, version=package_version(), endpoints=urls)
+    await link.start()
+    loop.log_event("info", message="mavlink link open", endpoints=list(urls), signing=link.key is not None)
+    return link
 
 
 def _control_server(path: Path, holder: dict):
@@ -318,7 +358,11 @@ async def _shut_down(tasks, devices, rig, tmpdir, clock) -> None:
 
 def run_daemon(cfg: DaemonConfig, opts: RunOptions) -> int:
     """Check everything, then run until complete or signalled. Returns the process exit code."""
-    mission, log_dir, state_dir = prepare(cfg, opts)
+    mission, log_dir, state_dir, uploaded = prepare(cfg, opts)
+    if uploaded is not None:
+        _console(f"continuing the mission uploaded over MAVLink ({uploaded}), not {opts.mission_path}; "
+                 "--fresh starts the configured one")
+        opts = dataclasses.replace(opts, mission_path=str(uploaded))
     return asyncio.run(_main(cfg, opts, mission, log_dir, state_dir))
 
 

@@ -30,6 +30,9 @@ def register(subparsers) -> None:
     p.add_argument("--runtime-dir", metavar="DIR", help="override runtime_dir: where the control socket goes "
                    "(systemd: $RUNTIME_DIRECTORY)")
     p.add_argument("--fresh", action="store_true", help="ignore mission progress saved by an interrupted run")
+    p.add_argument("--mavlink", action="append", default=[], metavar="URL",
+                   help="a MAVLink endpoint, repeatable: udpout:HOST:PORT (a ground station listening, QGC: "
+                   "udpout:127.0.0.1:14550), udpin:ADDR:PORT (listen there), /dev/ttyUSB0:57600 (a radio)")
     p.set_defaults(func=_run)
 
     c = subparsers.add_parser(
@@ -41,11 +44,12 @@ def register(subparsers) -> None:
             "that says why (rtl refused: position stale). status: mode, waypoint, position, battery, faults. "
             "hold: keep station here (least-effort heading, or --heading); pause: hold here, resume continues "
             "the mission from the same waypoint; resume: back to the mission (ends a hold item early); rtl: "
-            "return to the launch point and hold there; stop: zero thrust until the next command. "
+            "return to the launch point and hold there; stop: zero thrust until the next command; disarm: zero thrust "
+            "whatever the mode until arm. "
             "Exit 0 accepted, 1 refused, 3 no daemon."
         ),
     )
-    c.add_argument("command", choices=("status", "hold", "pause", "resume", "rtl", "stop"))
+    c.add_argument("command", choices=("status", "hold", "pause", "resume", "rtl", "stop", "arm", "disarm"))
     c.add_argument("--heading", type=float, metavar="DEG", help="hold: the heading to keep (deg from north)")
     c.add_argument("--runtime-dir", metavar="DIR", help="the daemon's runtime directory (default: the service's, "
                    "then $XDG_RUNTIME_DIR/autopilot)")
@@ -75,6 +79,7 @@ def _run(args: argparse.Namespace) -> int:
         state_dir=args.state_dir,
         runtime_dir=args.runtime_dir,
         fresh=args.fresh,
+        mavlink=tuple(args.mavlink),
     )
     try:
         return run_daemon(cfg, opts)

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from autopilot.drivers.sc30_output import SENTENCES as SC30_SENTENCES
 from autopilot.gnc import GncConfig
+from autopilot.link.config import MavlinkConfig
 from autopilot.logschema import FAILSAFE_ACTIONS
 from autopilot.measured import HULL_LENGTH_M
 from autopilot.schema import ConfigError, load_yaml, param
@@ -178,6 +179,7 @@ class DaemonConfig:
     geofence: GeofenceConfig = param(default_factory=GeofenceConfig)
     sim: SimConfig = param(default_factory=SimConfig)
     gnc: GncConfig = param(default_factory=GncConfig)
+    mavlink: MavlinkConfig = param(default_factory=MavlinkConfig, doc="the live link to QGroundControl and Mission Planner (issue 16)")
 
     def __post_init__(self) -> None:
         if (self.origin_lat_deg is None) != (self.origin_lon_deg is None):

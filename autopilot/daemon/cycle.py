@@ -50,9 +50,16 @@ def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, 
     )
 
 
-def arbitrate(decision: Decision, *, steerable: bool) -> tuple[Mode | None, bool]:
+def arbitrate(decision: Decision, *, steerable: bool, manual: bool = False) -> tuple[Mode | None, bool]:
     """(the mode when the helm does not run, drive): the helm runs when the failsafe allows it and
-    there is a heading and a position; then its own mode is the cycle's (None here)."""
+    there is a heading and a position; then its own mode is the cycle's (None here). In ``manual`` the
+    operator steers by eye: only a fault of the link to the thrusters stops the helm."""
+    from autopilot.daemon.failsafe import FAULT_CLASS
+
+    if manual:
+        if any(FAULT_CLASS[c] == "mbed" for c in decision.active):
+            return Mode.FAILSAFE, False
+        return None, True
     if decision.mode == "waiting":
         return Mode.WAITING, False
     if not decision.thrust_allowed or not steerable:
@@ -107,7 +114,8 @@ def _deg(x_rad: float | None, wrap) -> float | None:
 def cycle_record(*, cycle: int, t_s: float, mode: Mode, nav: Navigation, out: ControlOutput | None,
                  cmd: ThrustCommand, wp_index: int, steering: bool, lateness_s: float, skipped: int,
                  heading_latency_s: float | None, seq: int, ack_missing: int, nmea_dropped: int,
-                 active_faults, battery_v: float | None = None, battery_rest_v: float | None = None) -> dict:
+                 active_faults, battery_v: float | None = None, battery_rest_v: float | None = None,
+                 armed: bool = True) -> dict:
     """The cycle line: every key of :data:`autopilot.logschema.CYCLE`, in its units (degrees for people)."""
     gnc = {k: None for k in GNC_FIELDS} if out is None else {k: getattr(out, k) for k in GNC_FIELDS}
     hold = None if out is None else out.hold_target_ne_m
@@ -131,12 +139,13 @@ def cycle_record(*, cycle: int, t_s: float, mode: Mode, nav: Navigation, out: Co
         "common_limit": 0 if out is None or out.thrust_off else int(out.common_limit),
         "hold_north_m": None if hold is None else hold[0], "hold_east_m": None if hold is None else hold[1],
         "hold_error_m": None if hold is None else out.hold_error_m,
+        "holding": bool(out is not None and out.holding),
         "hold_heading_deg": None if hold is None else _deg(out.hold_heading_rad, wrap_360),
         "hold_disturbance_n": None if hold is None else out.hold_disturbance_n,
         "battery_v": battery_v, "battery_rest_v": battery_rest_v,
         "lateness_ms": lateness_s * 1e3, "skipped_cycles": int(skipped),
         "heading_latency_ms": None if heading_latency_s is None else heading_latency_s * 1e3,
         "seq": int(seq), "ack_missing": int(ack_missing), "nmea_dropped": int(nmea_dropped),
-        "active_faults": list(active_faults),
+        "active_faults": list(active_faults), "armed": bool(armed),
     }
     return {k: rec[k] for k in CYCLE_KEYS}  # the schema's keys, in its order (a missing one is a KeyError here)

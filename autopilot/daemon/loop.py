@@ -23,6 +23,7 @@ import math
 import signal
 from dataclasses import dataclass, field
 
+from autopilot.daemon import commands
 from autopilot.daemon import cycle as steps
 from autopilot.daemon.config import DaemonConfig
 from autopilot.daemon.failsafe import Failsafe, resting_voltage_v
@@ -33,6 +34,7 @@ from autopilot.devices import ZERO_THRUST, Compass, ThrustCommand, ThrusterLink
 from autopilot.gnc import Autopilot
 from autopilot.gnc.navigation import NavMemory, assemble
 from autopilot.gnc.passes import PassTracker
+from autopilot.logschema import Mode
 
 __all__ = ["LoopState", "ControlLoop", "watchdog_due"]
 
@@ -67,6 +69,7 @@ class LoopState:
     stop_signal: str | None = None
     mode: str = "waiting"  # the last cycle's
     last_cmd: ThrustCommand = ZERO_THRUST
+    manual_input_wall_s: float = -math.inf  # wall time of the last manual input (a human's link runs on wall time)
     status: dict = field(default_factory=dict)  # the last cycle's, for `autopilot ctl status`
 
     @property
@@ -122,11 +125,12 @@ class ControlLoop:
         self._log_events(decision.events, t_s)
         helm_nav, unavailable = steps.helm_nav(nav, decision)
         for req in decision.requests:
-            self._failsafe_action(req, helm_nav, unavailable, t_s)
+            commands.failsafe_action(self, req, helm_nav, unavailable, t_s)
         while self.commands:
             request, answer = self.commands.popleft()
-            answer(self._command(request, helm_nav, unavailable, decision, t_s))
-        mode, drive = steps.arbitrate(decision, steerable=nav.steerable)
+            answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
+        self._manual_timeout(helm_nav, unavailable, t_s)
+        mode, drive = steps.arbitrate(decision, steerable=nav.steerable, manual=self.ap.mode is Mode.MANUAL)
         st.driving = st.driving and drive
         out = self._steer(nav, now_s, t_s) if drive else None
         if out is not None:
@@ -142,7 +146,7 @@ class ControlLoop:
             steering=drive, lateness_s=lateness_s, skipped=st.skipped,
             heading_latency_s=None if heading is None else self.clock.now_s() - heading.t_s, seq=st.seq,
             ack_missing=self.thrusters.ack_missing, nmea_dropped=self.compass.lines_dropped,
-            active_faults=decision.active, battery_v=battery_v, battery_rest_v=battery_rest_v))
+            active_faults=decision.active, battery_v=battery_v, battery_rest_v=battery_rest_v, armed=self.ap.armed))
         st.mode = mode.value
         st.status = self._status(t_s, mode, nav, out, decision, battery_v)
         st.cycles += 1
@@ -156,7 +160,7 @@ class ControlLoop:
             st.last_step_s = None
         dt_s = steps.step_dt_s(now_s, st.last_step_s, self.cfg.period_s)
         st.last_step_s, st.driving = now_s, True
-        out = self.ap.step(steps.nav_input(nav), dt_s)
+        out = self.ap.step(steps.nav_input(nav) if nav.steerable else None, dt_s)
         if out.reached_index is not None:
             st.reached.append(out.reached_index)
             self.log.event("waypoint_reached", t_s=t_s, wp_index=out.reached_index, north_m=nav.est_north_m,
@@ -170,69 +174,101 @@ class ControlLoop:
         st.finished = out.finished
         return out
 
-    # ---- the helm's commands: failsafe actions and the operator's --------------------------
-    def _failsafe_action(self, req, helm_nav, unavailable: str, t_s: float) -> None:
-        """A latched fault's action to the helm; refused (rtl without a launch point) -> stop."""
-        action, fallback = req.action, req.fallback
-        ok, answer = self.ap.request(action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
-        if not ok:
-            action, fallback = "stop", answer
-            self.ap.request("stop", None, cause=f"failsafe {req.cause}")
-        self.log.event("failsafe", t_s=t_s, cause=req.cause, action=action, configured=req.configured,
-                       fallback=fallback)
-        self.state.failsafe_causes.append(req.cause)
-
+    # ---- the helm's commands: failsafe actions, the operator's, the link's ----------------
     def log_event(self, name: str, **fields) -> None:
-        """An event from outside the cycle (the control socket's refusals), on mission time."""
+        """An event from outside the cycle (the control socket's refusals, the link), on mission time."""
         self.log.event(name, t_s=self.clock.now_s() - self.t0_s, **fields)
 
     def submit(self, request: dict, answer) -> None:
-        """Queue an operator command (``{"command": ..., ...}``); ``answer(reply dict)`` is called from the
-        next cycle, between its steps: the caller never runs inside the loop's timing."""
+        """Queue a command (``{"command": ..., "source": ..., ...}``, see :mod:`autopilot.daemon.commands`);
+        ``answer(reply dict)`` is called from the next cycle, between its steps: the caller never runs inside
+        the loop's timing."""
         self.commands.append((request, answer))
 
-    def _command(self, request: dict, helm_nav, unavailable: str, decision, t_s: float) -> dict:
-        from autopilot.daemon.control import check_request
+    def replace_mission(self, mission, *, source: str, cause: str) -> None:
+        """A new mission (same local origin) from its first waypoint, saved so that a restart continues it."""
+        from autopilot.daemon.state import save_uploaded_mission
 
-        source = str(request.get("source", "ctl"))
-        problem = check_request(request)
-        command = str(request.get("command", ""))[:32]
-        if problem is not None:
-            ok, answer = False, problem
-        else:
-            heading = request.get("heading_deg")
-            latched = [c for c in self.failsafe.latched]
-            if command == "resume" and latched:
-                ok, answer = False, (f"resume refused: {', '.join(latched)} latched (a failsafe took the boat; "
-                                     "hold, rtl and stop are allowed)")
-            else:
-                ok, answer = self.ap.request(command, helm_nav, cause=f"{source} {command}", unavailable=unavailable,
-                                             heading_rad=None if heading is None else math.radians(float(heading)))
-        self.log.event("command", t_s=t_s, command=command, source=source, accepted=ok, answer=answer)
-        reply = {"ok": ok, "answer": answer, "mode": self.ap.mode.value}
-        if ok and decision.mode != "auto":
-            reply["note"] = ("zero thrust until the failsafe clears: " + ", ".join(decision.active)
-                             if decision.mode == "failsafe" else "waiting for valid data before control starts")
-        return reply
+        path, sha = save_uploaded_mission(self.store.dir, mission)
+        self.mission, self.mission_path, self.mission_sha256 = mission, str(path), sha
+        self.ap.replace_mission(mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
+                                rtl=mission.rtl, cause=cause)
+        st = self.state
+        st.completed_t_s, st.finished, st.passes_done, st.reached, st.closest_m = None, False, False, [], {}
+        self.passes_restart()
+        self.log.event("mission_replaced", t_s=self.clock.now_s() - self.t0_s, source=source,
+                       waypoints=[[float(n), float(e)] for n, e in mission.waypoints_ne_m], path=str(path),
+                       sha256=sha)
+        self.save_progress("running")
+
+    def passes_restart(self) -> None:
+        """The closest-approach passes start again at the helm's waypoint (a new mission, a jump)."""
+        self.state.passes_done = False
+        self.passes = PassTracker(self.mission.waypoints_ne_m, start_index=self.ap.wp_index)
+
+    def apply_config(self, cfg: DaemonConfig) -> None:
+        """A new configuration from the next cycle on (a parameter set over the link)."""
+        self.cfg = cfg
+        self.failsafe.cfg = cfg.failsafe
+        self.rules = steps.nav_rules(cfg)
+        self.ap.set_config(cfg.gnc)
+
+    def save_progress(self, status: str) -> None:
+        self._save(status)
+
+    def _manual_timeout(self, helm_nav, unavailable: str, t_s: float) -> None:
+        """A manual source gone quiet: the configured hold (or stop), never the last stick position."""
+        st, link = self.state, self.cfg.mavlink
+        if self.ap.mode is not Mode.MANUAL:
+            return
+        silent_s = self.clock.wall_elapsed_s() - st.manual_input_wall_s
+        if silent_s <= link.manual_timeout_s:
+            return
+        cause = f"manual: no input for {silent_s:.2f} s"
+        ok, _ = self.ap.request(link.manual_timeout_action, helm_nav, cause=cause, unavailable=unavailable)
+        if not ok:
+            self.ap.request("stop", None, cause=cause)
 
     def _log_helm_events(self, t_s: float) -> None:
         for name, fields in self.ap.pop_events():
             self.log.event(name, t_s=t_s, **fields)
 
     def _status(self, t_s: float, mode, nav, out, decision, battery_v) -> dict:
-        """What `autopilot ctl status` shows: this cycle, in SI and degrees for people."""
+        """The last cycle for `autopilot ctl status` and the MAVLink telemetry: SI, degrees for people."""
+        from autopilot.geo import local_to_latlon
+
         hold = None if out is None else out.hold_target_ne_m
+        ap, origin = self.ap, (self.mission.origin_lat_deg, self.mission.origin_lon_deg)
+        wp = ap.guidance.waypoints[ap.wp_index]
+        dist = brg = None
+        if nav.est_north_m is not None:
+            dn, de = wp[0] - nav.est_north_m, wp[1] - nav.est_east_m
+            dist, brg = math.hypot(dn, de), math.degrees(math.atan2(de, dn)) % 360.0
+        launch = ap.launch_ne_m
+        launch_ll = (None, None) if launch is None else local_to_latlon(launch[0], launch[1], *origin)
+        n_items = 1 + len(self.mission.waypoints_ne_m) + (1 if self.mission.rtl else 0)
+        item = (len(self.mission.waypoints_ne_m) + 1 if ap.mode is Mode.RTL and self.mission.rtl
+                else ap.wp_index + 1)
         return {
-            "t_s": round(t_s, 2), "mode": mode.value, "helm_mode": self.ap.mode.value, "cycle": self.state.cycles,
-            "wp_index": int(self.ap.wp_index), "wp_count": len(self.mission.waypoints_ne_m),
-            "mission_complete": bool(self.ap.complete),
+            "t_s": round(t_s, 2), "mode": mode.value, "helm_mode": ap.mode.value, "armed": ap.armed,
+            "cycle": self.state.cycles, "wp_index": int(ap.wp_index), "wp_count": len(self.mission.waypoints_ne_m),
+            "mission_complete": bool(ap.complete), "mission_cleared": ap.mission_cleared,
+            "mission_item": 0 if ap.mission_cleared else item, "mission_items": 0 if ap.mission_cleared else n_items,
             "north_m": nav.north_m, "east_m": nav.east_m, "lat_deg": nav.lat_deg, "lon_deg": nav.lon_deg,
             "heading_deg": None if nav.heading_rad is None else round(math.degrees(nav.heading_rad) % 360.0, 1),
-            "sog_m_s": nav.sog_m_s, "battery_v": battery_v, "active_faults": list(decision.active),
-            "latched_faults": list(self.failsafe.latched),
+            "yaw_rate_deg_s": None if nav.yaw_rate_rad_s is None else math.degrees(nav.yaw_rate_rad_s),
+            "sog_m_s": nav.sog_m_s, "cog_deg": None if nav.cog_rad is None else math.degrees(nav.cog_rad) % 360.0,
+            "fix_quality": nav.fix_quality, "battery_v": battery_v, "active_faults": list(decision.active),
+            "latched_faults": list(self.failsafe.latched), "nmea_dropped": self.compass.lines_dropped,
             "hold_north_m": None if hold is None else hold[0], "hold_east_m": None if hold is None else hold[1],
             "hold_error_m": None if hold is None else out.hold_error_m,
-            "launch_ne_m": None if self.ap.launch_ne_m is None else list(self.ap.launch_ne_m),
+            "launch_ne_m": None if launch is None else list(launch),
+            "launch_lat_deg": launch_ll[0], "launch_lon_deg": launch_ll[1],
+            "wp_distance_m": dist, "wp_bearing_deg": brg,
+            "psi_d_deg": None if out is None else math.degrees(out.psi_d_rad) % 360.0,
+            "xte_m": None if out is None else out.xte_m,
+            "speed_cmd_m_s": None if out is None else out.speed_cmd_m_s,
+            "tau_com_n": None if out is None else out.tau_com_n, "max_forward_n": ap.allocator.upper_n,
             "thrust_port_n": None if out is None else out.thrust_port_n,
             "thrust_stbd_n": None if out is None else out.thrust_stbd_n,
         }

@@ -72,10 +72,17 @@ class MissionLog:
             structlog.wrap_logger(structlog.WriteLogger(console), processors=processors) if console is not None else None
         )
         self.lines = 0
+        self.listeners: list = []  # callables (name, t_s, fields) told every event but cycle lines (the link)
 
     def event(self, name: str, *, t_s: float, **fields: Any) -> None:
         self._log.msg(name, t_s=t_s, **fields)
         self.lines += 1
+        if name != "cycle":
+            for listener in self.listeners:
+                try:
+                    listener(name, t_s, fields)
+                except Exception:  # noqa: BLE001 - a listener must never stop the log or the loop
+                    pass
         if self._console is not None and name != "cycle":
             try:
                 self._console.msg(name, t_s=t_s, **{k: v for k, v in fields.items() if k != "config"})

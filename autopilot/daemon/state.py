@@ -15,9 +15,10 @@ import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-__all__ = ["Progress", "StateStore", "file_sha256"]
+__all__ = ["Progress", "StateStore", "file_sha256", "save_uploaded_mission", "UPLOADED_MISSION"]
 
 STATE_FILE = "mission-progress.json"
+UPLOADED_MISSION = "uploaded-mission.waypoints"  # a mission uploaded over MAVLink (Mission Planner's format)
 
 
 def file_sha256(path: str | Path) -> str:
@@ -57,22 +58,18 @@ class StateStore:
         """Replace the file atomically; skip when nothing changed."""
         if progress == self._last:
             return
-        self.dir.mkdir(parents=True, exist_ok=True)
-        tmp = self.path.with_name(f".{STATE_FILE}.{os.getpid()}.tmp")
         data = json.dumps(asdict(progress), sort_keys=True).encode("utf-8")
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o640)
-        try:
-            os.write(fd, data + b"\n")
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, self.path)
-        dfd = os.open(self.dir, os.O_RDONLY | os.O_DIRECTORY)
-        try:
-            os.fsync(dfd)
-        finally:
-            os.close(dfd)
+        write_atomically(self.path, data + b"\n")
         self._last = progress
+
+    def uploaded_to_continue(self) -> Path | None:
+        """The mission uploaded over MAVLink, if it is the saved one and was neither completed nor cleared: it
+        replaced the configured mission, and a restart (a crash, or systemctl restart) keeps it."""
+        saved = self.load()
+        path = self.dir / UPLOADED_MISSION
+        if saved is None or saved.status in ("complete", "cleared") or Path(saved.mission) != path or not path.exists():
+            return None
+        return path if file_sha256(path) == saved.mission_sha256 else None
 
     def resume_index(self, mission: str, mission_sha256: str) -> int | None:
         """Waypoint to resume from if the saved mission is this one and was still running."""
@@ -80,3 +77,31 @@ class StateStore:
         if saved is None or saved.mission_sha256 != mission_sha256 or saved.status != "running":
             return None
         return saved.wp_index
+
+
+def write_atomically(path: Path, data: bytes) -> None:
+    """tmp file + fsync + rename + fsync of the directory: after a power cut, the old file or the new one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o640)
+    try:
+        os.write(fd, data)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    os.replace(tmp, path)
+    dfd = os.open(path.parent, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        os.fsync(dfd)
+    finally:
+        os.close(dfd)
+
+
+def save_uploaded_mission(state_dir: str | Path, mission) -> tuple[Path, str]:
+    """Write a mission uploaded over the link to the state directory; (its path, its SHA-256)."""
+    from autopilot.mission import to_waypoints_text
+
+    path = Path(state_dir) / UPLOADED_MISSION
+    data = to_waypoints_text(mission).encode("utf-8")
+    write_atomically(path, data)
+    return path, hashlib.sha256(data).hexdigest()

@@ -22,7 +22,17 @@ from dataclasses import dataclass
 
 from autopilot.gnc.allocation import Allocator, common_thrust_n
 from autopilot.gnc.config import GncConfig
-from autopilot.gnc.modes import AutoMode, CompleteMode, Handover, HoldMode, PausedMode, RtlMode, Steering, StopMode
+from autopilot.gnc.modes import (
+    AutoMode,
+    CompleteMode,
+    Handover,
+    HoldMode,
+    ManualMode,
+    PausedMode,
+    RtlMode,
+    Steering,
+    StopMode,
+)
 from autopilot.gnc.pid import HeadingPid
 from autopilot.gnc.speed import SpeedTrim
 from autopilot.gnc.thrust_curve import ThrustCurve
@@ -107,6 +117,8 @@ class Autopilot:
         self.auto = AutoMode(config, waypoints_ne_m, speeds_m_s=speeds_m_s, holds_s=holds_s, rtl=rtl,
                              boat_length_m=boat_length_m, start_index=start_index)
         self.guidance = self.auto.guidance  # the mission's route (wp_index, waypoints)
+        self.mission_cleared = False  # MAVLink MISSION_CLEAR_ALL: no mission to resume until a new one
+        self.armed = True
         self.current = self.auto
         self.paused_from = None  # the mode a pause interrupted (resume goes back to it)
         self.launch_ne_m = None if launch_ne_m is None else (float(launch_ne_m[0]), float(launch_ne_m[1]))
@@ -152,18 +164,31 @@ class Autopilot:
 
     # ---------------------------------------------------------------- commands
     def request(self, command: str, nav: NavInput | None, *, cause: str, heading_rad: float | None = None,
-                unavailable: str = "no position and heading") -> tuple[bool, str]:
+                unavailable: str = "no position and heading",
+                target_ne_m: tuple[float, float] | None = None) -> tuple[bool, str]:
         """An operator's or a failsafe's command -> (accepted, the new mode or the refusal).
 
         ``nav`` is None when the position or the heading cannot be trusted (``unavailable`` says why):
-        then only ``stop`` is accepted. ``heading_rad``: the heading a ``hold`` keeps (None = least effort).
+        then only ``stop``, ``arm``, ``disarm`` and ``manual`` are accepted. ``heading_rad``: the heading a
+        ``hold`` keeps (None = least effort); ``target_ne_m``: where it holds (None = here; MAVLink's
+        reposition, "go here").
         """
         if command == "stop":
             if self.current.mode is not Mode.STOP:
                 self._switch(StopMode(), cause)
             return True, Mode.STOP.value
+        if command in ("arm", "disarm"):
+            armed = command == "arm"
+            if armed != self.armed:
+                self.armed = armed
+                self._events.append(("arming", {"armed": armed, "cause": cause}))
+            return True, "armed" if armed else "disarmed"
+        if command == "manual":  # needs no position: the operator sees the boat
+            if self.current.mode is not Mode.MANUAL:
+                self._switch(ManualMode(), cause)
+            return True, Mode.MANUAL.value
         if command not in ("hold", "pause", "resume", "rtl"):
-            return False, f"{command} refused: unknown command (hold, pause, resume, rtl, stop)"
+            return False, f"{command} refused: unknown command (hold, pause, resume, rtl, stop, arm, disarm, manual)"
         if nav is None:
             return False, f"{command} refused: {unavailable}"
         mode = self.current.mode
@@ -173,11 +198,14 @@ class Autopilot:
             return False, f"pause refused: mode {mode.value} (pause holds a running mission or return)"
         if command == "rtl" and self.launch_ne_m is None:
             return False, "rtl refused: no launch point yet (control has not started)"
-        if mode is _MODE_OF_COMMAND[command] and not (command == "hold" and heading_rad is not None):
+        if mode is _MODE_OF_COMMAND[command] and not (command == "hold" and (heading_rad is not None or
+                                                                             target_ne_m is not None)):
             return True, mode.value
         here = (nav.north_m, nav.east_m)
         if command == "hold":
-            self._switch(HoldMode(self.config.hold, here, heading_rad=heading_rad, initial_heading_rad=nav.psi_rad), cause)
+            point = here if target_ne_m is None else (float(target_ne_m[0]), float(target_ne_m[1]))
+            self._switch(HoldMode(self.config.hold, point, heading_rad=heading_rad, initial_heading_rad=nav.psi_rad),
+                         cause)
         elif command == "pause":
             self.paused_from = self.current
             self._switch(PausedMode(self.config.hold, here, heading_rad=None, initial_heading_rad=nav.psi_rad), cause)
@@ -196,6 +224,8 @@ class Autopilot:
             back, self.paused_from = self.paused_from, None
             self._switch(back, cause)
             return True, back.mode.value
+        if self.mission_cleared:
+            return False, "resume refused: no mission (it was cleared; upload one)"
         if self.auto.guidance.complete and not self.auto.item_keeper:
             return False, "resume refused: the mission is complete (hold, rtl and stop are available)"
         self._switch(self.auto, cause)
@@ -224,9 +254,82 @@ class Autopilot:
             raise ValueError(f"no hand-over to {h.mode}")
         self._switch(new, h.cause)
 
+    # ---------------------------------------------------------------- the mission and the settings
+    def set_sticks(self, forward_nd: float, turn_nd: float) -> bool:
+        """Manual input (-1..1 each); False when not in manual (the input is not used)."""
+        if isinstance(self.current, ManualMode):
+            self.current.set_sticks(forward_nd, turn_nd)
+            return True
+        return False
+
+    def replace_mission(self, waypoints_ne_m, *, speeds_m_s=None, holds_s=None, rtl: bool = False,
+                        cause: str) -> None:
+        """A new mission from its first waypoint. In ``auto`` (or paused in it) the boat flies the new one at
+        once; in another mode it waits there for ``resume``."""
+        old = self.auto
+        self.auto = AutoMode(self.config, waypoints_ne_m, speeds_m_s=speeds_m_s, holds_s=holds_s, rtl=rtl,
+                             boat_length_m=self.boat_length_m)
+        self.guidance = self.auto.guidance
+        self.mission_cleared = False
+        if self.paused_from is old:
+            self.paused_from = self.auto
+        if self.current is old:
+            self._switch(self.auto, cause)
+
+    def clear_mission(self, nav: NavInput | None, *, cause: str, unavailable: str = "no position") -> str:
+        """No mission: running it, the boat holds where it is (stops without a position)."""
+        self.mission_cleared = True
+        if self.current is self.auto or self.paused_from is self.auto:
+            self.paused_from = None
+            ok, _ = self.request("hold", nav, cause=cause, unavailable=unavailable)
+            if not ok:
+                self.request("stop", None, cause=cause)
+        return self.current.mode.value
+
+    def set_current(self, index: int, *, cause: str) -> tuple[bool, str]:
+        """Fly the mission from waypoint ``index`` (MAVLink set current)."""
+        n = len(self.guidance.waypoints)
+        if self.mission_cleared or not 0 <= index < n:
+            return False, f"set current refused: waypoint {index} is not in the mission (0..{n - 1})"
+        g = self.guidance
+        g.index, g.complete = int(index), False
+        g._leg_start = g.waypoints[index - 1] if index > 0 else None  # from where the boat is, for the first
+        g.reset()
+        self.auto.end_item_hold()
+        self._events.append(("mode", {"mode": self.current.mode.value, "from": self.current.mode.value,
+                                      "cause": f"{cause}: waypoint {index}"}))
+        return True, f"waypoint {index}"
+
+    def set_config(self, config: GncConfig) -> None:
+        """New gains and limits, from the next step on (a parameter set between cycles)."""
+        self.config = config
+        self.pid.config, self.speed_trim.config = config.pid, config.speed
+        self.allocator = Allocator(config.allocation, self.allocator.curve)
+        for mode in (self.auto, self.current, self.paused_from):
+            if mode is None:
+                continue
+            if hasattr(mode, "config"):
+                mode.config = config
+            guidance = getattr(mode, "guidance", None)
+            if guidance is not None:
+                guidance.config = config.guidance
+            for keeper in (getattr(mode, "keeper", None), getattr(mode, "item_keeper", None)):
+                if keeper is not None:
+                    keeper.config = config.hold
+            closing = getattr(mode, "closing", None)
+            if closing is not None:
+                closing.config = config.hold
+                if closing.keeper is not None:
+                    closing.keeper.config = config.hold
+
     # ---------------------------------------------------------------- the cycle
-    def step(self, nav: NavInput, dt_s: float) -> ControlOutput:
-        """One control cycle: navigation data and the time since the last cycle -> command."""
+    def step(self, nav: NavInput | None, dt_s: float) -> ControlOutput:
+        """One control cycle: navigation data and the time since the last cycle -> command. ``nav`` may be
+        None only in a mode that needs no position (manual, stop)."""
+        if nav is None:
+            if self.current.requires_position:
+                raise ValueError(f"mode {self.current.mode.value} needs a position and a heading")
+            return self._inner(None, dt_s, self.current.update(None, dt_s), None)
         if not (math.isfinite(nav.north_m) and math.isfinite(nav.east_m) and math.isfinite(nav.psi_rad)):
             raise ValueError("NavInput position and heading must be finite")
         if self.launch_ne_m is None:
@@ -241,14 +344,23 @@ class Autopilot:
             s = self.current.update(nav, dt_s)
         return self._inner(nav, dt_s, s, reached)
 
-    def _inner(self, nav: NavInput, dt_s: float, s: Steering, reached) -> ControlOutput:
+    def _inner(self, nav: NavInput | None, dt_s: float, s: Steering, reached) -> ControlOutput:
+        if not self.armed:  # disarmed: zero thrust whatever the mode asks
+            s = Steering("off", psi_d_rad=s.psi_d_rad, guidance=s.guidance, hold=s.hold,
+                         hold_target_ne_m=s.hold_target_ne_m, holding=s.holding)
         if s.kind != self._last_kind:  # a new kind of demand: nothing integrated for the old one counts
             self.reset_integrator()
             self._last_kind = s.kind
-        terms = self.pid.terms(s.psi_d_rad, nav.psi_rad, nav.yaw_rate_rad_s)
+        psi = s.psi_d_rad if nav is None else nav.psi_rad
+        terms = self.pid.terms(s.psi_d_rad, psi, 0.0 if nav is None else nav.yaw_rate_rad_s)
         trim_n = 0.0
         if s.kind == "off":
             alloc = self.allocator.allocate(0.0, 0.0)
+            p_n = i_n = d_n = 0.0
+        elif s.kind == "manual":  # the sticks: full forward = the forward limit, full turn = all of it differential
+            alloc_cfg = self.allocator
+            tau_com = s.forward_nd * (alloc_cfg.upper_n if s.forward_nd >= 0.0 else -alloc_cfg.lower_n)
+            alloc = self.allocator.allocate(tau_com, s.turn_nd * alloc_cfg.upper_n)
             p_n = i_n = d_n = 0.0
         else:
             p_n, i_n, d_n = terms.p_n, terms.i_n, terms.d_n

@@ -16,6 +16,7 @@ heading fault. The names are :class:`autopilot.logschema.Mode`'s. Pure.
     rtl       steer to the launch point with the mission's guidance law, then hold there
     stop      zero thrust, latched until commanded
     complete  the mission ended with stop: zero thrust, the run may end
+    manual    the operator's sticks (MAVLink MANUAL_CONTROL): forward and turn straight to the allocation
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ from autopilot.gnc.station_keeping import HoldOutput, StationKeeper
 from autopilot.gnc.waypoints import GuidanceOutput
 from autopilot.logschema import Mode
 
-__all__ = ["Steering", "Handover", "AutoMode", "HoldMode", "PausedMode", "RtlMode", "StopMode", "CompleteMode"]
+__all__ = ["Steering", "Handover", "AutoMode", "HoldMode", "PausedMode", "RtlMode", "StopMode", "CompleteMode",
+           "ManualMode"]
 
 
 @dataclass(frozen=True)
@@ -45,7 +47,7 @@ class Handover:
 class Steering:
     """What a mode asks of the inner loop this cycle."""
 
-    kind: str  # "course" (psi_d, speed), "force" (psi_d, signed tau_com), "off" (zero thrust)
+    kind: str  # "course" (psi_d, speed), "force" (psi_d, signed tau_com), "off" (zero thrust), "manual" (sticks)
     psi_d_rad: float = 0.0
     speed_cmd_m_s: float = 0.0
     tau_com_n: float = 0.0
@@ -54,6 +56,8 @@ class Steering:
     hold_target_ne_m: tuple[float, float] | None = None
     holding: bool = False  # the hold proper (scored, timed); False while station keeping only closes on the point
     then: Handover | None = None
+    forward_nd: float = 0.0  # manual: the forward stick, -1 (full astern) .. 1 (full ahead)
+    turn_nd: float = 0.0  # manual: the turn stick, -1 (full to port) .. 1 (full to starboard)
 
 
 def keep_station(keeper: StationKeeper, nav, dt_s: float, guidance: GuidanceOutput | None = None, *,
@@ -94,7 +98,26 @@ class StopMode:
     requires_position = False
 
     def update(self, nav, dt_s: float) -> Steering:
-        return Steering("off", psi_d_rad=nav.psi_rad)
+        return Steering("off", psi_d_rad=0.0 if nav is None else nav.psi_rad)
+
+
+class ManualMode:
+    """The operator drives: the sticks go to the allocation (and its limits), no guidance, no PID."""
+
+    mode = Mode.MANUAL
+    requires_position = False
+
+    def __init__(self) -> None:
+        self.forward_nd = 0.0
+        self.turn_nd = 0.0
+
+    def set_sticks(self, forward_nd: float, turn_nd: float) -> None:
+        self.forward_nd = max(-1.0, min(1.0, float(forward_nd)))
+        self.turn_nd = max(-1.0, min(1.0, float(turn_nd)))
+
+    def update(self, nav, dt_s: float) -> Steering:
+        return Steering("manual", psi_d_rad=0.0 if nav is None else nav.psi_rad, forward_nd=self.forward_nd,
+                        turn_nd=self.turn_nd)
 
 
 class CompleteMode(StopMode):

@@ -330,6 +330,9 @@ def holding_proper(log: MissionLog) -> np.ndarray:
     t = log.col("t_s")
     hn, he = log.col("hold_north_m"), log.col("hold_east_m")
     at_point = np.isfinite(hn) & np.isfinite(he)
+    flag = log.col("holding")
+    if np.isfinite(flag).any():  # the daemon says so (logs since the `holding` field); older logs: inferred below
+        return at_point & (flag > 0.5)
     mode = log.mode
     held = at_point & ((mode == MODES.index(Mode.HOLD.value)) | (mode == MODES.index(Mode.PAUSED.value)))
     in_auto = at_point & (mode == MODES.index(Mode.AUTO.value))

@@ -37,6 +37,7 @@ MODE_COLORS: dict[str, str] = {
     Mode.STOP.value: "#3e2723",
     Mode.FAILSAFE.value: "#d50000",
     Mode.COMPLETE.value: "#66bb6a",
+    Mode.MANUAL.value: "#c2185b",
 }
 UNKNOWN_MODE_COLOR = "#e0e0e0"  # a cycle without a mode, or one the schema does not know
 MODE_STRIP_IN = 0.28  # height of the mode band under the time panels

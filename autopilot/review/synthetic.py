@@ -229,6 +229,7 @@ def write_synthetic_log(
         "hold_north_m": (np.zeros(n), "%.3f", np.zeros(n, dtype=bool)),
         "hold_east_m": (np.zeros(n), "%.3f", np.zeros(n, dtype=bool)),
         "hold_error_m": (np.zeros(n), "%.3f", np.zeros(n, dtype=bool)),
+        "holding": (np.full(n, "false"), "%s", None),
         "hold_heading_deg": (np.zeros(n), "%.2f", np.zeros(n, dtype=bool)),
         "hold_disturbance_n": (np.zeros(n), "%.3f", np.zeros(n, dtype=bool)),
         # a 105 Ah battery slowly discharging, sagging with the thrust (autopilot/sim/battery.py's shape)
@@ -273,6 +274,7 @@ def write_synthetic_log(
                         + f', "sat_stbd": {"true" if sat_stbd[k] else "false"}'
                         + f', "saturation": [{", ".join(sat)}]'
                         + (', "active_faults": []' if moving[k] else ', "active_faults": ["heading_stale"]')
+                        + ', "armed": true'
                         + f', "timestamp": "{_iso(t[k])}"}}\n')
         if complete_idx is not None:
             last = len(wps) - 1

@@ -1,0 +1,134 @@
+"""What the loop does with a command between two cycles: operator, link and failsafe requests to the helm.
+
+Every request is a dict with ``command`` and ``source`` (``ctl``, ``mavlink``), validated by whoever
+submitted it (the control socket: :func:`autopilot.daemon.control.check_request`; the MAVLink link
+its own messages); :func:`apply` carries it out on the loop's helm and configuration and returns the
+reply (``ok``, ``answer``, ``mode``). Each is logged as a ``command`` event, accepted or not.
+
+    hold [heading_deg] [north_m, east_m]   station keeping here (or there: MAVLink reposition)
+    pause | resume | rtl | stop | arm | disarm
+    manual forward_nd turn_nd              the sticks (-1..1); the first puts the boat in manual
+    set_current index                      fly the mission from that waypoint
+    mission (a Mission) | mission_clear    replace the running mission at this safe point
+    param_set key value name               a configuration value, already range-checked
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from autopilot.logschema import Mode
+
+__all__ = ["apply", "failsafe_action", "replace_key"]
+
+QUIET = {"manual"}  # sent tens of times a second: logged when it changes the mode, not each time
+
+
+def failsafe_action(loop, req, helm_nav, unavailable: str, t_s: float) -> None:
+    """A latched fault's action to the helm; refused (rtl without a launch point) -> stop."""
+    ap = loop.ap
+    action, fallback = req.action, req.fallback
+    ok, answer = ap.request(action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
+    if not ok:
+        action, fallback = "stop", answer
+        ap.request("stop", None, cause=f"failsafe {req.cause}")
+    loop.log.event("failsafe", t_s=t_s, cause=req.cause, action=action, configured=req.configured, fallback=fallback)
+    loop.state.failsafe_causes.append(req.cause)
+
+
+def apply(loop, request: dict, helm_nav, unavailable: str, decision, t_s: float) -> dict:
+    source = str(request.get("source", "ctl"))
+    command = str(request.get("command", ""))[:32]
+    cause = str(request.get("cause") or f"{source} {command}")
+    handler = _HANDLERS.get(command, _helm)
+    try:
+        ok, answer = handler(loop, request, helm_nav, unavailable, cause)
+    except Exception as exc:  # noqa: BLE001 - a command that breaks is refused; the loop and the boat go on
+        ok, answer = False, f"{command} failed: {type(exc).__name__}: {exc} (a bug: please report it)"
+    if command not in QUIET or not ok or answer != "manual (held)":
+        loop.log.event("command", t_s=t_s, command=command, source=source, accepted=ok, answer=answer)
+    reply = {"ok": ok, "answer": answer, "mode": loop.ap.mode.value}
+    if ok and decision.mode != "auto" and loop.ap.mode is not Mode.MANUAL:
+        reply["note"] = ("zero thrust until the failsafe clears: " + ", ".join(decision.active)
+                         if decision.mode == "failsafe" else "waiting for valid data before control starts")
+    return reply
+
+
+def _helm(loop, request, helm_nav, unavailable, cause):
+    command = request["command"]
+    latched = list(loop.failsafe.latched)
+    if command == "resume" and latched:
+        return False, (f"resume refused: {', '.join(latched)} latched (a failsafe took the boat; "
+                       "hold, rtl and stop are allowed)")
+    heading = request.get("heading_deg")
+    target = (request["north_m"], request["east_m"]) if "north_m" in request else None
+    return loop.ap.request(command, helm_nav, cause=cause, unavailable=unavailable, target_ne_m=target,
+                           heading_rad=None if heading is None else math.radians(float(heading)))
+
+
+def _manual(loop, request, helm_nav, unavailable, cause):
+    loop.state.manual_input_wall_s = loop.clock.wall_elapsed_s()
+    if loop.ap.mode is not Mode.MANUAL:
+        if not loop.ap.armed:
+            return False, "manual refused: disarmed (arm first)"
+        loop.ap.request("manual", None, cause=cause)
+        loop.ap.set_sticks(request.get("forward_nd", 0.0), request.get("turn_nd", 0.0))
+        return True, "manual"
+    loop.ap.set_sticks(request.get("forward_nd", 0.0), request.get("turn_nd", 0.0))
+    return True, "manual (held)"
+
+
+def _set_current(loop, request, helm_nav, unavailable, cause):
+    ok, answer = loop.ap.set_current(int(request["index"]), cause=cause)
+    if ok:
+        loop.passes_restart()
+        loop.save_progress("running")
+    return ok, answer
+
+
+def _mission(loop, request, helm_nav, unavailable, cause):
+    loop.replace_mission(request["mission"], source=str(request.get("source", "mavlink")), cause=cause)
+    return True, f"mission of {len(request['mission'].waypoints_ne_m)} waypoint(s)"
+
+
+def _mission_clear(loop, request, helm_nav, unavailable, cause):
+    mode = loop.ap.clear_mission(helm_nav, cause=cause, unavailable=unavailable)
+    loop.log.event("mission_replaced", t_s=loop.clock.now_s() - loop.t0_s, source=str(request.get("source")),
+                   waypoints=[], path=None, sha256=None)
+    loop.save_progress("cleared")
+    return True, f"mission cleared ({mode})"
+
+
+def replace_key(cfg, key: str, value):
+    """The configuration with one dotted key replaced (a frozen dataclass tree)."""
+    head, _, rest = key.partition(".")
+    if not rest:
+        return dataclasses.replace(cfg, **{head: value})
+    return dataclasses.replace(cfg, **{head: replace_key(getattr(cfg, head), rest, value)})
+
+
+def get_key(cfg, key: str):
+    for part in key.split("."):
+        cfg = getattr(cfg, part)
+    return cfg
+
+
+def _param_set(loop, request, helm_nav, unavailable, cause):
+    from autopilot.schema import ConfigError
+
+    key, value = request["key"], request["value"]
+    old = get_key(loop.cfg, key)
+    try:
+        new_cfg = replace_key(loop.cfg, key, value)  # the dataclasses' own checks run again
+    except (ConfigError, ValueError, TypeError) as exc:
+        return False, f"{request.get('name', key)} refused: {exc}"
+    loop.apply_config(new_cfg)
+    loop.log.event("param", t_s=loop.clock.now_s() - loop.t0_s, param=request.get("name", key), key=key, old=old,
+                   new=value, source=str(request.get("source")))
+    return True, f"{request.get('name', key)} = {value:g}" if isinstance(value, float) else \
+        f"{request.get('name', key)} = {value}"
+
+
+_HANDLERS = {"manual": _manual, "set_current": _set_current, "mission": _mission, "mission_clear": _mission_clear,
+             "param_set": _param_set}

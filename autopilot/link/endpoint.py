@@ -1,0 +1,207 @@
+"""MAVLink endpoints: UDP out, UDP in, a serial radio. Bytes in a bounded queue, bytes out without blocking.
+
+    udpout:HOST:PORT   send to a ground station listening there (QGC's default 127.0.0.1:14550);
+                       its replies come back to the same socket
+    udpin:ADDR:PORT    listen on that address only; reply to every peer heard in the last PEER_TIMEOUT_S
+    /dev/PATH:BAUD     a telemetry radio (serial:/dev/PATH:BAUD too)
+
+The datagram callback only queues bytes (dropping, and counting, beyond ``rx_queue_bytes``); the
+link parses them in its own task, a slice at a time, so a flood never runs inside the control
+loop's timing.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import contextlib
+import os
+import time
+from dataclasses import dataclass
+
+__all__ = ["EndpointSpec", "parse_endpoint", "Endpoint", "UdpEndpoint", "SerialEndpoint", "open_endpoint"]
+
+PEER_TIMEOUT_S = 10.0
+SERIAL_BAUDS = (9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600)
+
+
+@dataclass(frozen=True)
+class EndpointSpec:
+    kind: str  # "udpout", "udpin", "serial"
+    host: str = ""
+    port: int = 0
+    path: str = ""
+    baud: int = 0
+
+    def __str__(self) -> str:
+        return f"{self.path}:{self.baud}" if self.kind == "serial" else f"{self.kind}:{self.host}:{self.port}"
+
+
+def parse_endpoint(url: str) -> EndpointSpec:
+    """An endpoint from its URL; ValueError naming the URL and the forms allowed."""
+    forms = "udpout:HOST:PORT, udpin:ADDR:PORT or /dev/PATH:BAUD"
+    text = str(url).strip()
+    if text.startswith("serial:"):
+        text = text[len("serial:"):]
+    if text.startswith(("udpout:", "udpin:")):
+        kind, _, rest = text.partition(":")
+        host, sep, port = rest.rpartition(":")
+        if not sep or not host:
+            raise ValueError(f"{url!r}: expected {kind}:HOST:PORT")
+        try:
+            port_n = int(port)
+        except ValueError:
+            raise ValueError(f"{url!r}: port {port!r} is not a number") from None
+        if not 1 <= port_n <= 65535:
+            raise ValueError(f"{url!r}: port {port_n} outside 1..65535")
+        return EndpointSpec(kind, host=host, port=port_n)
+    if text.startswith("/"):
+        path, sep, baud = text.rpartition(":")
+        if not sep:
+            raise ValueError(f"{url!r}: a serial radio needs its baud rate: /dev/PATH:BAUD")
+        try:
+            baud_n = int(baud)
+        except ValueError:
+            raise ValueError(f"{url!r}: baud rate {baud!r} is not a number") from None
+        if baud_n not in SERIAL_BAUDS:
+            raise ValueError(f"{url!r}: baud rate {baud_n} is not one of {', '.join(map(str, SERIAL_BAUDS))}")
+        return EndpointSpec("serial", path=path, baud=baud_n)
+    raise ValueError(f"{url!r}: not an endpoint ({forms})")
+
+
+class Endpoint:
+    """Received bytes queued (bounded), sends that never block."""
+
+    def __init__(self, spec: EndpointSpec, rx_queue_bytes: int) -> None:
+        self.spec = spec
+        self.rx: collections.deque[bytes] = collections.deque()
+        self.rx_bytes = 0
+        self.rx_limit = int(rx_queue_bytes)
+        self.rx_dropped = 0  # datagrams (or reads) dropped because the queue was full
+        self.tx_errors = 0
+        self.wakeup = asyncio.Event()
+
+    def _queue(self, data: bytes) -> None:
+        if self.rx_bytes + len(data) > self.rx_limit:
+            self.rx_dropped += 1
+            return
+        self.rx.append(data)
+        self.rx_bytes += len(data)
+        self.wakeup.set()
+
+    def take(self, max_bytes: int) -> bytes:
+        """Up to about ``max_bytes`` of what was received."""
+        out = []
+        n = 0
+        while self.rx and n < max_bytes:
+            chunk = self.rx.popleft()
+            self.rx_bytes -= len(chunk)
+            out.append(chunk)
+            n += len(chunk)
+        if not self.rx:
+            self.wakeup.clear()
+        return b"".join(out)
+
+    async def open(self) -> None:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def send(self, data: bytes) -> None:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    async def close(self) -> None:  # pragma: no cover - interface
+        raise NotImplementedError
+
+
+class _Datagrams(asyncio.DatagramProtocol):
+    def __init__(self, owner: UdpEndpoint) -> None:
+        self.owner = owner
+
+    def datagram_received(self, data: bytes, addr) -> None:
+        self.owner.peers[addr] = time.monotonic()
+        self.owner._queue(data)
+
+    def error_received(self, exc: Exception) -> None:  # ICMP port unreachable: no ground station yet
+        self.owner.tx_errors += 1
+
+
+class UdpEndpoint(Endpoint):
+    def __init__(self, spec: EndpointSpec, rx_queue_bytes: int) -> None:
+        super().__init__(spec, rx_queue_bytes)
+        self.transport: asyncio.DatagramTransport | None = None
+        self.peers: dict = {}
+
+    async def open(self) -> None:
+        loop = asyncio.get_running_loop()
+        if self.spec.kind == "udpin":
+            self.transport, _ = await loop.create_datagram_endpoint(
+                lambda: _Datagrams(self), local_addr=(self.spec.host, self.spec.port))
+        else:
+            self.transport, _ = await loop.create_datagram_endpoint(lambda: _Datagrams(self),
+                                                                    local_addr=("0.0.0.0", 0))
+
+    @property
+    def local_port(self) -> int:
+        return self.transport.get_extra_info("sockname")[1] if self.transport is not None else 0
+
+    def send(self, data: bytes) -> None:
+        if self.transport is None:
+            return
+        try:
+            if self.spec.kind == "udpout":
+                self.transport.sendto(data, (self.spec.host, self.spec.port))
+            else:
+                now = time.monotonic()
+                for addr, seen in list(self.peers.items()):
+                    if now - seen > PEER_TIMEOUT_S:
+                        del self.peers[addr]
+                    else:
+                        self.transport.sendto(data, addr)
+        except OSError:
+            self.tx_errors += 1
+
+    async def close(self) -> None:
+        if self.transport is not None:
+            self.transport.close()
+            self.transport = None
+
+
+class SerialEndpoint(Endpoint):
+    """A telemetry radio: pyserial, non-blocking, read by the event loop's reader callback."""
+
+    def __init__(self, spec: EndpointSpec, rx_queue_bytes: int) -> None:
+        super().__init__(spec, rx_queue_bytes)
+        self.port = None
+
+    async def open(self) -> None:
+        import serial
+
+        self.port = serial.Serial(self.spec.path, self.spec.baud, timeout=0, write_timeout=0)
+        asyncio.get_running_loop().add_reader(self.port.fileno(), self._readable)
+
+    def _readable(self) -> None:
+        try:
+            data = os.read(self.port.fileno(), 4096)
+        except OSError:
+            data = b""
+        if data:
+            self._queue(data)
+
+    def send(self, data: bytes) -> None:
+        if self.port is None:
+            return
+        try:
+            os.write(self.port.fileno(), data)
+        except (BlockingIOError, OSError):  # the radio's buffer is full: telemetry can wait, never the loop
+            self.tx_errors += 1
+
+    async def close(self) -> None:
+        if self.port is not None:
+            with contextlib.suppress(Exception):
+                asyncio.get_running_loop().remove_reader(self.port.fileno())
+            with contextlib.suppress(Exception):
+                self.port.close()
+            self.port = None
+
+
+def open_endpoint(spec: EndpointSpec, rx_queue_bytes: int) -> Endpoint:
+    return SerialEndpoint(spec, rx_queue_bytes) if spec.kind == "serial" else UdpEndpoint(spec, rx_queue_bytes)

@@ -1,0 +1,475 @@
+"""The MAVLink 2 link to QGroundControl and Mission Planner, inside the daemon's asyncio process.
+
+pymavlink encodes and decodes (one ``MAVLink`` codec per endpoint: its own sequence numbers and
+signing state); the endpoints (:mod:`autopilot.link.endpoint`) only queue bytes. Two tasks:
+
+- receive: takes at most ``RX_SLICE_BYTES`` of queued bytes at a time, parses them, handles each
+  message, and yields to the event loop between slices, so a flood is parsed in the gaps of the
+  control loop and beyond ``mavlink.rx_queue_bytes`` dropped (counted);
+- send: every ``TICK_S`` of wall time, the telemetry that is due (``mavlink.rates``, built from the
+  loop's last status: :mod:`autopilot.link.telemetry`), STATUSTEXT for the log's events, mission
+  upload retries, and the ground station's heartbeat watch.
+
+Everything that changes the boat is a request to the loop (:meth:`autopilot.daemon.loop.ControlLoop.submit`,
+:mod:`autopilot.daemon.commands`), carried out between two cycles and answered (COMMAND_ACK,
+MISSION_ACK, PARAM_VALUE) when it is. The link decides nothing itself. It runs on wall time: a
+ground station, a joystick and a radio link are real-time, also under ``--speedup``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import contextlib
+import math
+import os
+import stat
+import time
+from pathlib import Path
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from autopilot.geo import latlon_to_local
+from autopilot.link import params as P
+from autopilot.link import telemetry as T
+from autopilot.link.config import MavlinkConfig
+from autopilot.link.endpoint import Endpoint, open_endpoint, parse_endpoint
+from autopilot.link.missions import MissionProtocol
+from autopilot.link.modes import ROVER_MODES, command_for_rover_mode
+from autopilot.schema import ConfigError
+
+__all__ = ["MavlinkLink", "load_signing_key", "READ_ONLY_MESSAGES"]
+
+TICK_S = 0.02
+RX_SLICE_BYTES = 1024
+RX_BUDGET_S = 0.0005  # the longest the link handles messages before the event loop gets a turn
+PARAMS_PER_TICK = 8  # a parameter list goes out over a few ticks, not in one burst
+SIGNING_EPOCH_S = 1420070400  # 2015-01-01: MAVLink 2 signing timestamps count 10 us from there
+# messages a ground station may send unsigned when signing is required: they read, they change nothing
+READ_ONLY_MESSAGES = frozenset({
+    mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_PARAM_REQUEST_LIST,
+    mavlink.MAVLINK_MSG_ID_PARAM_REQUEST_READ, mavlink.MAVLINK_MSG_ID_MISSION_REQUEST_LIST,
+    mavlink.MAVLINK_MSG_ID_MISSION_REQUEST, mavlink.MAVLINK_MSG_ID_MISSION_REQUEST_INT,
+    mavlink.MAVLINK_MSG_ID_MISSION_ACK, mavlink.MAVLINK_MSG_ID_REQUEST_DATA_STREAM,
+    mavlink.MAVLINK_MSG_ID_TIMESYNC, mavlink.MAVLINK_MSG_ID_SYSTEM_TIME,
+})
+_RATE_MESSAGES = {  # message id -> (rates field, builder)
+    mavlink.MAVLINK_MSG_ID_HEARTBEAT: "heartbeat_hz", mavlink.MAVLINK_MSG_ID_SYS_STATUS: "sys_status_hz",
+    mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: "gps_raw_int_hz",
+    mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: "global_position_int_hz",
+    mavlink.MAVLINK_MSG_ID_ATTITUDE: "attitude_hz", mavlink.MAVLINK_MSG_ID_VFR_HUD: "vfr_hud_hz",
+    mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: "nav_controller_output_hz",
+    mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: "mission_current_hz",
+}
+
+
+def load_signing_key(spec: str) -> bytes:
+    """The 32-byte key from a file readable by its owner alone (64 hex digits, or 32 raw bytes);
+    ``credential:NAME`` is ``$CREDENTIALS_DIRECTORY/NAME`` (systemd LoadCredential=). ConfigError otherwise."""
+    if spec.startswith("credential:"):
+        base = os.environ.get("CREDENTIALS_DIRECTORY")
+        if not base:
+            raise ConfigError(f"mavlink.signing_key_file: {spec}: no $CREDENTIALS_DIRECTORY (systemd LoadCredential=)")
+        path = Path(base) / spec[len("credential:"):]
+    else:
+        path = Path(spec)
+    try:
+        st = path.stat()
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"mavlink.signing_key_file: {path}: cannot read ({exc.strerror})") from None
+    if st.st_mode & (stat.S_IRWXG | stat.S_IRWXO) and not spec.startswith("credential:"):
+        raise ConfigError(f"mavlink.signing_key_file: {path} is readable by others (mode {stat.S_IMODE(st.st_mode):o}); "
+                          f"chmod 600 {path}")
+    text = data.strip()
+    if len(text) == 64:
+        try:
+            return bytes.fromhex(text.decode("ascii"))
+        except ValueError:
+            pass
+    if len(data) == 32:
+        return data
+    raise ConfigError(f"mavlink.signing_key_file: {path}: expected 64 hexadecimal digits or 32 bytes")
+
+
+class _Port:
+    """One endpoint and its codec."""
+
+    def __init__(self, endpoint: Endpoint, mav) -> None:
+        self.endpoint, self.mav = endpoint, mav
+
+    def send(self, msg) -> None:
+        try:
+            self.endpoint.send(msg.pack(self.mav))
+        except Exception:  # noqa: BLE001 - a message that does not encode is a bug here, never a stop
+            self.endpoint.tx_errors += 1
+
+
+class MavlinkLink:
+    """The link of one daemon. ``start()``, then it runs until ``close()``."""
+
+    def __init__(self, cfg: MavlinkConfig, *, loop, version: str, endpoints=None, clock=time.monotonic) -> None:
+        self.cfg, self.loop, self.version = cfg, loop, version
+        self.urls = tuple(endpoints if endpoints is not None else cfg.endpoints)
+        self.clock = clock
+        self.ports: list[_Port] = []
+        self.key = load_signing_key(cfg.signing_key_file) if cfg.signing_key_file else None
+        self.missions = MissionProtocol(self)
+        self.rates = {mid: getattr(cfg.rates, name) for mid, name in _RATE_MESSAGES.items()}
+        self._due = {mid: 0.0 for mid in self.rates}
+        self._texts: collections.deque = collections.deque(maxlen=64)
+        self._param_queue: collections.deque = collections.deque()  # (port, index) of PARAM_VALUEs to send
+        self._reached: collections.deque = collections.deque(maxlen=16)
+        self._refusals: dict = {}
+        self._tasks: list[asyncio.Task] = []
+        self._t0 = clock()
+        self.gcs_last_s: float | None = None
+        self.gcs_lost = False
+        self.stats = collections.Counter()
+
+    # ---------------------------------------------------------------- lifecycle
+    async def start(self) -> None:
+        for url in self.urls:
+            ep = open_endpoint(parse_endpoint(url), self.cfg.rx_queue_bytes)
+            try:
+                await ep.open()
+            except OSError as exc:
+                raise ConfigError(f"mavlink endpoint {url}: cannot open ({exc.strerror or exc})") from None
+            mav = mavlink.MAVLink(None, srcSystem=self.cfg.system_id, srcComponent=self.cfg.component_id)
+            mav.robust_parsing = True
+            if self.key is not None:
+                mav.signing.secret_key = self.key
+                mav.signing.sign_outgoing = True
+                mav.signing.link_id = len(self.ports)
+                mav.signing.timestamp = int((time.time() - SIGNING_EPOCH_S) * 1e5)
+                if self.cfg.signing_required:
+                    mav.signing.allow_unsigned_callback = self._allow_unsigned
+                else:
+                    mav.signing.allow_unsigned_callback = lambda _mav, _msg_id: True
+            self.ports.append(_Port(ep, mav))
+        self.loop.log.listeners.append(self.on_event)
+        self._tasks = [asyncio.create_task(self._receive(p), name=f"mavlink-rx-{k}") for k, p in enumerate(self.ports)]
+        self._tasks.append(asyncio.create_task(self._send_loop(), name="mavlink-tx"))
+
+    async def close(self) -> None:
+        rx = {k: v for k, v in self.stats.items()}
+        rx["datagrams_dropped"] = sum(p.endpoint.rx_dropped for p in self.ports)
+        rx["tx_errors"] = sum(p.endpoint.tx_errors for p in self.ports)
+        self.loop.log_event("info", message="mavlink link closed", stats=rx)
+        for t in self._tasks:
+            t.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+        for p in self.ports:
+            with contextlib.suppress(Exception):
+                await p.endpoint.close()
+        with contextlib.suppress(ValueError):
+            self.loop.log.listeners.remove(self.on_event)
+
+    # ---------------------------------------------------------------- what the helpers use
+    def status(self) -> dict:
+        return self.loop.state.status or {"mode": "waiting", "armed": True}
+
+    def send_all(self, build) -> None:
+        for p in self.ports:
+            msg = build(p.mav)
+            if msg is not None:  # nothing to say yet (no fix, no launch point)
+                p.send(msg)
+
+    def text(self, severity: int, text: str) -> None:
+        self._texts.append((severity, text))
+
+    def submit(self, request: dict, answer) -> None:
+        self.loop.submit(request, answer)
+
+    def refused(self, what: str, why: str) -> None:
+        """A refusal the link decides by itself (a malformed item, an unknown parameter): logged and shown."""
+        self.loop.log_event("command", command=what, source="mavlink", accepted=False, answer=why)
+
+    def origin(self) -> tuple[float, float]:
+        return self.loop.mission.origin_lat_deg, self.loop.mission.origin_lon_deg
+
+    def max_range_m(self) -> float:
+        return self.loop.cfg.max_mission_range_m
+
+    def mission_items(self) -> list[dict]:
+        from autopilot.mission import mission_to_items
+
+        if self.loop.ap.mission_cleared:
+            return mission_to_items(self.loop.mission)[:1]
+        st = self.status()
+        home = (st.get("launch_lat_deg"), st.get("launch_lon_deg"))
+        return mission_to_items(self.loop.mission, home_latlon=home if home[0] is not None else None)
+
+    def current_item(self) -> int:
+        return int(self.status().get("mission_item", 0))
+
+    def send_mission_current(self) -> None:
+        st = self.status()
+        self.send_all(lambda mav: T.mission_current(mav, st))
+
+    # ---------------------------------------------------------------- receive
+    def _allow_unsigned(self, mav, msg_id: int) -> bool:
+        if msg_id in READ_ONLY_MESSAGES:
+            return True
+        self.stats["unsigned_refused"] += 1
+        now = self.clock()
+        name = mavlink.mavlink_map[msg_id].msgname if msg_id in mavlink.mavlink_map else str(msg_id)
+        if now - self._refusals.get(name, -math.inf) >= 1.0:  # a joystick's flood is logged once a second
+            self._refusals[name] = now
+            self.refused(name, f"unsigned or wrongly signed {name} refused: signing required")
+        return False
+
+    async def _receive(self, port: _Port) -> None:
+        ep = port.endpoint
+        while True:
+            await ep.wakeup.wait()
+            data = ep.take(RX_SLICE_BYTES)
+            if data:
+                try:
+                    msgs = port.mav.parse_buffer(data) or []
+                except Exception:  # noqa: BLE001 - robust parsing should not raise; a frame that does is dropped
+                    self.stats["parse_errors"] += 1
+                    msgs = []
+                t_slice = time.perf_counter()
+                for msg in msgs:
+                    if time.perf_counter() - t_slice > RX_BUDGET_S:  # the control loop's turn, even mid-slice
+                        await asyncio.sleep(0)
+                        t_slice = time.perf_counter()
+                    try:
+                        self._handle(port, msg)
+                    except Exception as exc:  # noqa: BLE001 - one bad message must not end the link
+                        self.stats["handler_errors"] += 1
+                        kind = f"{msg.get_type()}: {type(exc).__name__}"
+                        if kind not in self._refusals:  # once per kind: a bug to report, not a flood to log
+                            self._refusals[kind] = 0.0
+                            self.loop.log_event("info", message="mavlink message not handled", kind=kind,
+                                                error=repr(exc)[:200])
+            await asyncio.sleep(0)  # the control loop's turn between slices
+
+    def _for_us(self, msg) -> bool:
+        target = getattr(msg, "target_system", 0)
+        return target in (0, self.cfg.system_id)
+
+    def _handle(self, port: _Port, msg) -> None:
+        t = msg.get_type()
+        self.stats["rx_" + t.lower()] += 1
+        if t == "BAD_DATA":
+            return
+        if t == "HEARTBEAT":
+            if msg.get_srcSystem() == self.cfg.gcs_system_id or msg.type == mavlink.MAV_TYPE_GCS:
+                self._gcs_seen()
+            return
+        if not self._for_us(msg):
+            return
+        if t in ("COMMAND_LONG", "COMMAND_INT"):
+            self._command(port, msg)
+        elif t == "SET_MODE":
+            self._set_mode(port, msg, msg.custom_mode, ack_command=None)
+        elif t == "MANUAL_CONTROL":
+            x, r = (0 if v == 32767 else max(-1000, min(1000, v)) for v in (msg.x, msg.r))  # 32767: axis unused
+            self.submit({"command": "manual", "forward_nd": x / 1000.0, "turn_nd": r / 1000.0, "source": "mavlink"},
+                        lambda reply: None if reply["ok"] else self.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"]))
+        elif t.startswith("MISSION_"):
+            self.missions.handle(port, msg)
+        elif t in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
+            self._param(port, msg)
+
+    def _gcs_seen(self) -> None:
+        now = self.clock()
+        if self.gcs_lost:
+            self.gcs_lost = False
+            self.loop.log_event("gcs", state="back", silent_s=now - (self.gcs_last_s or now), action=None)
+        self.gcs_last_s = now
+
+    # ---------------------------------------------------------------- commands
+    def _ack(self, port: _Port, msg, result: int) -> None:
+        port.send(port.mav.command_ack_encode(msg.command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+
+    def _ask_loop(self, port: _Port, msg, request: dict) -> None:
+        def answer(reply: dict) -> None:
+            self._ack(port, msg, mavlink.MAV_RESULT_ACCEPTED if reply["ok"] else mavlink.MAV_RESULT_DENIED)
+            if not reply["ok"]:
+                self.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"])
+
+        self.submit({**request, "source": "mavlink"}, answer)
+
+    def _command(self, port: _Port, msg) -> None:
+        c, p1 = msg.command, msg.param1
+        if msg.get_type() == "COMMAND_INT":
+            lat, lon = msg.x / 1e7, msg.y / 1e7
+        else:
+            lat, lon = msg.param5, msg.param6
+        if c == mavlink.MAV_CMD_DO_SET_MODE:
+            self._set_mode(port, msg, int(msg.param2), ack_command=msg)
+        elif c == mavlink.MAV_CMD_NAV_LOITER_UNLIM:
+            self._ask_loop(port, msg, {"command": "hold"})
+        elif c == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            self._ask_loop(port, msg, {"command": "rtl"})
+        elif c == mavlink.MAV_CMD_DO_PAUSE_CONTINUE:
+            self._ask_loop(port, msg, {"command": "pause" if p1 == 0 else "resume"})
+        elif c == mavlink.MAV_CMD_MISSION_START:
+            self._ask_loop(port, msg, {"command": "resume"})
+        elif c == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
+            self._ask_loop(port, msg, {"command": "arm" if p1 == 1 else "disarm"})
+        elif c == mavlink.MAV_CMD_DO_REPOSITION:
+            if not (isinstance(lat, (int, float)) and math.isfinite(lat) and math.isfinite(lon)
+                    and abs(lat) <= 90 and abs(lon) <= 180 and (lat, lon) != (0, 0)):
+                self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
+                self.text(mavlink.MAV_SEVERITY_WARNING, f"reposition refused: position {lat}, {lon} is not valid")
+                return
+            n, e = latlon_to_local(lat, lon, *self.origin())
+            if math.hypot(n, e) > self.max_range_m():
+                self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
+                self.text(mavlink.MAV_SEVERITY_WARNING, f"reposition refused: {math.hypot(n, e):.0f} m from the "
+                          f"origin (max_mission_range_m {self.max_range_m():g} m)")
+                return
+            self._ask_loop(port, msg, {"command": "hold", "north_m": n, "east_m": e})
+        elif c == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT:
+            self._ask_loop(port, msg, {"command": "set_current", "index": int(p1) - 1})
+        elif c == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
+            mid, interval_us = int(p1), msg.param2
+            if mid not in self.rates:
+                self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
+                return
+            default = getattr(self.cfg.rates, _RATE_MESSAGES[mid])
+            self.rates[mid] = default if interval_us == 0 else 0.0 if interval_us < 0 else min(50.0, 1e6 / interval_us)
+            self._ack(port, msg, mavlink.MAV_RESULT_ACCEPTED)
+        elif c in (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+                   mavlink.MAV_CMD_GET_HOME_POSITION):
+            wanted = {mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+                      mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION}.get(c, int(p1))
+            built = self._build(wanted)
+            reply = None if built is None else built(port.mav)
+            if reply is None:
+                self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
+                return
+            self._ack(port, msg, mavlink.MAV_RESULT_ACCEPTED)
+            port.send(reply)
+        else:
+            self._ack(port, msg, mavlink.MAV_RESULT_UNSUPPORTED)
+
+    def _set_mode(self, port: _Port, msg, custom_mode: int, *, ack_command) -> None:
+        command = command_for_rover_mode(custom_mode)
+        if command is None:
+            name = ROVER_MODES.get(int(custom_mode), "unknown")
+            why = f"mode {int(custom_mode)} ({name}) not supported (MANUAL, HOLD, LOITER, AUTO, RTL, GUIDED)"
+            self.refused("set_mode", why)
+            self.text(mavlink.MAV_SEVERITY_WARNING, why)
+            if ack_command is not None:
+                self._ack(port, ack_command, mavlink.MAV_RESULT_DENIED)
+            return
+        if command == "manual":  # the sticks come as MANUAL_CONTROL; without them the manual timeout holds
+            request = {"command": "manual", "forward_nd": 0.0, "turn_nd": 0.0}
+        else:
+            request = {"command": command}
+        if ack_command is not None:
+            self._ask_loop(port, ack_command, request)
+        else:
+            self.submit({**request, "source": "mavlink"}, lambda reply: None)
+
+    # ---------------------------------------------------------------- parameters
+    def _param_value(self, port: _Port, p: P.Param, index: int) -> None:
+        port.send(port.mav.param_value_encode(p.name.encode("ascii"), P.value_of(self.loop.cfg, p),
+                                              mavlink.MAV_PARAM_TYPE_REAL32, len(P.PARAMS), index))
+
+    def _param(self, port: _Port, msg) -> None:
+        t = msg.get_type()
+        if t == "PARAM_REQUEST_LIST":  # a new list replaces one still going out to the same port
+            self._param_queue = collections.deque(q for q in self._param_queue if q[0] is not port)
+            self._param_queue.extend((port, k) for k in range(len(P.PARAMS)))
+            return
+        name = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode("ascii", "replace")
+        name = name.rstrip("\x00")
+        if t == "PARAM_REQUEST_READ":
+            k = msg.param_index if 0 <= msg.param_index < len(P.PARAMS) else None
+            p = P.PARAMS[k] if k is not None else P.by_name(name)
+            if p is not None:
+                self._param_value(port, p, P.PARAMS.index(p))
+            return
+        if t != "PARAM_SET":
+            return
+        p = P.by_name(name)
+        if p is None:
+            self.refused("param_set", f"parameter {name!r} unknown")
+            self.text(mavlink.MAV_SEVERITY_WARNING, f"parameter {name!r} unknown")
+            return
+        index = P.PARAMS.index(p)
+        try:
+            value = P.check_set(self.loop.cfg, p, float(msg.param_value))
+        except ConfigError as exc:
+            self.refused("param_set", f"{exc}")
+            self.text(mavlink.MAV_SEVERITY_WARNING, str(exc))
+            self._param_value(port, p, index)  # the value stays: the ground station sees it unchanged
+            return
+
+        def answer(reply: dict) -> None:
+            if not reply["ok"]:
+                self.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"])
+            self._param_value(port, p, index)
+
+        self.submit({"command": "param_set", "key": p.key, "value": value, "name": p.name, "source": "mavlink"},
+                    answer)
+
+    # ---------------------------------------------------------------- send
+    def on_event(self, name: str, t_s: float, fields: dict) -> None:
+        """A log event (MissionLog's listener): shown as STATUSTEXT; a reached waypoint as MISSION_ITEM_REACHED."""
+        if name == "waypoint_reached":
+            self._reached.append(int(fields.get("wp_index", 0)) + 1)
+        said = T.event_text(name, fields)
+        if said is not None:
+            self._texts.append(said)
+
+    def _build(self, msg_id: int):
+        st = self.status()
+        ms = int((self.clock() - self._t0) * 1000)
+        builders = {
+            mavlink.MAVLINK_MSG_ID_HEARTBEAT: lambda mav: T.heartbeat(mav, st),
+            mavlink.MAVLINK_MSG_ID_SYS_STATUS: lambda mav: T.sys_status(mav, st),
+            mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: lambda mav: T.gps_raw_int(mav, st, ms * 1000),
+            mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: lambda mav: T.global_position_int(mav, st, ms),
+            mavlink.MAVLINK_MSG_ID_ATTITUDE: lambda mav: T.attitude(mav, st, ms),
+            mavlink.MAVLINK_MSG_ID_VFR_HUD: lambda mav: T.vfr_hud(mav, st),
+            mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: lambda mav: T.nav_controller_output(mav, st),
+            mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: lambda mav: T.mission_current(mav, st),
+            mavlink.MAVLINK_MSG_ID_HOME_POSITION: lambda mav: T.home_position(mav, st),
+            mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION: lambda mav: T.autopilot_version(mav, self.version),
+        }
+        return builders.get(msg_id)
+
+    def tick(self, now_s: float) -> None:
+        """One send step: due telemetry, texts, reached items, mission retries, the heartbeat watch."""
+        for mid, hz in self.rates.items():
+            if hz > 0.0 and now_s >= self._due[mid]:
+                self._due[mid] = max(self._due[mid] + 1.0 / hz, now_s)
+                self.send_all(self._build(mid))
+        for _ in range(min(PARAMS_PER_TICK, len(self._param_queue))):
+            port, k = self._param_queue.popleft()
+            self._param_value(port, P.PARAMS[k], k)
+        while self._reached:
+            seq = self._reached.popleft()
+            self.send_all(lambda mav, s=seq: mav.mission_item_reached_encode(s))
+        while self._texts:
+            severity, text = self._texts.popleft()
+            for p in self.ports:
+                for m in T.statustext(p.mav, severity, text):
+                    p.send(m)
+        self.missions.tick(now_s)
+        self._watch_gcs(now_s)
+
+    def _watch_gcs(self, now_s: float) -> None:
+        if self.gcs_last_s is None or self.gcs_lost or now_s - self.gcs_last_s <= self.cfg.gcs_timeout_s:
+            return
+        self.gcs_lost = True
+        action = self.cfg.gcs_lost_action
+        self.loop.log_event("gcs", state="lost", silent_s=now_s - self.gcs_last_s, action=action)
+        if action != "continue":
+            self.submit({"command": action, "source": "mavlink", "cause": "mavlink: ground station lost"},
+                        lambda reply: None)
+
+    async def _send_loop(self) -> None:
+        while True:
+            try:
+                self.tick(self.clock())
+            except Exception:  # noqa: BLE001 - telemetry must never stop the daemon
+                self.stats["tick_errors"] += 1
+            await asyncio.sleep(TICK_S)

@@ -1,0 +1,151 @@
+"""The MAVLink mission protocol (https://mavlink.io/en/services/mission.html), vehicle side.
+
+    upload     GCS: MISSION_COUNT n      -> us: MISSION_REQUEST_INT 0 .. n-1 (each re-asked after
+               GCS: MISSION_ITEM_INT k      ITEM_TIMEOUT_S, ITEM_RETRIES times) -> checked as a mission
+                                            file is (autopilot.mission.mission_from_items) -> the loop
+                                            swaps it in between two cycles -> MISSION_ACK ACCEPTED, or
+                                            an error code naming the item (and a STATUSTEXT saying why)
+    download   GCS: MISSION_REQUEST_LIST -> us: MISSION_COUNT; GCS: MISSION_REQUEST(_INT) k -> MISSION_ITEM_INT k
+    clear      GCS: MISSION_CLEAR_ALL    -> the loop clears it (holds if it was flying it) -> MISSION_ACK
+    current    GCS: MISSION_SET_CURRENT  -> the loop jumps there -> MISSION_CURRENT
+
+Item 0 is home, as ArduPilot's planners write it; fence and rally items (mission types 1, 2) are not
+supported (MAV_MISSION_UNSUPPORTED).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from autopilot.mission import MissionItemError, mission_from_items
+
+__all__ = ["MissionProtocol", "ITEM_TIMEOUT_S", "ITEM_RETRIES"]
+
+ITEM_TIMEOUT_S = 1.5
+ITEM_RETRIES = 5
+MAX_ITEMS = 500
+_ERROR_CODE = {
+    "command": mavlink.MAV_MISSION_UNSUPPORTED, "frame": mavlink.MAV_MISSION_UNSUPPORTED_FRAME,
+    "x": mavlink.MAV_MISSION_INVALID_PARAM5_X, "y": mavlink.MAV_MISSION_INVALID_PARAM6_Y,
+    "param1": mavlink.MAV_MISSION_INVALID_PARAM1, "sequence": mavlink.MAV_MISSION_INVALID_SEQUENCE,
+    "mission": mavlink.MAV_MISSION_INVALID,
+}
+
+
+@dataclass
+class _Upload:
+    peer: tuple[int, int]  # (system, component) of the ground station uploading
+    count: int
+    items: list = field(default_factory=list)
+    asked_at: float = 0.0
+    retries: int = 0
+
+
+def item_of(msg) -> dict:
+    """A MISSION_ITEM_INT (or the float MISSION_ITEM) as the mission parser's item."""
+    is_int = msg.get_type() == "MISSION_ITEM_INT"
+    return dict(seq=msg.seq, frame=msg.frame, command=msg.command, param1=float(msg.param1),
+                param2=float(msg.param2), lat_deg=msg.x / 1e7 if is_int else float(msg.x),
+                lon_deg=msg.y / 1e7 if is_int else float(msg.y))
+
+
+class MissionProtocol:
+    """One per link. ``link.send(endpoint, message)``, ``link.submit(request, answer)``, ``link.text(severity, s)``."""
+
+    def __init__(self, link) -> None:
+        self.link = link
+        self.uploads: dict = {}  # endpoint -> _Upload
+        self.download_items: list | None = None
+
+    def handle(self, ep, msg) -> None:
+        t = msg.get_type()
+        mission_type = getattr(msg, "mission_type", 0)
+        peer = (msg.get_srcSystem(), msg.get_srcComponent())
+        mav = ep.mav
+        if t == "MISSION_COUNT":
+            if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
+                self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
+                return
+            if not 1 <= msg.count <= MAX_ITEMS:
+                self.link.text(mavlink.MAV_SEVERITY_WARNING, f"mission refused: {msg.count} items (1..{MAX_ITEMS})")
+                self._ack(ep, peer, mavlink.MAV_MISSION_NO_SPACE)
+                return
+            self.uploads[ep] = _Upload(peer, msg.count)
+            self._ask(ep)
+        elif t in ("MISSION_ITEM_INT", "MISSION_ITEM"):
+            up = self.uploads.get(ep)
+            if up is None or msg.seq != len(up.items):
+                return  # not asked for (a duplicate): the next request follows on its own
+            up.items.append(item_of(msg))
+            up.retries = 0
+            if len(up.items) < up.count:
+                self._ask(ep)
+            else:
+                del self.uploads[ep]
+                self._finish(ep, up)
+        elif t == "MISSION_REQUEST_LIST":
+            if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
+                ep.send(mav.mission_count_encode(peer[0], peer[1], 0, mission_type))
+                return
+            self.download_items = self.link.mission_items()
+            ep.send(mav.mission_count_encode(peer[0], peer[1], len(self.download_items)))
+        elif t in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
+            items = self.download_items if self.download_items is not None else self.link.mission_items()
+            if not 0 <= msg.seq < len(items):
+                self._ack(ep, peer, mavlink.MAV_MISSION_INVALID_SEQUENCE)
+                return
+            it = items[msg.seq]
+            ep.send(mav.mission_item_int_encode(
+                peer[0], peer[1], it["seq"], it["frame"], it["command"], 1 if it["seq"] == self.link.current_item()
+                else 0, 1, it["param1"], it["param2"], 0.0, 0.0, int(round(it["lat_deg"] * 1e7)),
+                int(round(it["lon_deg"] * 1e7)), 0.0))
+        elif t == "MISSION_CLEAR_ALL":
+            if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
+                self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
+                return
+            self.link.submit({"command": "mission_clear", "source": "mavlink"},
+                             lambda reply: self._ack(ep, peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"]
+                                                     else mavlink.MAV_MISSION_DENIED))
+        elif t == "MISSION_SET_CURRENT":
+            self.link.submit({"command": "set_current", "index": int(msg.seq) - 1, "source": "mavlink"},
+                             lambda reply: self.link.send_mission_current())
+
+    def tick(self, now_s: float) -> None:
+        """Re-ask a missing item; give up after ITEM_RETRIES (the running mission stays)."""
+        for ep, up in list(self.uploads.items()):
+            if now_s - up.asked_at < ITEM_TIMEOUT_S:
+                continue
+            if up.retries >= ITEM_RETRIES:
+                del self.uploads[ep]
+                self.link.text(mavlink.MAV_SEVERITY_WARNING,
+                               f"mission upload abandoned: item {len(up.items)} never came")
+                self._ack(ep, up.peer, mavlink.MAV_MISSION_OPERATION_CANCELLED)
+                continue
+            up.retries += 1
+            self._ask(ep)
+
+    def _ask(self, ep) -> None:
+        up = self.uploads[ep]
+        up.asked_at = time.monotonic()
+        ep.send(ep.mav.mission_request_int_encode(up.peer[0], up.peer[1], len(up.items)))
+
+    def _ack(self, ep, peer, code: int, mission_type: int = 0) -> None:
+        ep.send(ep.mav.mission_ack_encode(peer[0], peer[1], code, mission_type))
+
+    def _finish(self, ep, up: _Upload) -> None:
+        origin = self.link.origin()
+        try:
+            mission = mission_from_items(up.items, origin_lat_deg=origin[0], origin_lon_deg=origin[1],
+                                         max_range_m=self.link.max_range_m())
+        except MissionItemError as exc:
+            self.link.refused("mission", str(exc))
+            self._ack(ep, up.peer, _ERROR_CODE.get(exc.field, mavlink.MAV_MISSION_INVALID))
+            return
+
+        def answer(reply: dict) -> None:
+            self._ack(ep, up.peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"] else mavlink.MAV_MISSION_DENIED)
+
+        self.link.submit({"command": "mission", "mission": mission, "source": "mavlink"}, answer)

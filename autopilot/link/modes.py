@@ -1,0 +1,46 @@
+"""How the autopilot presents its modes over MAVLink: ArduPilot Rover's numbering, one table.
+
+The HEARTBEAT says ``MAV_AUTOPILOT_ARDUPILOTMEGA`` and ``MAV_TYPE_SURFACE_BOAT`` with Rover's
+``custom_mode`` numbers, so that QGroundControl and Mission Planner (whose ArduPilot plug-ins
+know those numbers) name the mode on screen and offer their mode buttons, and a mode set from
+them arrives as a number this table maps back. A generic autopilot would show only
+``base_mode`` flags and could not be switched from either planner's mode menu. The meaning
+follows Rover's: Rover's HOLD stops the motors (our ``stop``), Rover's LOITER holds position
+(our ``hold``).
+
+    ours       Rover          set from the planner as
+    waiting    INITIALISING   -
+    auto       AUTO (10)      AUTO: resume the mission
+    hold       LOITER (5)     LOITER: hold here
+    paused     LOITER (5)     (MAV_CMD_DO_PAUSE_CONTINUE 0)
+    rtl        RTL (11)       RTL
+    stop       HOLD (4)       HOLD: zero thrust
+    failsafe   HOLD (4)       -
+    complete   HOLD (4)       -
+    manual     MANUAL (0)     MANUAL: needs MANUAL_CONTROL (else the manual timeout holds)
+    -          GUIDED (15)    GUIDED: hold here until a reposition ("go here")
+"""
+
+from __future__ import annotations
+
+from autopilot.logschema import Mode
+
+__all__ = ["ROVER_MODES", "rover_mode", "command_for_rover_mode"]
+
+ROVER_MODES = {0: "MANUAL", 1: "ACRO", 3: "STEERING", 4: "HOLD", 5: "LOITER", 6: "FOLLOW", 7: "SIMPLE",
+               8: "DOCK", 9: "CIRCLE", 10: "AUTO", 11: "RTL", 12: "SMART_RTL", 15: "GUIDED", 16: "INITIALISING"}
+
+_OURS_TO_ROVER = {
+    Mode.WAITING: 16, Mode.AUTO: 10, Mode.HOLD: 5, Mode.PAUSED: 5, Mode.RTL: 11, Mode.STOP: 4,
+    Mode.FAILSAFE: 4, Mode.COMPLETE: 4, Mode.MANUAL: 0,
+}
+_ROVER_TO_COMMAND = {10: "resume", 5: "hold", 11: "rtl", 4: "stop", 0: "manual", 15: "hold"}
+
+
+def rover_mode(mode: Mode | str) -> int:
+    return _OURS_TO_ROVER[Mode(mode)]
+
+
+def command_for_rover_mode(custom_mode: int) -> str | None:
+    """The command a planner's mode change means, or None (unsupported)."""
+    return _ROVER_TO_COMMAND.get(int(custom_mode))

@@ -1,0 +1,187 @@
+"""Telemetry messages from the control loop's status of the last cycle (pure: a status dict in, messages out).
+
+The status is :meth:`autopilot.daemon.loop.ControlLoop._status` (SI, degrees for people). What each
+message carries, in MAVLink's units (1e7 degrees, centidegrees, cm/s, mV):
+
+    HEARTBEAT             surface boat, ArduPilot Rover's mode number (autopilot.link.modes), armed flag,
+                          state: BOOT waiting, CRITICAL failsafe, STANDBY stopped or disarmed, else ACTIVE
+    SYS_STATUS            sensors present/healthy from the failsafe's view: GPS (position faults), compass
+                          (heading faults), motor outputs (Mbed faults), battery (battery faults); voltage
+    GLOBAL_POSITION_INT   the last fix (lat, lon), velocity from SOG/COG, heading
+    ATTITUDE              yaw and yaw rate (roll and pitch 0: the SC-30's attitude is not used)
+    GPS_RAW_INT           fix type from the GGA quality, SOG, COG
+    VFR_HUD               ground speed, heading, throttle = the common thrust in % of the forward limit
+    NAV_CONTROLLER_OUTPUT psi_d, bearing and distance to the waypoint, cross-track error, speed error
+    MISSION_CURRENT       the waypoint being steered to, as a mission item number (item 0 is home)
+    HOME_POSITION         the launch point (rtl returns there)
+    STATUSTEXT            every fault, failsafe, mode change, refusal, link and mission event (event_text)
+"""
+
+from __future__ import annotations
+
+import math
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from autopilot.daemon.failsafe import FAULT_CLASS
+from autopilot.link.modes import rover_mode
+from autopilot.logschema import Mode
+
+__all__ = ["heartbeat", "sys_status", "global_position_int", "attitude", "gps_raw_int", "vfr_hud",
+           "nav_controller_output", "mission_current", "home_position", "autopilot_version", "statustext",
+           "event_text", "SENSORS"]
+
+SENSORS = {
+    "position": mavlink.MAV_SYS_STATUS_SENSOR_GPS,
+    "heading": mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG,  # the satellite compass stands in for a magnetometer
+    "mbed": mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS,
+    "battery_low": mavlink.MAV_SYS_STATUS_SENSOR_BATTERY,
+    "battery_critical": mavlink.MAV_SYS_STATUS_SENSOR_BATTERY,
+}
+_AUTO_MODES = {Mode.AUTO, Mode.RTL, Mode.HOLD, Mode.PAUSED}
+
+
+def _num(st: dict, key: str, default: float = 0.0) -> float:
+    v = st.get(key)
+    return default if v is None or not math.isfinite(v) else float(v)
+
+
+def _e7(deg) -> int:
+    return 0 if deg is None else int(round(float(deg) * 1e7))
+
+
+def _cdeg(deg) -> int:
+    return 65535 if deg is None else int(round(float(deg) % 360.0 * 100.0)) % 36000
+
+
+def heartbeat(mav, st: dict):
+    mode = Mode(st.get("mode", "waiting"))
+    base = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    if st.get("armed", True):
+        base |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    if mode in _AUTO_MODES:
+        base |= mavlink.MAV_MODE_FLAG_AUTO_ENABLED | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
+    if mode is Mode.MANUAL:
+        base |= mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+    if mode is Mode.WAITING:
+        state = mavlink.MAV_STATE_BOOT
+    elif mode is Mode.FAILSAFE:
+        state = mavlink.MAV_STATE_CRITICAL
+    elif mode in (Mode.STOP, Mode.COMPLETE) or not st.get("armed", True):
+        state = mavlink.MAV_STATE_STANDBY
+    else:
+        state = mavlink.MAV_STATE_ACTIVE
+    return mav.heartbeat_encode(mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
+                                rover_mode(mode), state)
+
+
+def sys_status(mav, st: dict):
+    present = (SENSORS["position"] | SENSORS["heading"] | SENSORS["mbed"]
+               | (SENSORS["battery_low"] if st.get("battery_v") is not None else 0))
+    unhealthy = 0
+    for cause in st.get("active_faults") or ():
+        cls = FAULT_CLASS.get(cause)
+        unhealthy |= SENSORS.get(cls, 0)
+    volts = st.get("battery_v")
+    return mav.sys_status_encode(present, present, present & ~unhealthy, 0,
+                                 65535 if volts is None else int(round(volts * 1000.0)), -1, -1, 0, 0,
+                                 int(st.get("nmea_dropped") or 0) % 65536, 0, 0, 0)
+
+
+def global_position_int(mav, st: dict, time_boot_ms: int):
+    """None before the first fix: a planner would draw the boat at 0 N 0 E."""
+    if st.get("lat_deg") is None or st.get("lon_deg") is None:
+        return None
+    sog, cog = _num(st, "sog_m_s"), math.radians(_num(st, "cog_deg"))
+    return mav.global_position_int_encode(int(time_boot_ms) % 2**32, _e7(st.get("lat_deg")), _e7(st.get("lon_deg")),
+                                          0, 0, int(round(sog * math.cos(cog) * 100.0)),
+                                          int(round(sog * math.sin(cog) * 100.0)), 0, _cdeg(st.get("heading_deg")))
+
+
+def attitude(mav, st: dict, time_boot_ms: int):
+    yaw = math.radians(_num(st, "heading_deg"))
+    yaw = math.atan2(math.sin(yaw), math.cos(yaw))
+    return mav.attitude_encode(int(time_boot_ms) % 2**32, 0.0, 0.0, yaw, 0.0, 0.0,
+                               math.radians(_num(st, "yaw_rate_deg_s")))
+
+
+def gps_raw_int(mav, st: dict, time_usec: int):
+    q = int(st.get("fix_quality") or 0)
+    fix = mavlink.GPS_FIX_TYPE_NO_FIX if q <= 0 else (mavlink.GPS_FIX_TYPE_DGPS if q == 2 else
+                                                      mavlink.GPS_FIX_TYPE_3D_FIX)
+    return mav.gps_raw_int_encode(int(time_usec), fix, _e7(st.get("lat_deg")), _e7(st.get("lon_deg")), 0, 65535,
+                                  65535, int(round(_num(st, "sog_m_s") * 100.0)), _cdeg(st.get("cog_deg")), 255)
+
+
+def vfr_hud(mav, st: dict):
+    sog = _num(st, "sog_m_s")
+    limit = _num(st, "max_forward_n", 1.0) or 1.0
+    throttle = int(round(max(-100.0, min(100.0, 100.0 * _num(st, "tau_com_n") / limit))))
+    return mav.vfr_hud_encode(sog, sog, int(round(_num(st, "heading_deg"))) % 360, throttle, 0.0, 0.0)
+
+
+def nav_controller_output(mav, st: dict):
+    dist = st.get("wp_distance_m")
+    return mav.nav_controller_output_encode(
+        0.0, 0.0, int(round(_num(st, "psi_d_deg"))) % 360, int(round(_num(st, "wp_bearing_deg"))) % 360,
+        0 if dist is None else min(65535, int(round(dist))), 0.0,
+        _num(st, "speed_cmd_m_s") - _num(st, "sog_m_s"), _num(st, "xte_m"))
+
+
+def mission_current(mav, st: dict):
+    return mav.mission_current_encode(int(st.get("mission_item", 0)), int(st.get("mission_items", 0)))
+
+
+def home_position(mav, st: dict):
+    lat, lon = st.get("launch_lat_deg"), st.get("launch_lon_deg")
+    if lat is None:
+        return None
+    return mav.home_position_encode(_e7(lat), _e7(lon), 0, 0.0, 0.0, 0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0)
+
+
+def autopilot_version(mav, version: str):
+    caps = (mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+            | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2)
+    parts = [int(p) if p.isdigit() else 0 for p in (version.split(".") + ["0", "0", "0"])[:3]]
+    sw = (parts[0] << 24) | (parts[1] << 16) | (parts[2] << 8) | 255  # 255: FIRMWARE_VERSION_TYPE_OFFICIAL
+    custom = list(b"wamv-ap\0")
+    return mav.autopilot_version_encode(caps, sw, 0, 0, 0, custom, [0] * 8, [0] * 8, 0, 0, 0)
+
+
+def statustext(mav, severity: int, text: str) -> list:
+    """One STATUSTEXT, or several chunks (MAVLink 2: 50 characters each, one id) for a longer text."""
+    data = text.encode("ascii", "replace")
+    if len(data) <= 50:
+        return [mav.statustext_encode(severity, data)]
+    statustext.counter = (getattr(statustext, "counter", 0) % 65535) + 1
+    return [mav.statustext_encode(severity, data[k:k + 50], statustext.counter, n)
+            for n, k in enumerate(range(0, len(data), 50))]
+
+
+def event_text(name: str, fields: dict) -> tuple[int, str] | None:
+    """The STATUSTEXT of a log event, or None for events the operator does not need on screen."""
+    f = fields
+    if name == "fault":
+        return mavlink.MAV_SEVERITY_WARNING, f"fault {f.get('cause')}: {f.get('detail')}"
+    if name == "failsafe":
+        extra = f" ({f['fallback']})" if f.get("fallback") else ""
+        return mavlink.MAV_SEVERITY_CRITICAL, f"failsafe {f.get('cause')}: {f.get('action')}{extra}"
+    if name == "fault_cleared":
+        return mavlink.MAV_SEVERITY_INFO, f"cleared {f.get('cause')}"
+    if name == "resume":
+        return mavlink.MAV_SEVERITY_INFO, f"resumed after {f.get('cause')}"
+    if name == "mode":
+        return mavlink.MAV_SEVERITY_INFO, f"mode {f.get('mode')}: {f.get('cause')}"
+    if name == "command" and not f.get("accepted"):
+        return mavlink.MAV_SEVERITY_WARNING, str(f.get("answer"))
+    if name == "arming":
+        return mavlink.MAV_SEVERITY_NOTICE, ("armed" if f.get("armed") else "disarmed") + f" ({f.get('cause')})"
+    if name == "gcs":
+        return mavlink.MAV_SEVERITY_WARNING, f"ground station {f.get('state')}: {f.get('action') or ''}".strip()
+    if name == "mission_replaced":
+        return mavlink.MAV_SEVERITY_INFO, f"mission: {len(f.get('waypoints') or [])} waypoint(s)"
+    if name == "param":
+        return mavlink.MAV_SEVERITY_INFO, f"{f.get('param')} = {f.get('new')}"
+    if name == "mission_complete":
+        return mavlink.MAV_SEVERITY_INFO, "mission complete"
+    return None

@@ -1,0 +1,390 @@
+"""The MAVLink link through real UDP sockets on loopback, pymavlink as the ground station (issue 16).
+
+`autopilot run --sim --mavlink udpout:127.0.0.1:PORT` in a subprocess, as a bench user runs it; this
+process is the ground station (pymavlink's mavutil, as QGroundControl's and Mission Planner's
+scripts use it) listening on PORT. What the boat does is read back from its own mission log.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from autopilot.geo import local_to_latlon
+
+ROOT = Path(__file__).resolve().parents[1]
+ORIGIN = (52.0, 4.4)
+SPEEDUP = 4.0
+
+
+def _free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Boat:
+    """A daemon under --sim with a MAVLink endpoint, and a ground station talking to it."""
+
+    def __init__(self, tmp: Path, *, mission: dict | None = None, config: dict | None = None, key: bytes | None = None,
+                 fresh: bool = True, speedup: float = SPEEDUP) -> None:
+        self.tmp, self.port = tmp, _free_udp_port()
+        cfg = yaml.safe_load((ROOT / "config" / "autopilot.yaml").read_text())
+        cfg["sim"]["origin_lat_deg"], cfg["sim"]["origin_lon_deg"] = ORIGIN
+        for k, v in (config or {}).items():
+            if isinstance(v, dict):
+                for k2, v2 in v.items():
+                    if isinstance(v2, dict):
+                        cfg[k][k2].update(v2)
+                    else:
+                        cfg[k][k2] = v2
+            else:
+                cfg[k] = v
+        (tmp / "autopilot.yaml").write_text(yaml.safe_dump(cfg))
+        mission = mission or {"name": "square", "frame": "local", "waypoints": [
+            [30.0, 0.0], [30.0, 30.0], [0.0, 30.0], [0.0, 0.0]] * 3}
+        (tmp / "mission.yaml").write_text(yaml.safe_dump(mission))
+        self.gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{self.port}", source_system=255, source_component=190)
+        if key is not None:
+            self.sign_with(key)
+        args = [sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", str(speedup), "--config",
+                str(tmp / "autopilot.yaml"), "--mission", str(tmp / "mission.yaml"), "--log-dir", str(tmp / "logs"),
+                "--state-dir", str(tmp / "state"), "--runtime-dir", str(tmp / "run"),
+                "--mavlink", f"udpout:127.0.0.1:{self.port}"]
+        if fresh:
+            args.append("--fresh")
+        self.err = open(tmp / "stderr.txt", "w")  # noqa: SIM115 - closed in stop()
+        self.proc = subprocess.Popen(args, cwd=tmp, stdout=subprocess.DEVNULL, stderr=self.err)
+        self.last_hb = 0.0
+
+    def sign_with(self, key: bytes | None) -> None:
+        if key is None:
+            self.gcs.mav.signing.secret_key = None
+            self.gcs.mav.signing.sign_outgoing = False
+            return
+        self.gcs.setup_signing(key, sign_outgoing=True)
+
+    def beat(self) -> None:
+        """The ground station's heartbeat, once a second at most."""
+        if time.monotonic() - self.last_hb >= 0.5:
+            self.gcs.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            self.last_hb = time.monotonic()
+
+    def recv(self, types, timeout_s: float = 10.0, pred=lambda m: True):
+        t_end = time.monotonic() + timeout_s
+        while time.monotonic() < t_end:
+            self.beat()
+            m = self.gcs.recv_match(type=types, blocking=True, timeout=0.2)
+            if m is not None and pred(m):
+                return m
+            if self.proc.poll() is not None:
+                raise AssertionError(f"daemon exited {self.proc.returncode}: {self.stderr()[-1500:]}")
+        raise AssertionError(f"no {types} within {timeout_s} s")
+
+    def wait_log(self, pred, timeout_s: float = 20.0, what: str = "", *, after: int = 0):
+        """The first log line from line ``after`` on that satisfies ``pred``."""
+        t_end = time.monotonic() + timeout_s
+        while time.monotonic() < t_end:
+            self.beat()
+            self.gcs.recv_match(blocking=False)
+            for r in self.log()[after:]:
+                if pred(r):
+                    return r
+            time.sleep(0.05)
+        raise AssertionError(f"log: no {what} within {timeout_s} s")
+
+    def log(self) -> list[dict]:
+        out = []
+        for path in (self.tmp / "logs").glob("mission-*.jsonl"):
+            lines = path.read_text().split("\n")[:-1]
+            if lines and json.loads(lines[0]).get("pid") == self.proc.pid:
+                out = [json.loads(x) for x in lines]
+        return out
+
+    def cycles(self) -> list[dict]:
+        return [r for r in self.log() if r["event"] == "cycle"]
+
+    def command(self, cmd: int, *params, use_int: bool = False, x: int = 0, y: int = 0):
+        p = list(params) + [0.0] * (7 - len(params))
+        if use_int:
+            self.gcs.mav.command_int_send(1, 1, mavlink.MAV_FRAME_GLOBAL, cmd, 0, 0, *p[:4], x, y, 0.0)
+        else:
+            self.gcs.mav.command_long_send(1, 1, cmd, 0, *p)
+        return self.recv("COMMAND_ACK", pred=lambda m: m.command == cmd)
+
+    def mode_is(self, mode: str, timeout_s: float = 10.0) -> None:
+        """The mode of the latest cycle becomes ``mode``."""
+        self.wait_log(lambda r: r["event"] == "cycle" and r["mode"] == mode, timeout_s, f"mode {mode}",
+                      after=max(0, len(self.log()) - 3))
+
+    def stderr(self) -> str:
+        self.err.flush()
+        return (self.tmp / "stderr.txt").read_text()
+
+    def stop(self) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(2)
+            try:
+                self.proc.wait(30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.err.close()
+        self.gcs.close()
+        return self.proc.returncode
+
+
+def test_the_boat_appears_and_its_position_follows_the_simulated_track(tmp_path):
+    boat = Boat(tmp_path)
+    try:
+        hb = boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1)
+        assert (hb.type, hb.autopilot) == (mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA)
+        boat.mode_is("auto")
+        seen, positions = set(), []
+        t_end = time.monotonic() + 4.0
+        while time.monotonic() < t_end:
+            boat.beat()
+            m = boat.gcs.recv_match(blocking=True, timeout=0.2)
+            if m is None:
+                continue
+            seen.add(m.get_type())
+            if m.get_type() == "GLOBAL_POSITION_INT":
+                positions.append((m.lat, m.lon))
+        assert {"HEARTBEAT", "SYS_STATUS", "GLOBAL_POSITION_INT", "ATTITUDE", "GPS_RAW_INT", "VFR_HUD",
+                "NAV_CONTROLLER_OUTPUT", "MISSION_CURRENT"} <= seen
+        hb = boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1)
+        assert hb.custom_mode == 10 and hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED  # AUTO, armed
+        version = boat.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+        assert version.result == mavlink.MAV_RESULT_ACCEPTED
+        av = boat.recv("AUTOPILOT_VERSION")
+        assert av.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+    finally:
+        assert boat.stop() == 0
+    fixes = {(round(r["lat_deg"] * 1e7), round(r["lon_deg"] * 1e7)) for r in boat.cycles() if r["lat_deg"] is not None}
+    assert len(positions) > 15 and len(set(positions)) > 3  # it moves
+    missing = [p for p in positions if p not in fixes]
+    assert not missing, (missing[:5], sorted(fixes)[:5])  # every position sent is a fix the daemon logged
+
+
+def test_each_command_is_acknowledged_and_obeyed(tmp_path):
+    boat = Boat(tmp_path)
+    try:
+        boat.mode_is("auto")
+        ack = boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 5)  # Rover LOITER: hold here
+        assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("hold")
+        assert boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1 and m.custom_mode == 5)
+        assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 1).result == mavlink.MAV_RESULT_ACCEPTED  # continue
+        boat.mode_is("auto")
+        assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 0).result == mavlink.MAV_RESULT_ACCEPTED  # pause
+        boat.mode_is("paused")
+        assert boat.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("rtl")
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4).result == mavlink.MAV_RESULT_ACCEPTED  # HOLD: stop
+        boat.mode_is("stop")
+        lat, lon = local_to_latlon(12.0, -6.0, *ORIGIN)
+        before = len(boat.log())
+        ack = boat.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, 0, use_int=True, x=round(lat * 1e7),
+                           y=round(lon * 1e7))
+        assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+        held = boat.wait_log(lambda r: r["event"] == "cycle" and r["mode"] == "hold" and r["hold_north_m"] is not None,
+                             what="hold at the reposition point", after=before)
+        assert math.hypot(held["hold_north_m"] - 12.0, held["hold_east_m"] + 6.0) < 0.05
+        assert boat.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.wait_log(lambda r: r["event"] == "arming" and r["armed"] is False, what="disarmed")
+        hb = boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1 and not m.base_mode & 128)
+        assert hb.system_status == mavlink.MAV_STATE_STANDBY
+        time.sleep(1.0)
+        late = [r for r in boat.cycles() if not r["armed"]][-5:]
+        assert late and all(r["thrust_port_n"] == 0.0 == r["thrust_stbd_n"] for r in late)
+        assert boat.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.wait_log(lambda r: r["event"] == "arming" and r["armed"] is True, what="armed")
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 3).result == mavlink.MAV_RESULT_DENIED  # STEERING
+        text = boat.recv("STATUSTEXT", pred=lambda m: "not supported" in m.text)
+        assert "mode 3 (STEERING) not supported" in text.text
+        assert boat.command(mavlink.MAV_CMD_DO_SET_SERVO, 1, 1500).result == mavlink.MAV_RESULT_UNSUPPORTED
+        assert boat.command(mavlink.MAV_CMD_MISSION_START).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("auto")
+    finally:
+        assert boat.stop() == 0
+    modes = [(r["mode"], r["cause"]) for r in boat.log() if r["event"] == "mode"]
+    assert [m for m, _ in modes][:6] == ["hold", "auto", "paused", "rtl", "stop", "hold"]
+    assert all(c.startswith("mavlink ") for _, c in modes[:6])
+
+
+def test_a_manual_session_and_its_timeout(tmp_path):
+    boat = Boat(tmp_path, config={"mavlink": {"manual_timeout_s": 0.5, "manual_timeout_action": "hold"}})
+    try:
+        boat.mode_is("auto")
+        t_end = time.monotonic() + 3.0
+        while time.monotonic() < t_end:  # full ahead, a little to port, at 20 Hz like a joystick
+            boat.gcs.mav.manual_control_send(1, 1000, 0, 0, -300, 0)
+            boat.beat()
+            time.sleep(0.05)
+        manual = [r for r in boat.cycles() if r["mode"] == "manual"]
+        assert len(manual) > 10
+        last = manual[-1]
+        assert last["thrust_port_n"] < last["thrust_stbd_n"] and last["thrust_stbd_n"] > 30.0  # turning to port
+        t_quiet = time.monotonic()
+        held = boat.wait_log(lambda r: r["event"] == "mode" and r["from"] == "manual", what="manual ends")
+        assert held["mode"] == "hold" and held["cause"].startswith("manual: no input for")
+        assert time.monotonic() - t_quiet < 3.0
+    finally:
+        assert boat.stop() == 0
+    commands = [r for r in boat.log() if r["event"] == "command" and r["command"] == "manual"]
+    assert len(commands) == 1  # the first input changes the mode; the stream itself is not logged line by line
+
+
+def test_parameters_read_set_and_a_bad_one_refused(tmp_path):
+    boat = Boat(tmp_path)
+    try:
+        boat.mode_is("auto")
+        boat.gcs.mav.param_request_list_send(1, 1)
+        values = {}
+        while len(values) < 10:
+            m = boat.recv("PARAM_VALUE")
+            values[m.param_id] = (m.param_value, m.param_count)
+        count = next(iter(values.values()))[1]
+        assert count >= 30 and values.get("HDG_KP", (1.0,))[0] == pytest.approx(1.0)
+        boat.gcs.mav.param_set_send(1, 1, b"HDG_KP", 2.5, mavlink.MAV_PARAM_TYPE_REAL32)
+        m = boat.recv("PARAM_VALUE", pred=lambda m: m.param_id == "HDG_KP")
+        assert m.param_value == pytest.approx(2.5)
+        boat.gcs.mav.param_set_send(1, 1, b"HDG_KP", 50.0, mavlink.MAV_PARAM_TYPE_REAL32)
+        m = boat.recv("PARAM_VALUE", pred=lambda m: m.param_id == "HDG_KP")
+        assert m.param_value == pytest.approx(2.5)  # refused: unchanged
+        text = boat.recv("STATUSTEXT", pred=lambda m: "HDG_KP" in m.text and "refused" not in m.text
+                         and "=" not in m.text)
+        assert "50.0 is outside the" in text.text and text.id > 0  # the first of its 50-character chunks
+        boat.gcs.mav.param_set_send(1, 1, b"FS_GCS_ACT", 2.0, mavlink.MAV_PARAM_TYPE_REAL32)  # rtl
+        assert boat.recv("PARAM_VALUE", pred=lambda m: m.param_id == "FS_GCS_ACT").param_value == 2.0
+        boat.gcs.mav.param_request_read_send(1, 1, b"LOIT_RADIUS", -1)
+        assert boat.recv("PARAM_VALUE", pred=lambda m: m.param_id == "LOIT_RADIUS").param_value == 0.0
+    finally:
+        assert boat.stop() == 0
+    params = [(r["param"], r["key"], r["old"], r["new"]) for r in boat.log() if r["event"] == "param"]
+    assert params == [("HDG_KP", "gnc.pid.kp_n_per_deg", 1.0, 2.5), ("FS_GCS_ACT", "mavlink.gcs_lost_action",
+                                                                       "continue", "rtl")]
+    refused = [r for r in boat.log() if r["event"] == "command" and not r["accepted"]]
+    assert any("HDG_KP" in r["answer"] and "[0, 10]" in r["answer"] for r in refused)
+
+
+def test_link_loss_takes_its_action(tmp_path):
+    boat = Boat(tmp_path, config={"mavlink": {"gcs_timeout_s": 1.5, "gcs_lost_action": "hold"}})
+    try:
+        boat.mode_is("auto", 20.0)
+        boat.recv("HEARTBEAT")  # the ground station has been seen: it beats while waiting
+        t_silent = time.monotonic()
+        boat.last_hb = math.inf  # the ground station goes quiet
+        lost = boat.wait_log(lambda r: r["event"] == "gcs" and r["state"] == "lost", what="link lost")
+        assert lost["action"] == "hold" and lost["silent_s"] >= 1.5
+        assert time.monotonic() - t_silent < 4.0
+        boat.mode_is("hold")
+        boat.last_hb = 0.0  # it comes back
+        boat.wait_log(lambda r: r["event"] == "gcs" and r["state"] == "back", what="link back")
+    finally:
+        assert boat.stop() == 0
+    causes = [r["cause"] for r in boat.log() if r["event"] == "mode"]
+    assert "mavlink: ground station lost" in causes
+
+
+def _upload(boat: Boat, items: list[tuple]) -> int:
+    """The mission protocol as a ground station drives it; the MISSION_ACK type."""
+    boat.gcs.mav.mission_count_send(1, 1, len(items))
+    while True:
+        m = boat.recv(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"])
+        if m.get_type() == "MISSION_ACK":
+            return m.type
+        cmd, frame, p1, lat, lon = items[m.seq]
+        boat.gcs.mav.mission_item_int_send(1, 1, m.seq, frame, cmd, 0, 1, p1, 0, 0, 0, round(lat * 1e7),
+                                           round(lon * 1e7), 0)
+
+
+def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart(tmp_path):
+    new_ne = [(-15.0, 10.0), (-25.0, 0.0)]
+    new = [local_to_latlon(n, e, *ORIGIN) for n, e in new_ne]
+    items = [(16, 0, 0, *ORIGIN), (16, 3, 0, *new[0]), (19, 3, 5.0, *new[1])]
+    boat = Boat(tmp_path, config={"failsafe": {"resume_after_restart": True}})
+    try:
+        boat.mode_is("auto")
+        bad = [(16, 0, 0, *ORIGIN), (16, 3, 0, 95.0, 4.4)]
+        assert _upload(boat, bad) == mavlink.MAV_MISSION_INVALID_PARAM5_X
+        assert "latitude 95" in boat.recv("STATUSTEXT", pred=lambda m: "item 1" in m.text).text
+        assert _upload(boat, [(16, 0, 0, *ORIGIN), (183, 2, 0, 0.0, 0.0)]) == mavlink.MAV_MISSION_UNSUPPORTED
+        assert _upload(boat, items) == mavlink.MAV_MISSION_ACCEPTED
+        replaced = boat.wait_log(lambda r: r["event"] == "mission_replaced", what="mission replaced")
+        assert [[round(a, 2) for a in w] for w in replaced["waypoints"]] == [list(w) for w in new_ne]
+        boat.wait_log(lambda r: r["event"] == "waypoint_reached" and r["t_s"] > replaced["t_s"] and r["wp_index"] == 0,
+                      60.0, "the new mission's first waypoint")
+        boat.gcs.mav.mission_request_list_send(1, 1)
+        count = boat.recv("MISSION_COUNT").count
+        assert count == 3
+        got = []
+        for k in range(count):
+            boat.gcs.mav.mission_request_int_send(1, 1, k)
+            got.append(boat.recv("MISSION_ITEM_INT", pred=lambda m, k=k: m.seq == k))
+        assert [(m.command, round(m.x / 1e7, 6), round(m.y / 1e7, 6)) for m in got[1:]] == [
+            (16, round(new[0][0], 6), round(new[0][1], 6)), (19, round(new[1][0], 6), round(new[1][1], 6))]
+        assert got[2].param1 == 5.0
+    finally:
+        assert boat.stop() == 0
+    saved = tmp_path / "state" / "uploaded-mission.waypoints"
+    assert saved.exists() and replaced["path"] == str(saved)
+    progress = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+    assert progress["mission"] == str(saved)
+    # a restart (systemd's, no --fresh) continues the uploaded mission, not the configured file
+    again = Boat(tmp_path, config={"failsafe": {"resume_after_restart": True}}, fresh=False)
+    try:
+        start = again.wait_log(lambda r: r["event"] == "mission_start", what="start")
+        assert start["mission"] == str(saved) and len(start["waypoints"]) == 2
+        assert "continuing the mission uploaded over MAVLink" in again.stderr()
+        again.recv("HEARTBEAT")  # the ground station learns where the boat is
+        again.gcs.mav.mission_clear_all_send(1, 1)
+        assert again.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
+        again.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
+    finally:
+        assert again.stop() == 0
+
+
+def test_with_signing_unsigned_and_wrongly_signed_commands_are_refused_telemetry_flows(tmp_path):
+    key = bytes(range(32))
+    key_file = tmp_path / "mavlink.key"
+    key_file.write_text(key.hex() + "\n")
+    key_file.chmod(0o644)
+    cfg = {"mavlink": {"signing_key_file": str(key_file)}}
+    (tmp_path / "bad").mkdir()
+    refused = Boat(tmp_path / "bad", config=cfg)
+    assert refused.proc.wait(60) == 2 and "readable by others (mode 644); chmod 600" in refused.stderr()
+    refused.stop()
+    key_file.chmod(0o600)
+    boat = Boat(tmp_path, config=cfg)
+    try:
+        hb = boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1)  # telemetry flows, signed
+        assert hb.get_msgbuf()[2] & mavlink.MAVLINK_IFLAG_SIGNED  # MAVLink 2 incompat flags: signed
+        boat.mode_is("auto")
+        boat.gcs.mav.command_long_send(1, 1, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0, 0, 0, 0, 0, 0)
+        boat.wait_log(lambda r: r["event"] == "command" and not r["accepted"] and "COMMAND_LONG" in r["answer"],
+                      what="unsigned command refused")
+        boat.sign_with(bytes(32))  # the wrong key
+        boat.gcs.mav.param_set_send(1, 1, b"HDG_KP", 2.0, mavlink.MAV_PARAM_TYPE_REAL32)
+        boat.wait_log(lambda r: r["event"] == "command" and not r["accepted"] and "PARAM_SET" in r["answer"],
+                      what="wrongly signed parameter write refused")
+        boat.sign_with(key)
+        ack = boat.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH)
+        assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+        boat.wait_log(lambda r: r["event"] == "mode" and r["mode"] == "rtl" and r["cause"] == "mavlink rtl",
+                      what="rtl (signed)")
+    finally:
+        assert boat.stop() == 0
+    assert not [r for r in boat.log() if r["event"] == "param"]
+    assert os.stat(key_file).st_mode & 0o777 == 0o600

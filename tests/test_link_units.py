@@ -1,0 +1,141 @@
+"""The MAVLink link's pure parts: mode numbering, parameters, endpoints, mission items, telemetry, the key."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from autopilot.daemon.config import DaemonConfig
+from autopilot.link import params as P
+from autopilot.link import telemetry as T
+from autopilot.link.endpoint import parse_endpoint
+from autopilot.link.link import load_signing_key
+from autopilot.link.modes import ROVER_MODES, command_for_rover_mode, rover_mode
+from autopilot.logschema import Mode
+from autopilot.mission import MissionItemError, mission_from_items, mission_to_items
+from autopilot.schema import ConfigError
+
+MAV = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+
+
+def test_every_mode_has_a_rover_number_and_the_planners_modes_map_back():
+    for m in Mode:
+        assert rover_mode(m) in ROVER_MODES
+    assert [command_for_rover_mode(n) for n in (10, 5, 11, 4, 0, 15)] == ["resume", "hold", "rtl", "stop", "manual",
+                                                                           "hold"]
+    assert command_for_rover_mode(3) is None and command_for_rover_mode(12) is None  # STEERING, SMART_RTL
+
+
+def test_parameters_are_configuration_keys_with_their_ranges():
+    cfg = DaemonConfig()
+    for p in P.PARAMS:
+        assert len(p.name) <= 16
+        assert math.isfinite(P.value_of(cfg, p))  # every key exists
+    kp = P.by_name("HDG_KP")
+    assert P.check_set(cfg, kp, 2.0) == 2.0
+    with pytest.raises(ConfigError, match=r"HDG_KP \(gnc.pid.kp_n_per_deg: 50.0 is outside the allowed range \[0, 10\]"):
+        P.check_set(cfg, kp, 50.0)
+    with pytest.raises(ConfigError, match="not a finite number"):
+        P.check_set(cfg, kp, float("nan"))
+    act = P.by_name("FS_GF_ACT")
+    assert P.value_of(cfg, act) == 2.0 and P.check_set(cfg, act, 1.0) == "hold"  # stop, hold, rtl
+    with pytest.raises(ConfigError, match="is not one of 0 = stop, 1 = hold, 2 = rtl"):
+        P.check_set(cfg, act, 3.0)
+    assert P.check_set(cfg, P.by_name("FS_ACK_MISS"), 7.0) == 7 and isinstance(P.check_set(cfg, P.by_name("FS_ACK_MISS"), 7.0), int)
+
+
+@pytest.mark.parametrize("url, kind", [("udpout:127.0.0.1:14550", "udpout"), ("udpin:0.0.0.0:14550", "udpin"),
+                                       ("/dev/ttyUSB0:57600", "serial"), ("serial:/dev/radio:115200", "serial")])
+def test_endpoint_forms(url, kind):
+    assert parse_endpoint(url).kind == kind
+
+
+@pytest.mark.parametrize("url, words", [
+    ("tcp:1.2.3.4:5760", "not an endpoint (udpout:HOST:PORT, udpin:ADDR:PORT or /dev/PATH:BAUD)"),
+    ("udpout:14550", "expected udpout:HOST:PORT"),
+    ("udpin:0.0.0.0:99999", "port 99999 outside 1..65535"),
+    ("udpout:host:abc", "port 'abc' is not a number"),
+    ("/dev/ttyUSB0", "needs its baud rate"),
+    ("/dev/ttyUSB0:1234", "baud rate 1234 is not one of"),
+])
+def test_bad_endpoints_are_refused_naming_what_is_wrong(url, words):
+    with pytest.raises(ValueError) as exc:
+        parse_endpoint(url)
+    assert words in str(exc.value) and repr(url) in str(exc.value)
+    with pytest.raises(ConfigError, match="mavlink.endpoints"):
+        from autopilot.link.config import MavlinkConfig
+
+        MavlinkConfig(endpoints=(url,))
+
+
+def _item(seq, cmd, lat, lon, frame=3, p1=0.0):
+    return dict(seq=seq, frame=frame, command=cmd, param1=p1, param2=0.0, lat_deg=lat, lon_deg=lon)
+
+
+def test_mission_items_round_trip_and_refusals_name_the_item():
+    items = [_item(0, 16, 52.0, 4.4, frame=0), _item(1, 16, 52.0002, 4.4), _item(2, 19, 52.0003, 4.4001, p1=30.0),
+             _item(3, 20, 0, 0, frame=2)]
+    m = mission_from_items(items, origin_lat_deg=52.0, origin_lon_deg=4.4)
+    assert m.holds_s == (None, 30.0) and m.rtl
+    back = mission_to_items(m)
+    assert [b["command"] for b in back] == [16, 16, 19, 20] and back[2]["param1"] == 30.0
+    for bad, field, words in [
+        (items[:1] + [_item(1, 16, 95.0, 4.4)], "x", "item 1: latitude 95.0 outside -90..90 deg"),
+        (items[:1] + [_item(1, 16, 52.0, 200.0)], "y", "longitude"),
+        (items[:1] + [_item(1, 16, 52.0, 4.4, frame=1)], "frame", "frame 1 not supported"),
+        (items[:1] + [_item(1, 183, 52.0, 4.4)], "command", "command 183 not supported"),
+        (items[:1] + [_item(2, 16, 52.0, 4.4)], "sequence", "item 1 arrived as item 2"),
+        (items[:1] + [_item(1, 19, 52.001, 4.4, p1=-3.0)], "param1", "loiter time -3 s outside"),
+        (items[:1] + [_item(1, 16, 60.0, 4.4)], "mission", "farther than"),
+        (items[:1] + [_item(1, 20, 0, 0, frame=2), _item(2, 16, 52.0, 4.4)], "command", "nothing may follow"),
+    ]:
+        with pytest.raises(MissionItemError) as exc:
+            mission_from_items(bad, origin_lat_deg=52.0, origin_lon_deg=4.4)
+        assert exc.value.field == field and words in str(exc.value), str(exc.value)
+
+
+def test_heartbeat_says_mode_arming_and_state():
+    hb = T.heartbeat(MAV, {"mode": "auto", "armed": True})
+    assert (hb.type, hb.autopilot, hb.custom_mode, hb.system_status) == (11, 3, 10, mavlink.MAV_STATE_ACTIVE)
+    assert hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    assert T.heartbeat(MAV, {"mode": "failsafe"}).system_status == mavlink.MAV_STATE_CRITICAL
+    off = T.heartbeat(MAV, {"mode": "hold", "armed": False})
+    assert off.custom_mode == 5 and not off.base_mode & 128 and off.system_status == mavlink.MAV_STATE_STANDBY
+    assert T.heartbeat(MAV, {"mode": "manual"}).base_mode & mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+
+
+def test_sys_status_health_follows_the_failsafe():
+    st = {"active_faults": ["position_stale", "mbed_ack_missing"], "battery_v": 12.31}
+    s = T.sys_status(MAV, st)
+    gps, mag, motors = (T.SENSORS[k] for k in ("position", "heading", "mbed"))
+    assert s.onboard_control_sensors_present & gps and not s.onboard_control_sensors_health & gps
+    assert s.onboard_control_sensors_health & mag and not s.onboard_control_sensors_health & motors
+    assert s.voltage_battery == 12310
+    assert T.sys_status(MAV, {"active_faults": []}).voltage_battery == 65535  # not reported: UINT16_MAX
+
+
+def test_no_position_is_sent_before_the_first_fix_and_long_texts_are_chunked():
+    assert T.global_position_int(MAV, {"lat_deg": None}, 0) is None
+    gp = T.global_position_int(MAV, {"lat_deg": 52.1, "lon_deg": 4.3, "sog_m_s": 1.0, "cog_deg": 90.0,
+                                     "heading_deg": 359.96}, 10)
+    assert (gp.lat, gp.lon, gp.vx, gp.vy, gp.hdg) == (521000000, 43000000, 0, 100, 35996)
+    chunks = T.statustext(MAV, 4, "x" * 120)
+    assert len(chunks) == 3 and len({c.id for c in chunks}) == 1 and [c.chunk_seq for c in chunks] == [0, 1, 2]
+
+
+def test_signing_key_file_must_be_private_and_well_formed(tmp_path):
+    f = tmp_path / "k"
+    f.write_text("ab" * 32)
+    f.chmod(0o600)
+    assert load_signing_key(str(f)) == bytes([0xAB]) * 32
+    f.chmod(0o640)
+    with pytest.raises(ConfigError, match=r"readable by others \(mode 640\); chmod 600"):
+        load_signing_key(str(f))
+    f.chmod(0o600)
+    f.write_text("not a key")
+    with pytest.raises(ConfigError, match="expected 64 hexadecimal digits or 32 bytes"):
+        load_signing_key(str(f))
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_signing_key(str(tmp_path / "missing"))
