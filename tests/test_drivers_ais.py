@@ -109,7 +109,7 @@ def _compare(msg, target, rep):
     if "callsign" in rep:
         out.append(("callsign", src.callsign, rep["callsign"] or None, None))
     if "shiptype" in rep:
-        out.append(("shiptype", src.ship_type, rep["shiptype"], 0))
+        out.append(("shiptype", src.ship_type, rep["shiptype"] or None, 0))  # 0 = not available
     for k in ("to_bow", "to_stern", "to_port", "to_starboard"):
         if k in rep:
             out.append((k, getattr(src, k + "_m"), _raw_dim(rep[k]), 0))

@@ -304,6 +304,11 @@ def _text(v) -> str | None:
     return s or None
 
 
+def _ship_type(v) -> int | None:
+    t = _int(v)
+    return None if t is None or t <= 0 else t  # 0 = not available
+
+
 def _dimension(v) -> float | None:
     d = _int(v)
     return None if d is None or d <= 0 else float(d)  # 0 = not available
@@ -370,11 +375,11 @@ def decode_fragments(fragments: list[AisFragment]) -> AisMessage:
         if kind in (1, 2, 3):
             extra = dict(turn_rad_s=_turn(msg), nav_status=_int(getattr(msg, "status", None)))
         if kind == 19:
-            extra = dict(shipname=_text(msg.shipname), ship_type=_int(msg.ship_type), **_dims(msg))
+            extra = dict(shipname=_text(msg.shipname), ship_type=_ship_type(msg.ship_type), **_dims(msg))
         return AisMessage(**common, lat_deg=lat, lon_deg=lon, sog_m_s=sog, cog_rad=cog, heading_rad=heading, **extra)
     if kind == 5:
         return AisMessage(**common, shipname=_text(msg.shipname), callsign=_text(msg.callsign),
-                          ship_type=_int(msg.ship_type), **_dims(msg))
+                          ship_type=_ship_type(msg.ship_type), **_dims(msg))
     # type 24: part A the name, part B type, call sign and dimensions (an auxiliary craft's part B
     # carries its mother ship's MMSI instead of dimensions: those stay None)
     partno = _int(getattr(msg, "partno", None))
@@ -382,7 +387,7 @@ def decode_fragments(fragments: list[AisFragment]) -> AisMessage:
         return AisMessage(**common, part="A", shipname=_text(msg.shipname))
     if partno == 1:
         return AisMessage(**common, part="B", callsign=_text(getattr(msg, "callsign", None)),
-                          ship_type=_int(getattr(msg, "ship_type", None)), **_dims(msg))
+                          ship_type=_ship_type(getattr(msg, "ship_type", None)), **_dims(msg))
     raise AisDecodeError(f"type 24 part number {partno!r}")  # pragma: no cover - pyais refuses these itself
 
 
