@@ -290,7 +290,10 @@ class Avoidance:
         """One cycle: the course and speed to steer, given the mission's ``psi_d_rad`` and ``speed_cmd_m_s``."""
         cfg = self.config
         engine = risk_engine(cfg.dcpa_max_nd, cfg.tcpa_max_nd, cfg.defuzz_points)
-        encounters = self.tracker.assess(own, targets, t_s)
+        speed_m_s = speed_cmd_m_s if speed_cmd_m_s > 0.0 else own.speed_m_s
+        intended = OwnShip(north_m=own.north_m, east_m=own.east_m, course_rad=psi_d_rad, speed_m_s=speed_m_s,
+                           heading_rad=psi_d_rad)
+        encounters = self.tracker.assess(own, targets, t_s, intended=intended)
         assessed: list[tuple[Encounter, float, bool]] = []
         for e in encounters:
             g = e.geometry
@@ -308,7 +311,6 @@ class Avoidance:
         self._acting &= present
 
         acting = [(e, r) for e, r, a in assessed if a]
-        speed_m_s = speed_cmd_m_s if speed_cmd_m_s > 0.0 else own.speed_m_s
         reason: str
         if acting:
             starboard_only = any(e.situation is not Situation.OVERTAKING for e, _ in acting)
@@ -327,7 +329,7 @@ class Avoidance:
                           f"every target by {cfg.resume_margin:g} x {cfg.safe_distance_m:.0f} m")
         else:
             reason = "no action: " + ("no targets" if not encounters else "no target calls for it")
-        psi_out = wrap_pi(psi_d_rad + self._alteration_rad)
+        psi_out = psi_d_rad if self._alteration_rad == 0.0 else wrap_pi(psi_d_rad + self._alteration_rad)
         factor = cfg.slow_factor if self._slow else 1.0
         rows = sorted(
             (self._row(e, r, a) for e, r, a in assessed), key=lambda row: (-row.risk, row.range_m)
@@ -336,7 +338,7 @@ class Avoidance:
             psi_d_rad=psi_out,
             speed_cmd_m_s=speed_cmd_m_s * factor,
             active=self.active,
-            psi_d_share_rad=wrap_pi(psi_out - psi_d_rad),
+            psi_d_share_rad=0.0 if psi_out == psi_d_rad else wrap_pi(psi_out - psi_d_rad),
             speed_factor=factor,
             targets=tuple(rows),
             reason=reason,

@@ -59,17 +59,21 @@ Hysteresis, so a situation does not flicker with AIS noise (MOOS-IvP's
 BHV_AvdColregs names its mode and keeps it):
 
 - an encounter begins when risk exists (DCPA < ``risk_dcpa_m`` and
-  0 < TCPA <= ``risk_tcpa_s``) and ends only when it is past and clear
-  (TCPA <= 0 and range >= ``clear_range_m``) or the risk has gone by a margin
-  (DCPA >= ``exit_factor`` x ``risk_dcpa_m``, or TCPA > ``exit_factor`` x
-  ``risk_tcpa_s``);
+  0 < TCPA <= ``risk_tcpa_s``) and ends only when the range is at least
+  ``clear_range_m`` and the risk has clearly gone: TCPA <= 0 (past and
+  clear), DCPA >= ``exit_factor`` x ``risk_dcpa_m`` or TCPA > ``exit_factor``
+  x ``risk_tcpa_s``, judged both on own ship's actual motion and on the
+  mission's intended course and speed (so avoiding does not itself end the
+  encounter: it ends when the mission can be resumed);
 - overtaking and being overtaken are kept until past and clear whatever the
   bearing does (rule 13(d): a later change of bearing does not make the
   overtaking vessel a crossing one);
-- any other situation is kept while the geometry is inside its region widened
-  by ``sector_margin_deg`` on every boundary; outside it, the target is
-  classified afresh (a target that turns into us becomes head-on or crossing
-  from the other side, and the duty changes with it).
+- any other situation is judged afresh only when the target has altered its
+  course by more than ``reclassify_course_deg`` since it was judged (our own
+  avoiding turn and the closing geometry move the bearing, not the duty; a
+  target that turns into us does change it), and then with the current
+  situation's region widened by ``sector_margin_deg`` on every boundary and
+  the others narrowed by as much.
 
 Every :class:`Encounter` carries ``reason``, a sentence with the numbers that
 decided it, for the log.
@@ -133,9 +137,10 @@ class TargetState:
 
     @classmethod
     def from_ais(cls, target, *, origin_lat_deg: float, origin_lon_deg: float, now_s: float,
-                 max_extrapolation_s: float = 30.0) -> TargetState:
+                 max_extrapolation_s: float = 180.0) -> TargetState:
         """From an :class:`autopilot.drivers.ais.AisTarget` (with a position): to the local frame, dead
-        reckoned along its course for its age (at most ``max_extrapolation_s``). Unknown speed or
+        reckoned along its course for its age (at most ``max_extrapolation_s``, default the longest
+        nominal report interval, 3 min: ITU-R M.1371-5 Annex 1 Tables 1-2). Unknown speed or
         course: treated as stopped where it was reported (``motion_known`` False)."""
         north_m, east_m = latlon_to_local(target.lat_deg, target.lon_deg, origin_lat_deg, origin_lon_deg)
         known = target.sog_m_s is not None and (target.cog_rad is not None or target.sog_m_s == 0.0)
@@ -297,6 +302,13 @@ class EncounterConfig:
         5.0, unit="deg", lo=0.0, hi=30.0, source="hysteresis, chosen (AIS course noise of a few degrees)",
         doc="the current situation's region is widened by this on every boundary",
     )
+    reclassify_course_deg: float = param(
+        15.0, unit="deg", lo=0.0, hi=180.0,
+        source="chosen: well above AIS course noise; our own manoeuvres and the closing geometry move the "
+        "bearing but do not change the duty",
+        doc="a situation is judged afresh only after the target's course has changed by more than this "
+        "since it was judged",
+    )
     stationary_speed_m_s: float = param(
         0.25, unit="m/s", lo=0.0, hi=2.0, source="chosen: below AIS's 0.1 kn resolution x 5",
         doc="a target slower than this has no meaningful course: it is passed as an overtaking vessel would",
@@ -355,13 +367,18 @@ def _why(sit: Situation, g: Geometry, cfg: EncounterConfig) -> str:
 
 def classify(g: Geometry, config: EncounterConfig = EncounterConfig(), *,
              current: Situation | None = None) -> tuple[Situation, str]:
-    """The situation the geometry puts the target in (regardless of risk) and why.
+    """The situation the geometry puts the target in (regardless of risk) and why: the first match
+    in the table's order.
 
-    With ``current`` (not SAFE), it is kept while the geometry stays in its region widened by
-    ``sector_margin_deg``; otherwise the first match in the table's order."""
+    With ``current`` (not SAFE) the current situation's region is widened by
+    ``sector_margin_deg`` on every boundary and every other region narrowed by as much, so a
+    change needs the geometry to be clearly in the new region (the bias falls away where it
+    would leave a gap between regions)."""
     if current is not None and current is not Situation.SAFE:
-        if _region(current, g, config, math.radians(config.sector_margin_deg)):
-            return current, _why(current, g, config)
+        m = math.radians(config.sector_margin_deg)
+        for sit in _ORDER:
+            if _region(sit, g, config, m if sit is current else -m):
+                return sit, _why(sit, g, config)
     for sit in _ORDER:
         if _region(sit, g, config, 0.0):
             return sit, _why(sit, g, config)
@@ -391,6 +408,7 @@ class _Record:
     since_s: float = 0.0
     seen_s: float = 0.0
     reason: str = ""
+    judged_course_rad: float = 0.0  # the target's course when the situation was last judged
 
 
 @dataclass
@@ -407,41 +425,62 @@ class EncounterTracker:
         rec = self._records.get(target_id)
         return Situation.SAFE if rec is None else rec.situation
 
-    def assess(self, own: OwnShip, targets: list[TargetState], t_s: float) -> list[Encounter]:
+    def assess(self, own: OwnShip, targets: list[TargetState], t_s: float, *,
+               intended: OwnShip | None = None) -> list[Encounter]:
+        """Every target's encounter now. ``intended``: own ship as the mission would have it (same
+        position, the mission's course and speed); with it, risk is judged on both the actual and the
+        intended motion, so an encounter does not end merely because we are avoiding: it ends when
+        neither motion is at risk (and the range is at least ``clear_range_m``)."""
         cfg = self.config
         out = []
         for tgt in targets:
             g = geometry(own, tgt, length_m=cfg.length_m, tcpa_speed_floor_m_s=cfg.tcpa_speed_floor_m_s)
+            gi = g if intended is None else geometry(intended, tgt, length_m=cfg.length_m,
+                                                     tcpa_speed_floor_m_s=cfg.tcpa_speed_floor_m_s)
             rec = self._records.setdefault(tgt.target_id, _Record(since_s=t_s))
             rec.seen_s = t_s
-            risk = g.dcpa_m < cfg.risk_dcpa_m and 0.0 < g.tcpa_s <= cfg.risk_tcpa_s
+            risk = self._risk(g) or self._risk(gi)
             old = rec.situation
             if old is Situation.SAFE:
                 if risk:
                     new, why = classify(g, cfg)
                 else:
-                    new, why = Situation.SAFE, self._safe_reason(g)
+                    new, why = Situation.SAFE, self._safe_reason(gi)
             else:
-                past_clear = g.tcpa_s <= 0.0 and g.range_m >= cfg.clear_range_m
-                gone = g.tcpa_s > 0.0 and (g.dcpa_m >= cfg.exit_factor * cfg.risk_dcpa_m
-                                           or g.tcpa_s > cfg.exit_factor * cfg.risk_tcpa_s)
-                if past_clear:
+                ended = g.range_m >= cfg.clear_range_m and self._no_risk(g) and self._no_risk(gi)
+                if ended and g.tcpa_s <= 0.0 and gi.tcpa_s <= 0.0:
                     new, why = Situation.SAFE, f"past and clear: opening, range {g.range_m:.0f} m"
-                elif gone:
-                    new, why = Situation.SAFE, f"risk gone: DCPA {g.dcpa_m:.0f} m in {g.tcpa_s:.0f} s"
+                elif ended:
+                    new, why = Situation.SAFE, f"risk gone: DCPA {gi.dcpa_m:.0f} m on the intended course"
                 elif old in (Situation.OVERTAKING, Situation.OVERTAKEN):
                     new, why = old, _why(old, g, cfg) + "; kept until past and clear (rule 13(d))"
+                elif abs(turned := wrap_pi(tgt.course_rad - rec.judged_course_rad)) > math.radians(
+                        cfg.reclassify_course_deg):
+                    new, why = classify(g, cfg, current=old)  # the target has turned: judge afresh
+                    rec.judged_course_rad = tgt.course_rad
+                    if new is not old:
+                        why += f" (it altered course {math.degrees(turned):+.0f} deg)"
                 else:
-                    new, why = classify(g, cfg, current=old)
+                    new, why = old, rec.reason
             changed = new is not old
             if changed:
                 rec.situation, rec.since_s = new, t_s
+                rec.judged_course_rad = tgt.course_rad
             rec.reason = why
             out.append(Encounter(target=tgt, geometry=g, situation=new, reason=why, since_s=rec.since_s,
                                  changed=changed, risk_exists=risk))
         for tid in [k for k, r in self._records.items() if t_s - r.seen_s > cfg.forget_after_s]:
             del self._records[tid]
         return out
+
+    def _risk(self, g: Geometry) -> bool:
+        """Rule 7's test, crisp: the CPA is ahead, within the horizon, and close."""
+        return g.dcpa_m < self.config.risk_dcpa_m and 0.0 < g.tcpa_s <= self.config.risk_tcpa_s
+
+    def _no_risk(self, g: Geometry) -> bool:
+        """... and clearly not (the exit side of the hysteresis)."""
+        c = self.config
+        return g.tcpa_s <= 0.0 or g.dcpa_m >= c.exit_factor * c.risk_dcpa_m or g.tcpa_s > c.exit_factor * c.risk_tcpa_s
 
     def _safe_reason(self, g: Geometry) -> str:
         if g.tcpa_s <= 0.0:
