@@ -435,7 +435,7 @@ class TrafficEmitter:
             t_prev = t
             for ts, s in due:
                 line = (s + "\r\n").encode("ascii")
-                start_s = max(self._t0 + ts, self._line_free_s)
+                start_s = max(self._t0 + ts, self._line_free_s, self.clock.now_s())
                 self._line_free_s = start_s + len(line) * char_s
                 await self.clock.sleep_until(self._line_free_s)
                 self.endpoint.write(line)
