@@ -18,7 +18,7 @@ from autopilot.measured import HULL_LENGTH_M
 from autopilot.schema import ConfigError, load
 from autopilot.simdev.traffic import load_scenario
 from autopilot.traffic.score import closest_approach, mission_cost, score_encounter
-from autopilot.traffic.sim import simulate, score_run
+from autopilot.traffic.sim import score_run, simulate
 
 SCENARIOS = Path(avoidance_module.__file__).resolve().parents[1] / "data" / "traffic"
 R = math.radians
