@@ -27,9 +27,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pyais import encode_dict  # noqa: E402
-
 from autopilot.drivers.ais import AisError, AisStreamDecoder, TargetTable, parse_fragment  # noqa: E402
+from autopilot.simdev.traffic import encode_ais  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "nmea"
 if not SHARED.is_dir():
@@ -53,7 +52,7 @@ def corpus() -> list[bytes]:
         ({"type": 24, "mmsi": 338000001, "partno": 1, "callsign": "X", "to_bow": 5, "to_stern": 2}, "VDM"),
         ({"type": 1, "mmsi": 244999999, "lat": 52.0, "lon": 5.0, "speed": 1.0, "course": 1.0}, "VDO"),
     ):
-        lines += [(s + "\r\n").encode() for s in encode_dict(data, sentence_type=kind)]
+        lines += [(s + "\r\n").encode() for s in encode_ais(data, sentence_type=kind)]
     return lines
 
 

@@ -10,7 +10,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
-from pyais import encode_dict
 
 from autopilot.drivers.ais import (
     AisChecksumError,
@@ -27,6 +26,7 @@ from autopilot.drivers.ais import (
 )
 from autopilot.drivers.framing import xor_checksum
 from autopilot.drivers.nmea import NmeaStreamDecoder, make_sentence
+from autopilot.simdev.traffic import encode_ais
 from tests.conftest import SHARED as SHARED_ROOT
 
 SHARED = SHARED_ROOT / "nmea"
@@ -219,7 +219,7 @@ def test_type1_not_available_values_are_none():
 )
 @pytest.mark.parametrize("msg_type", [1, 18])
 def test_position_report_values_in_si(msg_type, fields, expect):
-    lines = encode_dict({"type": msg_type, "mmsi": 244000001, **fields}, talker_id="AI", radio_channel="A",
+    lines = encode_ais({"type": msg_type, "mmsi": 244000001, **fields}, channel="A",
                         sentence_type="VDM")
     m = decode_sentences(lines)
     assert m.ais_class == ("A" if msg_type == 1 else "B")
@@ -233,21 +233,21 @@ def test_position_report_values_in_si(msg_type, fields, expect):
 
 def test_turn_rate_sign_and_units():
     # ROT_AIS = 4.733 sqrt(deg/min): 30 deg/min to starboard is +26 (pyais rounds back to 30)
-    lines = encode_dict({"type": 1, "mmsi": 244000001, "turn": 30.0, "lat": 1.0, "lon": 2.0}, sentence_type="VDM")
+    lines = encode_ais({"type": 1, "mmsi": 244000001, "turn": 30.0, "lat": 1.0, "lon": 2.0}, sentence_type="VDM")
     assert_allclose(decode_sentences(lines).turn_rad_s, math.radians(30.0) / 60.0, rtol=0.05)
-    lines = encode_dict({"type": 1, "mmsi": 244000001, "turn": -30.0, "lat": 1.0, "lon": 2.0}, sentence_type="VDM")
+    lines = encode_ais({"type": 1, "mmsi": 244000001, "turn": -30.0, "lat": 1.0, "lon": 2.0}, sentence_type="VDM")
     assert decode_sentences(lines).turn_rad_s < 0
 
 
 def test_type19_and_type24_parts():
-    m19 = decode_sentences(encode_dict({"type": 19, "mmsi": 338000001, "lat": 1.0, "lon": 2.0, "speed": 5.0,
+    m19 = decode_sentences(encode_ais({"type": 19, "mmsi": 338000001, "lat": 1.0, "lon": 2.0, "speed": 5.0,
                                         "course": 90.0, "heading": 91, "shipname": "SLOOP", "to_bow": 7,
                                         "to_stern": 3, "to_port": 2, "to_starboard": 2}, sentence_type="VDM"))
     assert (m19.msg_type, m19.ais_class, m19.shipname, m19.to_bow_m) == (19, "B", "SLOOP", 7.0)
     assert_allclose(m19.cog_rad, math.pi / 2)
-    a = decode_sentences(encode_dict({"type": 24, "mmsi": 338000002, "partno": 0, "shipname": "DINGHY"},
+    a = decode_sentences(encode_ais({"type": 24, "mmsi": 338000002, "partno": 0, "shipname": "DINGHY"},
                                      sentence_type="VDM"))
-    b = decode_sentences(encode_dict({"type": 24, "mmsi": 338000002, "partno": 1, "ship_type": 37,
+    b = decode_sentences(encode_ais({"type": 24, "mmsi": 338000002, "partno": 1, "ship_type": 37,
                                       "callsign": "AB1234", "to_bow": 4, "to_stern": 1, "to_port": 1,
                                       "to_starboard": 1}, sentence_type="VDM"))
     assert (a.part, a.shipname, a.to_bow_m) == ("A", "DINGHY", None)
@@ -277,11 +277,11 @@ def test_bad_fragments_are_refused(line, error):
 
 def test_unsupported_and_undecodable_payloads():
     with pytest.raises(AisUnsupportedError):  # type 4, base station report
-        decode_sentences(encode_dict({"type": 4, "mmsi": 2442000, "lat": 1.0, "lon": 2.0}, sentence_type="VDM"))
+        decode_sentences(encode_ais({"type": 4, "mmsi": 2442000, "lat": 1.0, "lon": 2.0}, sentence_type="VDM"))
     with pytest.raises(AisDecodeError):  # a type 1 cut to 60 bits
         decode_sentences([_frame("AIVDM,1,1,,A,13aDp<PP000I,0")])
     with pytest.raises(AisDecodeError):  # MMSI 0
-        decode_sentences(encode_dict({"type": 1, "mmsi": 0, "lat": 1.0, "lon": 2.0}, sentence_type="VDM"))
+        decode_sentences(encode_ais({"type": 1, "mmsi": 0, "lat": 1.0, "lon": 2.0}, sentence_type="VDM"))
 
 
 # --------------------------------------------------------------------------- assembly
@@ -305,12 +305,12 @@ def test_assembler_out_of_order_duplicates_and_timeout():
 def test_interleaved_multipart_messages_by_sequence_id_and_channel():
     """Two type 5 messages interleaved fragment by fragment (different sequence ids) both decode;
     the same sequence id on the other channel is another message."""
-    one = encode_dict({"type": 5, "mmsi": 244000001, "shipname": "ONE", "to_bow": 10}, sentence_type="VDM",
-                      radio_channel="A", seq_id=1)
-    two = encode_dict({"type": 5, "mmsi": 244000002, "shipname": "TWO", "to_bow": 20}, sentence_type="VDM",
-                      radio_channel="A", seq_id=2)
-    three = encode_dict({"type": 5, "mmsi": 244000003, "shipname": "THREE"}, sentence_type="VDM",
-                        radio_channel="B", seq_id=1)
+    one = encode_ais({"type": 5, "mmsi": 244000001, "shipname": "ONE", "to_bow": 10}, sentence_type="VDM",
+                      channel="A", seq_id=1)
+    two = encode_ais({"type": 5, "mmsi": 244000002, "shipname": "TWO", "to_bow": 20}, sentence_type="VDM",
+                      channel="A", seq_id=2)
+    three = encode_ais({"type": 5, "mmsi": 244000003, "shipname": "THREE"}, sentence_type="VDM",
+                        channel="B", seq_id=1)
     assert len(one) == len(two) == len(three) == 2
     d = AisStreamDecoder()
     msgs = []
@@ -332,7 +332,7 @@ def test_stream_counts_a_lost_fragment_as_unassembled_after_the_timeout():
 
 
 def _pos(mmsi, t, table, *, lat=52.0, lon=5.0, speed=10.0, course=90.0, own=False, msg_type=1):
-    lines = encode_dict({"type": msg_type, "mmsi": mmsi, "lat": lat, "lon": lon, "speed": speed, "course": course,
+    lines = encode_ais({"type": msg_type, "mmsi": mmsi, "lat": lat, "lon": lon, "speed": speed, "course": course,
                          "heading": int(course)}, sentence_type="VDO" if own else "VDM")
     rx = AisReceiver()
     (m,) = rx.feed_line(lines[0], t)
@@ -361,14 +361,14 @@ def test_table_merges_static_and_position_reports():
     assert rx.targets(1.0) == []  # known only by name: no position, not a target to avoid yet
     t = rx.table.targets(with_position=False)[0]
     assert (t.shipname, t.length_m, t.beam_m, t.extent_m) == ("SEA ENTERPRISE", 28.0, 7.0, 15.0)
-    pos = encode_dict({"type": 1, "mmsi": 371255000, "lat": 52.8, "lon": 5.7, "speed": 8.0, "course": 45.0,
+    pos = encode_ais({"type": 1, "mmsi": 371255000, "lat": 52.8, "lon": 5.7, "speed": 8.0, "course": 45.0,
                        "heading": 44}, sentence_type="VDM")
     rx.feed_line(pos[0], 5.0)
     (t,) = rx.targets(6.0)
     assert t.shipname == "SEA ENTERPRISE" and t.length_m == 28.0 and t.static_t_s == 0.0 and t.position_t_s == 5.0
     assert_allclose(t.heading_rad, math.radians(44))
     # a later report with speed and course "not available" says so: they become None
-    na = encode_dict({"type": 1, "mmsi": 371255000, "lat": 52.8, "lon": 5.7, "speed": 102.3, "course": 360.0,
+    na = encode_ais({"type": 1, "mmsi": 371255000, "lat": 52.8, "lon": 5.7, "speed": 102.3, "course": 360.0,
                       "heading": 511}, sentence_type="VDM")
     rx.feed_line(na[0], 9.0)
     (t,) = rx.targets(9.0)
@@ -377,10 +377,10 @@ def test_table_merges_static_and_position_reports():
 
 def test_table_class_b_name_from_24a_dimensions_from_24b():
     rx = AisReceiver()
-    for line in (encode_dict({"type": 18, "mmsi": 338000002, "lat": 1.0, "lon": 2.0, "speed": 4.0, "course": 10.0},
+    for line in (encode_ais({"type": 18, "mmsi": 338000002, "lat": 1.0, "lon": 2.0, "speed": 4.0, "course": 10.0},
                              sentence_type="VDM")
-                 + encode_dict({"type": 24, "mmsi": 338000002, "partno": 0, "shipname": "DINGHY"}, sentence_type="VDM")
-                 + encode_dict({"type": 24, "mmsi": 338000002, "partno": 1, "to_bow": 4, "to_stern": 1, "to_port": 1,
+                 + encode_ais({"type": 24, "mmsi": 338000002, "partno": 0, "shipname": "DINGHY"}, sentence_type="VDM")
+                 + encode_ais({"type": 24, "mmsi": 338000002, "partno": 1, "to_bow": 4, "to_stern": 1, "to_port": 1,
                                 "to_starboard": 1}, sentence_type="VDM")):
         rx.feed_line(line, 1.0)
     (t,) = rx.targets(2.0)

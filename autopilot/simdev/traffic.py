@@ -42,6 +42,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from autopilot.drivers.framing import xor_checksum
 from autopilot.geo import latlon_to_local, local_to_latlon, wrap_pi
 from autopilot.gnc.encounter import OwnShip, TargetState, classify, geometry
 from autopilot.schema import ConfigError, load, load_yaml, param
@@ -57,6 +58,7 @@ __all__ = [
     "load_scenario",
     "kinematics_at",
     "report_times",
+    "encode_ais",
     "encode_reports",
     "sentences_between",
     "position_interval_s",
@@ -320,6 +322,30 @@ def _dims(spec: TargetSpec) -> dict:
             "to_starboard": max(1, round(spec.beam_m) - side)}
 
 
+def encode_ais(data: dict, *, sentence_type: str = "VDM", channel: str = "A", seq_id: int | None = None,
+               talker: str = "AI") -> list[str]:
+    """One AIS message (pyais's field names, degrees and knots) as its sentence(s), with pyais.
+
+    pyais >= 2.8 takes the talker, sentence type and sequential id; 2.6-2.7 take only the address
+    ("AIVDM") and number every multi-part message 0: the id is then written here (and the checksum
+    made anew), so both give the same sentences."""
+    from pyais import encode_dict
+
+    try:
+        return encode_dict(data, talker_id=talker, sentence_type=sentence_type, radio_channel=channel, seq_id=seq_id)
+    except TypeError:  # pyais < 2.8
+        lines = encode_dict(data, talker_id=talker + sentence_type, radio_channel=channel)
+    if len(lines) > 1 and seq_id is not None:
+        out = []
+        for line in lines:
+            body = line[1 : line.rindex("*")].split(",")
+            body[3] = str(int(seq_id) % 10)
+            text = ",".join(body)
+            out.append(f"!{text}*{xor_checksum(text)}")
+        lines = out
+    return lines
+
+
 def encode_reports(scenario: TrafficScenario, spec: TargetSpec, kind: str, t_s: float, *,
                    kinematics: TargetKinematics | None = None, seq_id: int = 0, channel: str = "A",
                    talker: str = "AI") -> list[str]:
@@ -327,7 +353,6 @@ def encode_reports(scenario: TrafficScenario, spec: TargetSpec, kind: str, t_s: 
 
     position: type 1 (class A) or 18 (class B); static: type 5 (two sentences, ``seq_id``) or
     24 A and B. The reference point is amidships."""
-    from pyais import encode_dict
 
     if kind == "position":
         k = kinematics if kinematics is not None else kinematics_at(scenario, spec, t_s)
@@ -340,17 +365,17 @@ def encode_reports(scenario: TrafficScenario, spec: TargetSpec, kind: str, t_s: 
             data.update(type=1, status=0, turn=math.degrees(k.turn_rate_rad_s) * 60.0)
         else:
             data.update(type=18, cs=1)
-        return encode_dict(data, talker_id=talker, sentence_type="VDM", radio_channel=channel)
+        return encode_ais(data, talker=talker, sentence_type="VDM", channel=channel)
     if kind == "static":
         name = spec.name.upper()
         if spec.ais_class == "A":
-            return encode_dict({"type": 5, "mmsi": spec.mmsi, "ais_version": 2, "shipname": name,
-                                "callsign": "", "ship_type": 0, **_dims(spec)},
-                               talker_id=talker, sentence_type="VDM", radio_channel=channel, seq_id=seq_id % 10)
-        return (encode_dict({"type": 24, "mmsi": spec.mmsi, "partno": 0, "shipname": name}, talker_id=talker,
-                            sentence_type="VDM", radio_channel=channel)
-                + encode_dict({"type": 24, "mmsi": spec.mmsi, "partno": 1, "ship_type": 37, **_dims(spec)},
-                              talker_id=talker, sentence_type="VDM", radio_channel=channel))
+            return encode_ais({"type": 5, "mmsi": spec.mmsi, "ais_version": 2, "shipname": name,
+                               "callsign": "", "ship_type": 0, **_dims(spec)},
+                              talker=talker, sentence_type="VDM", channel=channel, seq_id=seq_id % 10)
+        return (encode_ais({"type": 24, "mmsi": spec.mmsi, "partno": 0, "shipname": name}, talker=talker,
+                           sentence_type="VDM", channel=channel)
+                + encode_ais({"type": 24, "mmsi": spec.mmsi, "partno": 1, "ship_type": 37, **_dims(spec)},
+                             talker=talker, sentence_type="VDM", channel=channel))
     raise ValueError(f"unknown report kind {kind!r}")
 
 
