@@ -397,6 +397,14 @@ def test_own_ship_is_kept_apart():
     assert [t.mmsi for t in table.targets(2.0)] == [244000001]
 
 
+def test_receiver_survives_a_failing_callback():
+    def boom(msg):
+        raise RuntimeError("log full")
+
+    rx = AisReceiver(on_message=boom)
+    assert len(rx.feed_line(TYPE1, 0.0)) == 1 and rx.callback_errors == 1 and len(rx.targets(0.0)) == 1
+
+
 def test_table_is_bounded():
     table = TargetTable(AisConfig(max_targets=3))
     for k in range(5):

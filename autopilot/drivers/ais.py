@@ -731,6 +731,7 @@ class AisReceiver:
         self.decoder = AisStreamDecoder(assembly_timeout_s=config.assembly_timeout_s)
         self.table = TargetTable(config)
         self.on_message = on_message
+        self.callback_errors = 0  # exceptions raised by on_message (swallowed)
         self._clock_s = clock_s  # only for the NMEA hook, which passes no time
 
     def feed(self, data: bytes, now_s: float) -> list[AisMessage]:
@@ -750,7 +751,10 @@ class AisReceiver:
         for m in msgs:
             self.table.update(m, now_s)
             if self.on_message is not None:
-                self.on_message(m)
+                try:
+                    self.on_message(m)
+                except Exception:  # a failing log must not stop reception
+                    self.callback_errors += 1
 
     def targets(self, now_s: float) -> list[AisTarget]:
         return self.table.targets(now_s)

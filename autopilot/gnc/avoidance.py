@@ -51,7 +51,8 @@ distance + its extent (or its CPA is past or beyond the horizon):
   (15, and 17(c): not to port for a vessel on our port side), or overtaking
   us; either side when we are only overtaking (13), the side kept once chosen;
 - in a crossing where we give way, only alterations with which we pass astern
-  of the target (15: "avoid crossing ahead");
+  of the target (15: "avoid crossing ahead"), unless we would cross ahead by
+  more than twice the required distance;
 - hysteresis: an alteration smaller than the one held must clear every target
   by ``resume_margin`` x the safe distance;
 - slowing to ``slow_factor`` x the commanded speed (rule 8(e): slacken speed)
