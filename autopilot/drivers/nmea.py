@@ -20,6 +20,7 @@ from __future__ import annotations
 import datetime as _dt
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import pynmea2
@@ -468,7 +469,8 @@ class NmeaStats:
 
     ``dropped`` = every rejected line (checksum, garbage, invalid fields,
     too long, non-ASCII); ``unknown`` valid sentences we do not use are not
-    rejected and not in ``dropped``.
+    rejected and not in ``dropped``, nor are the lines handed to the
+    ``encapsulated`` hook (the AIS decoder they go to counts its own rejections).
     """
 
     lines_ok: int = 0
@@ -498,12 +500,22 @@ class NmeaStreamDecoder:
     A line longer than ``max_line_chars`` is discarded up to its LF, so a stream without
     newlines cannot grow memory. :attr:`invalid_bytes` counts bytes that no NMEA line can hold
     (the garbage detector's byte measure).
+
+    ``encapsulated`` (optional): a callable given every line whose first start
+    delimiter is ``!`` (IEC 61162-1 encapsulation: AIS ``!AIVDM``/``!AIVDO``
+    interleaved on the compass line), from the ``!`` on, as bytes without the
+    line end; e.g. :meth:`autopilot.drivers.ais.AisReceiver.feed_line`. Without
+    it such lines count as garbage, as before. An exception in the callable is
+    swallowed. :attr:`encapsulated_lines` counts the lines handed over.
     """
 
-    def __init__(self, max_line_chars: int = MAX_LINE_CHARS) -> None:
+    def __init__(self, max_line_chars: int = MAX_LINE_CHARS, *,
+                 encapsulated: Callable[[bytes], object] | None = None) -> None:
         self.max_line_chars = int(max_line_chars)
         self.stats = NmeaStats()
         self._framer = LineFramer(self.max_line_chars)
+        self.encapsulated = encapsulated
+        self.encapsulated_lines = 0
 
     @property
     def invalid_bytes(self) -> int:
@@ -528,6 +540,15 @@ class NmeaStreamDecoder:
         if not raw:
             return None
         dollar = raw.find(b"$")
+        if self.encapsulated is not None:
+            bang = raw.find(b"!")
+            if bang >= 0 and (dollar < 0 or bang < dollar):
+                self.encapsulated_lines += 1
+                try:
+                    self.encapsulated(raw[bang:])
+                except Exception:
+                    pass  # the hook's failure is its own: the compass line goes on
+                return None
         if dollar < 0:
             self.stats.garbage += 1
             return None

@@ -1,0 +1,440 @@
+"""Fuzzy collision avoidance under COLREGs (issue 18): a course/speed change that composes with the mission.
+
+Pure: own ship, targets and the mission's desired course and speed in, the
+course and speed to steer out, with the reasons; the only state is small (the
+situation records of :class:`~autopilot.gnc.encounter.EncounterTracker`, which
+targets we are acting for, the alteration held and its side).
+
+**Collision risk** (SAFES, Hasegawa et al. 1986; the same two inputs as the
+thesis's waypoint guidance, Eq 6.5-6.8, with the target's CPA): a Mamdani
+system (:mod:`autopilot.gnc.fuzzy`: triangular sets, min-max inference,
+centre of gravity) of DCPA' = DCPA / L and TCPA' = TCPA / (L / U) gives the
+risk CR in [0, 1]. Five evenly spaced sets on each input, {SA, SM, ME, ML,
+LA} over [0, ``dcpa_max_nd``] and [0, ``tcpa_max_nd``] (shoulders at the
+ends), and on the output over [0, 1]. THE rule table (rows DCPA', columns
+TCPA'; entries CR):
+
+=============  ====  ====  ====  ====  ====
+DCPA' \\ TCPA'  SA    SM    ME    ML    LA
+=============  ====  ====  ====  ====  ====
+SA             LA    LA    ML    ME    SM
+SM             LA    ML    ME    SM    SA
+ME             ML    ME    SM    SA    SA
+ML             ME    SM    SA    SA    SA
+LA             SA    SA    SA    SA    SA
+=============  ====  ====  ====  ====  ====
+
+It reads as Table 6.1 does for CDH (near in both = large, far in either =
+small), one step more cautious on the diagonal: a target on a collision
+course (DCPA' SA) is already a medium risk at a medium TCPA'. A CPA in the
+past (TCPA <= 0) is no risk.
+
+**When to act** (per target, from its COLREGs situation,
+:mod:`autopilot.gnc.encounter`):
+
+- give way (head-on 14, crossing 15/16, overtaking 13): act once
+  CR >= ``give_way_risk``, early (rule 16: "early and substantial action");
+- stand on (crossing 17, being overtaken 13/17): keep course and speed while
+  CR < ``stand_on_risk``; above it the give-way vessel has evidently not
+  acted in time and we act (17(a)(ii), 17(b));
+- safe: nothing. Once acting for a target we keep acting until its
+  situation is safe again (past and clear, or the risk gone).
+
+**What to do**: the smallest alteration a of the mission's course psi_d
+(``0``, then ``min_alteration_deg`` .. ``max_alteration_deg`` in
+``alteration_step_deg`` steps; rule 8(b): an alteration large enough to be
+readily apparent, not a succession of small ones) such that, steering
+psi_d + a at the commanded speed, every target passes at DCPA >= safe
+distance + its extent (or its CPA is past or beyond the horizon):
+
+- to starboard only, when any target we act for is head-on (14), crossing
+  (15, and 17(c): not to port for a vessel on our port side), or overtaking
+  us; either side when we are only overtaking (13), the side kept once chosen;
+- in a crossing where we give way, only alterations with which we pass astern
+  of the target (15: "avoid crossing ahead"), unless we would cross ahead by
+  more than twice the required distance;
+- hysteresis: an alteration smaller than the one held must clear every target
+  by ``resume_margin`` x the safe distance;
+- slowing to ``slow_factor`` x the commanded speed (rule 8(e): slacken speed)
+  is a candidate too, costing as much as a ``slow_cost_deg`` alteration: the
+  cheapest candidate that clears every target is taken (a turn of up to 60 deg
+  before slowing, by default);
+- none clears every target: the one that opens the smallest DCPA the most,
+  slowed.
+
+**Resume**: when no target calls for action any more, the mission course is
+taken back once it clears every target by ``resume_margin`` x the safe
+distance (past and clear); until then the alteration is held.
+
+Interface for the helm (:meth:`Avoidance.step`): the mission's psi_d and
+speed go in, the output psi_d and speed come out, ``active`` says whether
+they differ, and ``psi_d_share_rad`` is the avoidance's share of the course
+(output - mission), so the log shows both the mission's wish and the
+avoidance's correction. Per target: situation, rule, risk, acting and the
+reason in words.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+from autopilot.geo import wrap_pi
+from autopilot.gnc.encounter import (
+    Encounter,
+    EncounterConfig,
+    EncounterTracker,
+    OwnShip,
+    Situation,
+    TargetState,
+    cpa,
+)
+from autopilot.gnc.fuzzy import Mamdani, rule_indices, uniform_partition
+from autopilot.measured import HULL_LENGTH_M
+from autopilot.schema import param
+
+__all__ = [
+    "SETS",
+    "RISK_RULE_TABLE",
+    "AvoidanceConfig",
+    "TargetAssessment",
+    "AvoidanceOutput",
+    "Avoidance",
+    "collision_risk",
+    "risk_engine",
+]
+
+SETS = ("SA", "SM", "ME", "ML", "LA")  # small, small-medium, medium, medium-large, large
+
+# Collision risk CR: rows DCPA', columns TCPA'. THE rule table, nowhere else.
+RISK_RULE_TABLE: tuple[tuple[str, ...], ...] = (
+    # TCPA':  SA    SM    ME    ML    LA
+    ("LA", "LA", "ML", "ME", "SM"),  # DCPA' SA
+    ("LA", "ML", "ME", "SM", "SA"),  # DCPA' SM
+    ("ML", "ME", "SM", "SA", "SA"),  # DCPA' ME
+    ("ME", "SM", "SA", "SA", "SA"),  # DCPA' ML
+    ("SA", "SA", "SA", "SA", "SA"),  # DCPA' LA
+)
+
+
+@dataclass(frozen=True)
+class AvoidanceConfig:
+    """Collision avoidance settings (YAML keys are the field names)."""
+
+    safe_distance_m: float = param(
+        4 * HULL_LENGTH_M, unit="m", lo=1.0, hi=5000.0, source="issue 18: 4 boat lengths (L = 3.96 m, thesis ch. 2)",
+        doc="every target is to pass at least this far (plus its extent from the AIS dimensions)",
+    )
+    dcpa_max_nd: float = param(
+        8.0, unit="-", lo=0.5, hi=500.0, source="chosen: twice the safe distance in boat lengths",
+        doc="DCPA' universe [0, this] boat lengths, five evenly spaced sets; LA from here on",
+    )
+    tcpa_max_nd: float = param(
+        40.0, unit="-", lo=1.0, hi=5000.0,
+        source="chosen in simulation: 40 L/U = 160 s at 1 m/s, time to turn and open 4 L",
+        doc="TCPA' universe [0, this] (own boat lengths run before the CPA); LA from here on",
+    )
+    give_way_risk: float = param(
+        0.45, unit="-", lo=0.0, hi=1.0, source="chosen in simulation (rule 16: early action)",
+        doc="a give-way vessel acts once the collision risk reaches this",
+    )
+    stand_on_risk: float = param(
+        0.85, unit="-", lo=0.0, hi=1.0, source="chosen in simulation (rule 17(a)(ii), 17(b))",
+        doc="a stand-on vessel keeps course and speed below this risk and acts above it",
+    )
+    min_alteration_deg: float = param(
+        30.0, unit="deg", lo=0.0, hi=90.0, source="rule 8(b): large enough to be readily apparent",
+        doc="an alteration of course is at least this",
+    )
+    max_alteration_deg: float = param(
+        120.0, unit="deg", lo=10.0, hi=180.0, source="chosen: enough to pass astern of a crossing target",
+        doc="largest alteration searched",
+    )
+    alteration_step_deg: float = param(5.0, unit="deg", lo=0.5, hi=30.0, source="search resolution",
+                                       doc="step of the alterations searched")
+    resume_margin: float = param(
+        1.25, unit="-", lo=1.0, hi=5.0, source="hysteresis, chosen",
+        doc="a smaller alteration, or the mission course, is taken only if it clears every target by this x safe distance",
+    )
+    slow_factor: float = param(
+        0.5, unit="-", lo=0.0, hi=1.0, source="rule 8(e): slacken speed when a turn alone does not do",
+        doc="speed factor when no alteration within the range clears every target",
+    )
+    slow_cost_deg: float = param(
+        60.0, unit="deg", lo=0.0, hi=360.0, source="chosen in simulation: turn first (rule 8(b)), slow when a turn alone is large",
+        doc="in the search, slowing to slow_factor costs as much as this alteration",
+    )
+    horizon_s: float = param(
+        300.0, unit="s", lo=10.0, hi=3600.0, source="chosen: beyond the encounter's risk_tcpa_s",
+        doc="a candidate's CPA later than this is not checked",
+    )
+    defuzz_points: int = param(61, unit="-", lo=11, hi=2001, source="as FuzzyConfig (Eq 6.9)",
+                               doc="samples of the risk universe for the centre of gravity")
+    encounter: EncounterConfig = param(default_factory=EncounterConfig, doc="situation thresholds and hysteresis")
+
+
+@lru_cache(maxsize=32)
+def risk_engine(dcpa_max_nd: float, tcpa_max_nd: float, n_points: int = 61) -> Mamdani:
+    """The Mamdani system of :data:`RISK_RULE_TABLE` (in1 = DCPA', rows; in2 = TCPA', columns).
+
+    Output sets as the CDH engine's (:func:`autopilot.gnc.fuzzy_guidance.cdh_engine`): five
+    triangles over [0, 1] with symmetric end sets, centre of gravity over [-0.25, 1.25], clipped."""
+    n_points = 6 * -(-(n_points - 1) // 6) + 1
+    return Mamdani(
+        in1_sets=uniform_partition(0.0, dcpa_max_nd, len(SETS)),
+        in2_sets=uniform_partition(0.0, tcpa_max_nd, len(SETS)),
+        out_sets=uniform_partition(0.0, 1.0, len(SETS), extend=True),
+        rules=rule_indices(RISK_RULE_TABLE, SETS),
+        in1_range=(0.0, dcpa_max_nd),
+        in2_range=(0.0, tcpa_max_nd),
+        out_range=(-0.25, 1.25),
+        n_points=n_points,
+    )
+
+
+def collision_risk(dcpa_nd, tcpa_nd, config: AvoidanceConfig = AvoidanceConfig()):
+    """CR in [0, 1] for DCPA', TCPA' (scalars or arrays); 0 where TCPA' <= 0 (the CPA is past)."""
+    import numpy as np
+
+    engine = risk_engine(config.dcpa_max_nd, config.tcpa_max_nd, config.defuzz_points)
+    tcpa = np.asarray(tcpa_nd, dtype=float)
+    cr = np.clip(engine.evaluate(dcpa_nd, tcpa), 0.0, 1.0)
+    out = np.where(tcpa > 0.0, cr, 0.0)
+    return float(out) if out.ndim == 0 else out
+
+
+@dataclass(frozen=True)
+class TargetAssessment:
+    """One target's part of an :class:`AvoidanceOutput` (what the log and the review show)."""
+
+    target_id: int
+    situation: Situation
+    rule: str
+    risk: float
+    acting: bool
+    reason: str
+    range_m: float
+    bearing_rad: float
+    relative_bearing_rad: float
+    bearing_rate_rad_s: float
+    dcpa_m: float
+    tcpa_s: float
+    dcpa_nd: float
+    tcpa_nd: float
+    since_s: float
+    name: str | None = None
+
+
+@dataclass(frozen=True)
+class AvoidanceOutput:
+    """What to steer (``psi_d_rad``, ``speed_cmd_m_s``) and why.
+
+    ``active``: the output differs from the mission's; ``psi_d_share_rad`` = wrap(output psi_d -
+    mission psi_d), + = to starboard; ``speed_factor`` = output / mission speed; ``targets`` per
+    target, most at risk first; ``reason`` one sentence for the log.
+    """
+
+    psi_d_rad: float
+    speed_cmd_m_s: float
+    active: bool
+    psi_d_share_rad: float
+    speed_factor: float
+    targets: tuple[TargetAssessment, ...]
+    reason: str
+
+    @property
+    def worst(self) -> TargetAssessment | None:
+        return self.targets[0] if self.targets else None
+
+    def log_fields(self) -> dict:
+        """Flat, numeric-first fields for a per-cycle log line (degrees for people, as the log's other angles)."""
+        w = self.worst
+        return {
+            "avoid_active": int(self.active),
+            "avoid_psi_share_deg": round(math.degrees(self.psi_d_share_rad), 2),
+            "avoid_speed_factor": round(self.speed_factor, 3),
+            "avoid_targets": len(self.targets),
+            "avoid_target": w.target_id if w else None,
+            "avoid_situation": w.situation.value if w else Situation.SAFE.value,
+            "avoid_risk": round(w.risk, 3) if w else 0.0,
+            "avoid_range_m": round(w.range_m, 1) if w else None,
+            "avoid_dcpa_m": round(w.dcpa_m, 1) if w else None,
+            "avoid_tcpa_s": round(w.tcpa_s, 1) if w else None,
+            "avoid_reason": self.reason,
+        }
+
+
+@dataclass
+class Avoidance:
+    """COLREGs collision avoidance composed with the mission's course and speed (the module docstring)."""
+
+    config: AvoidanceConfig = field(default_factory=AvoidanceConfig)
+
+    def __post_init__(self) -> None:
+        self.tracker = EncounterTracker(self.config.encounter)
+        self.reset()
+
+    def reset(self) -> None:
+        self.tracker.reset()
+        self._acting: set[int] = set()
+        self._alteration_rad = 0.0  # signed, + = starboard
+        self._side = 0  # +1 starboard, -1 port, 0 not chosen (overtaking only)
+        self._slow = False
+
+    @property
+    def active(self) -> bool:
+        return self._alteration_rad != 0.0 or self._slow
+
+    def step(self, own: OwnShip, targets: list[TargetState], psi_d_rad: float, speed_cmd_m_s: float,
+             t_s: float) -> AvoidanceOutput:
+        """One cycle: the course and speed to steer, given the mission's ``psi_d_rad`` and ``speed_cmd_m_s``."""
+        cfg = self.config
+        engine = risk_engine(cfg.dcpa_max_nd, cfg.tcpa_max_nd, cfg.defuzz_points)
+        speed_m_s = speed_cmd_m_s if speed_cmd_m_s > 0.0 else own.speed_m_s
+        intended = OwnShip(north_m=own.north_m, east_m=own.east_m, course_rad=psi_d_rad, speed_m_s=speed_m_s,
+                           heading_rad=psi_d_rad)
+        encounters = self.tracker.assess(own, targets, t_s, intended=intended)
+        assessed: list[tuple[Encounter, float, bool]] = []
+        for e in encounters:
+            g = e.geometry
+            risk = engine.evaluate_scalar(g.dcpa_nd, g.tcpa_nd) if g.tcpa_s > 0.0 else 0.0
+            risk = min(max(risk, 0.0), 1.0)
+            tid = e.target_id
+            if e.situation is Situation.SAFE:
+                self._acting.discard(tid)
+            elif tid not in self._acting:
+                threshold = cfg.give_way_risk if e.situation.give_way else cfg.stand_on_risk
+                if risk >= threshold:
+                    self._acting.add(tid)
+            assessed.append((e, risk, tid in self._acting))
+        present = {e.target_id for e in encounters}
+        self._acting &= present
+
+        acting = [(e, r) for e, r, a in assessed if a]
+        reason: str
+        if acting:
+            starboard_only = any(e.situation is not Situation.OVERTAKING for e, _ in acting)
+            alteration, slow, why = self._search(own, encounters, psi_d_rad, speed_m_s, starboard_only)
+            self._alteration_rad, self._slow = alteration, slow
+            worst = max(acting, key=lambda er: er[1])[0]
+            reason = f"{worst.situation.value} {worst.target_id} (rule {worst.situation.rule}): {why}"
+        elif self.active:
+            # nobody calls for action: take the mission back once it is clear of everyone
+            clear = self._clears(own, encounters, psi_d_rad, speed_m_s, margin=cfg.resume_margin, astern=False)
+            if clear:
+                self._alteration_rad, self._slow, self._side = 0.0, False, 0
+                reason = "past and clear: back on the mission's course"
+            else:
+                reason = (f"holding {math.degrees(self._alteration_rad):+.0f} deg until the mission course clears "
+                          f"every target by {cfg.resume_margin:g} x {cfg.safe_distance_m:.0f} m")
+        else:
+            reason = "no action: " + ("no targets" if not encounters else "no target calls for it")
+        psi_out = psi_d_rad if self._alteration_rad == 0.0 else wrap_pi(psi_d_rad + self._alteration_rad)
+        factor = cfg.slow_factor if self._slow else 1.0
+        rows = sorted(
+            (self._row(e, r, a) for e, r, a in assessed), key=lambda row: (-row.risk, row.range_m)
+        )
+        return AvoidanceOutput(
+            psi_d_rad=psi_out,
+            speed_cmd_m_s=speed_cmd_m_s * factor,
+            active=self.active,
+            psi_d_share_rad=0.0 if psi_out == psi_d_rad else wrap_pi(psi_out - psi_d_rad),
+            speed_factor=factor,
+            targets=tuple(rows),
+            reason=reason,
+        )
+
+    # ------------------------------------------------------------------ the search
+    def _clearance(self, own: OwnShip, e: Encounter, course_rad: float, speed_m_s: float,
+                   astern: bool) -> float:
+        """DCPA / required distance with own ship on ``course_rad`` (inf: CPA past or beyond the horizon).
+        With ``astern`` (crossing, give way), crossing ahead of the target counts as 0."""
+        tgt = e.target
+        dn, de = tgt.north_m - own.north_m, tgt.east_m - own.east_m
+        vn = tgt.speed_m_s * math.cos(tgt.course_rad) - speed_m_s * math.cos(course_rad)
+        ve = tgt.speed_m_s * math.sin(tgt.course_rad) - speed_m_s * math.sin(course_rad)
+        dcpa_m, tcpa_s = cpa(dn, de, vn, ve)
+        if tcpa_s <= 0.0 or tcpa_s > self.config.horizon_s:
+            return math.inf
+        need = self.config.safe_distance_m + tgt.extent_m
+        if astern and e.situation is Situation.CROSSING_GIVE_WAY and tgt.speed_m_s > 0.0:
+            # at the CPA, is own ship behind the target (along its course)? p_c . u_T > 0 means the
+            # target is ahead of us along its own track: we pass astern of it
+            pcn, pce = dn + vn * tcpa_s, de + ve * tcpa_s
+            along = pcn * math.cos(tgt.course_rad) + pce * math.sin(tgt.course_rad)
+            if along < 0.0 and dcpa_m < 2.0 * need:
+                return 0.0  # crossing ahead of it, and not by a wide margin
+        return dcpa_m / need
+
+    def _clears(self, own, encounters, course_rad, speed_m_s, *, margin: float, astern: bool) -> bool:
+        return all(self._clearance(own, e, course_rad, speed_m_s, astern) >= margin for e in encounters)
+
+    def _search(self, own: OwnShip, encounters: list[Encounter], psi_d_rad: float, speed_m_s: float,
+                starboard_only: bool) -> tuple[float, bool, str]:
+        """The cheapest (alteration, slow) that clears every target: cost = |alteration| in degrees, plus
+        ``slow_cost_deg`` when slowing to ``slow_factor``; ties to the smaller alteration."""
+        cfg = self.config
+        step = math.radians(cfg.alteration_step_deg)
+        a_min, a_max = math.radians(cfg.min_alteration_deg), math.radians(cfg.max_alteration_deg)
+        sizes = [0.0]
+        a = max(a_min, step)
+        while a <= a_max + 1e-9:
+            sizes.append(a)
+            a += step
+        if starboard_only:
+            sides = (1,)
+        elif self._side:
+            sides = (self._side,)
+        else:
+            sides = (1, -1)
+        slow_cost = math.radians(cfg.slow_cost_deg)
+        candidates = sorted(
+            ((size + (slow_cost if slow else 0.0), size, side, slow)
+             for size in sizes for side in (sides if size > 0.0 else (1,)) for slow in (False, True)
+             if not (slow and cfg.slow_factor >= 1.0)),
+            key=lambda c: (c[0], c[1]),
+        )
+        held = abs(self._alteration_rad) + (slow_cost if self._slow else 0.0)
+        best: tuple[float, float, bool] | None = None  # (worst clearance, signed alteration, slow)
+        for cost, size, side, slow in candidates:
+            alt = side * size
+            u = speed_m_s * (cfg.slow_factor if slow else 1.0)
+            margin = cfg.resume_margin if cost < held - 1e-9 else 1.0
+            worst = min((self._clearance(own, e, psi_d_rad + alt, u, True) for e in encounters), default=math.inf)
+            if worst >= margin:
+                if size > 0.0 and not starboard_only:
+                    self._side = side
+                if size == 0.0 and not slow:
+                    return 0.0, False, "the mission course already clears every target"
+                what = []
+                if size > 0.0:
+                    what.append(f"alter {math.degrees(alt):+.0f} deg to {'starboard' if alt > 0 else 'port'}")
+                if slow:
+                    what.append(f"slow to {cfg.slow_factor:g} x speed (rule 8(e))")
+                return alt, slow, " and ".join(what) + f": every target passes >= {cfg.safe_distance_m:.0f} m"
+            if best is None or worst > best[0] + 1e-9:
+                best = (worst, alt, slow)
+        assert best is not None
+        if not starboard_only and best[1] != 0.0:
+            self._side = 1 if best[1] > 0 else -1
+        return best[1], True, (f"nothing up to {cfg.max_alteration_deg:.0f} deg clears every target: "
+                               f"{math.degrees(best[1]):+.0f} deg (clearance x{best[0]:.2f}) and slow to "
+                               f"{cfg.slow_factor:g} x speed (rule 8(e))")
+
+    def _row(self, e: Encounter, risk: float, acting: bool) -> TargetAssessment:
+        g = e.geometry
+        if acting and e.situation.stand_on:
+            reason = e.reason + f"; risk {risk:.2f} >= {self.config.stand_on_risk:g}: the give-way vessel is not acting, we act (17(a)(ii))"
+        elif acting:
+            reason = e.reason + f"; risk {risk:.2f}: acting"
+        elif e.situation.stand_on:
+            reason = e.reason + f"; risk {risk:.2f}: keep course and speed"
+        else:
+            reason = e.reason + (f"; risk {risk:.2f}" if e.situation is not Situation.SAFE else "")
+        return TargetAssessment(
+            target_id=e.target_id, situation=e.situation, rule=e.situation.rule, risk=risk, acting=acting,
+            reason=reason, range_m=g.range_m, bearing_rad=g.bearing_rad, relative_bearing_rad=g.relative_bearing_rad,
+            bearing_rate_rad_s=g.bearing_rate_rad_s, dcpa_m=g.dcpa_m, tcpa_s=g.tcpa_s, dcpa_nd=g.dcpa_nd,
+            tcpa_nd=g.tcpa_nd, since_s=e.since_s, name=e.target.name,
+        )

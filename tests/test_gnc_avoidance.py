@@ -1,0 +1,250 @@
+"""Collision avoidance: the rule table, single decisions, and every scenario closed-loop (kinematic own ship)."""
+
+from __future__ import annotations
+
+import inspect
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+import autopilot.gnc.avoidance as avoidance_module
+from autopilot.geo import wrap_pi
+from autopilot.gnc.avoidance import RISK_RULE_TABLE, SETS, Avoidance, AvoidanceConfig, collision_risk
+from autopilot.gnc.encounter import OwnShip, Situation, TargetState
+from autopilot.measured import HULL_LENGTH_M
+from autopilot.schema import ConfigError, load
+from autopilot.simdev.traffic import load_scenario
+from autopilot.traffic.score import closest_approach, mission_cost, score_encounter
+from autopilot.traffic.sim import score_run, simulate
+
+SCENARIOS = Path(avoidance_module.__file__).resolve().parents[1] / "data" / "traffic"
+R = math.radians
+OWN = OwnShip(north_m=0.0, east_m=0.0, course_rad=0.0, speed_m_s=1.0, heading_rad=0.0)
+
+
+def tgt(n, e, course_deg, speed, tid=1):
+    return TargetState(target_id=tid, north_m=n, east_m=e, course_rad=R(course_deg), speed_m_s=speed)
+
+
+# --------------------------------------------------------------------------- the fuzzy risk
+
+
+def test_rule_table_is_the_documented_one():
+    """The table in the docstring (what the README will show) is the table the engine uses."""
+    doc = inspect.getdoc(avoidance_module)
+    rows = [ln.split() for ln in doc.splitlines() if ln.split() and ln.split()[0] in SETS and len(ln.split()) == 6]
+    assert [tuple(r[1:]) for r in rows] == list(RISK_RULE_TABLE)
+    assert [r[0] for r in rows] == list(SETS)
+
+
+def test_risk_falls_with_distance_and_time_and_is_zero_when_past():
+    cfg = AvoidanceConfig()
+    d = np.linspace(0.0, 10.0, 41)
+    t = np.linspace(0.01, 50.0, 51)
+    cr = collision_risk(d[:, None], t[None, :], cfg)
+    # monotone, to within what centre-of-gravity defuzzification allows (it is not strictly monotone)
+    assert np.all(np.diff(cr, axis=0) <= 0.02) and np.all(np.diff(cr, axis=1) <= 0.02)
+    assert cr[0, 0] > 0.95 and cr[-1, -1] < 1e-9
+    assert collision_risk(0.0, -1.0, cfg) == 0.0  # CPA past
+    assert collision_risk(cfg.dcpa_max_nd, 1.0, cfg) < 0.01  # beyond DCPA' LA: no risk however soon
+
+
+def test_config_from_yaml_mapping():
+    cfg = load(AvoidanceConfig, {"safe_distance_m": 30.0, "encounter": {"head_on_bearing_deg": 10.0}})
+    assert cfg.safe_distance_m == 30.0 and cfg.encounter.head_on_bearing_deg == 10.0
+    with pytest.raises(ConfigError, match="safe_distance_m"):
+        load(AvoidanceConfig, {"safe_distance_m": -1.0})
+    with pytest.raises(ConfigError, match="unknown key"):
+        load(AvoidanceConfig, {"encounter": {"head_on": 1}})
+    assert AvoidanceConfig().safe_distance_m == pytest.approx(4 * HULL_LENGTH_M)
+
+
+# --------------------------------------------------------------------------- single decisions
+
+
+def test_no_targets_no_action():
+    out = Avoidance().step(OWN, [], 0.3, 1.0, 0.0)
+    assert (out.psi_d_rad, out.speed_cmd_m_s, out.active, out.psi_d_share_rad) == (0.3, 1.0, False, 0.0)
+    assert out.log_fields()["avoid_situation"] == "safe"
+
+
+def test_give_way_crossing_turns_to_starboard_and_passes_astern():
+    av = Avoidance()
+    target = tgt(60, 90, 270, 1.5)  # from starboard, on a collision course (CPA at 60 s)
+    out = av.step(OWN, [target], 0.0, 1.0, 0.0)
+    assert out.active and out.psi_d_share_rad >= R(30.0) - 1e-9  # starboard, at least rule 8(b)'s 30 deg
+    (row,) = out.targets
+    assert row.situation is Situation.CROSSING_GIVE_WAY and row.acting and "15" in row.rule
+    # steering the new course, we pass astern of it (it crosses our track first) at >= the safe distance
+    psi = out.psi_d_rad
+    ts = np.linspace(0.0, 200.0, 2001)
+    own_n, own_e = ts * math.cos(psi), ts * math.sin(psi)
+    tn, te = 60.0 + 0 * ts, 90.0 - 1.5 * ts
+    d, t_min = closest_approach(ts, own_n, own_e, tn, te)
+    assert d >= AvoidanceConfig().safe_distance_m
+    assert te[np.searchsorted(ts, t_min)] < own_e[np.searchsorted(ts, t_min)] + 1.0  # it is west of us: passed ahead of us
+
+
+def test_head_on_alters_to_starboard_only():
+    for offset in (-3.0, 3.0):  # slightly to port or to starboard: still to starboard (rule 14)
+        out = Avoidance().step(OWN, [tgt(100, offset, 180, 1.5)], 0.0, 1.0, 0.0)
+        assert out.targets[0].situation is Situation.HEAD_ON
+        assert out.psi_d_share_rad > 0
+
+
+def test_stand_on_keeps_course_and_speed_then_acts_to_starboard():
+    av = Avoidance()
+    # from port, collision course, CPA in 120 s: low risk, we stand on
+    out = av.step(OWN, [tgt(120, -180, 90, 1.5)], 0.0, 1.0, 0.0)
+    assert out.targets[0].situation is Situation.CROSSING_STAND_ON
+    assert not out.active and out.psi_d_rad == 0.0 and out.speed_cmd_m_s == 1.0
+    assert "keep course and speed" in out.targets[0].reason
+    # it has not given way and is 20 s from the CPA: we act, never to port (rule 17(c))
+    out = av.step(OwnShip(100.0, 0.0, 0.0, 1.0, 0.0), [tgt(120, -30, 90, 1.5)], 0.0, 1.0, 100.0)
+    assert out.active and out.targets[0].acting
+    assert out.psi_d_share_rad >= 0.0 and (out.psi_d_share_rad > 0 or out.speed_factor < 1.0)
+    assert "17(a)(ii)" in out.targets[0].reason
+
+
+def test_overtaking_may_pass_either_side_and_keeps_its_side():
+    av = Avoidance()
+    out = av.step(OWN, [tgt(30, -2, 0, 0.3)], 0.0, 1.0, 0.0)  # slow vessel 2 m to port, just ahead
+    assert out.targets[0].situation is Situation.OVERTAKING and out.active
+    side = math.copysign(1.0, out.psi_d_share_rad)
+    for k in range(1, 5):
+        own = OwnShip(k * 1.0 * math.cos(out.psi_d_rad), k * 1.0 * math.sin(out.psi_d_rad), out.psi_d_rad, 1.0,
+                      out.psi_d_rad)
+        out = av.step(own, [tgt(30 + 0.3 * k, -2, 0, 0.3)], 0.0, 1.0, float(k))
+        assert out.psi_d_share_rad == 0.0 or math.copysign(1.0, out.psi_d_share_rad) == side
+
+
+def test_safe_target_no_action():
+    out = Avoidance().step(OWN, [tgt(200, 80, 180, 2.0), tgt(-40, 60, 270, 1.0, tid=2)], 0.2, 1.0, 0.0)
+    assert not out.active and out.psi_d_rad == 0.2
+    assert all(r.situation is Situation.SAFE for r in out.targets)
+
+
+def test_output_fields_for_the_log():
+    out = Avoidance().step(OWN, [tgt(100, 2, 180, 1.5, tid=244000101)], 0.0, 1.0, 0.0)
+    f = out.log_fields()
+    assert f["avoid_target"] == 244000101 and f["avoid_situation"] == "head-on" and f["avoid_active"] == 1
+    assert f["avoid_psi_share_deg"] == pytest.approx(math.degrees(out.psi_d_share_rad), abs=0.01)
+    assert "rule 14" in f["avoid_reason"]
+    assert_allclose(wrap_pi(out.psi_d_rad - out.psi_d_share_rad), 0.0, atol=1e-12)
+
+
+# --------------------------------------------------------------------------- closed loop, every scenario
+
+# scenario: (situation of each target in file order, must we act, turn side when giving way)
+EXPECT = {
+    "head-on": (["head-on"], True),
+    "crossing-starboard": (["crossing-give-way"], True),
+    "crossing-port": (["crossing-stand-on"], True),  # it does not give way: we act at last
+    "crossing-port-gives-way": (["crossing-stand-on"], False),  # it gives way: we stand on throughout
+    "overtaking": (["overtaking"], True),
+    "overtaken": (["overtaken"], True),
+    "overtaken-gives-way": (["overtaken"], False),
+    "two-targets": (["head-on", "crossing-give-way"], True),
+    "three-targets": (["head-on", "crossing-give-way", "overtaking"], True),
+    "turning-target": (["crossing-give-way"], True),
+    "safe": (["safe", "safe", "safe"], False),
+}
+
+
+def test_every_shipped_scenario_is_expected():
+    assert sorted(p.stem for p in SCENARIOS.glob("*.yaml")) == sorted(EXPECT)
+
+
+@pytest.mark.parametrize("name", sorted(EXPECT))
+def test_scenario_closed_loop(name):
+    sc = load_scenario(SCENARIOS / f"{name}.yaml")
+    run = simulate(sc)
+    score = score_run(run, sc)
+    situations, must_act = EXPECT[name]
+    assert run.reached, f"{name}: waypoint not reached"
+    by_id = {s.target_id: s for s in score.targets}
+    for spec, want in zip(sc.targets, situations):
+        s = by_id[spec.mmsi]
+        assert s.situation == want, (name, spec.mmsi, s.situations)
+        assert s.distance_kept, f"{name}: {spec.mmsi} at {s.min_distance_m:.1f} m < {s.required_m:.1f} m"
+        assert s.rule_followed, (name, s.note)
+        if want in ("head-on", "crossing-give-way") and s.side is not None:
+            assert s.side == "starboard"
+    assert bool(run.active.any()) == must_act
+    if any(w in ("head-on", "crossing-give-way") for w in situations):
+        # every give-way case turns to starboard, none to port
+        assert run.psi_share_rad.max() > R(25.0) and run.psi_share_rad.min() >= 0.0
+    if not must_act:
+        assert score.delay_s == pytest.approx(0.0, abs=0.3) and not run.active.any()
+    else:
+        assert 0.0 < score.delay_s < 60.0  # the encounter cost something, but not the mission
+    # no flicker: each target enters at most one situation between safe spells
+    for m, seq in run.situation.items():
+        distinct = [seq[0]] + [b for a, b in zip(seq, seq[1:]) if a != b]
+        assert len([s for s in distinct if s != "safe"]) <= 2, (name, m, distinct)
+
+
+@pytest.mark.parametrize("name", ["crossing-starboard", "crossing-port", "two-targets"])
+def test_scenario_through_ais(name):
+    """The avoidance seeing the targets only through their AIS sentences (10 s reports, decoded,
+    dead reckoned) does as well as with the truth."""
+    sc = load_scenario(SCENARIOS / f"{name}.yaml")
+    run = simulate(sc, via_ais=True)
+    score = score_run(run, sc)
+    assert run.reached and score.distance_kept and score.rules_followed, score.summary()
+
+
+def test_stand_on_waits_for_the_give_way_vessel():
+    """crossing-port: we keep course and speed for a long while (the other may still give way), act
+    only close in, and never to port."""
+    sc = load_scenario(SCENARIOS / "crossing-port.yaml")
+    run = simulate(sc)
+    first = float(run.t_s[np.argmax(run.active)])
+    assert first > 60.0  # CPA at 150 s: we stood on for the first 60 s at least
+    assert run.psi_share_rad.min() >= 0.0
+
+
+def test_give_way_acts_early():
+    """Rule 16: early and substantial action: the give-way turn starts at least a minute before the CPA."""
+    sc = load_scenario(SCENARIOS / "crossing-starboard.yaml")
+    run = simulate(sc)
+    first = float(run.t_s[np.argmax(run.active)])
+    assert first < 150.0 - 60.0
+    assert np.degrees(run.psi_share_rad.max()) >= 30.0
+
+
+# --------------------------------------------------------------------------- the scoring functions
+
+
+def test_closest_approach_between_samples():
+    # two boats passing 1 m apart at 10 m/s relative, sampled every 1 s: the pass is between samples
+    t = np.arange(0.0, 10.0, 1.0)
+    own_n = np.zeros_like(t)
+    tn, te = 45.5 - 10.0 * t, np.ones_like(t)
+    d, tm = closest_approach(t, own_n, own_n, tn, te)
+    assert_allclose((d, tm), (1.0, 4.55), atol=1e-9)
+
+
+def test_score_flags_a_port_turn_when_giving_way():
+    t = np.arange(0.0, 10.0)
+    share = np.where(t > 3, -R(30.0), 0.0)
+    s = score_encounter(t, 0 * t, 0 * t, {7: (100 - 10 * t, 30 + 0 * t)}, situation={7: ["head-on"] * 10},
+                        acting={7: list(t > 3)}, psi_share_rad=share, required_m=16.0)
+    (ts,) = s.targets
+    assert ts.side == "port" and not ts.rule_followed and "port" in ts.note and not s.rules_followed
+    assert ts.distance_kept and ts.first_action_t_s == 4.0
+
+
+def test_mission_cost_and_delay():
+    t = np.arange(0.0, 101.0)
+    ref = mission_cost(t, t, 0 * t, goal_north_m=50.0, goal_east_m=0.0, capture_radius_m=1.0)
+    slow = mission_cost(t, 0.5 * t, 0 * t, goal_north_m=50.0, goal_east_m=0.0, capture_radius_m=1.0,
+                        thrust_port_n=np.full_like(t, 2.0), thrust_stbd_n=np.full_like(t, 3.0))
+    assert (ref.arrival_t_s, slow.arrival_t_s) == (49.0, 98.0)
+    assert_allclose(slow.thrust_impulse_n_s, 5.0 * 98.0)
+    s = score_encounter(t, 0.5 * t, 0 * t, {}, situation={}, acting={}, psi_share_rad=0 * t, required_m=1.0,
+                        cost=slow, reference=ref)
+    assert s.delay_s == 49.0 and s.extra_distance_m == pytest.approx(0.0, abs=1.0)
