@@ -224,8 +224,12 @@ def run_closed_loop(
     position_noise_m: float = 0.0,
     heading_noise_deg: float = 0.0,
     seed: int = 0,
+    traffic=None,
+    x0=None,
 ):
-    """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`."""
+    """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`. ``traffic``: a
+    :class:`autopilot.traffic.feed.TrafficFeed` whose targets the boat sees (through AIS) and avoids;
+    ``x0``: the start state (north, east, psi, u, v, r), at rest at the origin heading north if None."""
     import numpy as np
 
     from autopilot.daemon.cycle import nav_input
@@ -237,14 +241,15 @@ def run_closed_loop(
     wps = [(float(n), float(e)) for n, e in waypoints_ne_m]
     ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, holds_s=holds_s, boat_length_m=params.length_m)
     # the daemon's navigation: the SC-30's rates (a 1 Hz fix, dead-reckoned), the same assembly
-    sensors = SensorModel(*EVAL_ORIGIN_DEG, rates=sensor_rates, position_noise_m=position_noise_m,
+    origin = EVAL_ORIGIN_DEG if traffic is None else traffic.origin  # AIS positions are decoded around it
+    sensors = SensorModel(*origin, rates=sensor_rates, position_noise_m=position_noise_m,
                           heading_noise_deg=heading_noise_deg, rng=np.random.default_rng(seed))
     rules, memory = NavRules(), NavMemory()
     if t_max_s is None:
         t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s, holds_s)
     substeps = max(1, round(1.0 / (rate_hz * dt_s)))
     dt_ctrl = substeps * dt_s
-    x = np.zeros(6)
+    x = np.zeros(6) if x0 is None else np.array(x0, dtype=float)
     t = 0.0
     passes = PassTracker(wps)
     closest_by_wp: dict[int, float] = {}
@@ -254,13 +259,14 @@ def run_closed_loop(
     circling = CirclingMonitor()
     completed_at = None
     hold_d, hold_h, hold_t = [], [], []  # per cycle station keeping ran: true distance, heading error, |T|+|T|
-    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n", "pid_i_n", "mode", "hold_error_m")}
+    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n", "pid_i_n", "mode", "hold_error_m", "avoid_share_rad", "situations", "acting")}
     while t < t_max_s:
         n_m, e_m, psi, u, v, r = (float(c) for c in x)
-        nav, memory = assemble(sensors.observe(t, x), t, memory, rules, origin_lat_deg=EVAL_ORIGIN_DEG[0],
-                               origin_lon_deg=EVAL_ORIGIN_DEG[1])
+        nav, memory = assemble(sensors.observe(t, x), t, memory, rules, origin_lat_deg=origin[0],
+                               origin_lon_deg=origin[1])
         nav_in = nav_input(nav)
-        out = ap.step(nav_in, dt_ctrl)
+        targets = () if traffic is None else traffic.step(t, _own_ship(x))
+        out = ap.step(nav_in, dt_ctrl, targets=targets, t_s=t)
         ended = passes.on_target(ap.wp_index) if out.reached_index is not None else []
         if nav.new_fix and passes_open:
             ended += passes.on_fix(nav.fix_t_s, nav.north_m, nav.east_m, ap.wp_index)
@@ -280,6 +286,10 @@ def run_closed_loop(
         if record:
             for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", math.nan if out.xte_m is None else out.xte_m), ("speed_m_s", math.hypot(u, v)), ("speed_cmd_m_s", out.speed_cmd_m_s), ("tau_com_n", out.tau_com_n), ("tau_com_trim_n", out.tau_com_trim_n), ("pid_i_n", out.pid_i_n), ("mode", out.mode.value), ("hold_error_m", out.hold_error_m)):
                 tr[k].append(val)
+            a = out.avoidance
+            tr["avoid_share_rad"].append(0.0 if a is None else a.psi_d_share_rad)
+            tr["situations"].append({} if a is None else {x.target_id: x.situation.value for x in a.targets})
+            tr["acting"].append({} if a is None else {x.target_id: bool(x.acting) for x in a.targets})
         if out.complete and completed_at is None:
             completed_at = t
         if passes_open and completed_at is not None and t - completed_at >= config.guidance.final_pass_s - 1e-9:
@@ -309,6 +319,83 @@ def run_closed_loop(
         hold=hold_score(hold_d, hold_h, hold_t, dt_ctrl),
         trace={**tr, "waypoints": wps} if record else {},
     )
+
+
+def _own_ship(x):
+    """Own ship's truth for the simulated traffic (its reactive targets watch it)."""
+    from autopilot.gnc.encounter import OwnShip
+
+    n, e, psi, u, v = (float(c) for c in x[:5])
+    return OwnShip(n, e, psi + math.atan2(v, u) if u or v else psi, math.hypot(u, v), psi)
+
+
+@dataclass
+class EncounterResult:
+    scenario: str
+    condition: str
+    completed: bool
+    score: object  # autopilot.traffic.score.EncounterScore
+    energy_ns: float
+    reference_energy_ns: float
+    trace: dict = field(default_factory=dict, repr=False)
+
+    def as_json(self) -> dict:
+        return {"scenario": self.scenario, "condition": self.condition, "completed": self.completed,
+                **self.score.summary(), "energy_ns": round(self.energy_ns, 1),
+                "extra_energy_ns": round(self.energy_ns - self.reference_energy_ns, 1)}
+
+
+def run_encounter(params, scenario, *, config=None, env=None, condition: str = "", via_ais: bool = True,
+                  record: bool = False) -> EncounterResult:
+    """One traffic scenario on the calibrated model with the whole GNC stack: own ship from the scenario's start
+    (under way at its speed) to its goal, the targets seen through AIS; scored against the same run without
+    traffic (the delay and the extra energy the encounter cost)."""
+    import numpy as np
+
+    from autopilot.gnc import GncConfig
+    from autopilot.traffic.feed import TrafficFeed
+    from autopilot.traffic.score import mission_cost, score_encounter
+
+    config = config or GncConfig()
+    own = scenario.own
+    wps = [(own.goal_north_m, own.goal_east_m)]
+    x0 = (own.north_m, own.east_m, math.radians(own.course_deg), own.speed_m_s, 0.0, 0.0)
+    speeds = [own.speed_m_s]
+    feed = TrafficFeed(scenario, via_ais=via_ais)
+    run = run_closed_loop(params, wps, config=config, speeds_m_s=speeds, env=env, record=True, x0=x0,
+                          traffic=feed, mission=scenario.name, condition=condition)
+    ref = run_closed_loop(params, wps, config=config, speeds_m_s=speeds, env=env, record=True, x0=x0,
+                          traffic=TrafficFeed(_no_targets(scenario)), mission=scenario.name, condition=condition)
+    tr = run.trace
+    ids = list(feed.specs)
+    goal = dict(goal_north_m=own.goal_north_m, goal_east_m=own.goal_east_m,
+                capture_radius_m=config.guidance.capture_radius_m + 0.5)
+
+    def cost(t):
+        return mission_cost(t["t_s"], t["north_m"], t["east_m"], thrust_port_n=t["thrust_port_n"],
+                            thrust_stbd_n=t["thrust_stbd_n"], **goal)
+
+    score = score_encounter(
+        tr["t_s"], tr["north_m"], tr["east_m"],
+        {m: (np.array([p[0] for p in feed.truth[m]]), np.array([p[1] for p in feed.truth[m]])) for m in ids},
+        situation={m: [d.get(m, "safe") for d in tr["situations"]] for m in ids},
+        acting={m: [d.get(m, False) for d in tr["acting"]] for m in ids},
+        psi_share_rad=tr["avoid_share_rad"], required_m=feed.required_m(config.avoidance.safe_distance_m),
+        cost=cost(tr), reference=cost(ref.trace))
+    trace = {**tr, "targets": feed.truth, "waypoints": wps} if record else {}
+    return EncounterResult(scenario.name, condition, run.completed, score, run.energy_ns, ref.energy_ns, trace)
+
+
+def _no_targets(scenario):
+    import dataclasses
+
+    return dataclasses.replace(scenario, targets=())
+
+
+def shipped_scenarios() -> list[Path]:
+    from autopilot.resources import data_dir
+
+    return sorted((data_dir() / "traffic").glob("*.yaml"))
 
 
 def shipped_missions() -> list[Path]:
@@ -372,6 +459,8 @@ def _cmd(args: argparse.Namespace) -> int:
             raise ConfigError(f"--condition: unknown condition {c!r} (known: {', '.join(CONDITION_NAMES)})")
     params = load_params(args.vessel or default_params_path())
     base = load_yaml(GncConfig, args.config) if args.config else GncConfig()
+    if args.traffic:
+        return _traffic(args, params, base, args.condition or list(TRAFFIC_CONDITIONS))
     if args.plot:
         Path(args.plot).mkdir(parents=True, exist_ok=True)
     if not args.json:
@@ -386,6 +475,52 @@ def _cmd(args: argparse.Namespace) -> int:
             from autopilot.gnc.plots import plot_run
 
             plot_run(r, Path(args.plot) / f"{r.mission}-{r.guidance}-{r.condition}.png")
+    return 0
+
+
+TRAFFIC_CONDITIONS = ("calm", "current_n", "current_e", "current_s", "current_w", "current_wind")
+TRAFFIC_HEADER = (f"{'scenario':<24} {'condition':<12} {'done':<4} {'min m':>6} {'kept':<4} {'rules':<5} {'delay s':>7} "
+                  f"{'extra Ns':>8}  per target: situation, side, closest / required (m)")
+
+
+def _scenario_paths(names) -> list[Path]:
+    shipped = {p.stem: p for p in shipped_scenarios()}
+    out = []
+    for name in names:
+        if name == "all":
+            out += list(shipped.values())
+        elif name in shipped:
+            out.append(shipped[name])
+        elif Path(name).exists():
+            out.append(Path(name))
+        else:
+            raise ConfigError(f"--traffic: {name!r} is neither a file nor a shipped scenario "
+                              f"({', '.join(shipped)}, or all)")
+    return out
+
+
+def _traffic(args, params, base, conds) -> int:
+    """The encounter suite: each traffic scenario x condition on the calibrated model, targets seen through AIS."""
+    from autopilot.simdev.traffic import load_scenario
+
+    envs = conditions()
+    scenarios = [load_scenario(p) for p in _scenario_paths(args.traffic)]
+    if not args.json:
+        print(TRAFFIC_HEADER)
+    for sc in scenarios:
+        for cond in conds:
+            r = run_encounter(params, sc, config=base, env=envs[cond], condition=cond)
+            j = r.as_json()
+            if args.json:
+                print(json.dumps(j))
+            else:
+                per = "; ".join(f"{t['situation']}, {t['side'] or '-'}, {t['min_distance_m']:.1f} / {t['required_m']:.1f}"
+                                for t in j["targets"])
+                delay = "-" if j["delay_s"] is None else f"{j['delay_s']:.1f}"
+                print(f"{sc.name:<24} {cond:<12} {'yes' if j['completed'] else 'NO':<4} {j['min_distance_m']:6.1f} "
+                      f"{'yes' if j['distance_kept'] else 'NO':<4} {'yes' if j['rules_followed'] else 'NO':<5} "
+                      f"{delay:>7} {j['extra_energy_ns']:8.0f}  {per}")
+            sys.stdout.flush()
     return 0
 
 
@@ -408,6 +543,10 @@ def register(subparsers) -> None:
     p.add_argument("--guidance", action="append", metavar="NAME", help="fuzzy, los, proportional (default: all)")
     p.add_argument("--condition", action="append", metavar="NAME", help=f"{', '.join(CONDITION_NAMES)} (default: all)")
     p.add_argument("--plot", metavar="DIR", help="draw the thesis figures of each run into DIR")
+    p.add_argument("--traffic", action="append", metavar="SCENARIO",
+                   help="the encounter suite instead: a traffic scenario (a shipped name, a YAML file, or all), "
+                   "own ship to its goal among AIS targets; per run the closest distance to each target, the rule "
+                   f"followed, the delay and extra energy; conditions default to {', '.join(TRAFFIC_CONDITIONS)}")
     p.add_argument("--config", metavar="FILE", help="GNC configuration YAML (GncConfig keys)")
     p.add_argument("--vessel", metavar="FILE", help="vessel parameters (default: config/vessel.yaml)")
     p.set_defaults(func=_cmd)

@@ -44,7 +44,7 @@ CLI_CASES = [
     ("configuration", "not YAML", "rate_hz: [10,\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: not valid YAML (while parsing a flow ...)"),
     ("configuration", "unknown key (typo)", "rate_hx: 10\n", GOOD_MISSION, [],
-     "autopilot run: error: {dir}/c.yaml: rate_hx: unknown key (allowed: boat_length_m, dead_reckon_max_s, failsafe, geofence, gnc, log_dir, mavlink, max_mission_range_m, origin_lat_deg, origin_lon_deg, rate_hz, ready_timeout_s, runtime_dir, serial, sim, state_dir, stop_ack_timeout_s)"),
+     "autopilot run: error: {dir}/c.yaml: rate_hx: unknown key (allowed: ais, boat_length_m, dead_reckon_max_s, failsafe, geofence, gnc, log_dir, mavlink, max_mission_range_m, origin_lat_deg, origin_lon_deg, rate_hz, ready_timeout_s, runtime_dir, serial, sim, state_dir, stop_ack_timeout_s)"),
     ("configuration", "rate out of range", "rate_hz: 100\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: rate_hz: 100 is outside the allowed range [1, 50] Hz"),
     ("configuration", "wrong type", "failsafe: {heading_stale_s: one}\n", GOOD_MISSION, [],

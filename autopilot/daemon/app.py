@@ -127,6 +127,10 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
         from autopilot.link.link import load_signing_key
 
         load_signing_key(cfg.mavlink.signing_key_file)
+    if opts.sim and cfg.sim.traffic:
+        from autopilot.daemon.traffic import load_traffic
+
+        load_traffic(cfg.sim.traffic, origin_lat_deg=0.0, origin_lon_deg=0.0)
     uploaded = None if opts.fresh else StateStore(state_dir).uploaded_to_continue()
     if uploaded is not None:  # a mission uploaded over MAVLink was running: a restart continues it
         try:
@@ -212,14 +216,14 @@ async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
     return rig, float(params.length_m)
 
 
-def _drivers(cfg: DaemonConfig, clock, events: DeviceEvents, sc30_port: str, mbed_port: str):
+def _drivers(cfg: DaemonConfig, clock, events: DeviceEvents, sc30_port: str, mbed_port: str, *, on_compass_line=None):
     from autopilot.drivers.mbed import MbedDriver
     from autopilot.drivers.sc30 import SC30Driver
 
     s, fs = cfg.serial, cfg.failsafe
     compass = SC30Driver(sc30_port, baudrate=s.sc30_baud, clock=clock, reconnect_min_s=s.reconnect_min_s,
                          reconnect_max_s=s.reconnect_max_s, events=events, garbage_burst_lines=fs.nmea_garbage_lines,
-                         garbage_burst_bytes=fs.garbage_bytes)
+                         garbage_burst_bytes=fs.garbage_bytes, encapsulated=on_compass_line)
     thrusters = MbedDriver(mbed_port, baudrate=s.mbed_baud, clock=clock, reconnect_min_s=s.reconnect_min_s,
                            reconnect_max_s=s.reconnect_max_s, events=events, ack_timeout_s=s.ack_timeout_s,
                            garbage_burst_lines=fs.mbed_garbage_lines, garbage_burst_bytes=fs.garbage_bytes)
@@ -269,15 +273,17 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         tmpdir = tempfile.TemporaryDirectory(prefix="autopilot-sim-")
         rig, boat_length_m = await _sim_rig(cfg, mission, clock, tmpdir.name)
         ports = (rig.sc30_path, rig.mbed_path)
-    compass, thrusters = _drivers(cfg, clock, events, *ports)
+    sim_traffic, ais_driver, ais = await _ais(cfg, opts, mission, clock, events, rig, tmpdir)
+    compass, thrusters = _drivers(cfg, clock, events, *ports,
+                                  on_compass_line=ais.receiver.feed_line if cfg.ais.on_compass_line else None)
     if lockstep:
-        clock.set_quiet(lambda: rig.quiet(compass, thrusters))
+        clock.set_quiet(lambda: rig.quiet(compass, thrusters) and (ais_driver is None or sim_traffic.quiet(ais_driver)))
     ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
                    rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index)
     loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
                        compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
                        fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
-                       t0_s=t0_s)
+                       t0_s=t0_s, ais=ais if (ais_driver is not None or cfg.ais.on_compass_line) else None)
     holder["loop"] = loop
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
@@ -285,6 +291,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     try:
         link = await _start_link(cfg, opts, loop)
         tasks += [asyncio.create_task(compass.run(), name="sc30"), asyncio.create_task(thrusters.run(), name="mbed")]
+        if ais_driver is not None:
+            tasks.append(asyncio.create_task(ais_driver.run(), name="ais"))
         loop.install_signal_handlers()
         for _ in range(20):  # the drivers' first chance to open the ports, so a normal start logs no port fault
             if compass.connected and thrusters.connected:
@@ -301,7 +309,9 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             await link.close()
         code = await loop.stop(reason)
         await control.close()
-        await _shut_down(tasks, (compass, thrusters), rig, tmpdir, clock)
+        if sim_traffic is not None:
+            await sim_traffic.stop()
+        await _shut_down(tasks, tuple(d for d in (compass, thrusters, ais_driver) if d is not None), rig, tmpdir, clock)
         log.close()
         notifier.close()
         for line in end_summary(loop, str(log.path), sim=opts.sim):
@@ -309,6 +319,31 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     if refused is not None:
         raise refused
     return code
+
+
+async def _ais(cfg: DaemonConfig, opts: RunOptions, mission, clock, events, rig, tmpdir):
+    """(simulated traffic or None, the AIS port's driver or None, the AisSource the loop asks)."""
+    from autopilot.daemon.traffic import AisSource, SimTraffic, load_traffic
+    from autopilot.drivers.ais import AisReceiver
+    from autopilot.drivers.ais_device import AisDriver
+
+    sim_traffic, port = None, cfg.ais.port
+    if opts.sim and cfg.sim.traffic:
+        scenario = load_traffic(cfg.sim.traffic, origin_lat_deg=mission.origin_lat_deg,
+                                origin_lon_deg=mission.origin_lon_deg)
+        sim_traffic = SimTraffic(scenario, clock, tmpdir.name, boat=rig.boat, baudrate=cfg.ais.baud)
+        await sim_traffic.start()
+        port = sim_traffic.path
+    driver = None
+    if port:
+        s = cfg.serial
+        driver = AisDriver(port, clock=clock, baudrate=cfg.ais.baud, config=cfg.ais.receiver, events=events,
+                           reconnect_min_s=s.reconnect_min_s, reconnect_max_s=s.reconnect_max_s)
+        receiver = driver.receiver
+    else:
+        receiver = AisReceiver(cfg.ais.receiver, clock_s=clock.now_s)
+    return sim_traffic, driver, AisSource(receiver, origin_lat_deg=mission.origin_lat_deg,
+                                          origin_lon_deg=mission.origin_lon_deg)
 
 
 async def _start_link(cfg: DaemonConfig, opts: RunOptions, loop):

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from autopilot.drivers.ais import AisConfig
 from autopilot.drivers.sc30_output import SENTENCES as SC30_SENTENCES
 from autopilot.gnc import GncConfig
 from autopilot.link.config import MavlinkConfig
@@ -135,6 +136,21 @@ class FailsafeConfig:
 
 
 @dataclass(frozen=True)
+class AisSourceConfig:
+    """Where AIS comes from (issue 18): a receiver on its own port, or interleaved on the compass line."""
+
+    port: str = param("", doc="the AIS receiver's serial port (an udev name such as /dev/ais); empty = none")
+    baud: int = param(38400, unit="bit/s", lo=4800, hi=38400, source="IEC 61162-2 (AIS receivers: 38400)",
+                      doc="its baud rate: 4800 or 38400")
+    on_compass_line: bool = param(False, doc="AIS sentences (!AIVDM) arrive interleaved on the SC-30's line")
+    receiver: AisConfig = param(default_factory=AisConfig, doc="target table: stale targets, message assembly")
+
+    def __post_init__(self) -> None:
+        if self.baud not in (4800, 38400):
+            raise ConfigError(f"ais.baud: {self.baud} is not one of 4800, 38400")
+
+
+@dataclass(frozen=True)
 class SimConfig:
     """`--sim`: the simulated SC-30 and Mbed on pseudo-terminals, in the daemon's own event loop."""
 
@@ -154,6 +170,8 @@ class SimConfig:
                                        doc="the simulated battery's capacity (autopilot/sim/battery.py)")
     battery_initial_soc: float = param(1.0, unit="-", lo=0.0, hi=1.0, doc="its state of charge at the start")
     mbed_reports_battery: bool = param(True, doc="the simulated Mbed reports the battery voltage (false: old firmware)")
+    traffic: str = param("", doc="a traffic scenario (a shipped name such as head-on, or a YAML file): its vessels "
+                         "are sent as AIS sentences by a simulated receiver on its own pseudo-terminal; empty = none")
 
 
 @dataclass(frozen=True)
@@ -179,6 +197,7 @@ class DaemonConfig:
     geofence: GeofenceConfig = param(default_factory=GeofenceConfig)
     sim: SimConfig = param(default_factory=SimConfig)
     gnc: GncConfig = param(default_factory=GncConfig)
+    ais: AisSourceConfig = param(default_factory=AisSourceConfig, doc="AIS targets for collision avoidance (issue 18)")
     mavlink: MavlinkConfig = param(default_factory=MavlinkConfig, doc="the live link to QGroundControl and Mission Planner (issue 16)")
 
     def __post_init__(self) -> None:

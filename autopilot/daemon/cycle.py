@@ -103,6 +103,18 @@ def command(out: ControlOutput | None) -> ThrustCommand:
     return ThrustCommand(out.thrust_port_n, out.thrust_stbd_n, out.pwm_port_pct, out.pwm_stbd_pct)
 
 
+AVOID_FIELDS = ("avoid_active", "avoid_psi_share_deg", "avoid_speed_factor", "avoid_targets", "avoid_target",
+                "avoid_situation", "avoid_risk", "avoid_range_m", "avoid_dcpa_m", "avoid_tcpa_s", "avoid_reason")
+
+
+def _avoid_fields(avoidance) -> dict:
+    if avoidance is None:
+        return dict.fromkeys(AVOID_FIELDS)
+    f = avoidance.log_fields()
+    f["avoid_active"] = bool(f["avoid_active"])
+    return {k: f[k] for k in AVOID_FIELDS}
+
+
 GNC_FIELDS = ("tcpa_nd", "dcpa_nd", "cdh", "xte_m", "speed_cmd_m_s", "pid_p_n", "pid_i_n", "pid_d_n", "tau_com_n",
               "tau_com_trim_n", "tau_order_n")
 
@@ -143,6 +155,7 @@ def cycle_record(*, cycle: int, t_s: float, mode: Mode, nav: Navigation, out: Co
         "hold_heading_deg": None if hold is None else _deg(out.hold_heading_rad, wrap_360),
         "hold_disturbance_n": None if hold is None else out.hold_disturbance_n,
         "battery_v": battery_v, "battery_rest_v": battery_rest_v,
+        **_avoid_fields(None if out is None else out.avoidance),
         "lateness_ms": lateness_s * 1e3, "skipped_cycles": int(skipped),
         "heading_latency_ms": None if heading_latency_s is None else heading_latency_s * 1e3,
         "seq": int(seq), "ack_missing": int(ack_missing), "nmea_dropped": int(nmea_dropped),

@@ -83,7 +83,7 @@ class ControlLoop:
     def __init__(self, cfg: DaemonConfig, *, clock, autopilot: Autopilot, mission, mission_path: str,
                  mission_sha256: str, compass: Compass, thrusters: ThrusterLink, log: MissionLog,
                  notifier: Notifier, store: StateStore, fence_ne_m=None, hold_zero: str | None = None,
-                 t0_s: float | None = None) -> None:
+                 t0_s: float | None = None, ais=None) -> None:
         self.cfg, self.clock, self.ap, self.mission = cfg, clock, autopilot, mission
         self.mission_path, self.mission_sha256 = mission_path, mission_sha256
         self.compass, self.thrusters = compass, thrusters
@@ -91,6 +91,7 @@ class ControlLoop:
         self.failsafe = Failsafe(cfg.failsafe, fence_ne_m=fence_ne_m)
         self.rules = steps.nav_rules(cfg)
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
+        self.ais = ais  # autopilot.daemon.traffic.AisSource: other vessels for collision avoidance (None: no AIS)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
         self.state = LoopState()
         self.commands: collections.deque = collections.deque()  # (request, answer callback), from the socket
@@ -136,6 +137,9 @@ class ControlLoop:
         if out is not None:
             mode = out.mode
         self._log_helm_events(t_s)
+        if self.ais is not None:
+            for report in self.ais.new_reports(now_s):
+                self.log.event("target", t_s=t_s, **report)
         cmd = steps.command(out)
         st.seq = self.thrusters.send(cmd)
         st.last_cmd = cmd
@@ -160,7 +164,8 @@ class ControlLoop:
             st.last_step_s = None
         dt_s = steps.step_dt_s(now_s, st.last_step_s, self.cfg.period_s)
         st.last_step_s, st.driving = now_s, True
-        out = self.ap.step(steps.nav_input(nav) if nav.steerable else None, dt_s)
+        targets = () if self.ais is None else self.ais.targets(now_s)
+        out = self.ap.step(steps.nav_input(nav) if nav.steerable else None, dt_s, targets=targets, t_s=t_s)
         if out.reached_index is not None:
             st.reached.append(out.reached_index)
             self.log.event("waypoint_reached", t_s=t_s, wp_index=out.reached_index, north_m=nav.est_north_m,
@@ -175,7 +180,7 @@ class ControlLoop:
         return out
 
     # ---- the helm's commands: failsafe actions, the operator's, the link's ----------------
-    def log_event(self, name: str, **fields) -> None:
+    def log_event(self, name: str, /, **fields) -> None:
         """An event from outside the cycle (the control socket's refusals, the link), on mission time."""
         self.log.event(name, t_s=self.clock.now_s() - self.t0_s, **fields)
 

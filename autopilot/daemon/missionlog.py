@@ -74,7 +74,7 @@ class MissionLog:
         self.lines = 0
         self.listeners: list = []  # callables (name, t_s, fields) told every event but cycle lines (the link)
 
-    def event(self, name: str, *, t_s: float, **fields: Any) -> None:
+    def event(self, name: str, /, *, t_s: float, **fields: Any) -> None:
         self._log.msg(name, t_s=t_s, **fields)
         self.lines += 1
         if name != "cycle":

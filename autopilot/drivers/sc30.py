@@ -52,8 +52,10 @@ class SC30Driver(LineDevice):
         heading_window_s: float = 0.5,
         garbage_burst_lines: int = 5,
         garbage_burst_bytes: int = 32,
+        encapsulated=None,
     ) -> None:
-        self._decoder = NmeaStreamDecoder()
+        # encapsulated: AIS (!AIVDM) interleaved on the compass line goes there (an AisReceiver's feed_line)
+        self._decoder = NmeaStreamDecoder(encapsulated=encapsulated)
         super().__init__(port_path, baudrate=baudrate, clock=clock, reconnect_min_s=reconnect_min_s,
                          reconnect_max_s=reconnect_max_s, events=events, garbage_burst_lines=garbage_burst_lines,
                          garbage_burst_bytes=garbage_burst_bytes)

@@ -17,11 +17,14 @@ data and the time step; nothing here reads a clock or a device.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 from autopilot.gnc.allocation import Allocator, common_thrust_n
+from autopilot.gnc.avoidance import Avoidance, AvoidanceOutput
 from autopilot.gnc.config import GncConfig
+from autopilot.gnc.encounter import OwnShip
 from autopilot.gnc.modes import (
     AutoMode,
     CompleteMode,
@@ -91,6 +94,7 @@ class ControlOutput:
     hold_error_m: float | None = None
     hold_heading_rad: float | None = None  # the heading it holds (given or least effort)
     hold_disturbance_n: float | None = None  # its estimate of the steady thrust the disturbance takes
+    avoidance: AvoidanceOutput | None = None  # collision avoidance's view this cycle (None: no targets, or not steering)
 
 
 _MODE_OF_COMMAND = {"hold": Mode.HOLD, "pause": Mode.PAUSED, "rtl": Mode.RTL, "stop": Mode.STOP}
@@ -127,6 +131,8 @@ class Autopilot:
         self.speed_trim = SpeedTrim(config.speed)
         self._events: list[tuple[str, dict]] = []
         self._last_kind: str | None = None
+        self.avoidance = Avoidance(config.avoidance)
+        self._situations: dict[int, tuple[str, bool]] = {}  # target -> (situation, acting) last logged
 
     # ---------------------------------------------------------------- state
     @property
@@ -323,9 +329,11 @@ class Autopilot:
                     closing.keeper.config = config.hold
 
     # ---------------------------------------------------------------- the cycle
-    def step(self, nav: NavInput | None, dt_s: float) -> ControlOutput:
+    def step(self, nav: NavInput | None, dt_s: float, *, targets=(), t_s: float = 0.0) -> ControlOutput:
         """One control cycle: navigation data and the time since the last cycle -> command. ``nav`` may be
-        None only in a mode that needs no position (manual, stop)."""
+        None only in a mode that needs no position (manual, stop). ``targets``: other vessels
+        (:class:`autopilot.gnc.encounter.TargetState`, from AIS) that collision avoidance weighs against
+        the mode's course; ``t_s`` the time of this cycle (the encounters' hysteresis counts on it)."""
         if nav is None:
             if self.current.requires_position:
                 raise ValueError(f"mode {self.current.mode.value} needs a position and a heading")
@@ -342,7 +350,42 @@ class Autopilot:
                 break
             self._hand_over(s.then, nav)
             s = self.current.update(nav, dt_s)
-        return self._inner(nav, dt_s, s, reached)
+        s, avoid = self._avoid(nav, s, targets, t_s)
+        out = self._inner(nav, dt_s, s, reached)
+        return out if avoid is None else dataclasses.replace(out, avoidance=avoid)
+
+    def _avoid(self, nav: NavInput, s: Steering, targets, t_s: float):
+        """Collision avoidance on the mode's course (autopilot.gnc.avoidance): one more input to the same PID
+        and allocation. A boat holding station avoids too: it leaves the point on the cheapest clearing
+        course and station keeping brings it back."""
+        if s.kind not in ("course", "force") or (not targets and not self._situations):
+            return s, None
+        own = OwnShip(nav.north_m, nav.east_m, nav.course_rad, max(nav.speed_m_s, 0.0), nav.psi_rad)
+        if s.kind == "course":
+            a = self.avoidance.step(own, list(targets), s.psi_d_rad, s.speed_cmd_m_s, t_s)
+            if a.active:
+                s = dataclasses.replace(s, psi_d_rad=a.psi_d_rad, speed_cmd_m_s=a.speed_cmd_m_s)
+        else:
+            ref = s.hold.psi_ref_rad if s.hold is not None else nav.psi_rad
+            a = self.avoidance.step(own, list(targets), ref, self.config.hold.approach_speed_m_s, t_s)
+            if a.active:
+                s = dataclasses.replace(s, kind="course", psi_d_rad=a.psi_d_rad, speed_cmd_m_s=a.speed_cmd_m_s)
+        self._log_encounters(a)
+        return s, a
+
+    def _log_encounters(self, a: AvoidanceOutput) -> None:
+        seen = set()
+        for t in a.targets:
+            seen.add(t.target_id)
+            key = (t.situation.value, bool(t.acting))
+            if self._situations.get(t.target_id) != key:
+                self._situations[t.target_id] = key
+                self._events.append(("encounter", {
+                    "target": t.target_id, "name": t.name, "situation": t.situation.value, "rule": t.rule,
+                    "acting": bool(t.acting), "risk": round(t.risk, 3), "range_m": round(t.range_m, 1),
+                    "dcpa_m": round(t.dcpa_m, 1), "tcpa_s": round(t.tcpa_s, 1), "reason": t.reason}))
+        for gone in set(self._situations) - seen:
+            del self._situations[gone]
 
     def _inner(self, nav: NavInput | None, dt_s: float, s: Steering, reached) -> ControlOutput:
         if not self.armed:  # disarmed: zero thrust whatever the mode asks

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from autopilot.gnc.allocation import AllocationConfig
+from autopilot.gnc.avoidance import AvoidanceConfig
 from autopilot.gnc.fuzzy_guidance import FuzzyConfig
 from autopilot.gnc.los import LosConfig
 from autopilot.gnc.pid import PidConfig
@@ -47,3 +48,4 @@ class GncConfig:
     allocation: AllocationConfig = param(default_factory=AllocationConfig, doc="Eq 8.5-8.6")
     speed: SpeedTrimConfig = param(default_factory=SpeedTrimConfig, doc="speed-over-ground trim on tau_com (SPEC 8: tau_com keeps the speed)")
     hold: HoldConfig = param(default_factory=HoldConfig, doc="station keeping (hold, paused, rtl's end, mission hold items)")
+    avoidance: AvoidanceConfig = param(default_factory=AvoidanceConfig, doc="collision avoidance of AIS targets under COLREGs (issue 18)")

@@ -236,6 +236,9 @@ def write_synthetic_log(
         "battery_v": (battery_rest - 1.2 * 0.5 * ((np.abs(pwm_port) / 100) ** 3 + (np.abs(pwm_stbd) / 100) ** 3), "%.2f",
                       t > 0.5),
         "battery_rest_v": (battery_rest, "%.2f", t > 0.5),
+        **{k: (np.zeros(n), "%.1f", np.zeros(n, dtype=bool)) for k in (
+            "avoid_active", "avoid_psi_share_deg", "avoid_speed_factor", "avoid_targets", "avoid_target",
+            "avoid_situation", "avoid_risk", "avoid_range_m", "avoid_dcpa_m", "avoid_tcpa_s", "avoid_reason")},
     }
     path = Path(path)
     origin_lat, origin_lon = origin_deg
