@@ -16,11 +16,13 @@ CAPTURE = SHARED / "nmea" / "saab-r4.log"
 
 
 def _strip_t(lines):
+    """The NMEA records (AIS targets, {"t_s", "ais"}, are the other kind of line)."""
     out = []
     for ln in lines:
         rec = json.loads(ln)
         assert isinstance(rec.pop("t_s"), float)
-        out.append(rec)
+        if "ais" not in rec:
+            out.append(rec)
     return out
 
 
@@ -37,12 +39,13 @@ def test_nmea_cli_file_json(capsys):
 
 def test_nmea_cli_replay_through_pty(tmp_path, capsys):
     assert main(["nmea", str(CAPTURE), "--json"]) == 0
-    from_file = _strip_t(capsys.readouterr().out.splitlines())
+    lines = capsys.readouterr().out.splitlines()
+    from_file = _strip_t(lines)
 
     pty = PtyEndpoint(tmp_path, "sc30")
     try:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "autopilot", "nmea", pty.path, "--json", "--count", str(len(from_file)),
+            [sys.executable, "-m", "autopilot", "nmea", pty.path, "--json", "--count", str(len(lines)),
              "--timeout", "10"],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
@@ -65,3 +68,16 @@ def test_nmea_cli_replay_through_pty(tmp_path, capsys):
 
 def test_nmea_cli_bad_source():
     assert main(["nmea", "/nonexistent/sc30"]) == 2
+
+
+def test_nmea_cli_shows_ais_targets(capsys):
+    """A capture with AIS only (no NMEA 0183 at all) now decodes: each target as it updates, assembled parts."""
+    assert main(["nmea", "--json", str(SHARED / "nmea" / "ais-18-27.log")]) == 0
+    out = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    ais = [r["ais"] for r in out if "ais" in r]
+    assert len(ais) > 60 and all(r["class"] == "B" for r in ais)  # type 18/24: class B CS
+    named = {r["mmsi"]: r["name"] for r in ais if r["name"]}
+    assert named  # type 24 part A gives the names
+    assert main(["nmea", str(SHARED / "nmea" / "ais-nmea.log")]) == 0
+    text = capsys.readouterr()
+    assert "AIS" in text.out and "mmsi=" in text.out and "target(s)" in text.err

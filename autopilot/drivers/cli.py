@@ -5,7 +5,10 @@ file), validates and decodes every line with the driver's own decoder, and
 prints one line per decoded sentence; with ``--json`` one JSON object per
 line with ``t_s, lat_deg, lon_deg, heading_deg, rot_deg_min, sog_kn,
 cog_deg, fix_quality, source`` (plus ``talker``, ``valid``, ``pitch_deg``,
-``roll_deg``, ``utc``). The line counters go to stderr at the end.
+``roll_deg``, ``utc``). AIS (``!AIVDM``/``!AIVDO``, an AIS receiver's port or
+interleaved on the compass line) is decoded too (pyais, multi-part messages assembled) and
+each target printed as it updates: ``ais mmsi=... name=... lat_deg lon_deg sog_kn cog_deg
+heading_deg length_m`` (``--json``: ``{"t_s": ..., "ais": {...}}``). The line counters go to stderr at the end.
 """
 
 from __future__ import annotations
@@ -69,6 +72,27 @@ def _text(rec: dict) -> str:
     return " ".join(parts)
 
 
+def _ais_updates(ais, before: dict, t_s: float) -> list[dict]:
+    """The targets whose message count grew in this read: what a person reads off an AIS display."""
+    out = []
+    for t in ais.table.targets(with_position=False):
+        if before.get(t.mmsi) == t.messages:
+            continue
+        out.append({"t_s": round(t_s, 6), "mmsi": t.mmsi, "class": t.ais_class, "name": t.shipname,
+                    "lat_deg": t.lat_deg, "lon_deg": t.lon_deg,
+                    "sog_kn": None if t.sog_m_s is None else round(m_s_to_knots(t.sog_m_s), 2),
+                    "cog_deg": _deg(t.cog_rad), "heading_deg": _deg(t.heading_rad), "length_m": t.length_m})
+    return out
+
+
+def _ais_text(rec: dict) -> str:
+    parts = [f"{rec.pop('t_s'):10.3f}", "  AIS      ", f"mmsi={rec['mmsi']}"]
+    for k in ("name", "lat_deg", "lon_deg", "sog_kn", "cog_deg", "heading_deg", "length_m"):
+        if rec[k] is not None:
+            parts.append(f"{k}={rec[k]}")
+    return " ".join(parts)
+
+
 def run_nmea(args) -> int:
     from autopilot.clock import Clock
     from autopilot.drivers.nmea import NmeaStreamDecoder
@@ -79,16 +103,23 @@ def run_nmea(args) -> int:
         mode = os.stat(args.source).st_mode
     except OSError as exc:
         raise ConfigError(f"{args.source}: {exc.strerror}") from None
+    from autopilot.drivers.ais import AisReceiver
+
     clock = Clock()
-    decoder = NmeaStreamDecoder()
+    ais = AisReceiver(clock_s=clock.now_s)
+    decoder = NmeaStreamDecoder(encapsulated=ais.feed_line)
     printed = 0
 
     def emit(data: bytes) -> bool:
         nonlocal printed
         t_s = clock.now_s()
-        for u in decoder.feed(data):
-            rec = update_record(u, t_s)
-            print(json.dumps(rec) if args.json else _text(rec), flush=True)
+        before = {t.mmsi: t.messages for t in ais.table.targets(with_position=False)}
+        records = [(json.dumps(update_record(u, t_s)) if args.json else _text(update_record(u, t_s)))
+                   for u in decoder.feed(data)]
+        records += [json.dumps({"t_s": r.pop("t_s"), "ais": r}) if args.json else _ais_text(r)
+                    for r in _ais_updates(ais, before, t_s)]
+        for rec in records:
+            print(rec, flush=True)
             printed += 1
             if args.count and printed >= args.count:
                 return False
@@ -113,6 +144,8 @@ def run_nmea(args) -> int:
         pass
     finally:
         print(f"nmea: {json.dumps(decoder.stats.as_dict())}", file=sys.stderr)
+        if decoder.encapsulated_lines:
+            print(f"ais: {json.dumps(ais.stats.as_dict())}, {len(ais.table)} target(s)", file=sys.stderr)
     if printed == 0:
         st = decoder.stats
         what = (f"{lines} line(s) read" if not port else f"{st.lines_ok + st.dropped + st.unknown} line(s) received")

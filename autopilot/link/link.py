@@ -44,6 +44,7 @@ TICK_S = 0.02
 RX_SLICE_BYTES = 1024
 RX_BUDGET_S = 0.0005  # the longest the link handles messages before the event loop gets a turn
 PARAMS_PER_TICK = 8  # a parameter list goes out over a few ticks, not in one burst
+MAX_AIS_TARGETS = 50  # AIS_VESSEL messages a second at most
 SIGNING_EPOCH_S = 1420070400  # 2015-01-01: MAVLink 2 signing timestamps count 10 us from there
 # messages a ground station may send unsigned when signing is required: they read, they change nothing
 READ_ONLY_MESSAGES = frozenset({
@@ -124,6 +125,7 @@ class MavlinkLink:
         self._tasks: list[asyncio.Task] = []
         self._t0 = clock()
         self.gcs_last_s: float | None = None
+        self._targets_due = 0.0
         self.gcs_lost = False
         self.stats = collections.Counter()
 
@@ -455,6 +457,17 @@ class MavlinkLink:
                     p.send(m)
         self.missions.tick(now_s)
         self._watch_gcs(now_s)
+        self._send_targets(now_s)
+
+    def _send_targets(self, now_s: float) -> None:
+        """AIS_VESSEL for every target the boat sees, once a second (the planners draw them)."""
+        ais = getattr(self.loop, "ais", None)
+        if ais is None or now_s < self._targets_due:
+            return
+        self._targets_due = now_s + 1.0
+        t_loop = self.loop.clock.now_s()
+        for target in ais.receiver.targets(t_loop)[:MAX_AIS_TARGETS]:
+            self.send_all(lambda mav, t=target: T.ais_vessel(mav, t, t_loop))
 
     def _watch_gcs(self, now_s: float) -> None:
         if self.gcs_last_s is None or self.gcs_lost or now_s - self.gcs_last_s <= self.cfg.gcs_timeout_s:

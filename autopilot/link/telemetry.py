@@ -15,6 +15,7 @@ message carries, in MAVLink's units (1e7 degrees, centidegrees, cm/s, mV):
     MISSION_CURRENT       the waypoint being steered to, as a mission item number (item 0 is home)
     HOME_POSITION         the launch point (rtl returns there)
     STATUSTEXT            every fault, failsafe, mode change, refusal, link and mission event (event_text)
+    AIS_VESSEL            each AIS target the boat sees (issue 18), 1 Hz, so the planners draw them
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from autopilot.logschema import Mode
 
 __all__ = ["heartbeat", "sys_status", "global_position_int", "attitude", "gps_raw_int", "vfr_hud",
            "nav_controller_output", "mission_current", "home_position", "autopilot_version", "statustext",
-           "event_text", "SENSORS"]
+           "event_text", "SENSORS", "ais_vessel"]
 
 SENSORS = {
     "position": mavlink.MAV_SYS_STATUS_SENSOR_GPS,
@@ -146,6 +147,48 @@ def autopilot_version(mav, version: str):
     sw = (parts[0] << 24) | (parts[1] << 16) | (parts[2] << 8) | 255  # 255: FIRMWARE_VERSION_TYPE_OFFICIAL
     custom = list(b"wamv-ap\0")
     return mav.autopilot_version_encode(caps, sw, 0, 0, 0, custom, [0] * 8, [0] * 8, 0, 0, 0)
+
+
+def ais_vessel(mav, target, now_s: float):
+    """One :class:`autopilot.drivers.ais.AisTarget` as AIS_VESSEL (None without a position)."""
+    if target.lat_deg is None or target.lon_deg is None:
+        return None
+    flags = 0
+
+    def dim(v, big_flag):
+        nonlocal flags
+        if v is None:
+            return 0
+        if v > 255:
+            flags |= big_flag
+        return int(min(max(v, 0.0), 511.0 if big_flag in (mavlink.AIS_FLAGS_LARGE_BOW_DIMENSION,
+                                                          mavlink.AIS_FLAGS_LARGE_STERN_DIMENSION) else 63.0))
+
+    cog = 0
+    if target.cog_rad is not None:
+        flags |= mavlink.AIS_FLAGS_VALID_COG
+        cog = int(round(math.degrees(target.cog_rad) % 360.0 * 100.0)) % 36000
+    vel = 0
+    if target.sog_m_s is not None:
+        flags |= mavlink.AIS_FLAGS_VALID_VELOCITY
+        vel = int(min(round(target.sog_m_s * 100.0), 65534))
+    heading = 36000 if target.heading_rad is None else int(round(math.degrees(target.heading_rad) % 360.0 * 100)) % 36000
+    dims = [dim(target.to_bow_m, mavlink.AIS_FLAGS_LARGE_BOW_DIMENSION),
+            dim(target.to_stern_m, mavlink.AIS_FLAGS_LARGE_STERN_DIMENSION),
+            dim(target.to_port_m, mavlink.AIS_FLAGS_LARGE_PORT_DIMENSION),
+            dim(target.to_starboard_m, mavlink.AIS_FLAGS_LARGE_STARBOARD_DIMENSION)]
+    if any(dims):
+        flags |= mavlink.AIS_FLAGS_VALID_DIMENSIONS
+    name = (target.shipname or "").encode("ascii", "replace")[:20]
+    if name:
+        flags |= mavlink.AIS_FLAGS_VALID_NAME
+    call = (target.callsign or "").encode("ascii", "replace")[:7]
+    if call:
+        flags |= mavlink.AIS_FLAGS_VALID_CALLSIGN
+    tslc = int(min(max(now_s - target.last_t_s, 0.0), 65535))
+    return mav.ais_vessel_encode(int(target.mmsi), _e7(target.lat_deg), _e7(target.lon_deg), cog, heading, vel, 0,
+                                 int(target.nav_status or 15) % 256, int(target.ship_type or 0) % 256, *dims, call, name,
+                                 tslc, flags)
 
 
 def statustext(mav, severity: int, text: str) -> list:

@@ -1,0 +1,42 @@
+"""`autopilot evaluate --traffic`: the encounter suite on the calibrated model, targets through AIS (issue 18)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from autopilot.cli import main
+
+
+def test_head_on_in_calm_gives_way_to_starboard_and_keeps_the_distance(capsys):
+    assert main(["evaluate", "--traffic", "head-on", "--condition", "calm", "--json"]) == 0
+    (run,) = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    assert run["completed"] and run["distance_kept"] and run["rules_followed"]
+    (t,) = run["targets"]
+    assert t["situation"] == "head-on" and t["acted"] and t["side"] == "starboard"
+    assert t["min_distance_m"] >= t["required_m"] and 0.0 < run["delay_s"] < 60.0
+
+
+def test_a_safe_crossing_costs_nothing(capsys):
+    assert main(["evaluate", "--traffic", "crossing-port-gives-way", "--condition", "current_n"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("scenario") and len(out) == 2
+    f = out[1].split()
+    assert f[:3] == ["crossing-port-gives-way", "current_n", "yes"] and f[6] == "0.0"  # no delay
+
+
+def test_an_unknown_scenario_is_refused_naming_the_shipped_ones(capsys):
+    assert main(["evaluate", "--traffic", "collision-course"]) == 2
+    err = capsys.readouterr().err
+    assert "--traffic: 'collision-course' is neither a file nor a shipped scenario (crossing-port-gives-way" in err
+
+
+@pytest.mark.parametrize("bad, words", [("own: {speed_m_s: -1}\ntargets: []", "speed_m_s"),
+                                        ("targetz: []", "targetz")])
+def test_a_bad_scenario_file_is_refused_naming_the_key(tmp_path, capsys, bad, words):
+    p = tmp_path / "s.yaml"
+    p.write_text(bad)
+    assert main(["evaluate", "--traffic", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err
