@@ -175,3 +175,18 @@ def test_a_hold_item_holds_its_time_then_the_mission_goes_on(params):
     # station keeping closes on W0 (still the target), then holds there while the route already points at W1
     assert set(wp[keeping].tolist()) == {0, 1}
     assert wp[-1] == 1 and r.closest_approach_m[1] < 1.5
+
+
+def test_resume_does_not_count_a_waypoint_passed_because_the_pause_turned_the_boat():
+    """Paused 5 m short of W0, the boat turned away while holding: on resume TCPA' < 0, which the fuzzy
+    law's "passed abeam" test took for a pass (it skipped W0 in a daemon test); it must see W0 ahead again."""
+    ap = Autopilot(GncConfig(), [(10.0, 0.0), (10.0, 30.0)])
+    ahead = NavInput(north_m=5.0, east_m=0.0, psi_rad=0.0, speed_m_s=1.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    ap.step(ahead, 0.1)
+    ap.step(ahead, 0.1)  # W0 ahead: the law is armed
+    ap.request("pause", ahead, cause="ctl pause")
+    away = dataclasses.replace(ahead, psi_rad=math.pi, course_rad=math.pi, speed_m_s=0.6)
+    ap.step(away, 0.1)
+    ap.request("resume", away, cause="ctl resume")
+    out = ap.step(away, 0.1)
+    assert out.reached_index is None and ap.wp_index == 0

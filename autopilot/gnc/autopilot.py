@@ -207,7 +207,7 @@ class Autopilot:
         if mode is _MODE_OF_COMMAND[command] and not (command == "hold" and (heading_rad is not None or
                                                                              target_ne_m is not None)):
             return True, mode.value
-        here = (nav.north_m, nav.east_m)
+        here = self._stopping_point(nav)
         if command == "hold":
             point = here if target_ne_m is None else (float(target_ne_m[0]), float(target_ne_m[1]))
             self._switch(HoldMode(self.config.hold, point, heading_rad=heading_rad, initial_heading_rad=nav.psi_rad),
@@ -218,6 +218,13 @@ class Autopilot:
         else:
             self._switch(RtlMode(self.config, self.launch_ne_m, boat_length_m=self.boat_length_m), cause)
         return True, self.current.mode.value
+
+    def _stopping_point(self, nav: NavInput) -> tuple[float, float]:
+        """Where the boat can stop from its ground speed at station keeping's braking (ArduPilot's loiter
+        target): a hold "here" at speed does not reverse the boat back onto the point it passed."""
+        v = nav.speed_m_s if math.isfinite(nav.speed_m_s) else 0.0
+        d = v * v / (2.0 * self.config.hold.brake_m_s2)
+        return nav.north_m + d * math.cos(nav.course_rad), nav.east_m + d * math.sin(nav.course_rad)
 
     def _resume(self, nav: NavInput, cause: str) -> tuple[bool, str]:
         if self.current is self.auto:
@@ -241,6 +248,8 @@ class Autopilot:
         old = self.current.mode
         if not isinstance(new, PausedMode):  # a pause ends with whatever replaces it
             self.paused_from = None
+        if new is self.auto and self.current is not self.auto:  # back to the mission: no stale "passed"
+            self.auto.guidance.disarm_pass()
         self.current = new
         self.reset_integrator()
         self._last_kind = None
@@ -301,6 +310,7 @@ class Autopilot:
         g.index, g.complete = int(index), False
         g._leg_start = g.waypoints[index - 1] if index > 0 else None  # from where the boat is, for the first
         g.reset()
+        g.disarm_pass()
         self.auto.end_item_hold()
         self._events.append(("mode", {"mode": self.current.mode.value, "from": self.current.mode.value,
                                       "cause": f"{cause}: waypoint {index}"}))

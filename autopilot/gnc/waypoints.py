@@ -105,6 +105,11 @@ class WaypointGuidance:
         self._armed = False  # laws that switch on "passed abeam" only do so once the target was ahead
         self.reset()
 
+    def disarm_pass(self) -> None:
+        """After an interruption (a pause, a hold, a jump): the boat may lie pointing away from its target,
+        which the "passed abeam" tests would take for having passed it; it must see the target ahead again."""
+        self._armed = False
+
     # ---------------------------------------------------------------- law hooks
     def reset(self) -> None:
         """Forget the law's internal state (integrals); called on waypoint switches too."""
