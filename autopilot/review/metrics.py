@@ -17,6 +17,14 @@ hold item (autopilot/gnc/modes.py ``Closing``). The log has no flag for that,
 so it is told by the mode: ``hold`` and ``paused`` hold; ``auto`` holds at a
 point once the waypoint there was reached (a hold item); ``rtl``, and ``auto``
 before that, close on it.
+
+Traffic (issue 18) is scored per AIS target by :func:`autopilot.traffic.score.score_target`,
+the scorer of ``autopilot evaluate --traffic``, on what the log recorded: own
+positions at the fixes, the target's reported track interpolated to the fix
+times, its situation and whether the boat acted for it from the ``encounter``
+lines, avoidance's share of psi_d from the cycles (:func:`target_reviews`).
+The stretches where avoidance changed the course or speed are
+:class:`Manoeuvre` s (:func:`manoeuvres`).
 """
 
 from __future__ import annotations
@@ -28,7 +36,8 @@ import numpy as np
 
 from autopilot.gnc.passes import closest_per_pass
 from autopilot.logschema import Mode
-from autopilot.review.reader import MODES, UNKNOWN_CODE, MissionLog, _is_number
+from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog, TargetTrack, _is_number
+from autopilot.traffic.score import score_target
 
 GAP_FACTOR = 5.0  # dt above this many nominal periods is a hole in the log
 STALE_HEADING_S = 0.5  # heading data older than this counts as stale (10 Hz source)
@@ -37,6 +46,7 @@ LATENESS_PERCENTILES = (50.0, 90.0, 99.0, 99.9)
 HOLD_POINT_TOLERANCE_M = 1e-3  # logged hold points closer than this are one point (the daemon logs the target's own floats)
 HOLD_ERROR_PERCENTILE = 95.0  # the hold's achieved radius: this percentile of hold_error_m over its cycles
 UNKNOWN_MODE = "unknown"  # mode_time_s key of cycles whose mode is missing or not in the schema
+SIDE_TOLERANCE_DEG = 1.0  # a manoeuvre whose share of psi_d never exceeds this was a change of speed only
 
 
 @dataclass
@@ -68,6 +78,78 @@ class HoldStats:
     error_max_m: float
     energy_n_s: float  # (|T_port| + |T_stbd|) dt over the hold proper
     modes: list  # the modes it held in ("auto": a hold item; "hold", "paused")
+
+
+@dataclass
+class TargetReview:
+    """One AIS target: what it was, how close it came, what the boat did about it (module docstring).
+
+    The closest approach is recomputed from the log (own fixes against the target's reports interpolated
+    to the fix times, linear in between, as ``autopilot.traffic.score.closest_approach`` takes it); NaN when
+    the two were never both known at once. ``logged_min_range_m`` is the daemon's own smallest range to it
+    (``avoid_range_m`` while it was the target most at risk, and the ``encounter`` lines' ``range_m``),
+    from the dead-reckoned AIS picture it steered by.
+
+    ``required_m`` is ``gnc.avoidance.safe_distance_m`` (mission_start's config) plus the target's extent.
+    The daemon adds ``TargetState.extent_m``, the farthest hull point from the reported position (AIS
+    to_bow / to_stern / to_port / to_starboard), which the log does not carry: it is approximated here by
+    half the reported length, exact for a reference point amidships (the simulated traffic) and an
+    underestimate otherwise, and taken as 0 without a length (as the daemon takes unknown dimensions).
+    NaN, and ``distance_kept`` None, when the log does not state the safe distance.
+    """
+
+    target: int  # MMSI
+    name: str | None
+    length_m: float | None
+    reports: int  # `target` lines used
+    first_report_t_s: float
+    last_report_t_s: float
+    situations: list  # every situation it was in, in order of first appearance ("safe" among them)
+    situation: str  # the first other than "safe": what the rules are judged by ("safe" if none)
+    closest_m: float
+    closest_t_s: float
+    own_north_m: float  # both positions at the closest approach (for the map)
+    own_east_m: float
+    target_north_m: float
+    target_east_m: float
+    logged_min_range_m: float
+    required_m: float
+    distance_kept: bool | None
+    acted: bool
+    first_action_t_s: float | None  # the first encounter line acting for it (else the first such fix)
+    side: str | None  # "starboard" / "port": the sign of avoid_psi_share_deg while acting for it
+    max_alteration_deg: float  # largest |avoid_psi_share_deg| while acting for it
+    rule_followed: bool
+    note: str
+
+    @property
+    def label(self) -> str:
+        return self.name or str(self.target)
+
+
+@dataclass
+class Manoeuvre:
+    """A stretch of cycles with ``avoid_active``: collision avoidance changed the course or the speed.
+
+    It ends at the first cycle without it (the mission's course given back), at a hole in the log or at
+    the log's end; positions are the fixes the daemon held at its first and last cycle.
+    """
+
+    number: int  # 1, 2, ... in time order (the track plot's and the table's "A1")
+    start_t_s: float
+    end_t_s: float
+    start_north_m: float
+    start_east_m: float
+    end_north_m: float
+    end_east_m: float
+    side: str | None  # "starboard" / "port" of the largest share of psi_d; None: speed only
+    max_alteration_deg: float  # that share, signed (+ = starboard)
+    min_speed_factor: float  # NaN when not logged
+    targets: list  # MMSI(s) most at risk (avoid_target) during it, in order
+
+    @property
+    def duration_s(self) -> float:
+        return self.end_t_s - self.start_t_s
 
 
 @dataclass
@@ -103,6 +185,9 @@ class Scorecard:
     holds: list = field(default_factory=list)  # [HoldStats]; empty when the log has no hold point
     battery_v: dict = field(default_factory=dict)  # "min", "max" under load; empty when not logged
     battery_rest_v: dict = field(default_factory=dict)  # "min", "max" of the resting estimate; empty when not logged
+    targets: list = field(default_factory=list)  # [TargetReview]; empty when the log has no `target` lines
+    manoeuvres: list = field(default_factory=list)  # [Manoeuvre]
+    avoidance_s: float = math.nan  # time avoidance changed the course or speed (NaN: avoidance not logged)
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -141,9 +226,27 @@ class Scorecard:
             ("station keeping", _fmt_holds(self.holds)),
             ("battery under load, min / max", _fmt_range(self.battery_v, "V")),
             ("battery resting estimate, min / max", _fmt_range(self.battery_rest_v, "V")),
+            *self._traffic_rows(),
             ("stop", f"{self.stop_reason or 'no stop line'}" + (", mission complete" if self.complete else "")),
             ("log lines skipped", f"{self.skipped_lines}"),
         ]
+        return rows
+
+
+    def _traffic_rows(self) -> list[tuple[str, str]]:
+        """Rows only for a log with traffic (a log without keeps its summary as it was)."""
+        if not self.targets and not self.manoeuvres:
+            return []
+        rows = [("AIS targets", f"{len(self.targets)}" + (
+            " (" + ", ".join(t.label for t in self.targets[:5]) + (", ..." if len(self.targets) > 5 else "") + ")"
+            if self.targets else ""))]
+        met = [t for t in self.targets if math.isfinite(t.closest_m)]
+        if met:
+            worst = min(met, key=lambda t: t.closest_m)
+            rows.append(("closest approach to a target", f"{worst.closest_m:.1f} m ({worst.label} at "
+                         f"{worst.closest_t_s:.1f} s" + (f", required {worst.required_m:.1f} m"
+                                                         if math.isfinite(worst.required_m) else "") + ")"))
+        rows.append(("avoidance manoeuvres", f"{len(self.manoeuvres)}, {_fmt(self.avoidance_s, 's', 1)} altered"))
         return rows
 
 
@@ -496,4 +599,132 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
         read_notes=log.stats.describe(),
         mode_time_s=mode_times_s(log, hold), holds=hold_stats(log, hold),
         battery_v=_min_max(log.col("battery_v")), battery_rest_v=_min_max(log.col("battery_rest_v")),
+        targets=target_reviews(log), manoeuvres=manoeuvres(log),
+        avoidance_s=float(np.sum(hold[log.col("avoid_active") > 0.5])) if avoidance_logged(log) else math.nan,
     )
+
+
+def _acting_per_fix(log: MissionLog, mmsi: int, row_t: np.ndarray, rows: np.ndarray):
+    """(situation, acting) of one target at the cycle times ``row_t`` (of the cycle ``rows``): the state of
+    its latest ``encounter`` line at or before each, "safe" and not acting before the first. Logs without
+    encounter lines for it: the cycle's worst target (``avoid_target``) fields where it was that target."""
+    evs = [ev for ev in log.encounters if ev.target == mmsi]
+    if evs:
+        when = np.array([ev.t_s for ev in evs])
+        k = np.searchsorted(when, row_t, side="right") - 1
+        sit = np.array(["safe"] + [ev.situation for ev in evs], dtype=object)[k + 1]
+        act = np.array([False] + [ev.acting for ev in evs])[k + 1]
+        return list(sit), act
+    worst = log.col("avoid_target")[rows] == mmsi
+    codes = log.avoid_situation[rows]
+    sit = [SITUATIONS[c] if w and c != UNKNOWN_CODE else "safe" for w, c in zip(worst, codes)]
+    return sit, worst & (log.col("avoid_active")[rows] > 0.5)
+
+
+def _situations_met(log: MissionLog, mmsi: int, sampled: list) -> list:
+    """Every situation in order of first appearance: from the encounter lines (every change, however
+    short), else as sampled at the fixes."""
+    seen: list = []
+    for s in [ev.situation for ev in log.encounters if ev.target == mmsi] or sampled:
+        if s not in seen:
+            seen.append(s)
+    return seen
+
+
+def _logged_min_range_m(log: MissionLog, mmsi: int) -> float:
+    r = log.col("avoid_range_m")[log.col("avoid_target") == mmsi]
+    r = np.concatenate([r, [ev.range_m for ev in log.encounters if ev.target == mmsi]])
+    r = r[np.isfinite(r)]
+    return float(r.min()) if len(r) else math.nan
+
+
+def target_review(log: MissionLog, track: TargetTrack) -> TargetReview:
+    """The :class:`TargetReview` of one target (its docstring and the module's)."""
+    rows, fix_t = log.fix_rows()
+    n, e = log.col("north_m")[rows], log.col("east_m")[rows]
+    own_ok = np.isfinite(n) & np.isfinite(e)
+    rows, fix_t, n, e = rows[own_ok], fix_t[own_ok], n[own_ok], e[own_ok]
+    tn, te = track.position_at(fix_t)
+    both = np.isfinite(tn) & np.isfinite(te)  # own fixes inside the target's reported span
+    rows, fix_t, n, e, tn, te = rows[both], fix_t[both], n[both], e[both], tn[both], te[both]
+    sit, act = _acting_per_fix(log, track.target, log.col("t_s")[rows], rows)
+    share = np.radians(np.nan_to_num(log.col("avoid_psi_share_deg")[rows], nan=0.0))
+    safe_m = log.config_number("gnc", "avoidance", "safe_distance_m")
+    extent_m = 0.5 * track.length_m if track.length_m is not None else 0.0
+    required = safe_m + extent_m if safe_m is not None else math.nan
+    first_act = next((ev.t_s for ev in log.encounters if ev.target == track.target and ev.acting), None)
+    common = dict(target=track.target, name=track.name, length_m=track.length_m, reports=len(track.t_s),
+                  first_report_t_s=float(track.t_s[0]), last_report_t_s=float(track.t_s[-1]),
+                  logged_min_range_m=_logged_min_range_m(log, track.target), required_m=required)
+    if len(fix_t) == 0:  # never both known at once: nothing to score
+        met = _situations_met(log, track.target, [])
+        return TargetReview(**common, situations=met, situation=next((s for s in met if s != "safe"), "safe"),
+                            closest_m=math.nan, closest_t_s=math.nan, own_north_m=math.nan, own_east_m=math.nan,
+                            target_north_m=math.nan, target_east_m=math.nan, distance_kept=None,
+                            acted=first_act is not None, first_action_t_s=first_act, side=None,
+                            max_alteration_deg=math.nan, rule_followed=True, note="never known at the same time as own ship")
+    # unknown safe distance: judged against 0 (no "distance not kept" verdict), reported as NaN
+    sc = score_target(track.target, fix_t, n, e, tn, te, situation=sit, acting=act, psi_share_rad=share,
+                      required_m=required if math.isfinite(required) else 0.0)
+    t_min = sc.t_min_s
+    ptn, pte = track.position_at([t_min])
+    return TargetReview(
+        **common, situations=_situations_met(log, track.target, list(sc.situations)), situation=sc.situation,
+        closest_m=sc.min_distance_m, closest_t_s=t_min,
+        own_north_m=float(np.interp(t_min, fix_t, n)), own_east_m=float(np.interp(t_min, fix_t, e)),
+        target_north_m=float(ptn[0]), target_east_m=float(pte[0]),
+        distance_kept=sc.distance_kept if math.isfinite(required) else None,
+        acted=sc.acted or first_act is not None, first_action_t_s=first_act if first_act is not None else sc.first_action_t_s,
+        side=sc.side, max_alteration_deg=sc.max_alteration_deg, rule_followed=sc.rule_followed, note=sc.note,
+    )
+
+
+def target_reviews(log: MissionLog) -> list[TargetReview]:
+    """One :class:`TargetReview` per target of the log, in order of first report (empty without targets)."""
+    return [target_review(log, track) for track in log.targets.values()]
+
+
+def manoeuvres(log: MissionLog) -> list[Manoeuvre]:
+    """The stretches with ``avoid_active`` (:class:`Manoeuvre`), in time order."""
+    t = log.col("t_s")
+    active = log.col("avoid_active") > 0.5
+    if not active.any():
+        return []
+    holes = gap_after(t)
+    edge = np.diff(active.astype(np.int8), prepend=0, append=0)
+    starts = list(np.nonzero(edge == 1)[0])
+    ends = list(np.nonzero(edge == -1)[0] - 1)  # last active row of each run
+    runs = []
+    for a, b in zip(starts, ends):  # a hole in the log ends a run: nothing is known inside it
+        cut = a + np.nonzero(holes[a:b])[0]
+        for c in cut:
+            runs.append((a, int(c)))
+            a = int(c) + 1
+        runs.append((a, b))
+    n, e = log.col("north_m"), log.col("east_m")
+    share, factor, worst = log.col("avoid_psi_share_deg"), log.col("avoid_speed_factor"), log.col("avoid_target")
+    out = []
+    for number, (a, b) in enumerate(runs, start=1):
+        end = b + 1 if b + 1 < len(t) and not holes[b] else b  # the cycle that gave the course back
+        sh = share[a : b + 1]
+        sh = sh[np.isfinite(sh)]
+        k = int(np.argmax(np.abs(sh))) if len(sh) else None
+        big = k is not None and abs(sh[k]) > SIDE_TOLERANCE_DEG
+        f = factor[a : b + 1]
+        ids: list = []
+        for m in worst[a : b + 1][np.isfinite(worst[a : b + 1])].astype(np.int64).tolist():
+            if m not in ids:
+                ids.append(m)
+        out.append(Manoeuvre(
+            number=number, start_t_s=float(t[a]), end_t_s=float(t[end]),
+            start_north_m=float(n[a]), start_east_m=float(e[a]), end_north_m=float(n[end]), end_east_m=float(e[end]),
+            side=("starboard" if sh[k] > 0 else "port") if big else None,
+            max_alteration_deg=float(sh[k]) if k is not None else math.nan,
+            min_speed_factor=float(np.nanmin(f)) if np.isfinite(f).any() else math.nan, targets=ids,
+        ))
+    return out
+
+
+def avoidance_logged(log: MissionLog) -> bool:
+    """The log has collision avoidance's cycle fields (it had targets while steering)."""
+    return bool(np.isfinite(log.col("avoid_active")).any())

@@ -18,10 +18,18 @@ from pathlib import Path
 
 import numpy as np
 
+from autopilot.gnc.encounter import Situation
 from autopilot.logschema import Mode
 from autopilot.plotting import pyplot, track_frame
-from autopilot.review.metrics import HOLD_ERROR_PERCENTILE, LATENESS_PERCENTILES, Scorecard, gap_after, nominal_period_s
-from autopilot.review.reader import MODES, MissionLog
+from autopilot.review.metrics import (
+    HOLD_ERROR_PERCENTILE,
+    LATENESS_PERCENTILES,
+    Scorecard,
+    avoidance_logged,
+    gap_after,
+    nominal_period_s,
+)
+from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog
 
 MAX_POINTS = 4000  # per signal on a time axis (min/max pairs)
 MAX_TRACK_POINTS = 20000
@@ -46,6 +54,20 @@ _MIN_BAND_FRACTION = 0.002  # a mode shorter than this share of the log is widen
 HOLD_COLOR = "#ef6c00"
 MAX_LABELLED_HOLDS = 30  # more hold labels than this would hide the track (a long patrol of pauses)
 LAUNCH_COLOR = MODE_COLORS[Mode.RTL.value]  # where rtl returns
+OWN_TRACK_COLOR = "#1565c0"
+AVOID_COLOR = "#ff6d00"  # stretches where collision avoidance changed the course or the speed
+# one colour per AIS target, in order of first report (cycled beyond); none is own track's blue
+TARGET_COLORS = ("#6d4c41", "#c2185b", "#00838f", "#7b1fa2", "#827717", "#455a64", "#e65100", "#283593")
+# one colour per COLREGs situation (a test fails when one has none): give way warm, stand on yellow-blue
+SITUATION_COLORS: dict[str, str] = {
+    Situation.SAFE.value: "#c8e6c9",
+    Situation.HEAD_ON.value: "#d32f2f",
+    Situation.CROSSING_GIVE_WAY.value: "#f57c00",
+    Situation.CROSSING_STAND_ON.value: "#fbc02d",
+    Situation.OVERTAKING.value: "#8e24aa",
+    Situation.OVERTAKEN.value: "#0288d1",
+}
+MAX_LABELLED_MANOEUVRES = 30  # as for the holds: more labels would hide the track
 
 
 def time_scale(t_s: np.ndarray) -> tuple[float, str]:
@@ -252,7 +274,8 @@ def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
     lost = ~(np.isfinite(n) & np.isfinite(e))
     keep = np.isfinite(fix_n) | lost
     n2, e2 = track_points(fix_n[keep], fix_e[keep])
-    ax.plot(e2, n2, color="#1565c0", lw=1.2, label="track (position fixes)")
+    _avoid_stretches(ax, log, card, fix_n, fix_e)
+    ax.plot(e2, n2, color=OWN_TRACK_COLOR, lw=1.2, label="track (position fixes)")
     ok = np.nonzero(np.isfinite(n) & np.isfinite(e))[0]
     if len(ok):
         ax.plot(e[ok[0]], n[ok[0]], marker="^", color="#2e7d32", ms=11, ls="none", label="start")
@@ -283,9 +306,71 @@ def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
     launch = log.launch_ne_m
     if launch is not None:
         ax.plot(launch[1], launch[0], marker="p", color=LAUNCH_COLOR, mec="black", ms=12, ls="none", label="launch")
-    track_frame(ax, n, e, title=f"{log.name}: track")
+    frame_n, frame_e = _target_tracks(ax, log, card)
+    track_frame(ax, np.concatenate([n, frame_n]), np.concatenate([e, frame_e]), title=f"{log.name}: track")
     fig.tight_layout()
     return _save(fig, path)
+
+
+def target_color(k: int) -> str:
+    """The colour of the k-th target (order of first report): its track, its CPA and its table row."""
+    return TARGET_COLORS[k % len(TARGET_COLORS)]
+
+
+def _target_tracks(ax, log: MissionLog, card: Scorecard) -> tuple[np.ndarray, np.ndarray]:
+    """Each AIS target's reported track (an arrow at its last report), where it was at own ship's closest
+    approach and the line between the two, labelled with the distance. Returns the points drawn (for the frame)."""
+    tracks = log.targets
+    reviews = {r.target: r for r in card.targets}
+    pts_n, pts_e = [], []
+    for k, (mmsi, tr) in enumerate(tracks.items()):
+        c = target_color(k)
+        r = reviews.get(mmsi)
+        met = r is not None and math.isfinite(r.closest_m)
+        # the legend says who and when; the map only the distance, where the two were
+        label = f"{tr.label} (AIS)" + (f": CPA {r.closest_m:.1f} m at {r.closest_t_s:.0f} s" + (
+            f", required {r.required_m:.1f} m" if math.isfinite(r.required_m) else "") if met else "")
+        n2, e2 = track_points(tr.north_m, tr.east_m)
+        ax.plot(e2, n2, color=c, lw=1.1, marker=".", ms=3, label=label)
+        pts_n.append(tr.north_m)
+        pts_e.append(tr.east_m)
+        if len(tr.t_s) > 1 and (tr.north_m[-1] != tr.north_m[-2] or tr.east_m[-1] != tr.east_m[-2]):
+            ax.annotate("", xy=(tr.east_m[-1], tr.north_m[-1]), xytext=(tr.east_m[-2], tr.north_m[-2]),
+                        arrowprops={"arrowstyle": "-|>", "color": c, "lw": 1.1})
+        if not met:
+            continue
+        ax.plot([r.own_east_m, r.target_east_m], [r.own_north_m, r.target_north_m], color=c, ls="--", lw=1.0)
+        ax.plot(r.target_east_m, r.target_north_m, marker="o", color=c, mec="black", mew=0.6, ms=8, ls="none")
+        ax.plot(r.own_east_m, r.own_north_m, marker="o", color=OWN_TRACK_COLOR, mec="black", mew=0.6, ms=6, ls="none")
+        ax.annotate(f"{r.closest_m:.1f} m", (0.5 * (r.own_east_m + r.target_east_m), 0.5 * (r.own_north_m + r.target_north_m)),
+                    textcoords="offset points", xytext=(8, -4), fontsize=8, color=c,
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
+    if not pts_n:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate(pts_n), np.concatenate(pts_e)
+
+
+def _avoid_stretches(ax, log: MissionLog, card: Scorecard, fix_n: np.ndarray, fix_e: np.ndarray) -> None:
+    """Own track where avoidance changed the course or speed (a wide band under the track), with a marker
+    where each manoeuvre began (filled) and ended (open)."""
+    if not card.manoeuvres:
+        return
+    t = log.col("t_s")
+    band_n, band_e = [], []
+    for m in card.manoeuvres:
+        sel = (t >= m.start_t_s) & (t <= m.end_t_s) & np.isfinite(fix_n)
+        band_n += [m.start_north_m, *fix_n[sel], m.end_north_m, np.nan]
+        band_e += [m.start_east_m, *fix_e[sel], m.end_east_m, np.nan]
+    ax.plot(band_e, band_n, color=AVOID_COLOR, lw=6, alpha=0.45, solid_capstyle="round", label="avoidance active")
+    starts = np.array([[m.start_east_m, m.start_north_m] for m in card.manoeuvres])
+    ends = np.array([[m.end_east_m, m.end_north_m] for m in card.manoeuvres])
+    ax.plot(starts[:, 0], starts[:, 1], marker="D", color=AVOID_COLOR, mec="black", mew=0.6, ms=8, ls="none",
+            label="manoeuvre began")
+    ax.plot(ends[:, 0], ends[:, 1], marker="D", mfc="white", mec=AVOID_COLOR, mew=1.5, ms=8, ls="none",
+            label="manoeuvre ended")
+    for m in card.manoeuvres[:MAX_LABELLED_MANOEUVRES]:
+        ax.annotate(f"A{m.number}", (m.start_east_m, m.start_north_m), textcoords="offset points", xytext=(-18, 4),
+                    fontsize=8, color="#bf360c")
 
 
 def _hold_circles(ax, log: MissionLog, card: Scorecard) -> None:
@@ -463,6 +548,81 @@ def plot_battery(log: MissionLog, path: Path) -> Path | None:
     return _save(fig, path)
 
 
+def plot_avoidance(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
+    """Collision avoidance over time: the worst target's risk (with the give-way and stand-on thresholds),
+    avoidance's share of psi_d (and the speed factor when it slowed), that target's range and DCPA, and its
+    situation as a band; shaded where avoidance was active. None when the log has no avoidance data."""
+    if not avoidance_logged(log):
+        return None
+    t = log.col("t_s")
+    scale, xlabel = time_scale(t)
+    tx = t / scale
+    factor = log.col("avoid_speed_factor")
+    slowed = bool(np.any(factor < 1.0 - 1e-6))
+    fig, _, axes, strip = _time_figure((2.0, 2.2, 2.0, 0.45))
+    ax_risk, ax_share, ax_range, ax_sit = axes
+    active = log.col("avoid_active") > 0.5
+    for ax in axes[:3]:
+        _shade(ax, tx, active, AVOID_COLOR, "avoidance active" if ax is ax_risk else None)
+        ax.grid(True, alpha=0.3)
+    ax_risk.plot(*envelope(tx, log.col("avoid_risk")), color="#b71c1c", lw=1.0, label="risk of the worst target")
+    for key, label, ls in (("give_way_risk", "give way at", "--"), ("stand_on_risk", "stand on below", ":")):
+        v = log.config_number("gnc", "avoidance", key)
+        if v is not None:
+            ax_risk.axhline(v, color="#424242", ls=ls, lw=0.9, label=f"{label} {v:g} ({key})")
+    ax_risk.set_ylim(-0.05, 1.05)
+    ax_risk.set_ylabel("collision risk (-)")
+    ax_risk.legend(loc="upper right", fontsize=8, ncol=2)
+    ax_share.plot(*envelope(tx, log.col("avoid_psi_share_deg")), color=AVOID_COLOR, lw=1.2)
+    ax_share.axhline(0.0, color="black", lw=0.5)
+    ax_share.set_ylabel("share of psi_d (deg, + = stbd)")
+    if slowed:
+        twin = ax_share.twinx()
+        twin.plot(*envelope(tx, factor), color="#546e7a", lw=0.9, ls="--")
+        twin.set_ylim(0.0, 1.1)
+        twin.set_ylabel("speed factor (-, dashed)", color="#546e7a")
+    ax_range.plot(*envelope(tx, log.col("avoid_range_m")), color="#37474f", lw=1.0, label="range")
+    ax_range.plot(*envelope(tx, log.col("avoid_dcpa_m")), color="#8e24aa", lw=1.0, label="DCPA")
+    safe_m = log.config_number("gnc", "avoidance", "safe_distance_m")
+    if safe_m is not None:
+        ax_range.axhline(safe_m, color="#d50000", ls="--", lw=0.9, label=f"safe_distance_m {safe_m:g} m")
+    ax_range.set_ylabel("worst target (m)")
+    ax_range.set_yscale("symlog", linthresh=1.0)  # linear below 1 m: a DCPA of 0 (collision course) stays on the chart
+    ax_range.set_ylim(bottom=0.0)
+    ax_range.legend(loc="upper right", fontsize=8, ncol=3)
+    drawn = _situation_band(ax_sit, log, scale)
+    ax_sit.set_yticks([])
+    ax_sit.set_ylim(0.0, 1.0)
+    ax_sit.set_ylabel("situation", rotation=0, ha="right", va="center", fontsize=8)
+    if drawn:
+        from matplotlib.patches import Patch
+
+        ax_sit.legend(handles=[Patch(color=SITUATION_COLORS.get(s, UNKNOWN_MODE_COLOR), label=s) for s in drawn],
+                      loc="upper center", bbox_to_anchor=(0.5, -0.05), ncol=len(drawn), fontsize=7, frameon=False)
+    marks = [ev.t_s / scale for ev in log.encounters]
+    if len(marks) <= 50:  # an encounter line: a target's situation or acting changed
+        for x in marks:
+            ax_risk.axvline(x, color="#6a1b9a", ls="--", lw=0.6, alpha=0.6)
+    ax_risk.set_title(f"{log.name}: collision avoidance, the target most at risk each cycle (dashed: encounter lines)")
+    _finish_time_figure(fig, strip, log, scale, xlabel)
+    return _save(fig, path)
+
+
+def _situation_band(ax, log: MissionLog, scale: float) -> list[str]:
+    """The worst target's situation (``avoid_situation``) as coloured bars; blank where not logged."""
+    codes, start, end = mode_runs(log.col("t_s"), log.avoid_situation)
+    drawn = []
+    for code in sorted(set(codes.tolist())):
+        if code == UNKNOWN_CODE:
+            continue
+        sel = codes == code
+        name = SITUATIONS[code]
+        bars = np.column_stack([start[sel] / scale, (end[sel] - start[sel]) / scale])
+        ax.broken_barh(bars, (0.0, 1.0), color=SITUATION_COLORS.get(name, UNKNOWN_MODE_COLOR), lw=0)
+        drawn.append(name)
+    return drawn
+
+
 _TIMELINE_ROWS = (
     ("waypoint_reached", "waypoint reached", "#6a1b9a", "o"),
     ("mission_complete", "mission complete", "#2e7d32", "D"),
@@ -474,6 +634,7 @@ _TIMELINE_ROWS = (
     ("mode", "mode change", "#455a64", "|"),
     ("command", "operator command", "#8e24aa", "v"),
     ("launch", "launch point set", LAUNCH_COLOR, "p"),
+    ("encounter", "encounter (AIS target)", AVOID_COLOR, "d"),
     ("stop", "stop", "#212121", "s"),
     ("info", "info", "#757575", "."),
 )

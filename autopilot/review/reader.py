@@ -11,6 +11,13 @@ never a zero); lines that cannot be used are skipped and counted by reason
 (a cut last line, corrupt JSON, a line without ``event`` or ``t_s``,
 unknown events); keys that are not in the schema are ignored, as the
 schema asks of readers.
+
+Traffic (issue 18): the ``target`` lines (AIS position reports) become one
+:class:`TargetTrack` per MMSI and the ``encounter`` lines
+:class:`EncounterEvent` records (:attr:`MissionLog.targets`,
+:attr:`MissionLog.encounters`); a line of either without a usable MMSI, time
+or position is kept among the events but counted (``bad_events``) and left
+out of both. Logs written before traffic was logged simply have none.
 """
 
 from __future__ import annotations
@@ -20,17 +27,20 @@ import math
 import operator
 from collections import Counter
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
+from autopilot.gnc.encounter import Situation
 from autopilot.logschema import CYCLE, EVENT_NAMES, HEADING_SOURCES, MODES
 from autopilot.schema import ConfigError
 
 # numeric (or boolean) cycle fields of the schema, stored as float64 columns; NaN = absent
 CYCLE_FIELDS: tuple[str, ...] = ("t_s",) + tuple(f.name for f in CYCLE if f.numeric)
 EVENTS: frozenset[str] = frozenset(EVENT_NAMES)
-UNKNOWN_CODE = -1  # mode / heading source absent or not in the schema
+UNKNOWN_CODE = -1  # mode / heading source / situation absent or not in the schema
+SITUATIONS: tuple[str, ...] = tuple(s.value for s in Situation)  # the codes of the avoid_situation column
 _BLOCK_ROWS = 8192
 _MIN_BYTES_PER_CYCLE = 160  # a full cycle line is ~900 B; only a size estimate
 _MAX_EXAMPLES = 10
@@ -50,6 +60,7 @@ class ReadStats:
     no_time: int = 0  # a cycle without a numeric t_s: it cannot be placed in time
     unknown_events: Counter = field(default_factory=Counter)
     bad_values: Counter = field(default_factory=Counter)  # field -> non-numeric/infinite values
+    bad_events: Counter = field(default_factory=Counter)  # "target" / "encounter" lines that cannot be placed
     unknown_modes: int = 0
     time_reversals: int = 0  # cycles whose t_s is before the previous cycle's
     examples: list = field(default_factory=list)  # (line number, reason) of the first skips
@@ -78,6 +89,8 @@ class ReadStats:
             out.append(f"{count} line(s) of unknown event {name!r}: skipped")
         for name, count in sorted(self.bad_values.items()):
             out.append(f"{count} non-numeric or infinite value(s) of {name}: treated as gaps")
+        for name, count in sorted(self.bad_events.items()):
+            out.append(f"{count} {name} line(s) without a usable MMSI, time or position: not drawn or scored")
         if self.unknown_modes:
             out.append(f"{self.unknown_modes} cycle(s) with an unknown or missing mode")
         if self.time_reversals:
@@ -94,9 +107,10 @@ class MissionLog:
     """One mission log in columns.
 
     ``col(name)`` gives a float64 array over cycles (NaN where absent);
-    ``mode`` / ``heading_source`` are int8 codes into :data:`MODES` /
-    :data:`HEADING_SOURCES` (``UNKNOWN_CODE`` when absent). ``events`` holds
-    every non-cycle line in file order (they are few).
+    ``mode`` / ``heading_source`` / ``avoid_situation`` are int8 codes into
+    :data:`MODES` / :data:`HEADING_SOURCES` / :data:`SITUATIONS`
+    (``UNKNOWN_CODE`` when absent). ``events`` holds every non-cycle line in
+    file order (they are few).
     """
 
     path: Path
@@ -108,6 +122,11 @@ class MissionLog:
     stats: ReadStats
     first_timestamp: str | None = None
     last_timestamp: str | None = None
+    avoid_situation: np.ndarray | None = None  # None: all UNKNOWN_CODE (a log built by hand)
+
+    def __post_init__(self) -> None:
+        if self.avoid_situation is None:
+            self.avoid_situation = np.full(self.data.shape[1], UNKNOWN_CODE, dtype=np.int8)
 
     @property
     def n_cycles(self) -> int:
@@ -162,6 +181,21 @@ class MissionLog:
     def events_named(self, *names: str) -> list[dict]:
         return [e for e in self.events if e.get("event") in names]
 
+    @cached_property
+    def targets(self) -> dict[int, TargetTrack]:
+        """Each AIS target's reported track, by MMSI in order of first report (empty: no ``target`` lines)."""
+        by: dict[int, list[dict]] = {}
+        for ev in self.events:
+            if ev.get("event") == "target" and _usable_target(ev):
+                by.setdefault(ev["target"], []).append(ev)
+        return {mmsi: TargetTrack.from_events(mmsi, evs) for mmsi, evs in by.items()}
+
+    @cached_property
+    def encounters(self) -> list[EncounterEvent]:
+        """The ``encounter`` lines in file order (empty in logs without them)."""
+        return [EncounterEvent.from_event(ev) for ev in self.events
+                if ev.get("event") == "encounter" and _usable_encounter(ev)]
+
     def fix_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """(row indices, fix times) of the cycles where a new position fix first appears.
 
@@ -182,6 +216,105 @@ class MissionLog:
         """
         h = self.col("heading_deg")
         return _new_samples(self.col("t_s"), self.col("heading_age_s"), np.isfinite(h), None)
+
+
+@dataclass(frozen=True)
+class TargetTrack:
+    """One AIS target's position reports (``target`` lines), in time order, in the mission's local frame.
+
+    ``t_s`` is when each report was made, the line's ``t_s`` minus its ``age_s`` (the position was measured
+    then, as a fix was at ``t_s - position_age_s``); a line without ``age_s`` is dated at the line. Course
+    and speed are NaN where not reported; ``name`` and ``length_m`` are the last ones reported (None: none).
+    """
+
+    target: int  # MMSI
+    name: str | None
+    length_m: float | None
+    t_s: np.ndarray
+    north_m: np.ndarray
+    east_m: np.ndarray
+    course_deg: np.ndarray
+    speed_m_s: np.ndarray
+
+    @property
+    def label(self) -> str:
+        return self.name or str(self.target)
+
+    @classmethod
+    def from_events(cls, mmsi: int, events: list[dict]) -> TargetTrack:
+        rows = []
+        name = length = None
+        for ev in events:
+            age = ev.get("age_s")
+            t = float(ev["t_s"]) - (float(age) if _is_number(age) and age >= 0.0 else 0.0)
+            rows.append((t, float(ev["north_m"]), float(ev["east_m"]), _number_or_nan(ev.get("course_deg")),
+                         _number_or_nan(ev.get("speed_m_s"))))
+            if isinstance(ev.get("name"), str) and ev["name"].strip():
+                name = ev["name"].strip()
+            if _is_number(ev.get("length_m")) and ev["length_m"] > 0:
+                length = float(ev["length_m"])
+        arr = np.array(rows, dtype=float).reshape(-1, 5)
+        arr = arr[np.argsort(arr[:, 0], kind="stable")]
+        # one report logged twice (a re-read port) is one report: the later line wins
+        keep = np.append(np.diff(arr[:, 0]) > _SAME_SAMPLE_S, True)
+        arr = arr[keep]
+        return cls(target=mmsi, name=name, length_m=length, t_s=arr[:, 0], north_m=arr[:, 1], east_m=arr[:, 2],
+                   course_deg=arr[:, 3], speed_m_s=arr[:, 4])
+
+    def position_at(self, t_s) -> tuple[np.ndarray, np.ndarray]:
+        """(north, east) at the times ``t_s``, linear between reports; NaN outside the reported span
+        (nothing is known of the target before its first report or after its last)."""
+        t = np.asarray(t_s, dtype=float)
+        inside = (t >= self.t_s[0]) & (t <= self.t_s[-1])
+        n = np.where(inside, np.interp(t, self.t_s, self.north_m), np.nan)
+        e = np.where(inside, np.interp(t, self.t_s, self.east_m), np.nan)
+        return n, e
+
+
+@dataclass(frozen=True)
+class EncounterEvent:
+    """One ``encounter`` line: a target's situation, or whether the boat acts for it, changed at ``t_s``."""
+
+    t_s: float
+    target: int  # MMSI
+    name: str | None
+    situation: str  # a Situation value (or whatever a newer daemon writes)
+    rule: str
+    acting: bool
+    risk: float  # NaN when not logged
+    range_m: float
+    dcpa_m: float
+    tcpa_s: float
+    reason: str
+
+    @classmethod
+    def from_event(cls, ev: dict) -> EncounterEvent:
+        def text(key):
+            return ev[key] if isinstance(ev.get(key), str) else ""
+
+        return cls(t_s=float(ev["t_s"]), target=ev["target"], name=ev.get("name") if isinstance(ev.get("name"), str)
+                   else None, situation=ev["situation"], rule=text("rule"), acting=ev["acting"],
+                   risk=_number_or_nan(ev.get("risk")), range_m=_number_or_nan(ev.get("range_m")),
+                   dcpa_m=_number_or_nan(ev.get("dcpa_m")), tcpa_s=_number_or_nan(ev.get("tcpa_s")),
+                   reason=text("reason"))
+
+
+def _is_mmsi(x) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool) and x > 0
+
+
+def _usable_target(ev: dict) -> bool:
+    return (_is_mmsi(ev.get("target")) and _is_number(ev.get("t_s")) and _is_number(ev.get("north_m"))
+            and _is_number(ev.get("east_m")))
+
+
+def _usable_encounter(ev: dict) -> bool:
+    return (_is_mmsi(ev.get("target")) and _is_number(ev.get("t_s")) and isinstance(ev.get("situation"), str)
+            and isinstance(ev.get("acting"), bool))
+
+
+def _number_or_nan(x) -> float:
+    return float(x) if _is_number(x) else math.nan
 
 
 _SAME_SAMPLE_S = 1e-4  # two rows whose measurement times differ by less hold the same sample
@@ -209,6 +342,7 @@ def _new_samples(t, age, have, values) -> tuple[np.ndarray, np.ndarray]:
 _INDEX = {name: i for i, name in enumerate(CYCLE_FIELDS)}
 _MODE_CODES = {m: i for i, m in enumerate(MODES)}
 _SOURCE_CODES = {s: i for i, s in enumerate(HEADING_SOURCES)}
+_SITUATION_CODES = {s: i for i, s in enumerate(SITUATIONS)}
 
 
 def _is_number(x) -> bool:
@@ -233,9 +367,10 @@ class _Columns:
         self.buf = np.empty((len(CYCLE_FIELDS), max(capacity, _BLOCK_ROWS)))
         self.mode = np.empty(self.buf.shape[1], dtype=np.int8)
         self.source = np.empty(self.buf.shape[1], dtype=np.int8)
+        self.situation = np.empty(self.buf.shape[1], dtype=np.int8)
         self.n = 0
 
-    def append(self, block: np.ndarray, mode: np.ndarray, source: np.ndarray) -> None:
+    def append(self, block: np.ndarray, mode: np.ndarray, source: np.ndarray, situation: np.ndarray) -> None:
         m = block.shape[0]
         if self.n + m > self.buf.shape[1]:
             cap = max(self.n + m, int(self.buf.shape[1] * 1.5))
@@ -244,9 +379,11 @@ class _Columns:
             self.buf = buf
             self.mode = np.resize(self.mode, cap)
             self.source = np.resize(self.source, cap)
+            self.situation = np.resize(self.situation, cap)
         self.buf[:, self.n : self.n + m] = block.T
         self.mode[self.n : self.n + m] = mode
         self.source[self.n : self.n + m] = source
+        self.situation[self.n : self.n + m] = situation
         self.n += m
 
 
@@ -327,21 +464,25 @@ def read_log(path) -> MissionLog:
     rows: list = []
     modes: list = []
     sources: list = []
+    situations: list = []
     first_ts = last_ts = None
     fields = CYCLE_FIELDS
     take = operator.itemgetter(*fields)
     loads = json.loads
-    mode_codes, source_codes = _MODE_CODES, _SOURCE_CODES
+    mode_codes, source_codes, situation_codes = _MODE_CODES, _SOURCE_CODES, _SITUATION_CODES
 
     def flush() -> None:
         block = _block_to_array(rows, stats)
         mode = np.fromiter((mode_codes.get(m, UNKNOWN_CODE) for m in modes), np.int8, len(modes))
         src = np.fromiter((source_codes.get(s, UNKNOWN_CODE) if type(s) is str else UNKNOWN_CODE
                            for s in sources), np.int8, len(sources))
-        cols.append(block, mode, src)
+        sit = np.fromiter((situation_codes.get(s, UNKNOWN_CODE) if type(s) is str else UNKNOWN_CODE
+                           for s in situations), np.int8, len(situations))
+        cols.append(block, mode, src, sit)
         rows.clear()
         modes.clear()
         sources.clear()
+        situations.clear()
 
     with f:
         lineno = 0
@@ -376,6 +517,7 @@ def read_log(path) -> MissionLog:
                     rows.append([rec.get(k) for k in fields])
                 modes.append(rec.get("mode"))
                 sources.append(rec.get("heading_source"))
+                situations.append(rec.get("avoid_situation"))
                 if len(rows) == _BLOCK_ROWS:
                     flush()
                 ts = rec.get("timestamp")
@@ -387,6 +529,10 @@ def read_log(path) -> MissionLog:
                 stats.events += 1
                 if event == "mission_start" and start is None:
                     start = rec
+                elif (event == "target" and not _usable_target(rec)) or (
+                        event == "encounter" and not _usable_encounter(rec)):
+                    stats.bad_events[event] += 1
+                    stats._skip(lineno, f"{event} line without a usable MMSI, time or position")
                 events.append(rec)
                 ts = rec.get("timestamp")
             else:
@@ -406,12 +552,13 @@ def read_log(path) -> MissionLog:
         keep = ~nan_t
         stats.no_time += int(nan_t.sum())
         data, mode, source = data[:, keep], cols.mode[: cols.n][keep], cols.source[: cols.n][keep]
+        situation = cols.situation[: cols.n][keep]
         t = data[_INDEX["t_s"]]
     else:
-        mode, source = cols.mode[: cols.n], cols.source[: cols.n]
+        mode, source, situation = cols.mode[: cols.n], cols.source[: cols.n], cols.situation[: cols.n]
     stats.cycles = int(data.shape[1])
     stats.unknown_modes = int(np.count_nonzero(mode == UNKNOWN_CODE))
     stats.time_reversals = int(np.count_nonzero(np.diff(t) < 0))
     return MissionLog(path=path, start=start, events=events, data=data, mode=mode,
                       heading_source=source, stats=stats, first_timestamp=first_ts,
-                      last_timestamp=last_ts)
+                      last_timestamp=last_ts, avoid_situation=situation)

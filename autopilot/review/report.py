@@ -59,7 +59,14 @@ window.addEventListener('load', function () {
 FIGURES = (
     ("track.png", "Track in the local frame: waypoints, closest approach to each (x, dotted), start, "
      "faults and failsafes where they happened, each hold point with the p95 of its error (circle) and the "
-     "configured drift radius (dashed), and the launch point.", lambda lg, c, p: plots.plot_track(lg, c, p)),
+     "configured drift radius (dashed), and the launch point. With AIS traffic: each target's reported track "
+     "(arrow: its last report), both vessels at own ship's closest approach to it joined by a dashed line "
+     "labelled with that distance, and where collision avoidance changed the course or speed (wide band; "
+     "diamonds: where each manoeuvre began, filled, and ended, open).", lambda lg, c, p: plots.plot_track(lg, c, p)),
+    ("avoidance.png", "Collision avoidance: the collision risk of the target most at risk each cycle with the "
+     "give-way and stand-on thresholds, avoidance's share of psi_d (+ = starboard), that target's range and "
+     "DCPA against the safe distance, and its COLREGs situation; shaded where avoidance was active.",
+     lambda lg, c, p: plots.plot_avoidance(lg, c, p)),
     ("thrust.png", "Thrust and PWM duty per side; shaded where that side was saturated.",
      lambda lg, c, p: plots.plot_thrust(lg, p)),
     ("guidance.png", "TCPA', DCPA', CDH and heading error (thesis Fig 9.1-9.4, panel d).",
@@ -141,6 +148,42 @@ def _hold_table(card: Scorecard) -> str:
         "hold item). Errors are <code>hold_error_m</code> over the cycles held.</p>")
 
 
+def _target_table(card: Scorecard) -> str:
+    def side(t):
+        if not t.acted:
+            return "did not act"
+        return f"acted from {_num(t.first_action_t_s, 1)} s, " + (
+            f"{t.side} (up to {_num(t.max_alteration_deg, 0)} deg)" if t.side else "speed only")
+
+    def kept(t):
+        return "n/a" if t.distance_kept is None else ("yes" if t.distance_kept else "NO")
+
+    rows = [[t.label + (f" ({t.target})" if t.name else ""), " > ".join(t.situations) or "-", side(t),
+             ("yes" if t.rule_followed else "NO") + (f": {t.note}" if t.note else ""), kept(t),
+             _num(t.closest_m, 1), _num(t.closest_t_s, 1), _num(t.logged_min_range_m, 1), _num(t.required_m, 1)]
+            for t in card.targets[:MAX_WAYPOINT_ROWS]]
+    more = (f"<p>... and {len(card.targets) - MAX_WAYPOINT_ROWS} more targets (see summary.json).</p>"
+            if len(card.targets) > MAX_WAYPOINT_ROWS else "")
+    return _table(["target (MMSI)", "situations met", "the boat", "rules followed", "distance kept",
+                   "closest approach (m)", "at t (s)", "smallest range (m), logged", "required (m)"],
+                  rows, numeric_from=5) + more + (
+        "<p>Closest approach: recomputed from own fixes and the target's AIS reports (interpolated to the fix "
+        "times); logged: the daemon's own ranges from the dead-reckoned AIS picture. Required: "
+        "<code>gnc.avoidance.safe_distance_m</code> plus half the target's reported length (the daemon adds "
+        "its farthest hull point from the AIS reference point, which the log does not carry). Side: the sign "
+        "of <code>avoid_psi_share_deg</code> while acting for it.</p>")
+
+
+def _manoeuvre_table(card: Scorecard) -> str:
+    rows = [[f"A{m.number}", _num(m.start_t_s, 1), _num(m.end_t_s, 1), _num(m.duration_s, 1), m.side or "speed only",
+             _num(m.max_alteration_deg, 0), _num(m.min_speed_factor, 2), ", ".join(str(x) for x in m.targets) or "-"]
+            for m in card.manoeuvres[:MAX_WAYPOINT_ROWS]]
+    more = (f"<p>... and {len(card.manoeuvres) - MAX_WAYPOINT_ROWS} more manoeuvres (see summary.json).</p>"
+            if len(card.manoeuvres) > MAX_WAYPOINT_ROWS else "")
+    return _table(["manoeuvre", "from t (s)", "to t (s)", "lasted (s)", "side", "largest share of psi_d (deg)",
+                   "lowest speed factor", "target most at risk (MMSI)"], rows) + more
+
+
 def review_one(log: MissionLog, out_dir, *, formats=(), with_plots: bool = True) -> LogReview:
     """Scorecard, figures, exports and report.html of one log in ``out_dir``."""
     out_dir = Path(out_dir)
@@ -169,7 +212,7 @@ def _single_html(r: LogReview) -> str:
     if log.start is None:
         parts.append("<p class=\"warn\">No mission_start line: waypoints and origin unknown.</p>")
     notes = log.stats.describe()
-    warn = log.stats.skipped or log.stats.bad_values or log.n_cycles == 0
+    warn = log.stats.skipped or log.stats.bad_values or log.stats.bad_events or log.n_cycles == 0
     parts.append("<h2>What was read</h2><ul class=\"notes" + (" warn" if warn else "") + "\">"
                  + "".join(f"<li>{_e(n)}</li>" for n in notes)
                  + ("<li>no cycle lines: nothing to plot</li>" if log.n_cycles == 0 else "") + "</ul>")
@@ -177,6 +220,10 @@ def _single_html(r: LogReview) -> str:
     parts.append("<h2>Closest approach per waypoint</h2>" + _waypoint_table(card))
     if card.holds:
         parts.append("<h2>Station keeping per hold point</h2>" + _hold_table(card))
+    if card.targets:
+        parts.append("<h2>AIS targets</h2>" + _target_table(card))
+    if card.manoeuvres:
+        parts.append("<h2>Avoidance manoeuvres</h2>" + _manoeuvre_table(card))
     if card.lateness_ms:
         parts.append("<h2>Control-loop lateness (ms)</h2>" + _table(
             list(card.lateness_ms), [[_num(v, 3) for v in card.lateness_ms.values()]], numeric_from=0))
@@ -209,7 +256,15 @@ def _compare_html(results: list[LogReview], overlay: Path | None) -> str:
     if overlay:
         parts.append(f"<figure><img src=\"{_e(overlay.name)}\" alt=\"overlaid tracks\">"
                      "<figcaption>Tracks overlaid.</figcaption></figure>")
-    labels = [lab for lab, _ in results[0].card.table_rows()]
+    labels: list[str] = []  # every log's rows (a log with traffic has rows others lack), each after its predecessor
+    for r in results:
+        at = 0
+        for lab, _ in r.card.table_rows():
+            if lab in labels:
+                at = labels.index(lab) + 1
+            else:
+                labels.insert(at, lab)
+                at += 1
     columns = [dict(r.card.table_rows()) for r in results]
     rows = [[lab] + [c.get(lab, "") for c in columns] for lab in labels]
     parts.append("<h2>Scorecards</h2>" + _table(
