@@ -54,7 +54,7 @@ class LinkState:
 LINK_OK = LinkState()
 
 
-@dataclass
+@dataclass(slots=True)
 class Cycle:
     """One control cycle: the mode, the navigation, the helm's output (None when it did not run), the command."""
 
@@ -118,8 +118,9 @@ class ControlCycle:
                 events.append((ev.name, ev.fields))
                 if ev.name == "failsafe":
                     self.failsafe_causes.append(ev.fields.get("cause"))
-            helm_nav, unavailable = steps.helm_nav(nav, decision)
-            for req in decision.requests:  # a latched fault's action (ControlLoop._failsafe_action)
+            if decision.requests:  # a latched fault's action (ControlLoop._failsafe_action)
+                helm_nav, unavailable = steps.helm_nav(nav, decision)
+            for req in decision.requests:
                 action, fallback = req.action, req.fallback
                 ok, answer = ap.request(action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
                 if not ok:
@@ -314,8 +315,10 @@ class Flight:
         if self.score.update(t_s, x, c.nav, c.out, self.ap.wp_index):
             self.end_reason = "finished"  # the mission ended with stop: thrust has been zero since
             return None
-        if self.end_on_latched and self.score.completed_at is None and (cause := self.cycle.latched_action) is not None:
-            self.end_reason = f"failsafe {cause}"  # a latched fault took the boat: the mission cannot complete
+        if (self.end_on_latched and c.active_faults and (self.score.completed_at is None or not self.score.passes_open)
+                and (cause := self.cycle.latched_action) is not None):
+            # a latched fault took the boat: the mission cannot complete (or it has, and its last pass has ended)
+            self.end_reason = f"failsafe {cause}"
             return None
         tp, ts = c.cmd.thrust_port_n, c.cmd.thrust_stbd_n
         self.score.add_energy(tp, ts, self.dt_s, self.substeps)

@@ -244,3 +244,39 @@ def test_geo_float_path_gives_the_array_paths_bits():
         la, lo = geo.local_to_latlon(float(n), float(e), float(olat), float(olon))
         laa, loa = geo.local_to_latlon(np.array([n]), np.array([e]), float(olat), float(olon))
         assert (la, lo) == (laa[0], loa[0])
+
+
+def test_the_campaigns_control_cycle_is_the_daemons(tmp_path):
+    """The daemon's loop (SimClock, test doubles, a heading lost at 6 s) and closed_loop.ControlCycle fed the
+    same samples at the same times: the same modes, faults, failsafes and thrusts."""
+    from autopilot.closed_loop import ControlCycle, LinkState
+    from autopilot.daemon.config import DaemonConfig
+    from autopilot.daemon.cycle import nav_rules
+    from autopilot.daemon.failsafe import Failsafe
+    from autopilot.gnc import Autopilot
+    from tests.test_daemon_cycle import ORIGIN, FakeCompass, _run_loop
+
+    cmds, st = _run_loop(tmp_path, quiet_from_s=6.0, until_s=10.0)
+    lines = [json.loads(x) for x in (tmp_path / "log.jsonl").read_text().splitlines()]
+    logged = [x for x in lines if x["event"] == "cycle"]
+    cfg = DaemonConfig()
+    cc = ControlCycle(Autopilot(cfg.gnc, [(200.0, 0.0)]), period_s=cfg.period_s, origin_lat_deg=ORIGIN[0],
+                      origin_lon_deg=ORIGIN[1], rules=nav_rules(cfg), failsafe=Failsafe(cfg.failsafe))
+
+    class At:  # the compass double reads the time from its clock
+        t = 0.0
+
+        def now_s(self):
+            return self.t
+
+    clock = At()
+    compass = FakeCompass(clock)
+    compass.quiet_from_s = 6.0
+    assert len(logged) == len(cmds) == 100
+    for rec, cmd in zip(logged, cmds):
+        clock.t = rec["t_s"]
+        c = cc.step(compass.sample(), rec["t_s"], link=LinkState(battery_v=12.6))
+        assert c.mode.value == rec["mode"] and list(c.active_faults) == rec["active_faults"]
+        assert c.cmd.thrust_port_n == pytest.approx(cmd.thrust_port_n, abs=1e-9)
+        assert c.cmd.thrust_stbd_n == pytest.approx(cmd.thrust_stbd_n, abs=1e-9)
+    assert cc.failsafe_causes == st.failsafe_causes == ["heading_stale"]

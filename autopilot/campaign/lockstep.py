@@ -8,10 +8,18 @@ one RK4 step over arrays of every run's state, with every run's own vessel param
 current, wind and sinusoidal force bound as arrays
 (:func:`autopilot.sim.model.make_batch_rhs`), ``substeps`` times per period. Thrust
 asymmetry, motor lag and the faults' thrust gates act on the commands between the two.
-
 A run leaves the batch when it ends (the batch is compacted once a quarter of it has
-ended). Everything is a pure function of ``(campaign, seed, indices)``: a chunk gives the
-same bits on any worker (``fly_chunk``), and ``--replay`` re-flies a run inside its chunk.
+ended); the last few runs (fewer than ``MIN_BATCH``) move on the model's scalar path,
+where numpy's per-call cost no longer pays.
+
+What this buys (``benchmarks/campaign_speed.py``): the plant costs ~2.5 us per run and
+period in a batch of a few hundred, against 12-15 us for evaluate's ``integrate.step`` and
+6-9 us on the scalar path; the rest, ~55 us per run and period, is the daemon's own per-run
+Python (the SC-30 model, navigation assembly, failsafe, helm), which a campaign must run as
+the daemon does: lockstep is ~1.1x one at a time for the same work, not 10x.
+
+Everything is a pure function of ``(campaign, seed, indices)``: a chunk gives the same bits
+on any worker (``fly_chunk``), and ``--replay`` re-flies a run inside its chunk.
 """
 
 from __future__ import annotations
@@ -69,8 +77,20 @@ def _flight(campaign: Campaign, setup: RunSetup):
     return flight, faults
 
 
+MIN_BATCH = 24  # fewer runs than this still flying: each moves on its own (numpy's per-call cost would dominate)
+
+
+def _lag_coefficients(tau_s):
+    """(a, g) of the interval mean of a first-order lag under a held command (sysid.replay.lag_filter):
+    y_{k+1} = a y_k + (1 - a) u, mean = u + (y_k - u) g; no lag: a = g = 0."""
+    tau = np.asarray(tau_s, dtype=float)
+    lagged = tau > 1e-6
+    a = np.where(lagged, np.exp(-SIM_DT_S / np.where(lagged, tau, 1.0)), 0.0)
+    return a, np.where(lagged, tau / SIM_DT_S * (1.0 - a), 0.0)
+
+
 class _Batch:
-    """The plant of the runs still flying: state columns, per-run constants, thrust lag state."""
+    """The plant of many runs as arrays: state columns, per-run constants, the motors' lag state."""
 
     def __init__(self, setups: list[RunSetup], members: list[int]) -> None:
         from autopilot.sim.model import make_batch_rhs
@@ -79,32 +99,35 @@ class _Batch:
         sel = [setups[j] for j in members]
         self.rhs = make_batch_rhs([s.params for s in sel], [s.env for s in sel])
         self.asym = np.array([s.thrust_asymmetry_nd for s in sel])
-        tau = np.array([s.thrust_lag_s for s in sel])
-        lagged = tau > 1e-6
-        self.lag = bool(lagged.any())
-        a = np.where(lagged, np.exp(-SIM_DT_S / np.where(lagged, tau, 1.0)), 0.0)
-        self.lag_a, self.lag_g = a, np.where(lagged, tau / SIM_DT_S * (1.0 - a), 0.0)  # sysid.replay.lag_filter
+        self.lag_a, self.lag_g = _lag_coefficients([s.thrust_lag_s for s in sel])
+        self.lag = bool(np.any(self.lag_g > 0.0))
         self.cols = tuple(np.zeros(len(sel)) for _ in range(6))
         self.y_port = np.zeros(len(sel))  # the lagged thrusts (N)
         self.y_stbd = np.zeros(len(sel))
-        self.alive = np.ones(len(sel), dtype=bool)
+        self.alive = [True] * len(sel)
 
-    def keep(self, setups: list[RunSetup]) -> _Batch:
-        """A compacted batch of the runs still alive, carrying their states over."""
-        idx = np.nonzero(self.alive)[0]
+    def states(self) -> list[list[float]]:
+        return np.stack(self.cols, axis=1).tolist()
+
+    def keep(self, setups: list[RunSetup], min_batch: int):
+        """The runs still alive, their states carried over: a smaller batch, or single runs when few are left."""
+        idx = [k for k, a in enumerate(self.alive) if a]
+        if len(idx) < min_batch:
+            return _Singles(setups, [self.members[k] for k in idx], [[float(c[k]) for c in self.cols] for k in idx],
+                            [(float(self.y_port[k]), float(self.y_stbd[k])) for k in idx])
         new = _Batch(setups, [self.members[k] for k in idx])
         new.cols = tuple(c[idx] for c in self.cols)
         new.y_port, new.y_stbd = self.y_port[idx], self.y_stbd[idx]
         return new
 
-    def move(self, t_s: float, thrust_port_n: np.ndarray, thrust_stbd_n: np.ndarray, substeps: int) -> float:
+    def move(self, t_s: float, thrust_port_n, thrust_stbd_n, substeps: int) -> float:
         """``substeps`` RK4 steps with the commands held (asymmetry, then the motors' lag); returns the new time."""
         from autopilot.sim.integrate import rk4_step
 
-        tp = thrust_port_n * (1.0 + self.asym)
-        ts = thrust_stbd_n * (1.0 - self.asym)
+        tp = np.asarray(thrust_port_n) * (1.0 + self.asym)
+        ts = np.asarray(thrust_stbd_n) * (1.0 - self.asym)
         for _ in range(substeps):
-            if self.lag:  # the interval mean of a first-order lag under a held command (exact for ZOH)
+            if self.lag:
                 mp, ms = tp + (self.y_port - tp) * self.lag_g, ts + (self.y_stbd - ts) * self.lag_g
                 self.y_port = self.lag_a * self.y_port + (1.0 - self.lag_a) * tp
                 self.y_stbd = self.lag_a * self.y_stbd + (1.0 - self.lag_a) * ts
@@ -115,9 +138,62 @@ class _Batch:
         return t_s
 
 
-def fly(campaign: Campaign, seed: int, indices, *, watch: dict | None = None) -> list[dict]:
+class _Singles:
+    """The last few runs of a chunk, each on the model's scalar path (the same equations, plain floats)."""
+
+    def __init__(self, setups: list[RunSetup], members: list[int], states, lag_states) -> None:
+        from autopilot.sim.model import make_rhs
+
+        self.members = members
+        sel = [setups[j] for j in members]
+        self.rhs = [make_rhs.__wrapped__(s.params, s.env, None, False) for s in sel]  # not into make_rhs's cache
+        self.asym = [s.thrust_asymmetry_nd for s in sel]
+        a, g = _lag_coefficients([s.thrust_lag_s for s in sel])
+        self.lag_a, self.lag_g = a.tolist(), g.tolist()
+        self.x = [tuple(st) for st in states]
+        self.y = [list(y) for y in lag_states]
+        self.alive = [True] * len(sel)
+
+    def states(self):
+        return self.x
+
+    def keep(self, setups: list[RunSetup], min_batch: int):
+        new = _Singles.__new__(_Singles)
+        idx = [k for k, a in enumerate(self.alive) if a]
+        new.members = [self.members[k] for k in idx]
+        for name in ("rhs", "asym", "lag_a", "lag_g", "x", "y"):
+            setattr(new, name, [getattr(self, name)[k] for k in idx])
+        new.alive = [True] * len(idx)
+        return new
+
+    def move(self, t_s: float, thrust_port_n, thrust_stbd_n, substeps: int) -> float:
+        from autopilot.sim.integrate import rk4_step
+
+        for k in range(len(self.members)):
+            if not self.alive[k]:
+                continue
+            a, g, y = self.lag_a[k], self.lag_g[k], self.y[k]
+            tp, ts = thrust_port_n[k] * (1.0 + self.asym[k]), thrust_stbd_n[k] * (1.0 - self.asym[k])
+            x, t = self.x[k], t_s
+            for _ in range(substeps):
+                if g > 0.0:
+                    mp, ms = tp + (y[0] - tp) * g, ts + (y[1] - ts) * g
+                    y[0], y[1] = a * y[0] + (1.0 - a) * tp, a * y[1] + (1.0 - a) * ts
+                else:
+                    mp, ms = tp, ts
+                x = rk4_step(self.rhs[k], x, mp, ms, SIM_DT_S, t_s=t)
+                t += SIM_DT_S
+            self.x[k] = x
+        for _ in range(substeps):  # the clock, accumulated as the batch's and evaluate's
+            t_s += SIM_DT_S
+        return t_s
+
+
+def fly(campaign: Campaign, seed: int, indices, *, watch: dict | None = None, min_batch: int = MIN_BATCH) -> list[dict]:
     """Fly runs ``indices`` in lockstep; one table row per run, in the order given.
 
+    ``min_batch``: below this many runs still flying, each moves on the model's scalar path (a larger
+    value than the chunk flies every run on its own, one at a time: the benchmark's comparison).
     ``watch``: index -> ``callback(t_s, flight, cycle)`` called after each of that run's control
     cycles, and ``callback(t_s, flight, None)`` when it ends (``--replay`` writes its log so).
     """
@@ -128,15 +204,16 @@ def fly(campaign: Campaign, seed: int, indices, *, watch: dict | None = None) ->
     if n == 0:
         return []
     watch = watch or {}
-    batch = _Batch(setups, list(range(n)))
+    members = list(range(n))
+    batch = _Batch(setups, members) if n >= min_batch else _Singles(setups, members, [[0.0] * 6] * n, [(0.0, 0.0)] * n)
     substeps = flights[0][0].substeps
     t_s = 0.0
     ended_in_batch = 0
     with np.errstate(all="ignore"):
         while True:
-            states = np.stack(batch.cols, axis=1).tolist()
-            tp = np.zeros(len(batch.members))
-            ts = np.zeros(len(batch.members))
+            states = batch.states()
+            tp = [0.0] * len(batch.members)
+            ts = [0.0] * len(batch.members)
             for k, j in enumerate(batch.members):
                 if not batch.alive[k]:
                     continue
@@ -159,12 +236,14 @@ def fly(campaign: Campaign, seed: int, indices, *, watch: dict | None = None) ->
                     cb(t_s, flight, flight.last)
                 gp, gs = faults.gate(t_s) if faults.affects_thrust else (1.0, 1.0)
                 tp[k], ts[k] = thrust[0] * gp, thrust[1] * gs
-            if not batch.alive.any():
+            alive = sum(batch.alive)
+            if not alive:
                 break
-            if ended_in_batch and ended_in_batch >= max(1, len(batch.members) // 4):
-                keep = batch.alive.copy()
-                batch = batch.keep(setups)
-                tp, ts = tp[keep], ts[keep]
+            if ended_in_batch and (isinstance(batch, _Singles) or ended_in_batch >= len(batch.members) // 4
+                                   or alive < min_batch):
+                keep = [k for k, a in enumerate(batch.alive) if a]
+                batch = batch.keep(setups, min_batch)
+                tp, ts = [tp[k] for k in keep], [ts[k] for k in keep]
                 ended_in_batch = 0
             t_s = batch.move(t_s, tp, ts, substeps)
     return rows

@@ -8,7 +8,7 @@ each a spread of disturbances, sensor imperfections and faults::
     laws: [fuzzy, los]
     runs: 1200                               # default of --runs
     seed: 1                                  # default of --seed
-    chunk_runs: 200                          # runs flown in lockstep per task (the unit of retry)
+    chunk_runs: 120                          # runs flown in lockstep per task (the unit of retry)
     success_radius_m: 2.5                    # success: completed, no circling, every waypoint within this
     vessel:
       file: ""                               # VesselParams YAML; empty = config/vessel.yaml
@@ -213,7 +213,7 @@ class CampaignSpec:
     laws: tuple[str, ...] = param(LAWS, choices=LAWS, doc="guidance laws flown")
     runs: int = param(1000, unit="runs", lo=1, hi=10_000_000, doc="runs (--runs overrides)")
     seed: int = param(0, lo=0, hi=2**63 - 1, doc="campaign seed (--seed overrides); run i draws from (seed, i)")
-    chunk_runs: int = param(200, unit="runs", lo=1, hi=100_000,
+    chunk_runs: int = param(100, unit="runs", lo=1, hi=100_000,
                             doc="runs flown in lockstep per task; the unit of distribution and retry")
     success_radius_m: float = param(2.5, unit="m", lo=0.0, hi=1000.0,
                                     doc="a run succeeds when it completes, does not circle and passes every "
