@@ -20,6 +20,7 @@ AREAS = (
     "autopilot.sim.cli",
     "autopilot.gnc.cli",
     "autopilot.evaluate",
+    "autopilot.campaign.cli",
     "autopilot.drivers.cli",
     "autopilot.daemon.cli",
     "autopilot.sysid.cli",

@@ -46,7 +46,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from autopilot.geo import wrap_pi
-from autopilot.gnc.passes import PassTracker
 from autopilot.schema import ConfigError
 from autopilot.sim.sensors import SensorModel, SensorRates
 
@@ -229,12 +228,14 @@ def run_closed_loop(
 ):
     """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`. ``traffic``: a
     :class:`autopilot.traffic.feed.TrafficFeed` whose targets the boat sees (through AIS) and avoids;
-    ``x0``: the start state (north, east, psi, u, v, r), at rest at the origin heading north if None."""
+    ``x0``: the start state (north, east, psi, u, v, r), at rest at the origin heading north if None.
+
+    One run at a time through :class:`autopilot.closed_loop.Flight` (the daemon's control cycle without
+    its failsafe, evaluate's scorecard); the campaigns fly the same flights in lockstep."""
     import numpy as np
 
-    from autopilot.daemon.cycle import nav_input
+    from autopilot.closed_loop import Flight
     from autopilot.gnc import Autopilot, GncConfig
-    from autopilot.gnc.navigation import NavMemory, NavRules, assemble
     from autopilot.sim import step
 
     config = config or GncConfig()
@@ -244,89 +245,18 @@ def run_closed_loop(
     origin = EVAL_ORIGIN_DEG if traffic is None else traffic.origin  # AIS positions are decoded around it
     sensors = SensorModel(*origin, rates=sensor_rates, position_noise_m=position_noise_m,
                           heading_noise_deg=heading_noise_deg, rng=np.random.default_rng(seed))
-    rules, memory = NavRules(), NavMemory()
     if t_max_s is None:
         t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s, holds_s)
-    substeps = max(1, round(1.0 / (rate_hz * dt_s)))
-    dt_ctrl = substeps * dt_s
+    flight = Flight(ap, sensors, dt_s=dt_s, rate_hz=rate_hz, t_max_s=t_max_s,
+                    final_pass_s=config.guidance.final_pass_s, origin_lat_deg=origin[0],
+                    origin_lon_deg=origin[1], record=record, traffic=traffic)
     x = np.zeros(6) if x0 is None else np.array(x0, dtype=float)
     t = 0.0
-    passes = PassTracker(wps)
-    closest_by_wp: dict[int, float] = {}
-    passes_open = True
-    xte_sq = xte_max = energy = 0.0
-    n_cycles = n_sat = n_track = 0  # n_track: cycles steering to a waypoint (the last one not yet reached)
-    circling = CirclingMonitor()
-    completed_at = None
-    hold_d, hold_h, hold_t = [], [], []  # per cycle station keeping ran: true distance, heading error, |T|+|T|
-    tr: dict[str, list] = {k: [] for k in ("t_s", "north_m", "east_m", "psi_rad", "psi_d_rad", "tcpa_nd", "dcpa_nd", "cdh", "thrust_port_n", "thrust_stbd_n", "wp_index", "heading_error_rad", "xte_m", "speed_m_s", "speed_cmd_m_s", "tau_com_n", "tau_com_trim_n", "pid_i_n", "mode", "hold_error_m", "avoid_share_rad", "situations", "acting")}
-    while t < t_max_s:
-        n_m, e_m, psi, u, v, r = (float(c) for c in x)
-        nav, memory = assemble(sensors.observe(t, x), t, memory, rules, origin_lat_deg=origin[0],
-                               origin_lon_deg=origin[1])
-        nav_in = nav_input(nav)
-        targets = () if traffic is None else traffic.step(t, _own_ship(x))
-        out = ap.step(nav_in, dt_ctrl, targets=targets, t_s=t)
-        ended = passes.on_target(ap.wp_index) if out.reached_index is not None else []
-        if nav.new_fix and passes_open:
-            ended += passes.on_fix(nav.fix_t_s, nav.north_m, nav.east_m, ap.wp_index)
-        closest_by_wp.update((p.wp_index, p.closest_approach_m) for p in ended)
-        n_cycles += 1
-        if out.saturation:
-            n_sat += 1
-        if out.holding:
-            hold_d.append(math.hypot(n_m - out.hold_target_ne_m[0], e_m - out.hold_target_ne_m[1]))
-            hold_h.append(wrap_pi(psi - out.hold_heading_rad))
-            hold_t.append(abs(out.thrust_port_n) + abs(out.thrust_stbd_n))
-        if not out.complete and out.xte_m is not None:
-            n_track += 1
-            xte_sq += out.xte_m * out.xte_m
-            xte_max = max(xte_max, abs(out.xte_m))
-            circling.update(out.wp_index, psi)
-        if record:
-            for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad), ("tcpa_nd", out.tcpa_nd), ("dcpa_nd", out.dcpa_nd), ("cdh", out.cdh), ("thrust_port_n", out.thrust_port_n), ("thrust_stbd_n", out.thrust_stbd_n), ("wp_index", out.wp_index), ("heading_error_rad", out.heading_error_rad), ("xte_m", math.nan if out.xte_m is None else out.xte_m), ("speed_m_s", math.hypot(u, v)), ("speed_cmd_m_s", out.speed_cmd_m_s), ("tau_com_n", out.tau_com_n), ("tau_com_trim_n", out.tau_com_trim_n), ("pid_i_n", out.pid_i_n), ("mode", out.mode.value), ("hold_error_m", out.hold_error_m)):
-                tr[k].append(val)
-            a = out.avoidance
-            tr["avoid_share_rad"].append(0.0 if a is None else a.psi_d_share_rad)
-            tr["situations"].append({} if a is None else {x.target_id: x.situation.value for x in a.targets})
-            tr["acting"].append({} if a is None else {x.target_id: bool(x.acting) for x in a.targets})
-        if out.complete and completed_at is None:
-            completed_at = t
-        if passes_open and completed_at is not None and t - completed_at >= config.guidance.final_pass_s - 1e-9:
-            passes_open = False  # the last pass has ended (autopilot.gnc.passes)
-            closest_by_wp.update((p.wp_index, p.closest_approach_m) for p in passes.finish())
-        if not passes_open and out.finished:
-            break  # the mission ended with stop: thrust has been zero since
-        for _ in range(substeps):
-            x = step(params, x, out.thrust_port_n, out.thrust_stbd_n, dt_s, t_s=t, env=env, external_force=external_force)
+    while (thrust := flight.control(t, x)) is not None:
+        for _ in range(flight.substeps):
+            x = step(params, x, thrust[0], thrust[1], dt_s, t_s=t, env=env, external_force=external_force)
             t += dt_s
-            energy += (abs(out.thrust_port_n) + abs(out.thrust_stbd_n)) * dt_s
-    if passes_open:
-        closest_by_wp.update((p.wp_index, p.closest_approach_m) for p in passes.finish())
-    closest = [closest_by_wp.get(i, math.inf) for i in range(len(wps))]
-    return RunResult(
-        mission=mission,
-        guidance=config.guidance.law,
-        condition=condition,
-        completed=completed_at is not None,
-        closest_approach_m=closest,
-        xte_rms_m=math.sqrt(xte_sq / max(n_track, 1)),
-        xte_max_m=xte_max,
-        time_s=completed_at if completed_at is not None else t,
-        energy_ns=energy,
-        saturation_pct=100.0 * n_sat / max(n_cycles, 1),
-        circled=circling.circled,
-        hold=hold_score(hold_d, hold_h, hold_t, dt_ctrl),
-        trace={**tr, "waypoints": wps} if record else {},
-    )
-
-
-def _own_ship(x):
-    """Own ship's truth for the simulated traffic (its reactive targets watch it)."""
-    from autopilot.gnc.encounter import OwnShip
-
-    n, e, psi, u, v = (float(c) for c in x[:5])
-    return OwnShip(n, e, psi + math.atan2(v, u) if u or v else psi, math.hypot(u, v), psi)
+    return flight.result(t, mission=mission, condition=condition)
 
 
 @dataclass

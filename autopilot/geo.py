@@ -69,6 +69,10 @@ def _radii_m(lat0_deg: float) -> tuple[float, float]:
 def latlon_to_local(lat_deg, lon_deg, origin_lat_deg: float, origin_lon_deg: float):
     """Latitude/longitude (deg) to local (north_m, east_m) around an origin."""
     meridian_m, prime_m = _radii_m(origin_lat_deg)
+    if isinstance(lat_deg, (float, int)) and isinstance(lon_deg, (float, int)):  # one fix a cycle: plain floats,
+        dlat = math.radians(lat_deg - origin_lat_deg)  # the same operations as below (the same bits), no numpy
+        dlon = math.radians(wrap_180(lon_deg - origin_lon_deg))
+        return dlat * meridian_m, dlon * prime_m * math.cos(math.radians(origin_lat_deg))
     dlat = np.radians(np.asarray(lat_deg, dtype=float) - origin_lat_deg)
     dlon = np.radians(wrap_180(np.asarray(lon_deg, dtype=float) - origin_lon_deg))
     north_m = dlat * meridian_m
@@ -81,6 +85,10 @@ def latlon_to_local(lat_deg, lon_deg, origin_lat_deg: float, origin_lon_deg: flo
 def local_to_latlon(north_m, east_m, origin_lat_deg: float, origin_lon_deg: float):
     """Local (north_m, east_m) around an origin to latitude/longitude (deg)."""
     meridian_m, prime_m = _radii_m(origin_lat_deg)
+    if isinstance(north_m, (float, int)) and isinstance(east_m, (float, int)):  # plain floats, the same bits
+        lat = origin_lat_deg + math.degrees(north_m / meridian_m)
+        lon = origin_lon_deg + math.degrees(east_m / (prime_m * math.cos(math.radians(origin_lat_deg))))
+        return lat, wrap_180(lon)
     lat = origin_lat_deg + np.degrees(np.asarray(north_m, dtype=float) / meridian_m)
     lon = origin_lon_deg + np.degrees(
         np.asarray(east_m, dtype=float) / (prime_m * math.cos(math.radians(origin_lat_deg)))

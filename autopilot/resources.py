@@ -20,6 +20,8 @@ __all__ = [
     "measured_table_path",
     "missions_dir",
     "shipped_missions",
+    "campaigns_dir",
+    "shipped_campaigns",
     "shipped_files",
     "package_version",
 ]
@@ -60,6 +62,16 @@ def shipped_missions() -> list[Path]:
     return sorted(missions_dir().glob("*.yaml"))
 
 
+def campaigns_dir() -> Path:
+    """``campaigns/``: robustness campaign specs (``autopilot campaign``)."""
+    return data_dir() / "campaigns"
+
+
+def shipped_campaigns() -> list[Path]:
+    """The shipped campaign specs, sorted by name."""
+    return sorted(campaigns_dir().glob("*.yaml"))
+
+
 def shipped_files() -> list[tuple[str, Path]]:
     """(what, path) of every shipped file a user may want to copy."""
     out = [
@@ -70,6 +82,7 @@ def shipped_files() -> list[tuple[str, Path]]:
     ]
     out += [("mission", p) for p in shipped_missions()]
     out += [("mission format example", p) for p in sorted((missions_dir() / "examples").iterdir()) if p.is_file()]
+    out += [("robustness campaign spec", p) for p in shipped_campaigns()]
     return out
 
 

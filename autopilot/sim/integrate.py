@@ -79,6 +79,12 @@ def step(
     return np.stack(out, axis=-1) if batched else np.array(out)
 
 
+def rk4_step(rhs, state_cols, thrust_port_n, thrust_stbd_n, dt_s: float, *, t_s: float = 0.0) -> tuple:
+    """One RK4 step of a prepared right-hand side (``make_rhs`` or ``make_batch_rhs``) on the six state
+    columns (floats, or arrays over a batch); thrusts as the columns."""
+    return _rk4(rhs, float(t_s), float(dt_s), tuple(state_cols), thrust_port_n, thrust_stbd_n)
+
+
 def _substeps(t_s: np.ndarray, dt_s: float) -> np.ndarray:
     """Number of RK4 steps in each output interval (the step never exceeds dt_s)."""
     intervals = np.diff(t_s)

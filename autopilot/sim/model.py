@@ -58,9 +58,44 @@ def make_rhs(
     vectorised: bool = False,
 ) -> Rhs:
     """The model's right-hand side with every constant bound (pure, cached)."""
-    xp = np if vectorised else math
+    return _bind(params, env.current_ne_m_s, env.wind_ne_m_s, env.wind_speed_m_s > 0.0, env.sinusoidal,
+                 external_force, np if vectorised else math)
+
+
+def make_batch_rhs(params_runs, envs, external_force: Callable | None = None) -> Rhs:
+    """The right-hand side of a batch of runs that differ in their parameters and environments.
+
+    ``params_runs`` and ``envs``: one :class:`VesselParams` and one :class:`Environment` per run;
+    every constant becomes an array over the runs (the states of the batch are arrays of the same
+    length), so the equations are the very ones of :func:`make_rhs`. A run without a sinusoidal
+    force gets amplitude and bias 0 (the force is then exactly 0).
+    """
+    from dataclasses import fields
+
+    from autopilot.sim.environment import SinusoidalDisturbance
+
+    params_runs, envs = list(params_runs), list(envs)
+    if len(params_runs) != len(envs) or not params_runs:
+        raise ValueError("make_batch_rhs needs one VesselParams and one Environment per run (at least one run)")
+    stacked = {f.name: np.array([getattr(p, f.name) for p in params_runs], dtype=float)
+               for f in fields(VesselParams) if f.type in ("float", float)}
+    p = VesselParams(**stacked)  # fields as arrays over the runs: the derived properties follow
+    cur = np.array([e.current_ne_m_s for e in envs], dtype=float).reshape(-1, 2)
+    air = np.array([e.wind_ne_m_s for e in envs], dtype=float).reshape(-1, 2)
+    sinus = None
+    if any(e.sinusoidal is not None for e in envs):
+        off = SinusoidalDisturbance(amplitude_n=0.0, bias_n=0.0)
+        runs = [e.sinusoidal or off for e in envs]
+        sinus = SinusoidalDisturbance(**{f.name: np.array([getattr(s, f.name) for s in runs], dtype=float)
+                                         for f in fields(SinusoidalDisturbance)})
+    wind_on = np.array([e.wind_speed_m_s > 0.0 for e in envs])  # no wind: no air drag either (as make_rhs)
+    return _bind(p, (cur[:, 0], cur[:, 1]), (air[:, 0], air[:, 1]), wind_on, sinus, external_force, np)
+
+
+def _bind(p, current_ne_m_s, wind_ne_m_s, wind_on, sinus, ext, xp) -> Rhs:
+    """The right-hand side over the parameters ``p`` (floats, or arrays over a batch of runs; then
+    ``wind_on`` is a mask over the runs)."""
     sqrt, cos, sin = xp.sqrt, xp.cos, xp.sin
-    p = params
     mx, my, iz = p.mass_x_kg, p.mass_y_kg, p.inertia_z_kg_m2
     inv_mx, inv_my, inv_iz = 1.0 / mx, 1.0 / my, 1.0 / iz
     length = p.length_m
@@ -74,15 +109,15 @@ def make_rhs(
     k_xp = 1.0 - p.thrust_deduction  # Eq 3.6
     k_np = (1.0 - p.moment_deduction) * p.y_p_m  # Eq 3.6 with SPEC 2's sign
 
-    cur_n, cur_e = env.current_ne_m_s
-    has_current = cur_n != 0.0 or cur_e != 0.0
-    air_n, air_e = env.wind_ne_m_s
-    has_wind = env.wind_speed_m_s > 0.0
+    cur_n, cur_e = current_ne_m_s
+    has_current = bool(np.any(cur_n != 0.0) or np.any(cur_e != 0.0))
+    air_n, air_e = wind_ne_m_s
+    has_wind = bool(np.any(wind_on))
     wind_x = 0.5 * p.air_density_kg_m3 * p.wind_cx * p.frontal_area_m2
     wind_y = 0.5 * p.air_density_kg_m3 * p.wind_cy * p.lateral_area_m2
     wind_n = -p.air_density_kg_m3 * p.wind_cn * p.lateral_area_m2 * length
-    sinus = env.sinusoidal
-    ext = external_force
+    if isinstance(wind_on, np.ndarray):  # a batch: the runs without wind have no windage term at all
+        wind_x, wind_y, wind_n = wind_x * wind_on, wind_y * wind_on, wind_n * wind_on
 
     def rhs(t_s, n, e, psi, u, v, r, thrust_port_n, thrust_stbd_n):
         c, s = cos(psi), sin(psi)

@@ -1,0 +1,181 @@
+"""Where the chunks run: this process, a local process pool, or a Dask cluster.
+
+A chunk (``spec.chunk_runs`` consecutive runs, :func:`autopilot.campaign.lockstep.fly_chunk`)
+is a pure function of ``(campaign, seed, runs, chunk)``, so any backend and any number of
+workers give the same rows, bit for bit; rows are put back in index order. Results are
+gathered as chunks finish, so a lost worker costs only the chunks it was flying:
+
+- the process pool (``--jobs J``): a worker that dies breaks the pool
+  (``BrokenProcessPool``); the chunks already finished are kept, the others go to a new pool;
+- Dask (``--scheduler tcp://HOST:PORT``, or ``local`` for a ``LocalCluster`` on this machine):
+  the scheduler runs a dead worker's tasks again elsewhere (``distributed.scheduler.allowed-failures``
+  times); a chunk that still fails is submitted again under a new key.
+
+Each chunk is tried at most ``MAX_ATTEMPTS`` times; then the campaign stops with an error
+naming it. Progress goes to stderr (a bar on a terminal, a line every 10 % otherwise).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+
+from autopilot.campaign.lockstep import chunk_indices, chunks, fly_chunk
+from autopilot.schema import ConfigError
+
+__all__ = ["run_chunks", "Progress", "MAX_ATTEMPTS", "default_jobs"]
+
+MAX_ATTEMPTS = 3
+
+
+def default_jobs() -> int:
+    """The cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+class Progress:
+    """Chunks and runs done, the rate and the time left, on stderr."""
+
+    def __init__(self, total_runs: int, total_chunks: int, *, stream=None, enabled: bool = True) -> None:
+        self.total_runs, self.total_chunks = total_runs, total_chunks
+        self.runs = self.chunks = self.retries = 0
+        self.stream = stream if stream is not None else sys.stderr
+        self.enabled = enabled
+        self.tty = enabled and hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.t0 = time.monotonic()
+        self._last_decile = -1
+
+    def retry(self, what: str) -> None:
+        self.retries += 1
+        if self.enabled:
+            self.stream.write(("\n" if self.tty else "") + f"campaign: {what}; running it again\n")
+            self.stream.flush()
+
+    def done(self, runs: int) -> None:
+        self.runs += runs
+        self.chunks += 1
+        if not self.enabled:
+            return
+        elapsed = time.monotonic() - self.t0
+        rate = self.runs / elapsed if elapsed > 0 else math.inf
+        left = (self.total_runs - self.runs) / rate if rate > 0 else math.inf
+        frac = self.runs / max(self.total_runs, 1)
+        text = (f"{self.chunks}/{self.total_chunks} chunks, {self.runs}/{self.total_runs} runs, "
+                f"{rate:.1f} runs/s, {elapsed:.0f} s, ~{left:.0f} s left")
+        if self.tty:
+            bar = "#" * int(30 * frac)
+            self.stream.write(f"\rcampaign [{bar:<30}] {text}")
+            if self.chunks == self.total_chunks:
+                self.stream.write("\n")
+        elif int(frac * 10) != self._last_decile or self.chunks == self.total_chunks:
+            self._last_decile = int(frac * 10)
+            self.stream.write(f"campaign: {text}\n")
+        self.stream.flush()
+
+
+def run_chunks(campaign, seed: int, runs: int, *, jobs: int | None = None, scheduler=None,
+               progress: Progress | None = None) -> list[dict]:
+    """Every run's row, in index order. ``scheduler``: a Dask scheduler address, ``"local"``, or a
+    ``distributed.Client``; else ``jobs`` local processes (1: this process)."""
+    n_chunks = chunks(campaign, runs)
+    progress = progress or Progress(runs, n_chunks, enabled=False)
+    found: dict[int, list[dict]] = {}
+
+    def done(k: int, rows: list[dict]) -> None:
+        want = list(chunk_indices(campaign, runs, k))
+        if [r["index"] for r in rows] != want:  # pragma: no cover - a worker running other code
+            raise RuntimeError(f"chunk {k}: a worker returned runs {rows[0]['index']}.. instead of {want[0]}..")
+        found[k] = rows
+        progress.done(len(rows))
+
+    if scheduler is not None:
+        _dask(campaign, seed, runs, n_chunks, scheduler, done, progress)
+    elif (jobs or default_jobs()) <= 1 or n_chunks == 1:
+        for k in range(n_chunks):
+            done(k, fly_chunk(campaign, seed, runs, k))
+    else:
+        _pool(campaign, seed, runs, n_chunks, min(jobs or default_jobs(), n_chunks), done, progress)
+    return [r for k in range(n_chunks) for r in found[k]]
+
+
+def _pool(campaign, seed, runs, n_chunks, jobs, done, progress) -> None:
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
+    method = "forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn"
+    pending = set(range(n_chunks))
+    attempts = dict.fromkeys(pending, 0)
+    while pending:
+        for k in pending:
+            attempts[k] += 1
+            if attempts[k] > MAX_ATTEMPTS:
+                raise RuntimeError(f"chunk {k} failed {MAX_ATTEMPTS} times (its worker died each time)")
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context(method)) as pool:
+            futures = {pool.submit(fly_chunk, campaign, seed, runs, k): k for k in sorted(pending)}
+            try:
+                for f in as_completed(futures):
+                    k = futures[f]
+                    done(k, f.result())
+                    pending.discard(k)
+            except BrokenProcessPool:
+                for f, k in futures.items():  # keep what finished before the pool broke
+                    if k in pending and f.done() and not f.cancelled() and f.exception() is None:
+                        done(k, f.result())
+                        pending.discard(k)
+                progress.retry(f"a worker process died; {len(pending)} chunk(s) not finished")
+
+
+def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:  # pragma: no cover - the extra is not installed
+        raise ConfigError("--scheduler needs Dask: pip install 'wamv-autopilot[campaign]' "
+                          "(dask[distributed])") from None
+    cluster = own = None
+    if isinstance(scheduler, Client):
+        client = scheduler
+    else:
+        if scheduler == "local":
+            cluster = LocalCluster(n_workers=default_jobs(), threads_per_worker=1, processes=True, dashboard_address=None)
+            address = cluster.scheduler_address
+        else:
+            address = str(scheduler)
+        try:
+            client = own = Client(address, set_as_default=False, timeout="20s")
+        except OSError as exc:
+            raise ConfigError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({exc})") from None
+    digest = campaign.digest()
+    attempts: dict[int, int] = {}
+
+    def submit(k: int):
+        attempts[k] = attempts.get(k, 0) + 1
+        key = f"autopilot-campaign-{digest}-s{seed}-n{runs}-c{k}-a{attempts[k]}"
+        return client.submit(fly_chunk, campaign, seed, runs, k, key=key, pure=False)
+
+    try:
+        futures = {submit(k): k for k in range(n_chunks)}
+        todo = as_completed(list(futures), loop=client.loop, with_results=False, raise_errors=False)
+        for f in todo:
+            k = futures.pop(f)
+            if f.status == "finished":
+                done(k, f.result())
+                f.release()
+                continue
+            exc = f.exception()
+            if attempts[k] >= MAX_ATTEMPTS:
+                raise RuntimeError(f"chunk {k} failed {attempts[k]} times: {type(exc).__name__}: {exc}")
+            progress.retry(f"chunk {k} lost ({type(exc).__name__})")
+            g = submit(k)
+            futures[g] = k
+            todo.add(g)
+    finally:
+        if own is not None:
+            own.close()
+        if cluster is not None:
+            cluster.close()

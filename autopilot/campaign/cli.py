@@ -1,0 +1,103 @@
+"""``autopilot campaign``: robustness campaigns, and ``--replay`` of one run."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from autopilot.schema import ConfigError
+
+
+def load_campaign(spec_path):
+    """Read, check and resolve a spec file (every error names the file and the key)."""
+    from autopilot.campaign.spec import load_spec, resolve
+
+    spec = load_spec(spec_path)
+    try:
+        return resolve(spec, base_dir=Path(spec_path).resolve().parent)
+    except ConfigError as exc:
+        raise ConfigError(f"{spec_path}: {exc}") from None
+
+
+def _cmd(args: argparse.Namespace) -> int:
+    if args.replay is not None:
+        return _replay(args)
+    if args.spec is None:
+        raise ConfigError("give a spec file (autopilot campaign SPEC.yaml --out DIR) or --replay DIR INDEX")
+    if args.out is None:
+        raise ConfigError("--out DIR: where the campaign writes runs.csv, summary.json and report.html")
+    if args.jobs is not None and args.scheduler is not None:
+        raise ConfigError("--jobs and --scheduler: give one (--jobs: local processes; --scheduler: a Dask cluster)")
+    if args.jobs is not None and args.jobs < 1:
+        raise ConfigError(f"--jobs: {args.jobs} is not a positive number of processes")
+    if args.seed is not None and not 0 <= args.seed < 2**63:
+        raise ConfigError(f"--seed: {args.seed} is outside [0, 2^63 - 1]")
+    from autopilot.campaign.report import success_table_markdown
+    from autopilot.campaign.run import run_campaign
+
+    campaign = load_campaign(args.spec)
+    summary = run_campaign(campaign, args.out, seed=args.seed, runs=args.runs, jobs=args.jobs,
+                           scheduler=args.scheduler, progress=not args.quiet, report=not args.no_report)
+    o = summary["overall"]
+    print(f"{summary['campaign']}: {o['successes']}/{o['runs']} runs succeeded "
+          f"({100 * o['rate']:.1f} %, Wilson 95 % [{100 * o['ci95'][0]:.1f}, {100 * o['ci95'][1]:.1f}] %); "
+          f"{summary['run']['elapsed_s']:.1f} s on {summary['run']['backend']}")
+    print(success_table_markdown(summary))
+    print(f"written: {Path(args.out) / 'runs.csv'}, summary.json" + ("" if args.no_report else ", report.html"))
+    return 0
+
+
+def _replay(args: argparse.Namespace) -> int:
+    from autopilot.campaign.replay import replay, same_row, scorecard_text
+
+    out_dir, index_text = args.replay
+    try:
+        index = int(index_text)
+    except ValueError:
+        raise ConfigError(f"--replay {out_dir} {index_text}: INDEX is a run's index (an integer)") from None
+    if args.spec is not None:
+        raise ConfigError("--replay re-flies a run from DIR/campaign.json: give no spec file")
+    row, path, table = replay(out_dir, index, log_path=args.log)
+    print(scorecard_text(row))
+    print(f"log: {path} (autopilot review {path} --out DIR)")
+    if table is None:
+        print("runs.csv: not found; nothing to compare with")
+        return 0
+    if same_row(row, table, keys=list(table)):
+        print("identical to its row in runs.csv")
+        return 0
+    diff = [k for k in table if not same_row(row, table, keys=[k])]
+    print(f"DIFFERS from its row in runs.csv: {', '.join(diff)}", file=sys.stderr)
+    return 1
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "campaign",
+        help="robustness campaign: thousands of simulated missions over parameter and disturbance spreads",
+        description=(
+            "Fly the spec's missions x guidance laws x condition spreads many times on simulated time, each run "
+            "with its own vessel parameters, current, wind, sinusoidal force, thrust asymmetry and lag, sensor "
+            "noise, dropouts and faults, drawn from (seed, index); every run goes through the daemon's own cycle "
+            "(navigation assembly, failsafe, helm, allocation). Runs are flown in lockstep, chunk by chunk, in a "
+            "local process pool (--jobs) or on a Dask cluster (--scheduler). Writes DIR/runs.csv, "
+            "DIR/summary.json (success rate with its Wilson 95 %% interval, distributions, failsafes, worst runs, "
+            "sensitivity) and DIR/report.html. --replay DIR INDEX re-flies one run and writes its mission log "
+            "(autopilot review reads it)."
+        ),
+    )
+    p.add_argument("spec", nargs="?", metavar="SPEC.yaml", help="the campaign spec (e.g. config/campaigns/pond-robustness.yaml)")
+    p.add_argument("--out", metavar="DIR", help="output directory")
+    p.add_argument("--runs", type=int, metavar="N", help="number of runs (default: the spec's runs)")
+    p.add_argument("--seed", type=int, metavar="S", help="campaign seed (default: the spec's seed)")
+    p.add_argument("--jobs", type=int, metavar="J", help="local worker processes (default: this machine's cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a Dask scheduler, tcp://HOST:PORT (dask-jobqueue, dask-kubernetes, dask-scheduler), "
+                        "or 'local' for a LocalCluster on this machine's cores")
+    p.add_argument("--replay", nargs=2, metavar=("DIR", "INDEX"), help="re-fly run INDEX of the campaign in DIR and "
+                   "write its mission log (DIR/replay-INDEX.jsonl)")
+    p.add_argument("--log", metavar="FILE", help="with --replay: write the log here instead")
+    p.add_argument("--no-report", action="store_true", help="skip report.html")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.set_defaults(func=_cmd)

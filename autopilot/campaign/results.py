@@ -1,0 +1,256 @@
+"""A campaign's results: one row per run (``runs.csv``) and their statistics (``summary.json``).
+
+Row: the run's cell (mission, law, condition), its scorecard (``autopilot evaluate``'s:
+completed, closest approach per waypoint over its pass, cross-track RMS and maximum, time,
+thrust energy, saturation, circling, the hold), what the daemon's failsafe did, how it ended,
+its faults and every quantity a spread drew for it. Floats are written with ``repr``, so the
+file holds the exact bits (two backends give byte-identical tables).
+
+Success: the mission completed, the boat did not circle, and every waypoint's closest
+approach is within the spec's ``success_radius_m``. Rates carry Wilson's 95 % score interval
+(Wilson 1927; good at small n and near 0 or 1, where the normal interval is not). What moves
+the outcome: Spearman's rank correlation of each drawn quantity with success, worst closest
+approach and cross-track RMS, stratified by condition, and the success rate in its lowest and highest
+quartile (:func:`sensitivity`).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from autopilot.campaign.spec import SPREAD_KEYS, Campaign
+
+__all__ = ["RUN_COLUMNS", "OUTCOMES", "run_row", "columns", "write_runs_csv", "read_runs_csv", "wilson",
+           "summarise", "success_of"]
+
+RUN_COLUMNS: tuple[tuple[str, type], ...] = (
+    ("index", int), ("mission", str), ("law", str), ("condition", str), ("success", bool), ("completed", bool),
+    ("circled", bool), ("end", str), ("closest_max_m", float), ("closest_approach_m", str), ("xte_rms_m", float),
+    ("xte_max_m", float), ("time_s", float), ("energy_ns", float), ("saturation_pct", float), ("failsafes", int),
+    ("failsafe_causes", str), ("faults", str), ("fault_kind", str), ("position_dropouts", int),
+    ("heading_dropouts", int), ("hold_time_s", float), ("hold_position_error_rms_m", float),
+    ("hold_position_error_p95_m", float), ("vrx_score", float), ("cycles", int),
+)
+OUTCOMES = ("closest_max_m", "xte_rms_m", "time_s", "energy_ns")  # their distributions go to the summary
+
+
+def success_of(completed: bool, circled: bool, closest_max_m: float, radius_m: float) -> bool:
+    return bool(completed and not circled and closest_max_m <= radius_m)
+
+
+def run_row(campaign: Campaign, setup, flight, result) -> dict:
+    """The table row of one run (see the module docstring)."""
+    closest = [float(c) for c in result.closest_approach_m]
+    finite = [c for c in closest if not math.isnan(c)]
+    closest_max = max(finite) if len(finite) == len(closest) else math.inf  # a waypoint without a fix: never passed
+    hold = result.hold
+    row = {
+        "index": setup.index, "mission": setup.mission.name, "law": setup.law, "condition": setup.condition,
+        "success": success_of(result.completed, result.circled, closest_max, campaign.spec.success_radius_m),
+        "completed": bool(result.completed), "circled": bool(result.circled), "end": flight.end_reason or "",
+        "closest_max_m": closest_max, "closest_approach_m": ";".join(repr(c) for c in closest),
+        "xte_rms_m": float(result.xte_rms_m), "xte_max_m": float(result.xte_max_m), "time_s": float(result.time_s),
+        "energy_ns": float(result.energy_ns), "saturation_pct": float(result.saturation_pct),
+        "failsafes": len(flight.cycle.failsafe_causes), "failsafe_causes": ";".join(flight.cycle.failsafe_causes),
+        "faults": ";".join(f.describe() for f in setup.faults),
+        "fault_kind": setup.faults[0].kind if setup.faults else "",
+        "position_dropouts": len(setup.position_dropouts), "heading_dropouts": len(setup.heading_dropouts),
+        "hold_time_s": math.nan if hold is None else hold.time_s,
+        "hold_position_error_rms_m": math.nan if hold is None else hold.position_error_rms_m,
+        "hold_position_error_p95_m": math.nan if hold is None else hold.position_error_p95_m,
+        "vrx_score": math.nan if hold is None else hold.vrx_score,
+        "cycles": flight.cycles,
+    }
+    row.update(setup.drawn)
+    return row
+
+
+def columns(campaign: Campaign) -> list[str]:
+    """The table's columns: the scorecard's, then every quantity a spread of this campaign draws."""
+    inputs = [f"vessel.{name}" for name, _ in campaign.vessel_spreads]
+    keys = set(k for k, _ in campaign.sysid_thrust)
+    for _, cond in campaign.conditions:
+        keys |= {k for k in SPREAD_KEYS if getattr(cond, k) is not None}
+    inputs += [k for k in SPREAD_KEYS if k in keys]
+    return [c for c, _ in RUN_COLUMNS] + inputs
+
+
+def _text(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def write_runs_csv(rows, path, cols) -> None:
+    """``runs.csv``: one row per run, in index order; an input a run did not draw is empty."""
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(cols)
+        for r in rows:
+            w.writerow(["" if c not in r else _text(r[c]) for c in cols])
+
+
+def read_runs_csv(path) -> list[dict]:
+    """The rows of a ``runs.csv`` with their types (inputs as floats, NaN where a run drew none)."""
+    types = dict(RUN_COLUMNS)
+    out = []
+    with open(path, newline="", encoding="utf-8") as f:
+        for rec in csv.DictReader(f):
+            row = {}
+            for k, v in rec.items():
+                tp = types.get(k, float)
+                if tp is bool:
+                    row[k] = v == "true"
+                elif tp is int:
+                    row[k] = int(v)
+                elif tp is float:
+                    row[k] = float(v) if v != "" else math.nan
+                else:
+                    row[k] = v
+            out.append(row)
+    return out
+
+
+def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson's score interval for k successes in n trials (95 % by default); (nan, nan) for n = 0."""
+    if n <= 0:
+        return math.nan, math.nan
+    p = k / n
+    den = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def _rate(rows) -> dict:
+    n = len(rows)
+    k = sum(1 for r in rows if r["success"])
+    lo, hi = wilson(k, n)
+    return {"runs": n, "successes": k, "rate": k / n if n else math.nan, "ci95": [lo, hi]}
+
+
+def _quantiles(values) -> dict:
+    v = np.asarray([x for x in values if not math.isnan(x)], dtype=float)
+    if v.size == 0:
+        return {"n": 0}
+    fin = v[np.isfinite(v)]
+    q = np.percentile(fin, [5, 25, 50, 75, 95]) if fin.size else [math.nan] * 5
+    return {"n": int(v.size), "infinite": int(v.size - fin.size), "p5": float(q[0]), "p25": float(q[1]),
+            "median": float(q[2]), "p75": float(q[3]), "p95": float(q[4]),
+            "max": float(v.max()), "mean": float(fin.mean()) if fin.size else math.nan}
+
+
+def _centred_ranks(v: np.ndarray) -> np.ndarray:
+    from scipy.stats import rankdata
+
+    r = rankdata(v) / (v.size + 1.0)
+    return r - r.mean()
+
+
+def sensitivity(rows, inputs, *, min_runs: int = 10) -> list[dict]:
+    """Per drawn quantity: Spearman's rank correlation with success, worst closest approach and cross-track RMS,
+    stratified by condition (ranks centred within each condition where the quantity varies, then pooled, so a
+    condition that is simply harder does not count for the quantities it happens to draw), and the success rate
+    in the quantity's lowest and highest quartile within those conditions."""
+    outcomes = {
+        "success": np.array([1.0 if r["success"] else 0.0 for r in rows]),
+        "closest_max": np.nan_to_num(np.array([r["closest_max_m"] for r in rows], dtype=float), nan=np.inf),
+        "xte_rms": np.array([r["xte_rms_m"] for r in rows], dtype=float),
+    }
+    conds = np.array([r["condition"] for r in rows])
+    out = []
+    for name in inputs:
+        x = np.array([r.get(name, math.nan) for r in rows], dtype=float)
+        num = dict.fromkeys(outcomes, 0.0)
+        den_y = dict.fromkeys(outcomes, 0.0)
+        den_x, used, low, high = 0.0, [], [], []
+        for c in sorted(set(conds)):
+            sel = (conds == c) & np.isfinite(x)
+            if sel.sum() < min_runs or np.ptp(x[sel]) == 0:
+                continue
+            used.append(str(c))
+            rx = _centred_ranks(x[sel])
+            den_x += float(rx @ rx)
+            for k, y in outcomes.items():
+                ry = _centred_ranks(y[sel])
+                num[k] += float(rx @ ry)
+                den_y[k] += float(ry @ ry)
+            q1, q3 = np.percentile(x[sel], [25, 75])
+            low += list(outcomes["success"][sel][x[sel] <= q1])
+            high += list(outcomes["success"][sel][x[sel] >= q3])
+        if not used:
+            continue
+        rho = {k: num[k] / math.sqrt(den_x * den_y[k]) if den_x > 0 and den_y[k] > 0 else math.nan for k in outcomes}
+        out.append({
+            "input": name, "conditions": used, "runs": int(sum(((conds == c) & np.isfinite(x)).sum() for c in used)),
+            "rho_success": rho["success"], "rho_closest_max": rho["closest_max"], "rho_xte_rms": rho["xte_rms"],
+            "success_low_quartile": float(np.mean(low)) if low else math.nan,
+            "success_high_quartile": float(np.mean(high)) if high else math.nan,
+        })
+
+    def strength(d):
+        a = 0.0 if math.isnan(d["rho_success"]) else abs(d["rho_success"])
+        b = 0.0 if math.isnan(d["rho_closest_max"]) else abs(d["rho_closest_max"])
+        return (-a, -b, d["input"])
+
+    return sorted(out, key=strength)
+
+
+def summarise(campaign: Campaign, rows, *, seed: int, runs: int, cols, worst: int = 10) -> dict:
+    """``summary.json``: success rates with Wilson intervals, distributions, failsafes, worst runs, sensitivity."""
+    spec = campaign.spec
+    laws = list(campaign.laws)
+    conds = [name for name, _ in campaign.conditions]
+    by_cell = {}
+    for law in laws:
+        for cond in conds:
+            by_cell[f"{law}/{cond}"] = {"law": law, "condition": cond,
+                                        **_rate([r for r in rows if r["law"] == law and r["condition"] == cond])}
+    causes: dict[str, int] = {}
+    for r in rows:
+        for c in filter(None, r["failsafe_causes"].split(";")):
+            causes[c] = causes.get(c, 0) + 1
+    ends: dict[str, int] = {}
+    for r in rows:
+        ends[r["end"]] = ends.get(r["end"], 0) + 1
+    fault_kinds = sorted({r["fault_kind"] for r in rows})
+    ranked = sorted(rows, key=lambda r: (r["success"], -r["closest_max_m"] if not math.isnan(r["closest_max_m"])
+                                         else -math.inf, -r["xte_rms_m"], r["index"]))
+    inputs = [c for c in cols if c not in dict(RUN_COLUMNS)]
+    return {
+        "campaign": spec.name, "description": spec.description, "digest": campaign.digest(), "seed": int(seed),
+        "runs": int(runs), "rows": len(rows), "chunk_runs": spec.chunk_runs, "success_radius_m": spec.success_radius_m,
+        "success": "completed, no circling, every waypoint's closest approach <= success_radius_m",
+        "missions": [m.name for m in campaign.missions], "laws": laws, "conditions": conds,
+        "sources": list(campaign.sources),
+        "overall": _rate(rows),
+        "by_law": {law: _rate([r for r in rows if r["law"] == law]) for law in laws},
+        "by_condition": {c: _rate([r for r in rows if r["condition"] == c]) for c in conds},
+        "by_law_condition": by_cell,
+        "by_mission": {m.name: _rate([r for r in rows if r["mission"] == m.name]) for m in campaign.missions},
+        "by_fault": {k or "none": _rate([r for r in rows if r["fault_kind"] == k]) for k in fault_kinds},
+        "distributions": {o: {"all": _quantiles([r[o] for r in rows]),
+                              **{law: _quantiles([r[o] for r in rows if r["law"] == law]) for law in laws}}
+                          for o in OUTCOMES},
+        "failsafes": {"runs_with_failsafe": sum(1 for r in rows if r["failsafes"] > 0), "by_cause": causes},
+        "ends": ends,
+        "worst_runs": [{k: r[k] for k in ("index", "mission", "law", "condition", "success", "end", "closest_max_m",
+                                          "xte_rms_m", "time_s", "failsafe_causes", "faults")}
+                       for r in ranked[:worst]],
+        "sensitivity": sensitivity(rows, inputs),
+    }
+
+
+def write_summary(summary: dict, path) -> None:
+    """summary.json, strict JSON (non-finite numbers as null)."""
+    import json
+
+    from autopilot.daemon.missionlog import _clean
+
+    Path(path).write_text(json.dumps(_clean(summary), indent=1, allow_nan=False) + "\n", encoding="utf-8")

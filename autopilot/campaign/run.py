@@ -1,0 +1,97 @@
+"""A whole campaign into a directory: fly every chunk, then write what it found.
+
+    DIR/campaign.json   the resolved campaign, seed and run count (what --replay re-flies)
+    DIR/runs.csv        one row per run (runs.parquet too when pyarrow is installed)
+    DIR/summary.json    success rates with Wilson intervals, distributions, failsafes, worst runs, sensitivity
+    DIR/report.html     the same with plots
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import time
+from pathlib import Path
+
+from autopilot.campaign.backends import Progress, default_jobs, run_chunks
+from autopilot.campaign.lockstep import chunks
+from autopilot.campaign.results import columns, summarise, write_runs_csv, write_summary
+from autopilot.campaign.spec import Campaign
+from autopilot.schema import ConfigError
+
+__all__ = ["run_campaign", "write_outputs", "load_run_dir"]
+
+
+def _backend_text(jobs, scheduler) -> str:
+    if scheduler is None:
+        n = jobs or default_jobs()
+        return "this process" if n <= 1 else f"a pool of {n} local processes"
+    if scheduler == "local":
+        return f"a Dask LocalCluster of {default_jobs()} workers"
+    return f"the Dask scheduler {scheduler}"
+
+
+def run_campaign(campaign: Campaign, out_dir, *, seed: int | None = None, runs: int | None = None,
+                 jobs: int | None = None, scheduler=None, progress: bool = False, report: bool = True) -> dict:
+    """Fly the campaign and write DIR; returns the summary."""
+    seed = campaign.spec.seed if seed is None else int(seed)
+    runs = campaign.spec.runs if runs is None else int(runs)
+    if runs < 1:
+        raise ConfigError(f"--runs: {runs} is not a positive number of runs")
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {out}: cannot create the directory ({exc.strerror or exc})") from None
+    data = {"campaign": campaign.to_data(), "seed": seed, "runs": runs}
+    (out / "campaign.json").write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    started = _dt.datetime.now(_dt.timezone.utc)
+    t0 = time.perf_counter()
+    rows = run_chunks(campaign, seed, runs, jobs=jobs, scheduler=scheduler,
+                      progress=Progress(runs, chunks(campaign, runs), enabled=progress))
+    elapsed = time.perf_counter() - t0
+    info = {"started_utc": started.strftime("%Y-%m-%dT%H:%M:%SZ"), "elapsed_s": elapsed,
+            "backend": _backend_text(jobs, scheduler), "runs_per_s": runs / elapsed if elapsed > 0 else None}
+    info["text"] = (f"Flown {info['started_utc']} on {info['backend']} in {elapsed:.1f} s "
+                    f"({runs / max(elapsed, 1e-9):.1f} runs/s).")
+    return write_outputs(campaign, rows, out, seed=seed, runs=runs, info=info, report=report)
+
+
+def write_outputs(campaign: Campaign, rows, out_dir, *, seed: int, runs: int, info: dict | None = None,
+                  report: bool = True) -> dict:
+    """runs.csv (and .parquet), summary.json, report.html from the rows."""
+    out = Path(out_dir)
+    cols = columns(campaign)
+    write_runs_csv(rows, out / "runs.csv", cols)
+    try:
+        import pyarrow
+        import pyarrow.parquet as pq
+    except ImportError:
+        pass
+    else:  # pragma: no cover - pyarrow is optional
+        pq.write_table(pyarrow.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows]), out / "runs.parquet")
+    summary = summarise(campaign, rows, seed=seed, runs=runs, cols=cols)
+    summary["run"] = {k: v for k, v in (info or {}).items() if k != "text"}
+    write_summary(summary, out / "summary.json")
+    if report:
+        from autopilot.campaign.report import write_report
+
+        write_report(summary, rows, out / "report.html", campaign_data=campaign.to_data(), run_info=info or {})
+    return summary
+
+
+def load_run_dir(out_dir) -> tuple[Campaign, int, int]:
+    """(campaign, seed, runs) of a campaign directory (its campaign.json)."""
+    from autopilot.userfile import read_text
+
+    path = Path(out_dir) / "campaign.json"
+    try:
+        data = json.loads(read_text(path, what="campaign.json"))
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{path}: not JSON ({exc})") from None
+    try:
+        return Campaign.from_data(data["campaign"]), int(data["seed"]), int(data["runs"])
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, ConfigError):
+            raise ConfigError(f"{path}: {exc}") from None
+        raise ConfigError(f"{path}: not a campaign directory's campaign.json ({exc})") from None

@@ -1,0 +1,282 @@
+"""Robustness campaigns (issue 17): the same table from every backend, a killed worker costs only its chunk,
+--replay reproduces a run, and a bad spec is refused naming the key."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import signal
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from autopilot.campaign.backends import run_chunks
+from autopilot.campaign.draw import draw_run
+from autopilot.campaign.lockstep import chunk_indices
+from autopilot.campaign.results import columns, read_runs_csv, wilson, write_runs_csv
+from autopilot.campaign.spec import _load_spec, resolve
+from autopilot.cli import main
+
+RUNS = 50
+SPEC = {
+    "name": "test", "missions": ["pond-9.1", "pond-9.2"], "laws": ["fuzzy", "los"], "runs": RUNS, "seed": 5,
+    "chunk_runs": 10,
+    "vessel": {"fields": {"mass_kg": {"scale": [0.9, 1.1]}, "n_r_nd": {"scale": [0.7, 1.3]}}},
+    "conditions": {
+        "calm": {"position_noise_m": 0.3},
+        "current": {"current_speed_m_s": {"uniform": [0.0, 0.3]}, "current_towards_deg": {"uniform": [0, 360]},
+                    "thrust_lag_s": {"uniform": [0.0, 0.5]}, "thrust_asymmetry_nd": {"uniform": [-0.1, 0.1]}},
+        "faults": {"position_noise_m": 0.3, "position_dropouts_per_min": 1.0,
+                   "faults": {"kinds": ["gnss_lost", "mbed_lost", "battery_low", "thruster_failure"],
+                              "at_s": {"uniform": [3.0, 20.0]}}},
+    },
+}
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    return resolve(_load_spec(SPEC))
+
+
+def _csv(campaign, rows, path) -> bytes:
+    write_runs_csv(rows, path, columns(campaign))
+    return Path(path).read_bytes()
+
+
+@pytest.fixture(scope="module")
+def pool_table(campaign, tmp_path_factory):
+    rows = run_chunks(campaign, 5, RUNS, jobs=2)
+    return rows, _csv(campaign, rows, tmp_path_factory.mktemp("pool") / "runs.csv")
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as c:
+        yield c
+
+
+def test_a_run_is_drawn_from_seed_and_index_alone(campaign):
+    a, b = draw_run(campaign, 5, 37), draw_run(campaign, 5, 37)
+    assert a == b
+    assert draw_run(campaign, 6, 37) != a and draw_run(campaign, 5, 38) != a
+    cells = {(draw_run(campaign, 5, i).mission.name, draw_run(campaign, 5, i).law, draw_run(campaign, 5, i).condition)
+             for i in range(campaign.cells)}
+    assert len(cells) == campaign.cells == 12  # every block of `cells` runs covers each cell once
+
+
+def test_the_pool_and_a_dask_local_cluster_give_identical_tables(campaign, pool_table, cluster, tmp_path):
+    rows, pool_bytes = pool_table
+    assert [r["index"] for r in rows] == list(range(RUNS))
+    dask_rows = run_chunks(campaign, 5, RUNS, scheduler=cluster.scheduler_address)
+    assert _csv(campaign, dask_rows, tmp_path / "dask.csv") == pool_bytes
+    # the faults did something: failsafes were taken and some runs failed
+    assert any(r["failsafes"] for r in rows) and any(r["fault_kind"] for r in rows)
+
+
+def test_a_killed_dask_worker_costs_only_its_chunk(campaign, pool_table, cluster, tmp_path):
+    from distributed import Client
+
+    _, pool_bytes = pool_table
+    killed: dict = {}
+    with Client(cluster.scheduler_address, set_as_default=False) as watcher:
+        pids = watcher.run(os.getpid)
+
+        def kill_a_busy_worker():
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline and not killed:
+                for addr, keys in watcher.processing().items():
+                    busy = [k for k in keys if str(k).startswith("autopilot-campaign-")]
+                    if busy and addr in pids:
+                        killed.update(addr=addr, keys=busy)
+                        os.kill(pids[addr], signal.SIGKILL)
+                        return
+                time.sleep(0.005)
+
+        killer = threading.Thread(target=kill_a_busy_worker)
+        killer.start()
+        rows = run_chunks(campaign, 5, RUNS, scheduler=cluster.scheduler_address)
+        killer.join()
+        watcher.wait_for_workers(2, timeout=60)  # the nanny restarted it
+        assert watcher.run(os.getpid).get(killed["addr"]) != pids[killed["addr"]]
+    assert killed, "no worker was seen flying a chunk"
+    lost = {int(re.search(r"-c(\d+)-a\d+$", str(k)).group(1)) for k in killed["keys"]}
+    assert {r["index"] for r in rows} >= {i for k in lost for i in chunk_indices(campaign, RUNS, k)}
+    assert _csv(campaign, rows, tmp_path / "killed.csv") == pool_bytes
+
+
+def _grandchildren(pid: int) -> list[int]:
+    """The live processes whose parent is a child of ``pid`` (the pool's workers, forked by the fork server)."""
+    parent: dict[int, int] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            parent[int(stat.parent.name)] = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            continue
+    return [p for p, pp in parent.items() if parent.get(pp) == pid]
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="finds the pool's workers in /proc")
+def test_a_killed_pool_worker_costs_only_its_chunk(campaign, pool_table, tmp_path):
+    from autopilot.campaign.backends import Progress
+
+    _, pool_bytes = pool_table
+    before = set(_grandchildren(os.getpid()))
+    killed, finished = [], threading.Event()
+
+    def kill_a_worker():
+        while not finished.is_set():
+            workers = [p for p in _grandchildren(os.getpid()) if p not in before]
+            if len(workers) >= 2:  # both workers are up and flying their first chunks
+                time.sleep(0.1)
+                os.kill(max(workers), signal.SIGKILL)
+                killed.append(max(workers))
+                return
+            time.sleep(0.005)
+
+    killer = threading.Thread(target=kill_a_worker)
+    killer.start()
+    progress = Progress(RUNS, 5, enabled=False)
+    try:
+        rows = run_chunks(campaign, 5, RUNS, jobs=2, progress=progress)
+    finally:
+        finished.set()
+        killer.join()
+    assert killed and progress.retries >= 1
+    assert _csv(campaign, rows, tmp_path / "killed.csv") == pool_bytes
+
+
+def test_replay_reproduces_a_runs_scorecard_and_review_reads_its_log(tmp_path, capsys):
+    from autopilot.review.metrics import score
+    from autopilot.review.reader import read_log
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps({**SPEC, "runs": 24, "chunk_runs": 12}), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--out", str(out), "--jobs", "1", "--quiet"]) == 0
+    assert {p.name for p in out.iterdir()} >= {"campaign.json", "runs.csv", "summary.json", "report.html"}
+    table = read_runs_csv(out / "runs.csv")
+    faulty = next(r for r in table if r["failsafes"] > 0 and r["index"] >= 12)  # the second chunk
+    capsys.readouterr()
+    assert main(["campaign", "--replay", str(out), str(faulty["index"])]) == 0
+    assert "identical to its row in runs.csv" in capsys.readouterr().out
+    log = read_log(out / f"replay-{faulty['index']}.jsonl")
+    assert log.stats.skipped == 0 and log.n_cycles == faulty["cycles"]
+    names = [e["event"] for e in log.events]
+    assert names[0] == "mission_start" and names[-1] == "stop" and "failsafe" in names and "fault" in names
+    card = score(log)
+    ours = [float(x) for x in faulty["closest_approach_m"].split(";")]
+    review = [w.closest_approach_m for w in card.waypoints]
+    assert review == pytest.approx(ours, abs=1e-6)  # the review recomputes the passes from the logged fixes
+
+
+@pytest.mark.parametrize("change, named", [
+    ({"bogus_key": 1}, ["bogus_key", "unknown key"]),
+    ({"conditions": {"c": {"curent_speed_m_s": {"uniform": [0, 0.2]}}}}, ["conditions.c.curent_speed_m_s", "unknown"]),
+    ({"vessel": {"fields": {"mass_kgs": {"scale": [0.9, 1.1]}}}}, ["vessel.fields.mass_kgs", "unknown VesselParams"]),
+    ({"vessel": {"fields": {"mass_kg": {"uniform": [0.0, 300.0]}}}}, ["vessel.fields.mass_kg", "[1, 10000] kg"]),
+    ({"vessel": {"fields": {"n_r_nd": {"scale": [-1.0, 1.0]}}}}, ["vessel.fields.n_r_nd", "[-50, 0]"]),
+    ({"conditions": {"c": {"current_speed_m_s": {"uniform": [0.0, 9.0]}}}}, ["conditions.c.current_speed_m_s",
+                                                                             "[0, 5] m/s"]),
+    ({"conditions": {"c": {"thrust_lag_s": {"normal": [0.5, 5.0]}}}}, ["conditions.c.thrust_lag_s", "[0, 10] s"]),
+    ({"conditions": {"c": {"faults": {"kinds": ["meteor"]}}}}, ["conditions.c.faults.kinds[0]", "meteor"]),
+    ({"laws": ["fuzzy", "pure_pursuit"]}, ["laws[1]", "pure_pursuit"]),
+    ({"missions": ["pond-9.9"]}, ["missions[0]", "pond-9.9"]),
+])
+def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change, named):
+    spec = tmp_path / "bad.yaml"
+    spec.write_text(json.dumps({**SPEC, **change}), encoding="utf-8")
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and str(spec) in err
+    for text in named:
+        assert text in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_sysid_intervals_become_spreads_and_are_range_checked(tmp_path):
+    summary = {"effects": {
+        "hydro_refit": {"params": [{"name": "resistance_linear_n_s_m", "value": 13.0, "ci95": [12.0, 14.0]},
+                                   {"name": "n_r_nd", "value": -0.1, "ci95": [-0.15, -0.05]}]},
+        "thrust_asymmetry": {"params": [{"name": "asymmetry_nd", "value": 0.03, "ci95": [0.01, 0.05]}]},
+        "heading_bias": {"params": [{"name": "bias_deg", "value": 1.0, "ci95": [0.5, 1.5]}]},
+    }}
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    c = resolve(_load_spec({**SPEC, "vessel": {"sysid": "summary.json"}}), base_dir=tmp_path)
+    spreads = dict(c.vessel_spreads)
+    assert spreads["resistance_linear_n_s_m"].uniform == (12.0, 14.0) and spreads["n_r_nd"].uniform == (-0.15, -0.05)
+    assert dict(c.sysid_thrust)["thrust_asymmetry_nd"].uniform == (0.01, 0.05)
+    assert any("heading_bias.bias_deg" in s for s in c.sources)
+    run = draw_run(c, 5, 3)
+    assert 12.0 <= run.params.resistance_linear_n_s_m <= 14.0 and 0.01 <= run.thrust_asymmetry_nd <= 0.05
+    summary["effects"]["hydro_refit"]["params"][1]["ci95"] = [-0.15, 0.02]  # N'_r must stay <= 0
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    with pytest.raises(Exception, match=r"hydro_refit\.n_r_nd.*\[-50, 0\]"):
+        resolve(_load_spec({**SPEC, "vessel": {"sysid": "summary.json"}}), base_dir=tmp_path)
+
+
+@pytest.mark.parametrize("k, n, lo, hi", [(0, 10, 0.0, 0.2775), (5, 10, 0.2366, 0.7634), (10, 10, 0.7225, 1.0),
+                                          (95, 100, 0.8882, 0.9785)])
+def test_wilson_interval(k, n, lo, hi):
+    a, b = wilson(k, n)
+    assert a == pytest.approx(lo, abs=5e-5) and b == pytest.approx(hi, abs=5e-5)
+    assert math.isnan(wilson(0, 0)[0])
+
+
+def test_geo_float_path_gives_the_array_paths_bits():
+    """The per-cycle conversions take plain floats without numpy: the same operations, the same bits."""
+    import numpy as np
+
+    from autopilot import geo
+
+    rng = np.random.default_rng(3)
+    for _ in range(2000):
+        olat, olon = rng.uniform(-80, 80), rng.uniform(-180, 180)
+        lat, lon = olat + rng.uniform(-0.05, 0.05), (olon + rng.uniform(-0.05, 0.05) + 180.0) % 360.0 - 180.0
+        n, e = geo.latlon_to_local(float(lat), float(lon), float(olat), float(olon))
+        na, ea = geo.latlon_to_local(np.array([lat]), np.array([lon]), float(olat), float(olon))
+        assert (n, e) == (na[0], ea[0])
+        la, lo = geo.local_to_latlon(float(n), float(e), float(olat), float(olon))
+        laa, loa = geo.local_to_latlon(np.array([n]), np.array([e]), float(olat), float(olon))
+        assert (la, lo) == (laa[0], loa[0])
+
+
+def test_the_campaigns_control_cycle_is_the_daemons(tmp_path):
+    """The daemon's loop (SimClock, test doubles, a heading lost at 6 s) and closed_loop.ControlCycle fed the
+    same samples at the same times: the same modes, faults, failsafes and thrusts."""
+    from autopilot.closed_loop import ControlCycle, LinkState
+    from autopilot.daemon.config import DaemonConfig
+    from autopilot.daemon.cycle import nav_rules
+    from autopilot.daemon.failsafe import Failsafe
+    from autopilot.gnc import Autopilot
+    from tests.test_daemon_cycle import ORIGIN, FakeCompass, _run_loop
+
+    cmds, st = _run_loop(tmp_path, quiet_from_s=6.0, until_s=10.0)
+    lines = [json.loads(x) for x in (tmp_path / "log.jsonl").read_text().splitlines()]
+    logged = [x for x in lines if x["event"] == "cycle"]
+    cfg = DaemonConfig()
+    cc = ControlCycle(Autopilot(cfg.gnc, [(200.0, 0.0)]), period_s=cfg.period_s, origin_lat_deg=ORIGIN[0],
+                      origin_lon_deg=ORIGIN[1], rules=nav_rules(cfg), failsafe=Failsafe(cfg.failsafe))
+
+    class At:  # the compass double reads the time from its clock
+        t = 0.0
+
+        def now_s(self):
+            return self.t
+
+    clock = At()
+    compass = FakeCompass(clock)
+    compass.quiet_from_s = 6.0
+    assert len(logged) == len(cmds) == 100
+    for rec, cmd in zip(logged, cmds):
+        clock.t = rec["t_s"]
+        c = cc.step(compass.sample(), rec["t_s"], link=LinkState(battery_v=12.6))
+        assert c.mode.value == rec["mode"] and list(c.active_faults) == rec["active_faults"]
+        assert c.cmd.thrust_port_n == pytest.approx(cmd.thrust_port_n, abs=1e-9)
+        assert c.cmd.thrust_stbd_n == pytest.approx(cmd.thrust_stbd_n, abs=1e-9)
+    assert cc.failsafe_causes == st.failsafe_causes == ["heading_stale"]
