@@ -145,6 +145,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             position_noise_m=cfg.sim.position_noise_m,
             seed=cfg.sim.seed,
             sc30_baudrate=cfg.serial.sc30_baud,
+            sc30_options={"position_error": cfg.sim.position_error_model, "heading_error": cfg.sim.heading_error_model},
         )
         await rig.start()
         sc30_port, mbed_port = rig.sc30_path, rig.mbed_path

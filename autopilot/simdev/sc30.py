@@ -12,6 +12,11 @@ real device's output buffer overflows (counted in ``overruns``).
 
 Heading: true heading plus Gaussian noise, quantised to 0.1 deg (the SC-30's
 resolution, SPEC section 1). Position: Gaussian noise in metres north/east.
+With ``position_error`` / ``heading_error`` (:mod:`autopilot.sim.gps_error`,
+the same model as the identification's realistic trials) the errors are the
+realistic ones instead: one GPS fix per second (GGA, RMC and GLL of that
+second carry the same fix, with wandering error and single-fix outliers) and
+a wandering, quantised heading with lost sentences.
 
 Fault controls (set at any time): ``heading_dropout`` (no heading
 sentences), ``heading_invalid`` (empty HDT, THS mode V, empty GPatt),
@@ -33,6 +38,7 @@ import numpy as np
 
 from autopilot.clock import Clock
 from autopilot.drivers.nmea import checksum
+from autopilot.sim.gps_error import GpsErrorModel, HeadingErrorModel, HeadingErrorStream, PositionErrorStream
 from autopilot.simdev.boat import SimBoat
 from autopilot.simdev.pty import PtyEndpoint
 
@@ -79,6 +85,8 @@ class SimulatedSC30:
         fast_period_s: float = 0.1,
         slow_every: int = 10,
         name: str = "sc30",
+        position_error: GpsErrorModel | None = None,
+        heading_error: HeadingErrorModel | None = None,
     ) -> None:
         self.boat = boat
         self.clock = clock
@@ -92,6 +100,13 @@ class SimulatedSC30:
         self.fast_period_s = float(fast_period_s)
         self.slow_every = int(slow_every)
         self._rng = np.random.default_rng(seed)
+        # realistic errors (autopilot.sim.gps_error): own generators, so the sentence draws above are unchanged
+        self._pos_error = None if position_error is None else PositionErrorStream(position_error, np.random.default_rng([seed, 1]))
+        self._hdg_error = None if heading_error is None else HeadingErrorStream(heading_error, np.random.default_rng([seed, 2]))
+        self._fix: tuple[int, float, float] | None = None  # (fix epoch, north error m, east error m)
+        self._fix_state = np.zeros(2)  # where the boat was when this epoch's fix was taken
+        self._t0_s = 0.0  # clock time of the first tick (fix epochs count ticks from it)
+        self._hdg: tuple[float, float | None] | None = None  # (t_s, heading error deg or None = lost)
         self._endpoint = PtyEndpoint(directory, name)
         self.path = self._endpoint.path
         # fault controls
@@ -149,7 +164,29 @@ class SimulatedSC30:
         self._endpoint.close()
 
     # ------------------------------------------------------------------ sentences
-    def _heading_text(self) -> str:
+    def _heading_error_deg(self, t_s: float) -> float | None:
+        """The realistic model's error of this tick's heading (one draw per tick), None when lost."""
+        if self._hdg is None or self._hdg[0] != t_s:
+            self._hdg = (t_s, self._hdg_error.next(t_s))
+        return self._hdg[1]
+
+    def _position_error_m(self, t_s: float) -> tuple[float, float]:
+        """The realistic model's error of the fix of this second (one fix per second)."""
+        epoch = int(round((t_s - self._t0_s) / self.fast_period_s)) // self.slow_every
+        if self._fix is None or self._fix[0] != epoch:
+            self._fix = (epoch, *self._pos_error.next(t_s))
+            self._fix_state = self.boat.state[:2].copy()  # the fix is of where the boat was at its epoch
+        n_m, e_m = self._fix[1:]
+        return n_m + self._fix_state[0] - self.boat.state[0], e_m + self._fix_state[1] - self.boat.state[1]
+
+    def _heading_text(self, t_s: float | None = None) -> str | None:
+        if self._hdg_error is not None and t_s is not None:
+            err = self._heading_error_deg(t_s)
+            if err is None:
+                return None
+            h = round((self.boat.heading_deg + err) % 360.0, 1) % 360.0
+            self.last_heading_sent_deg = h
+            return f"{h:.1f}"
         h = self.boat.heading_deg + self._rng.normal(0.0, self.heading_noise_deg) if self.heading_noise_deg else self.boat.heading_deg
         h = round(h % 360.0, 1) % 360.0  # 0.1 deg resolution
         self.last_heading_sent_deg = h
@@ -165,17 +202,24 @@ class SimulatedSC30:
         secs = t_s % 86400.0
         hh, mm, ss = int(secs // 3600), int(secs % 3600 // 60), secs % 60
         utc = f"{hh:02d}{mm:02d}{ss:05.2f}"
+        if kind in HEADING_SENTENCES and not self.heading_invalid:
+            text = self._heading_text(t_s)
+            if text is None:  # lost (realistic heading error model)
+                return None
         if kind == "HDT":
-            return f"{tk}HDT,,T" if self.heading_invalid else f"{tk}HDT,{self._heading_text()},T"
+            return f"{tk}HDT,,T" if self.heading_invalid else f"{tk}HDT,{text},T"
         if kind == "THS":
-            return f"{tk}THS,,V" if self.heading_invalid else f"{tk}THS,{self._heading_text()},A"
+            return f"{tk}THS,,V" if self.heading_invalid else f"{tk}THS,{text},A"
         if kind == "PFEC_GPatt":
             if self.heading_invalid:
                 return "PFEC,GPatt,,,"
-            return f"PFEC,GPatt,{self._heading_text()},+0.0,+0.0"
+            return f"PFEC,GPatt,{text},+0.0,+0.0"
         if kind == "ROT":
             return f"{tk}ROT,{b.yaw_rate_deg_min:.1f},A"
-        n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
+        if self._pos_error is not None:
+            n_m, e_m = self._position_error_m(t_s)
+        else:
+            n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
         lat, lon = b.latlon_deg(n_m, e_m)
         pos = f"{_ddmm(lat, 2)},{'N' if lat >= 0 else 'S'},{_ddmm(lon, 3)},{'E' if lon >= 0 else 'W'}"
         sog = f"{b.sog_m_s * KN_PER_M_S:.2f}"
@@ -211,7 +255,7 @@ class SimulatedSC30:
         """Compose each tick's sentences on absolute deadlines (never drifting)."""
         assert self._queue is not None
         tick = 0
-        t0 = self.clock.now_s()
+        t0 = self._t0_s = self.clock.now_s()
         while True:
             t_s = t0 + tick * self.fast_period_s
             await self.clock.sleep_until(t_s)
