@@ -2,10 +2,12 @@
 
 The unknowns are the effect parameters (shared by all trials) and each
 trial's initial state (a nuisance: a noisy start would otherwise bias every
-effect). Residuals are measured minus predicted position and heading, each
-divided by that trial's measurement noise (estimated from the data), so the
-cost is a chi-square and the 95 % intervals come from the Jacobian:
-cov = s^2 (J^T J)^-1, s^2 = cost / (m - n).
+effect). Residuals are measured minus predicted position and heading at the
+measurement times, weighted through the noise model (``noise.Whitener``:
+wandering + white, the generalised least-squares cost r' S^-1 r), so the cost
+is a chi-square over the m measurements and the 95 % intervals come from the
+Jacobian: cov = s^2 (J^T J)^-1, s^2 = max(cost / (m - n), 1) (never narrower
+than the noise model says).
 
 The Jacobian is a batched finite difference: the initial state of trial i
 only moves trial i, so one ``simulate`` call with N (1 + 4 + p) runs gives
@@ -21,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from autopilot.sim import VesselParams
-from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
+from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, bounds as effect_bounds
 from autopilot.sysid.replay import Prepared, predict, residuals
 
 # scales of the nuisance initial state (north, east, psi, u, v, r) and their FD steps (scaled units)
@@ -38,16 +40,8 @@ DIVERGED = 1e3  # residual of every sample when a trial step makes the simulatio
 
 
 def theta_bounds(key: str, vessel: VesselParams) -> tuple[float, float]:
-    """Bounds of an effect parameter, tightened so the updated VesselParams stays in range."""
-    p = PARAM_BY_KEY[key]
-    lo, hi = p.lo, p.hi
-    if key == "yaw_damping_quadratic.n_rr_nm_s2":
-        lo = max(lo, -vessel.yaw_damping_quadratic_nm_s2)
-    elif key == "hydro_refit.resistance_linear_n_s_m":
-        lo = max(lo, -vessel.resistance_linear_n_s_m)
-    elif key == "hydro_refit.n_r_nd":
-        lo, hi = max(lo, -50.0 - vessel.n_r_nd), min(hi, -vessel.n_r_nd)
-    return lo, hi
+    """Bounds of an effect parameter (its effect's ``bounds`` hook: the updated VesselParams stays in range)."""
+    return effect_bounds(key, vessel)
 
 
 @dataclass
@@ -61,7 +55,7 @@ class Fit:
     x0: np.ndarray  # (len(trials), 6)
     trials: tuple[int, ...]
     cost: float  # weighted sum of squared residuals (chi-square)
-    n_obs: int
+    n_obs: int  # measurements (the weighted rows may be more: noise.Whitener)
     nfev: int = 0
     fixed: dict = field(default_factory=dict)
 
@@ -97,8 +91,12 @@ class Problem:
         self.fixed = dict(fixed or {})
         self.scale = np.array([PARAM_BY_KEY[k].scale for k in self.keys])
         self.fd = np.array([PARAM_BY_KEY[k].fd_step for k in self.keys])
-        self.sizes = [prep.n_residuals(i) for i in self.trials]
+        self.sizes = [prep.n_rows(i) for i in self.trials]
         self.offsets = np.concatenate([[0], np.cumsum(self.sizes)])
+        self.n_obs = int(sum(prep.n_measurements(i) for i in self.trials))
+        # d(weighted residual) / d(north offset): the weighted -1 of every position (the model is
+        # translation invariant), the same for east
+        self.pos_ones = [prep.pos_weights[i].apply(-np.ones(prep.measured[i].t_pos_s.size)) for i in self.trials]
         self.nfev = 0
 
     @property
@@ -131,7 +129,7 @@ class Problem:
             return predict(self.prep, self.vessel, tri, x0s, values)
 
     def residual_vector(self, pred, runs) -> np.ndarray:
-        r = np.concatenate([residuals(self.prep, i, pred, j) for i, j in zip(self.trials, runs)])
+        r = np.concatenate([residuals(self.prep, i, pred, [j])[0] for i, j in zip(self.trials, runs)])
         return np.where(np.isfinite(r), r, DIVERGED)
 
     def fun(self, z) -> np.ndarray:
@@ -171,16 +169,15 @@ class Problem:
         col0 = self.p if with_theta else 0
         for t_pos, i in enumerate(self.trials):
             lo, hi = self.offsets[t_pos], self.offsets[t_pos + 1]
-            npos = self.prep.pos_idx[i].size
-            sp = self.prep.sigma_pos_m[i]
+            rows_p = self.prep.pos_weights[i].rows
             c = col0 + nf * t_pos
-            jac[lo : lo + npos, c] = -X0_SCALE[0] / sp
-            jac[lo + npos : lo + 2 * npos, c + 1] = -X0_SCALE[1] / sp
+            jac[lo : lo + rows_p, c] = X0_SCALE[0] * self.pos_ones[t_pos]
+            jac[lo + rows_p : lo + 2 * rows_p, c + 1] = X0_SCALE[1] * self.pos_ones[t_pos]
+            fd_runs = [(q + 1) * n + t_pos for q in range(len(FD_STATES))]
+            r = residuals(self.prep, i, pred, fd_runs)
+            r = np.where(np.isfinite(r), r, DIVERGED)
             for q, s in enumerate(FD_STATES):
-                run = (q + 1) * n + t_pos
-                r = residuals(self.prep, i, pred, run)
-                r = np.where(np.isfinite(r), r, DIVERGED)
-                jac[lo:hi, c + FREE_STATES.index(s)] = (r - base[lo:hi]) / X0_FD
+                jac[lo:hi, c + FREE_STATES.index(s)] = (r[q] - base[lo:hi]) / X0_FD
         for k in cols:
             runs = range((1 + len(FD_STATES) + k) * n, (2 + len(FD_STATES) + k) * n)
             r = self.residual_vector(pred, runs)
@@ -211,11 +208,11 @@ def fit_model(
     """
     from scipy.optimize import least_squares
 
-    from autopilot.sysid.replay import prepare, truncate
-
     keys = tuple(k for e in effects for k in BY_NAME[e].keys)
     trials = tuple(trials)
     x0 = np.asarray(x0, dtype=float)
+    if not keys and len(trials) > 1:  # states only: the trials are separate problems
+        return _fit_states_apart(prep, vessel, effects, trials, x0, fixed=fixed, max_nfev=max_nfev, horizons_s=horizons_s)
     x0_in = x0_h = x0
     theta_h = theta0
     # Given values are held through the horizons (only the states fit): a short horizon may hold
@@ -228,7 +225,7 @@ def fit_model(
     for h in horizons_s:
         if h >= prep.t_grid[-1] * 0.8:
             break
-        short = prepare([truncate(prep.trials[i], h) for i in trials], dt_s=prep.dt_s)
+        short = prep.subset(trials, h)
         f = fit_model(short, vessel, () if held else effects, tuple(range(len(trials))), x0_h,
                       theta0=None if held else theta_h, fixed=hold, max_nfev=15)
         x0_h, theta_h = f.x0, (list(f.theta) if keys and not held else theta_h)
@@ -261,12 +258,12 @@ def fit_model(
                         ftol=3e-5, xtol=1e-6, gtol=1e-8, max_nfev=max_nfev)
     theta, x0_fit = prob.split(sol.x)
     cost = float(np.sum(sol.fun**2))
-    m = sol.fun.size
+    m = prob.n_obs
     sigma = np.full(len(keys), np.nan)
     if keys:
         j = sol.jac
         dof = max(m - j.shape[1], 1)
-        s2 = cost / dof
+        s2 = max(cost / dof, 1.0)
         try:
             cov = np.linalg.pinv(j.T @ j) * s2
             sigma = np.sqrt(np.maximum(np.diag(cov)[: len(keys)], 0.0)) * prob.scale
@@ -275,19 +272,33 @@ def fit_model(
     return Fit(tuple(effects), keys, theta, sigma, x0_fit, tuple(trials), cost, m, prob.nfev, dict(fixed or {}))
 
 
+def _fit_states_apart(prep, vessel, effects, trials, x0, *, fixed, max_nfev, horizons_s) -> Fit:
+    """Only initial states to fit (no effect, or effects held fixed): each trial on its own, exactly the
+    joint problem's solution but not stalled by the others (a joint trust region stopped one trial of
+    five 6.5 deg off, a basin it left when fitted alone; its error then made a wind force "fit")."""
+    parts = [fit_model(prep, vessel, effects, (i,), x0[[k]], fixed=fixed, max_nfev=max_nfev, horizons_s=horizons_s)
+             for k, i in enumerate(trials)]
+    return Fit(tuple(effects), (), np.zeros(0), np.zeros(0), np.vstack([f.x0 for f in parts]), tuple(trials),
+               float(sum(f.cost for f in parts)), int(sum(f.n_obs for f in parts)), int(sum(f.nfev for f in parts)),
+               dict(fixed or {}))
+
+
 def screen(prep: Prepared, vessel: VesselParams, base: Fit, candidates, *, iterations: int = 3) -> dict[str, dict]:
     """A few Gauss-Newton steps of every candidate from ``base``, all candidates in one batch per step.
 
     Each step solves the linearised problem [J_x0 | J_effect] (the initial-state columns are the
     base's); a step that raises the actual cost is halved. Returns per candidate the lowest
-    actual cost met (``predicted_cost``, used for ranking) and its parameters and states as a start.
+    actual cost met (``predicted_cost``, used for ranking), ``base_cost`` (``base`` on the same
+    trials) and its parameters and states as a start.
     One linear step misranks large effects (30 deg heading errors are far from linear).
     """
     n = len(base.trials)
     tri = np.array(base.trials)
     base_values = base.values()
     prob = Problem(prep, vessel, base.keys, base.trials, base.x0, fixed=base.fixed)
-    j_x0 = prob.jac(prob.pack(base.theta, base.x0))[:, len(base.keys) :]
+    z_base = prob.pack(base.theta, base.x0)
+    base_cost = float(np.sum(prob.fun(z_base) ** 2))
+    j_x0 = prob.jac(z_base)[:, len(base.keys) :]
     free = list(FREE_STATES)
     state = {}
     for c in candidates:
@@ -315,7 +326,7 @@ def screen(prep: Prepared, vessel: VesselParams, base: Fit, candidates, *, itera
         pred = predict(prep, vessel, np.tile(tri, len(runs_vals)), np.vstack(runs_x0), values)
         resid = {}
         for q, mk in enumerate(meta):
-            r = np.concatenate([residuals(prep, i, pred, j) for i, j in zip(base.trials, range(q * n, (q + 1) * n))])
+            r = np.concatenate([residuals(prep, i, pred, [j])[0] for i, j in zip(base.trials, range(q * n, (q + 1) * n))])
             resid[mk] = np.where(np.isfinite(r), r, DIVERGED)
         for key, st in state.items():
             eff = BY_NAME[key[0]]
@@ -346,7 +357,7 @@ def screen(prep: Prepared, vessel: VesselParams, base: Fit, candidates, *, itera
     for (c, g), st in state.items():
         cost, theta, x0 = st["best"]
         if c not in out or cost < out[c]["predicted_cost"]:
-            out[c] = {"predicted_cost": cost, "theta": [theta[k] for k in BY_NAME[c].keys], "x0": x0}
+            out[c] = {"predicted_cost": cost, "base_cost": base_cost, "theta": [theta[k] for k in BY_NAME[c].keys], "x0": x0}
     return out
 
 

@@ -28,8 +28,8 @@ from autopilot.schema import ConfigError
 from autopilot.sim import VesselParams
 from autopilot.sim.calibrate import FREE as CALIBRATE_FREE
 from autopilot.sim.steady import solve_steady
-from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
-from autopilot.sysid.fit import theta_bounds
+from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, by_effect
+from autopilot.sysid.effects import bounds as theta_bounds
 from autopilot.sysid.output import updated_vessel
 
 TABLE_CANDIDATES = ("thrust_asymmetry", "yaw_damping_quadratic", "hydro_refit")
@@ -77,23 +77,28 @@ def write_table_csv(rows, path) -> None:
             w.writerow([r.name, r.thrust_port_n, r.thrust_stbd_n, r.yaw_rate_rad_s, r.speed_m_s])
 
 
-def _model(vessel: VesselParams, values: dict):
-    params = updated_vessel(vessel, values)
-    a = values.get("thrust_asymmetry.asymmetry_nd", 0.0)
-    return params, a
+def _thrusts(values: dict, rows) -> tuple[np.ndarray, np.ndarray]:
+    """The rows' thrusts through the thrust hooks of the effects in ``values`` (a steady table has
+    no duty series: only gain-type thrust effects, which is what TABLE_CANDIDATES holds)."""
+    tp = np.array([[r.thrust_port_n for r in rows]])
+    ts = np.array([[r.thrust_stbd_n for r in rows]])
+    for eff, v in by_effect(values).items():
+        if eff.thrust is not None:
+            tp, ts = eff.thrust({k: np.atleast_1d(x) for k, x in v.items()}, tp, ts, {})
+    return tp[0], ts[0]
 
 
 def steady_response(vessel: VesselParams, values: dict, rows) -> np.ndarray:
     """(speed, yaw rate) of each row under the model with the effects; NaN where no steady state."""
-    params, a = _model(vessel, values)
+    params = updated_vessel(vessel, values)
+    tp, ts = _thrusts(values, rows)
     out = np.full((len(rows), 2), np.nan)
     for k, row in enumerate(rows):
         if row.speed_m_s == 0 and row.thrust_port_n == 0 and row.thrust_stbd_n == 0:
             out[k] = 0.0
             continue
         sign = -1.0 if row.thrust_port_n + row.thrust_stbd_n < 0 else 1.0
-        sol = solve_steady(params, row.thrust_port_n * (1 + a), row.thrust_stbd_n * (1 - a),
-                           (sign * row.speed_m_s, 0.0, row.yaw_rate_rad_s))
+        sol = solve_steady(params, float(tp[k]), float(ts[k]), (sign * row.speed_m_s, 0.0, row.yaw_rate_rad_s))
         if sol is not None:
             u, v, r = sol
             out[k] = (math.hypot(u, v), r)
@@ -195,9 +200,9 @@ def _report(vessel, fit, effects) -> dict:
         for key in table_keys(e):
             name = key.split(".", 1)[1]
             k = fit["keys"].index(key)
-            off = getattr(vessel, name) if e == "hydro_refit" else 0.0
             unit = PARAM_BY_KEY[key].unit if key in PARAM_BY_KEY else _field_unit(name)
             v, s = float(fit["theta"][k]), float(fit["sigma"][k])
+            off = BY_NAME[e].reported(name, v, vessel) - v
             params.append({"name": name, "unit": unit, "value": v + off,
                            "ci95": [v - 1.96 * s + off, v + 1.96 * s + off], "sigma": s})
         out[e] = {"doc": BY_NAME[e].doc, "params": params}
