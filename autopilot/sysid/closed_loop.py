@@ -25,7 +25,11 @@ import numpy as np
 from autopilot.sim.params import config_dir
 
 POND_MISSIONS = tuple(sorted((config_dir() / "missions").glob("pond-9.*.yaml")))
-SPEEDUP = 20.0  # the daemon's clock runs this many times faster than real time
+SPEEDUP = 2.0  # the daemon's clock runs this many times faster than real time (see below)
+# Faster clocks make the logs lie: at 20x a millisecond of event-loop delay is 20 ms of boat time, so
+# every command reaches the simulated motors and every sentence the daemon tens of milliseconds later
+# than the log says (five calm logs at 20x fitted a 0.1 s thrust lag and sensor delay, BIC -80; at 5x
+# nothing). A heading stale by a loaded machine even trips the failsafe.
 # The SC-30's line for the closed-loop trials. At 4800 baud a sentence reaches the daemon 40 ms (HDT
 # alone) to ~250 ms (queued behind a 1 Hz GGA/RMC) after it was measured, and the log stamps the
 # arrival: its heading times lag the measurements by a varying 0.04-0.25 s, which the replay sees as

@@ -9,7 +9,7 @@
    scored under its own noise (``judge.Scores``) and the fits weighted from then on by the noise
    of the best (:func:`renoise`); stuck fits retried.
 4. Choice (:func:`choose`): a single effect must beat the baseline by ``bic_margin`` in BIC
-   (each model's restricted deviance under its own noise + k ln m: judge.Scores), its parameters
+   (both models' restricted deviances under the candidate's own noise + k ln m: judge.Scores), its parameters
    must be clearly away from their
    no-effect values and it must explain at least MIN_EFFECT_SIZE noise RMS on some channel. Only
    when the single is not adequate (judge.py: its residual is more than the sensor's noise) is a
@@ -49,7 +49,7 @@ class Settings:
     """The workflow's knobs (defaults as documented in the module docstring and the README)."""
 
     top_k: int = 3
-    pair_k: int = 1
+    pair_k: int = 2
     bic_margin: float = BIC_MARGIN
     min_holdout_gain: float = MIN_HOLDOUT_GAIN
     max_retries: int = search.MAX_RETRIES
@@ -80,7 +80,7 @@ class Identification:
         return self.chosen.values() if self.verdict else {}
 
 
-def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: int = 3, pair_k: int = 1,
+def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: int = 3, pair_k: int = 2,
              bic_margin: float = BIC_MARGIN, min_holdout_gain: float = MIN_HOLDOUT_GAIN,
              max_retries: int = search.MAX_RETRIES, bounds: NoiseBounds | None = None, dt_s: float | None = None,
              log=None) -> Identification:
@@ -122,7 +122,7 @@ def _noise_text(prep: Prepared) -> str:
 def renoise(prep: Prepared, vessel, fits: dict, scores, say, key=None) -> tuple[Prepared, dict]:
     """The fits' weighting changed to the noise of the best-scoring model (or ``key``'s), every fit
     rescored under it (their chi-square: what the retries and the held-out costs use)."""
-    key = min(fits, key=lambda k: scores.bic(fits[k])) if key is None else key
+    key = min(fits, key=lambda k: scores.delta_bic(fits[k], fits[()])) if key is None else key
     prep = prep.with_noise(scores(fits[key])["noise"])
     fits = {k: judge.rescore(prep, vessel, f) for k, f in fits.items()}
     say(f"noise from {'+'.join(key) or 'the baseline'}: {_noise_text(prep)}")
@@ -130,7 +130,7 @@ def renoise(prep: Prepared, vessel, fits: dict, scores, say, key=None) -> tuple[
 
 
 def _delta_bic(scores, fits, key, ref) -> float:
-    return scores.bic(fits[key]) - scores.bic(fits[ref])
+    return scores.delta_bic(fits[key], fits[ref])
 
 
 def _passes(prep, vessel, fits, scores, key, ref, s: Settings) -> bool:
@@ -152,7 +152,7 @@ def choose(prep, vessel, fits: dict, scores, candidates, x0_init, retries, s: Se
     """(chosen key, its single's key): the best single passing the tests; a pair when the single is not
     adequate, or when the screening says a second effect pays for itself, and the pair passes the tests
     against the single."""
-    singles = sorted((k for k in fits if len(k) == 1), key=lambda k: scores.bic(fits[k]))
+    singles = sorted((k for k in fits if len(k) == 1), key=lambda k: _delta_bic(scores, fits, k, ()))
     single = next((k for k in singles if _passes(prep, vessel, fits, scores, k, (), s)), ())
     if not single:
         return (), ()
@@ -163,11 +163,11 @@ def choose(prep, vessel, fits: dict, scores, candidates, x0_init, retries, s: Se
     if not seconds:
         return single, single
     pairs = search.fit_pairs(prep, vessel, fits, single, seconds, x0_init, retries, say, fits[()])
-    good = [p for p in sorted(pairs, key=lambda p: scores.bic(fits[p])) if _passes(prep, vessel, fits, scores, p, single, s)]
+    good = [p for p in sorted(pairs, key=lambda p: _delta_bic(scores, fits, p, single)) if _passes(prep, vessel, fits, scores, p, single, s)]
     if not good:
         return single, single
     alone = search.backward_step(prep, vessel, fits, good[0], x0_init, say, fits[()])
-    if _delta_bic(scores, fits, alone, good[0]) <= s.bic_margin:
+    if _delta_bic(scores, fits, good[0], alone) >= -s.bic_margin:
         return alone, alone
     return good[0], single
 
@@ -240,7 +240,6 @@ def candidate_table(prep, vessel, fits: dict, screen_cost: dict, scores, s: Sett
     from autopilot.sysid.summary import effect_report
 
     base = fits[()]
-    base_bic = scores.bic(base)
     rows = {c: {"effect": c, "params": [], "screen_cost": v} for c, v in screen_cost.items()}
     for key, f in fits.items():
         if not key:
@@ -249,7 +248,7 @@ def candidate_table(prep, vessel, fits: dict, screen_cost: dict, scores, s: Sett
         entry = rows.setdefault("+".join(key), {"effect": "+".join(key), "screen_cost": None})
         z, limit = judge.away_from_null(f, key[-1])
         entry.update({
-            "params": list(f.keys), "cost": f.cost, "bic": scores.bic(f), "delta_bic": scores.bic(f) - base_bic,
+            "params": list(f.keys), "cost": f.cost, "delta_bic": scores.delta_bic(f, base),
             "chi2_per_measurement": search.chi2(f), "z_from_null": z, "z_limit": limit,
             "explained_noise_rms": judge.explained(prep, vessel, fits.get(ref, base), f),
             "adequacy": judge.channels(prep, vessel, f, s.bounds, adequate_chi2=s.adequate_chi2, full=False),
