@@ -240,3 +240,37 @@ def test_a_diverging_parameter_trial_is_nan_and_the_others_stand():
         out = predict(prep, VESSEL, np.zeros(n, int), np.repeat([[0, 0, 0.3, 1.0, 0, 0.05]], n, 0), values)
         assert np.isnan(out["north_m"][0]).all()
         assert np.isfinite(out["north_m"][1:]).all()
+
+
+def test_cli_refuses_noise_bounds_out_of_range(capsys):
+    assert main(["sysid", "t.csv", "--out", "/tmp/none", "--heading-wander-max", "-1"]) == 2
+    assert "--heading-wander-max: -1.0 is outside the allowed range" in capsys.readouterr().err
+
+
+def test_effects_live_in_one_place():
+    """Issue 14 item 8: an effect is declared and implemented in effects.py only; the replay, the fits,
+    the workflow and the writers call its hooks and never name it (adding one touches one file)."""
+    from pathlib import Path
+
+    import autopilot.sysid as sysid
+    from autopilot.sysid.effects import EFFECT_NAMES
+
+    root = Path(sysid.__file__).parent
+    generic = ["replay.py", "fit.py", "screen.py", "search.py", "identify.py", "holdout.py", "judge.py", "output.py",
+               "summary.py", "workflow.py", "locate.py", "noise.py"]
+    for name in generic:
+        text = (root / name).read_text()
+        for effect in EFFECT_NAMES:
+            assert f'"{effect}' not in text and f"'{effect}" not in text, f"{name} names the effect {effect}"
+
+
+def test_written_trial_csv_reads_back_the_same_measurements(tmp_path):
+    from autopilot.sysid import write_trial_csv
+    from autopilot.sysid.realistic import make_realistic_trials
+
+    tr = make_realistic_trials(VESSEL, {}, seed=4, n_trials=1, duration_s=30.0, cells="held")[0]
+    write_trial_csv(tr, tmp_path / "t.csv")
+    back = read_trial(tmp_path / "t.csv")
+    assert_allclose(back.position_time_s[back.fix_rows], tr.position_time_s[tr.fix_rows], atol=1e-6)
+    assert_allclose(back.north_m[back.fix_rows], tr.north_m[tr.fix_rows], atol=1e-6)
+    assert_allclose(back.heading_time_s[back.heading_rows], tr.heading_time_s[tr.heading_rows], atol=1e-6)

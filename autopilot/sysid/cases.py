@@ -80,6 +80,8 @@ class Case:
     kind: str = "realistic"  # "realistic", "white" or "closed_loop"
     n_trials: int = 4
     duration_s: float = 60.0
+    current_towards_deg: float | None = None  # closed loop: the current's direction (None: drawn)
+    speedup: float | None = None  # closed loop: the daemon's clock (None: closed_loop.SPEEDUP)
 
     @property
     def label(self) -> str:
@@ -113,7 +115,10 @@ def make(case: Case, seed: int, vessel, work_dir=None):
         from autopilot.sysid.trials import read_trial
 
         speed = 0.2 if "current" in case.effects else 0.0
-        paths = fly_pond_logs(work_dir, seed, n_logs=case.n_trials, current_speed_m_s=speed)
+        from autopilot.sysid.closed_loop import SPEEDUP
+
+        paths = fly_pond_logs(work_dir, seed, n_logs=case.n_trials, current_speed_m_s=speed,
+                              current_towards_deg=case.current_towards_deg, speedup=case.speedup or SPEEDUP)
         first = paths[0]
         from autopilot.review.reader import read_log
 

@@ -206,49 +206,58 @@ def fit_model(
     Given values (``theta0``) are held there and only the states fit; without
     ``theta0`` the parameters fit from their starts through the horizons too.
     """
-    from scipy.optimize import least_squares
-
     keys = tuple(k for e in effects for k in BY_NAME[e].keys)
     trials = tuple(trials)
     x0 = np.asarray(x0, dtype=float)
     if not keys and len(trials) > 1:  # states only: the trials are separate problems
         return _fit_states_apart(prep, vessel, effects, trials, x0, fixed=fixed, max_nfev=max_nfev, horizons_s=horizons_s)
-    x0_in = x0_h = x0
-    theta_h = theta0
-    # Given values are held through the horizons (only the states fit): a short horizon may hold
-    # nothing that fixes a parameter, which then drifts onto a flat stretch it cannot leave (a 23.0 %
-    # deadband started at its true value went to 29 % at chi-square 1.13 for 0.93, seed 1008).
-    hold = dict(fixed or {}) | (dict(zip(keys, (float(v) for v in theta0))) if keys and theta0 is not None else {})
-    held = bool(keys) and theta0 is not None
-    if held and len(theta0) != len(keys):
+    if keys and theta0 is not None and len(theta0) != len(keys):
         raise ValueError(f"theta0 has {len(theta0)} values for {len(keys)} parameters {keys}")
+    if horizons_s:
+        x0, theta0 = _through_horizons(prep, vessel, effects, keys, trials, x0, theta0, fixed, horizons_s)
+    return _solve(prep, vessel, effects, keys, trials, x0, theta0, fixed, max_nfev)
+
+
+def _cost(prep, vessel, keys, trials, x0, theta, fixed) -> float:
+    probe = Problem(prep, vessel, keys, trials, x0, fixed=fixed)
+    return float(np.sum(probe.fun(probe.pack(theta, x0)) ** 2))
+
+
+def _through_horizons(prep, vessel, effects, keys, trials, x0, theta0, fixed, horizons_s):
+    """(states, values) to start the whole fit from: fitted through growing horizons, kept only when they
+    fit the whole trials better than the given start, and never worse than "no effect" from the given
+    states. Given values are held through the horizons (only the states fit): a short horizon may hold
+    nothing that fixes a parameter, which then drifts onto a flat stretch it cannot leave (a 23.0 %
+    deadband started at its true value went to 29 % at chi-square 1.13 for 0.93, seed 1008)."""
+    held = bool(keys) and theta0 is not None
+    hold = dict(fixed or {}) | (dict(zip(keys, (float(v) for v in theta0))) if held else {})
+    x0_h, theta_h = x0, theta0
     for h in horizons_s:
         if h >= prep.t_grid[-1] * 0.8:
             break
-        short = prep.subset(trials, h)
-        f = fit_model(short, vessel, () if held else effects, tuple(range(len(trials))), x0_h,
+        f = fit_model(prep.subset(trials, h), vessel, () if held else effects, tuple(range(len(trials))), x0_h,
                       theta0=None if held else theta_h, fixed=hold, max_nfev=15)
         x0_h, theta_h = f.x0, (list(f.theta) if keys and not held else theta_h)
-    if horizons_s:  # keep whichever start fits the whole trials better
-        probe = Problem(prep, vessel, keys, trials, x0, fixed=fixed)
-        t_start = [PARAM_BY_KEY[k].start for k in keys] if theta0 is None else theta0
-        t_hor = [PARAM_BY_KEY[k].start for k in keys] if theta_h is None else theta_h
-        c_start = float(np.sum(probe.fun(probe.pack(t_start, x0)) ** 2))
-        probe = Problem(prep, vessel, keys, trials, x0_h, fixed=fixed)
-        c_hor = float(np.sum(probe.fun(probe.pack(t_hor, x0_h)) ** 2))
-        if c_hor <= c_start:
-            x0, theta0, c_start = x0_h, theta_h, c_hor
-        if keys:  # and never start worse than "no effect" from the given states
-            null = [PARAM_BY_KEY[k].null for k in keys]
-            probe = Problem(prep, vessel, keys, trials, x0_in, fixed=fixed)
-            if float(np.sum(probe.fun(probe.pack(null, x0_in)) ** 2)) < c_start:
-                x0, theta0 = x0_in, null
+    starts = [PARAM_BY_KEY[k].start for k in keys]
+    c_start = _cost(prep, vessel, keys, trials, x0, starts if theta0 is None else theta0, fixed)
+    c_hor = _cost(prep, vessel, keys, trials, x0_h, starts if theta_h is None else theta_h, fixed)
+    best_x0, best_theta, best = (x0_h, theta_h, c_hor) if c_hor <= c_start else (x0, theta0, c_start)
+    if keys:
+        null = [PARAM_BY_KEY[k].null for k in keys]
+        if _cost(prep, vessel, keys, trials, x0, null, fixed) < best:
+            return x0, null
+    return best_x0, best_theta
+
+
+def _solve(prep, vessel, effects, keys, trials, x0, theta0, fixed, max_nfev) -> Fit:
+    """The trust-region least squares from (x0, theta0), with the curvature intervals."""
+    from scipy.optimize import least_squares
+
     prob = Problem(prep, vessel, keys, trials, x0, fixed=fixed)
     if theta0 is None:
         theta0 = [PARAM_BY_KEY[k].start for k in keys]
     lo, hi = prob.bounds()
-    z0 = prob.pack(theta0, x0)
-    z0 = np.clip(z0, lo * 0.999, hi * 0.999)
+    z0 = np.clip(prob.pack(theta0, x0), lo * 0.999, hi * 0.999)
     p = len(keys)
     if p:  # strictly inside the bounds (trf requires it)
         pad = 1e-9 * (np.abs(lo[:p]) + np.abs(hi[:p]) + 1.0)
@@ -259,14 +268,12 @@ def fit_model(
     theta, x0_fit = prob.split(sol.x)
     cost = float(np.sum(sol.fun**2))
     m = prob.n_obs
-    sigma = np.full(len(keys), np.nan)
-    if keys:
-        j = sol.jac
-        dof = max(m - j.shape[1], 1)
-        s2 = max(cost / dof, 1.0)
+    sigma = np.full(p, np.nan)
+    if p:
+        dof = max(m - sol.jac.shape[1], 1)
         try:
-            cov = np.linalg.pinv(j.T @ j) * s2
-            sigma = np.sqrt(np.maximum(np.diag(cov)[: len(keys)], 0.0)) * prob.scale
+            cov = np.linalg.pinv(sol.jac.T @ sol.jac) * max(cost / dof, 1.0)
+            sigma = np.sqrt(np.maximum(np.diag(cov)[:p], 0.0)) * prob.scale
         except np.linalg.LinAlgError:
             pass
     return Fit(tuple(effects), keys, theta, sigma, x0_fit, tuple(trials), cost, m, prob.nfev, dict(fixed or {}))
@@ -282,92 +289,3 @@ def _fit_states_apart(prep, vessel, effects, trials, x0, *, fixed, max_nfev, hor
     return Fit(tuple(effects), (), np.zeros(0), np.zeros(0), np.vstack([f.x0 for f in parts]), tuple(trials),
                float(sum(f.cost for f in parts)), int(sum(f.n_obs for f in parts)), int(sum(f.nfev for f in parts)),
                dict(fixed or {}))
-
-
-def screen(prep: Prepared, vessel: VesselParams, base: Fit, candidates, *, iterations: int = 3) -> dict[str, dict]:
-    """A few Gauss-Newton steps of every candidate from ``base``, all candidates in one batch per step.
-
-    Each step solves the linearised problem [J_x0 | J_effect] (the initial-state columns are the
-    base's); a step that raises the actual cost is halved. Returns per candidate the lowest
-    actual cost met (``predicted_cost``, used for ranking), ``base_cost`` (``base`` on the same
-    trials) and its parameters and states as a start.
-    One linear step misranks large effects (30 deg heading errors are far from linear).
-    """
-    n = len(base.trials)
-    tri = np.array(base.trials)
-    base_values = base.values()
-    prob = Problem(prep, vessel, base.keys, base.trials, base.x0, fixed=base.fixed)
-    z_base = prob.pack(base.theta, base.x0)
-    base_cost = float(np.sum(prob.fun(z_base) ** 2))
-    j_x0 = prob.jac(z_base)[:, len(base.keys) :]
-    free = list(FREE_STATES)
-    state = {}
-    for c in candidates:
-        if c in base.effects:
-            continue
-        for g, start in enumerate(_starts(BY_NAME[c])):
-            state[(c, g)] = {"theta": dict(start), "x0": base.x0.copy(), "cost": np.inf, "prev": None,
-                             "best": (np.inf, dict(start), base.x0.copy())}
-    for _ in range(iterations + 1):
-        runs_vals, runs_x0, meta = [], [], []
-        for key, st in state.items():
-            c = key[0]
-            runs_vals.append(dict(st["theta"]))
-            runs_x0.append(st["x0"])
-            meta.append((key, None))
-            for k in BY_NAME[c].keys:
-                v = dict(st["theta"])
-                v[k] += PARAM_BY_KEY[k].fd_step * PARAM_BY_KEY[k].scale
-                runs_vals.append(v)
-                runs_x0.append(st["x0"])
-                meta.append((key, k))
-        all_keys = sorted({k for v in runs_vals for k in v} | set(base_values))
-        values = {k: np.repeat([v.get(k, base_values.get(k, PARAM_BY_KEY[k].null)) for v in runs_vals], n)
-                  for k in all_keys}
-        pred = predict(prep, vessel, np.tile(tri, len(runs_vals)), np.vstack(runs_x0), values)
-        resid = {}
-        for q, mk in enumerate(meta):
-            r = np.concatenate([residuals(prep, i, pred, [j])[0] for i, j in zip(base.trials, range(q * n, (q + 1) * n))])
-            resid[mk] = np.where(np.isfinite(r), r, DIVERGED)
-        for key, st in state.items():
-            eff = BY_NAME[key[0]]
-            r0 = resid[(key, None)]
-            cost = float(np.sum(r0**2))
-            if cost < st["best"][0]:
-                st["best"] = (cost, dict(st["theta"]), st["x0"].copy())
-            if st["prev"] is not None and cost > st["cost"]:  # overshoot: back half way
-                p_theta, p_x0 = st["prev"]
-                st["theta"] = {k: 0.5 * (st["theta"][k] + p_theta[k]) for k in st["theta"]}
-                st["x0"] = 0.5 * (st["x0"] + p_x0)
-                continue
-            st["cost"] = cost
-            cols = [(resid[(key, k)] - r0) / PARAM_BY_KEY[k].fd_step for k in eff.keys]
-            a = np.column_stack([j_x0] + cols)
-            step, *_ = np.linalg.lstsq(a, -r0, rcond=None)
-            st["prev"] = (dict(st["theta"]), st["x0"].copy())
-            for k, d in zip(eff.keys, step[-len(eff.keys) :]):
-                lo, hi = theta_bounds(k, vessel)
-                d = float(np.clip(d, -GN_MAX_STEP, GN_MAX_STEP))  # a linearisation is not trusted far out
-                st["theta"][k] = float(np.clip(st["theta"][k] + d * PARAM_BY_KEY[k].scale, lo, hi))
-            dx = step[: j_x0.shape[1]].reshape(n, len(free)) * X0_SCALE[free]
-            x0 = st["x0"].copy()
-            x0[:, free] += dx
-            x0[:, free] = np.clip(x0[:, free], -X0_LIMIT[free], X0_LIMIT[free])
-            st["x0"] = x0
-    out = {}
-    for (c, g), st in state.items():
-        cost, theta, x0 = st["best"]
-        if c not in out or cost < out[c]["predicted_cost"]:
-            out[c] = {"predicted_cost": cost, "base_cost": base_cost, "theta": [theta[k] for k in BY_NAME[c].keys], "x0": x0}
-    return out
-
-
-def _starts(eff) -> list[dict]:
-    """Screening starts of an effect: its start values, and a grid where the parameter has one."""
-    grids = [PARAM_BY_KEY[k].grid or (PARAM_BY_KEY[k].start,) for k in eff.keys]
-    if all(len(g) == 1 for g in grids):
-        return [{k: g[0] for k, g in zip(eff.keys, grids)}]
-    import itertools
-
-    return [dict(zip(eff.keys, combo)) for combo in itertools.product(*grids)]
-

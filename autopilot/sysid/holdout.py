@@ -18,7 +18,7 @@ import numpy as np
 
 from autopilot.sysid.fit import Fit, fit_model
 from autopilot.sysid.replay import channel_costs, predict, rmse
-from autopilot.sysid.search import HORIZONS_S, STUCK_CHI2
+from autopilot.sysid.search import BACKWARD_NFEV, HORIZONS_S, STUCK_CHI2
 
 MAX_FOLDS = 6  # beyond six trials, fold j holds out trials j, j + 6, j + 12, ...
 
@@ -83,7 +83,9 @@ def cross_validate(prep, vessel, fit: Fit, base: Fit, x0_init, folds) -> HeldOut
     values_held = {k: np.zeros(n) for k in fit.keys}
     for held in folds:
         train = tuple(i for i in everyone if i not in held)
-        on_train = fit_model(prep, vessel, fit.effects, train, subset_x0(fit, train), theta0=fit.theta)
+        # from the full fit's values and states, next to the training optimum: a short fit
+        on_train = fit_model(prep, vessel, fit.effects, train, subset_x0(fit, train), theta0=fit.theta,
+                             max_nfev=BACKWARD_NFEV)
         fixed = on_train.values()
         fold_theta.append(on_train.theta)
         h = _held_states(prep, vessel, fit, base, x0_init, held, fixed)
@@ -102,8 +104,9 @@ def _held_states(prep, vessel, fit: Fit, base: Fit, x0_init, held, fixed) -> Fit
     seed 712309766), the first-seconds estimate, the no-effect fit's; the lowest wins, stop once at
     the noise level."""
     h = None
-    for start in (subset_x0(fit, held), x0_init[list(held)], subset_x0(base, held)):
-        g = fit_model(prep, vessel, (), held, start, fixed=fixed, horizons_s=HORIZONS_S)
+    starts = ((subset_x0(fit, held), ()), (x0_init[list(held)], HORIZONS_S), (subset_x0(base, held), HORIZONS_S))
+    for start, horizons in starts:  # the chosen fit's states are next to the optimum: no horizons
+        g = fit_model(prep, vessel, (), held, start, fixed=fixed, horizons_s=horizons)
         h = g if h is None or g.cost < h.cost else h
         if h.cost / max(h.n_obs, 1) <= STUCK_CHI2:
             break

@@ -151,25 +151,34 @@ def _adequate(prep, vessel, fit, scores, s: Settings) -> bool:
 def choose(prep, vessel, fits: dict, scores, candidates, x0_init, retries, s: Settings, say) -> tuple:
     """(chosen key, its single's key): the best single passing the tests; a pair when the single is not
     adequate, or when the screening says a second effect pays for itself, and the pair passes the tests
-    against the single."""
-    singles = sorted((k for k in fits if len(k) == 1), key=lambda k: _delta_bic(scores, fits, k, ()))
-    single = next((k for k in singles if _passes(prep, vessel, fits, scores, k, (), s)), ())
-    if not single:
+    against its single. Pairs are grown from the two best singles: a wind force's constant moment can
+    beat a thrust asymmetry alone, and the deadband hidden with the asymmetry is then found only as
+    wind_force + thrust_deadband."""
+    passing = [k for k in sorted((k for k in fits if len(k) == 1), key=lambda k: _delta_bic(scores, fits, k, ()))
+               if _passes(prep, vessel, fits, scores, k, (), s)]
+    if not passing:
         return (), ()
+    single = passing[0]
     adequate = _adequate(prep, vessel, fits[single], scores, s)
-    seconds = search.second_effects(prep, vessel, fits, single, candidates, s.pair_k, s.bic_margin)
-    if adequate:  # not adequate: the best second effect is fitted anyway
-        seconds = [sc for sc in seconds if sc[2]]
-    if not seconds:
-        return single, single
-    pairs = search.fit_pairs(prep, vessel, fits, single, seconds, x0_init, retries, say, fits[()])
-    good = [p for p in sorted(pairs, key=lambda p: _delta_bic(scores, fits, p, single)) if _passes(prep, vessel, fits, scores, p, single, s)]
+    pairs = []
+    # the runner-up grows pairs too when it came close (at least half the leader's BIC gain)
+    close = [k for k in passing[1:2] if _delta_bic(scores, fits, k, ()) <= 0.5 * _delta_bic(scores, fits, single, ())]
+    for rank, leader in enumerate([single] + close):
+        seconds = search.second_effects(prep, vessel, fits, leader, candidates, s.pair_k if rank == 0 else 1, s.bic_margin)
+        if adequate:  # not adequate: the best second effects are fitted anyway
+            seconds = [sc for sc in seconds if sc[2]]
+        seconds = [sc for sc in seconds if not any(set(p) == set(leader + (sc[0],)) for p in pairs)]
+        pairs += search.fit_pairs(prep, vessel, fits, leader, seconds, x0_init, retries, say, fits[()])
+        if not pairs:  # the leader needs no second effect: neither does the runner-up
+            break
+    good = [p for p in sorted(pairs, key=lambda p: _delta_bic(scores, fits, p, ()))
+            if _passes(prep, vessel, fits, scores, p, p[:1], s)]
     if not good:
         return single, single
     alone = search.backward_step(prep, vessel, fits, good[0], x0_init, say, fits[()])
     if _delta_bic(scores, fits, good[0], alone) >= -s.bic_margin:
         return alone, alone
-    return good[0], single
+    return good[0], good[0][:1]
 
 
 def confirm(prep, vessel, fits: dict, chosen, single, x0_init, scores, s: Settings, say):
@@ -185,6 +194,11 @@ def confirm(prep, vessel, fits: dict, chosen, single, x0_init, scores, s: Settin
     cv = {(): baseline_held_out(fits[()])}
     if not folds:
         notes.append("one trial only: no held-out trial, held-out figures repeat the fitted ones")
+        return prep, fits, chosen, notes, cv
+    if chosen and not _adequate(prep, vessel, fits[chosen], scores, s):
+        # the verdict will be unexplained whatever the held-out trials say; their fits are the dearest
+        # of all for a model that does not fit (every held-out state tries all its starts)
+        notes.append(f"{'+'.join(chosen)} is not adequate: not cross-validated")
         return prep, fits, chosen, notes, cv
     while chosen:
         cv[chosen] = cv.get(chosen) or cross_validate(prep, vessel, fits[chosen], fits[()], x0_init, folds)

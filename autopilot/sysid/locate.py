@@ -43,13 +43,36 @@ def _at(grid_t, series, t):
     return np.interp(t, grid_t, series)
 
 
+def _growth(m, rn, re) -> np.ndarray:
+    """Growth rate (m/s) of the position error between fixes at least GROWTH_WINDOW_S apart (NaN at the end)."""
+    later = np.searchsorted(m.t_pos_s, m.t_pos_s + GROWTH_WINDOW_S - 1e-9)
+    has = later < m.t_pos_s.size
+    growth = np.full(m.t_pos_s.size, np.nan)
+    lk = later[has]
+    growth[has] = np.hypot(rn[lk] - rn[has], re[lk] - re[has]) / (m.t_pos_s[lk] - m.t_pos_s[has])
+    return growth
+
+
+def _accumulate(acc: dict, cls: dict, k_h, k_p, rh, rn, re, growth) -> None:
+    for name, mask in cls.items():
+        mh, mp = mask[k_h], mask[k_p]
+        a = acc.setdefault(name, {"n": 0, "h2": 0.0, "h1": 0.0, "np": 0, "p2": 0.0, "g": 0.0, "ng": 0})
+        a["n"] += int(mh.sum())
+        a["h2"] += float(np.sum(rh[mh] ** 2))
+        a["h1"] += float(np.sum(rh[mh]))
+        a["np"] += int(mp.sum())
+        a["p2"] += float(np.sum(rn[mp] ** 2 + re[mp] ** 2))
+        gm = mp & np.isfinite(growth)
+        a["g"] += float(np.sum(growth[gm]))
+        a["ng"] += int(gm.sum())
+
+
 def locate(prep, pred, trials_idx, runs) -> dict:
     """Residual statistics per class and the growth patterns (``pred`` from replay.predict), each
     measurement at the time it was taken (replay.raw_residuals)."""
     from autopilot.sysid.replay import raw_residuals
 
-    dt = prep.dt_s
-    g = prep.t_grid
+    dt, g = prep.dt_s, prep.t_grid
     acc = {}
     drift_v, lag_x, lag_y, head_all = [], [], [], []
     for i, j in zip(trials_idx, runs):
@@ -58,28 +81,16 @@ def locate(prep, pred, trials_idx, runs) -> dict:
         cls = _classes(pred["u_m_s"][j], pred["r_rad_s"][j], prep.thrust_port_n[i], prep.thrust_stbd_n[i], g, dt)
         k_p = np.clip(np.rint(m.t_pos_s / dt).astype(int), 0, g.size - 1)
         k_h = np.clip(np.rint(m.t_psi_s / dt).astype(int), 0, g.size - 1)
-        # growth of the position error between fixes at least GROWTH_WINDOW_S apart
-        later = np.searchsorted(m.t_pos_s, m.t_pos_s + GROWTH_WINDOW_S - 1e-9)
-        has = later < m.t_pos_s.size
-        growth = np.full(m.t_pos_s.size, np.nan)
-        lk = later[has]
-        growth[has] = np.hypot(rn[lk] - rn[has], re[lk] - re[has]) / (m.t_pos_s[lk] - m.t_pos_s[has])
-        for name, mask in cls.items():
-            mh, mp = mask[k_h], mask[k_p]
-            a = acc.setdefault(name, {"n": 0, "h2": 0.0, "h1": 0.0, "np": 0, "p2": 0.0, "g": 0.0, "ng": 0})
-            a["n"] += int(mh.sum())
-            a["h2"] += float(np.sum(rh[mh] ** 2))
-            a["h1"] += float(np.sum(rh[mh]))
-            a["np"] += int(mp.sum())
-            a["p2"] += float(np.sum(rn[mp] ** 2 + re[mp] ** 2))
-            gm = mp & np.isfinite(growth)
-            a["g"] += float(np.sum(growth[gm]))
-            a["ng"] += int(gm.sum())
+        _accumulate(acc, cls, k_h, k_p, rh, rn, re, _growth(m, rn, re))
         if m.t_pos_s.size > 10:
             drift_v.append([np.polyfit(m.t_pos_s, rn, 1)[0], np.polyfit(m.t_pos_s, re, 1)[0]])
         lag_x.append(_at(g, pred["r_rad_s"][j], m.t_psi_s))
         lag_y.append(rh)
         head_all.append(rh)
+    return _summarise(acc, drift_v, lag_x, lag_y, head_all)
+
+
+def _summarise(acc, drift_v, lag_x, lag_y, head_all) -> dict:
     segments = {}
     for name, a in acc.items():
         if a["n"] == 0:

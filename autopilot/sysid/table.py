@@ -217,6 +217,23 @@ def identify_table(rows, vessel: VesselParams, *, candidates=TABLE_CANDIDATES, b
     bad = [c for c in candidates if c not in TABLE_CANDIDATES]
     if bad:
         raise ConfigError(f"effects {', '.join(bad)} do not change a steady state; a table can test {', '.join(TABLE_CANDIDATES)}")
+    fits = _fits(vessel, rows, candidates, bic_margin, say)
+    chosen = fits.pop("chosen")
+    notes = []
+    cv_before = _cv_sse(vessel, (), rows, None)
+    cv_after = cv_before
+    if chosen:
+        cv_after = _cv_sse(vessel, chosen, rows, fits[chosen]["theta"])
+        gain = 1 - cv_after / cv_before
+        say(f"cross-validated SSE {cv_before:.3f} -> {cv_after:.3f} ({100 * gain:.0f} %)")
+        if gain < min_cv_gain:
+            notes.append(f"{'+'.join(chosen)} won on BIC but cut the cross-validated error by only {100 * gain:.1f} %: verdict none")
+            chosen, cv_after = (), cv_before
+    return _table_summary(vessel, rows, fits, chosen, cv_before, cv_after, notes)
+
+
+def _fits(vessel, rows, candidates, bic_margin, say) -> dict:
+    """The baseline, every single and (when a single wins) every pair with it; ``chosen`` by BIC."""
     r0 = table_residuals(vessel, {}, rows)
     m = r0.size
     base = {"keys": [], "theta": np.zeros(0), "sigma": np.zeros(0), "sse": float(np.sum(r0**2)), "m": m}
@@ -238,16 +255,12 @@ def identify_table(rows, vessel: VesselParams, *, candidates=TABLE_CANDIDATES, b
         bp = min(pairs, key=lambda k: fits[k]["bic"]) if pairs else None
         if bp and fits[bp]["bic"] < fits[best]["bic"] - bic_margin:
             chosen = bp
-    notes = []
-    cv_before = _cv_sse(vessel, (), rows, None)
-    cv_after = cv_before
-    if chosen:
-        cv_after = _cv_sse(vessel, chosen, rows, fits[chosen]["theta"])
-        gain = 1 - cv_after / cv_before
-        say(f"cross-validated SSE {cv_before:.3f} -> {cv_after:.3f} ({100 * gain:.0f} %)")
-        if gain < min_cv_gain:
-            notes.append(f"{'+'.join(chosen)} won on BIC but cut the cross-validated error by only {100 * gain:.1f} %: verdict none")
-            chosen, cv_after = (), cv_before
+    fits["chosen"] = chosen
+    return fits
+
+
+def _table_summary(vessel, rows, fits, chosen, cv_before, cv_after, notes) -> dict:
+    base, m = fits[()], fits[()]["m"]
     values = dict(zip(fits[chosen]["keys"], fits[chosen]["theta"]))
     cands = []
     for key, f in sorted(fits.items(), key=lambda kv: kv[1]["bic"]):
@@ -258,8 +271,6 @@ def identify_table(rows, vessel: VesselParams, *, candidates=TABLE_CANDIDATES, b
                       "fitted_params": {e: {p["name"]: p["value"] for p in v["params"]} for e, v in _report(vessel, f, key).items()}})
     held_before = {"sse_cv": cv_before, "rms_cv": math.sqrt(cv_before / m), "position_m": None, "heading_deg": None}
     held_after = {"sse_cv": cv_after, "rms_cv": math.sqrt(cv_after / m), "position_m": None, "heading_deg": None}
-    before = _gap(vessel, {}, rows)
-    after = _gap(vessel, values, rows)
     return {
         "mode": "table",
         "rows": [r.name for r in rows],
@@ -267,8 +278,8 @@ def identify_table(rows, vessel: VesselParams, *, candidates=TABLE_CANDIDATES, b
         "effects": _report(vessel, fits[chosen], chosen) if chosen else {},
         "candidates": cands,
         "score": "delta_bic: n ln(SSE/n) + k ln n minus the baseline's (noise level unknown)",
-        "rmse_before": {"fitted": before, "held_out": held_before},
-        "rmse_after": {"fitted": after, "held_out": held_after},
+        "rmse_before": {"fitted": _gap(vessel, {}, rows), "held_out": held_before},
+        "rmse_after": {"fitted": _gap(vessel, values, rows), "held_out": held_after},
         "rows_before": _rows(vessel, {}, rows),
         "rows_after": _rows(vessel, values, rows),
         "values": values,

@@ -190,14 +190,7 @@ def make_trial(
     drop = np.zeros(sel.size, dtype=bool) if exclude is None else np.asarray(exclude, dtype=bool)[sel]
     fix_new, fix_t = new_fixes(n, e, t_sel, col(position_time_s))
     hdg_new, hdg_t = new_headings(heading, t_sel, col(heading_time_s))
-    counts = {
-        "rows": int(sel.size),
-        "position_fixes": int(np.sum(fix_new & ~drop)),
-        "held_fix_rows": int(np.sum(np.isfinite(n) & np.isfinite(e) & ~fix_new)),
-        "headings": int(np.sum(hdg_new & ~drop)),
-        "held_heading_rows": int(np.sum(np.isfinite(heading) & ~hdg_new)),
-        "excluded_rows": int(drop.sum()),
-    }
+    counts = _counts(n, e, heading, fix_new, hdg_new, drop)
     fix_new &= ~drop
     hdg_new &= ~drop
     if fix_new.sum() < MIN_FIXES or hdg_new.sum() < MIN_HEADINGS:
@@ -218,6 +211,18 @@ def make_trial(
         commands_held=commands_held,
         counts=counts,
     )
+
+
+def _counts(n, e, heading, fix_new, hdg_new, drop) -> dict:
+    """What the rules kept and dropped (summary.json ``measurements``)."""
+    return {
+        "rows": int(drop.size),
+        "position_fixes": int(np.sum(fix_new & ~drop)),
+        "held_fix_rows": int(np.sum(np.isfinite(n) & np.isfinite(e) & ~fix_new)),
+        "headings": int(np.sum(hdg_new & ~drop)),
+        "held_heading_rows": int(np.sum(np.isfinite(heading) & ~hdg_new)),
+        "excluded_rows": int(drop.sum()),
+    }
 
 
 def _commands(name, tp, ts, dp, ds, curve: ThrustCurve):

@@ -43,10 +43,10 @@ def write_outputs(ident, summary: dict, out_dir, *, report: bool = True, source:
 
 
 def run(trials, vessel: VesselParams, out_dir=None, *, params_file: str = "", candidates=EFFECT_NAMES,
-        top_k: int = 3, report: bool = True, log=None) -> dict:
+        top_k: int = 3, report: bool = True, log=None, bounds=None) -> dict:
     """Identify on trials and (with ``out_dir``) write the files; returns the summary."""
     t0 = time.perf_counter()
-    ident = identify(trials, vessel, candidates=candidates, top_k=top_k, log=log)
+    ident = identify(trials, vessel, candidates=candidates, top_k=top_k, log=log, bounds=bounds)
     summary = summarise(ident, params_file=params_file, seconds=time.perf_counter() - t0)
     if out_dir is not None:
         write_outputs(ident, summary, out_dir, report=report, source=params_file)
