@@ -11,10 +11,22 @@ import pytest
 from numpy.testing import assert_allclose
 
 from autopilot.schema import ConfigError
-from autopilot.sim.gps_error import (GpsErrorModel, HeadingErrorModel, PositionErrorStream, gauss_markov,
-                                     position_errors, quantise_deg)
+from autopilot.sim.gps_error import (
+    GpsErrorModel,
+    HeadingErrorModel,
+    PositionErrorStream,
+    gauss_markov,
+    position_errors,
+    quantise_deg,
+)
 from autopilot.sysid import read_trial
-from autopilot.sysid.noise import ChannelNoise, Whitener, estimate, outliers, restricted_deviance
+from autopilot.sysid.noise import (
+    ChannelNoise,
+    Whitener,
+    estimate,
+    outliers,
+    restricted_deviance,
+)
 from autopilot.sysid.replay import noise_floor
 from autopilot.sysid.trials import make_trial
 
@@ -177,9 +189,9 @@ def test_gauss_markov_statistics():
 def test_simulated_sc30_sends_one_fix_a_second_in_gga_and_rmc(tmp_path):
     """With the realistic model the GGA and RMC of a second carry the same fix; the next second's differs."""
     from autopilot.clock import Clock
+    from autopilot.sim import default_params_path, load_params
     from autopilot.simdev.boat import SimBoat
     from autopilot.simdev.sc30 import SimulatedSC30
-    from autopilot.sim import default_params_path, load_params
 
     boat = SimBoat(load_params(default_params_path()), origin_lat_deg=52.0, origin_lon_deg=4.4, x0=(0, 0, 0, 1.0, 0, 0))
     sc30 = SimulatedSC30(boat, Clock(1.0), directory=tmp_path, seed=4,

@@ -16,8 +16,8 @@ from autopilot.measured import MEASURED_TABLE
 from autopilot.schema import ConfigError
 from autopilot.sim import default_params_path, load_params, simulate, thesis_params_path
 from autopilot.sysid import load_effects, read_trial, replay
-from autopilot.sysid.output import write_effects_yaml, write_vessel_updated
 from autopilot.sysid.effects import lag_filter
+from autopilot.sysid.output import write_effects_yaml, write_vessel_updated
 from autopilot.sysid.replay import SCALAR_MAX_RUNS, predict, prepare
 from autopilot.sysid.table import identify_table, read_table_csv, write_table_csv
 from autopilot.sysid.trials import make_trial

@@ -96,9 +96,9 @@ def check(case: Case, s: dict, *, cut: bool = True) -> None:
     for key, z in s["z"].items():
         assert abs(z) < Z_MAX, f"{key}: z = {z:.2f}"
     if cut and case.effects and not case.unlisted:
-        for ch, cut in s["error_cut"].items():
-            if cut["moved_noise"] > 2.0:
-                assert cut["cut"] >= 0.7, (ch, cut)
+        for ch, c in s["error_cut"].items():
+            if c["moved_noise"] > 2.0:
+                assert c["cut"] >= 0.7, (ch, c)
 
 
 @pytest.mark.slow
@@ -176,7 +176,7 @@ def current_logs(tmp_path_factory):
     reports the rate)."""
     d = tmp_path_factory.mktemp("pond")
     case = Case(("current",), kind="closed_loop", n_trials=4, current_towards_deg=90.0, speedup=3.0)
-    hidden, trials, desc = make(case, _seed(case.label), VESSEL, work_dir=d)
+    hidden, trials, _ = make(case, _seed(case.label), VESSEL, work_dir=d)
     return case, hidden, trials, d
 
 
@@ -199,7 +199,7 @@ def test_mission_log_and_its_csv_export_agree(current_logs, tmp_path):
     from autopilot.cli import main
     from autopilot.sysid import read_trial
 
-    case, hidden, _, d = current_logs
+    d = current_logs[3]
     paths = sorted(d.glob("*.jsonl"))
     csvs = []
     for p in paths:
@@ -221,7 +221,12 @@ def test_cli_on_trial_files_writes_everything(tmp_path):
     from autopilot.cli import main
     from autopilot.sim import load_params as load
     from autopilot.sysid import load_effects
-    from autopilot.sysid.realistic import Measurement, draw_models, measure, write_columns_csv
+    from autopilot.sysid.realistic import (
+        Measurement,
+        draw_models,
+        measure,
+        write_columns_csv,
+    )
     from autopilot.sysid.truth import simulate_truth
 
     rng = np.random.default_rng(3)

@@ -36,8 +36,15 @@ import numpy as np
 from autopilot.schema import param
 
 __all__ = [
-    "GpsErrorModel", "HeadingErrorModel", "gauss_markov", "gauss_markov_step", "heading_errors",
-    "position_errors", "quantise_deg", "PositionErrorStream", "HeadingErrorStream",
+    "GpsErrorModel",
+    "HeadingErrorModel",
+    "HeadingErrorStream",
+    "PositionErrorStream",
+    "gauss_markov",
+    "gauss_markov_step",
+    "heading_errors",
+    "position_errors",
+    "quantise_deg",
 ]
 
 

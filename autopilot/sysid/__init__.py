@@ -13,11 +13,17 @@ import numpy as np
 
 from autopilot.sysid.effects import EFFECT_NAMES, EFFECTS, Effect, EffectParam
 from autopilot.sysid.identify import Identification, identify
+from autopilot.sysid.mission_log import read_mission_log
 from autopilot.sysid.output import load_effects, updated_vessel
 from autopilot.sysid.replay import initial_state, predict, prepare
-from autopilot.sysid.mission_log import read_mission_log
 from autopilot.sysid.table import identify_table, read_table_csv, write_table_csv
-from autopilot.sysid.trials import Trial, make_trial, read_trial, read_trial_csv, write_trial_csv
+from autopilot.sysid.trials import (
+    Trial,
+    make_trial,
+    read_trial,
+    read_trial_csv,
+    write_trial_csv,
+)
 from autopilot.sysid.workflow import run
 
 

@@ -89,8 +89,17 @@ def _bounds(args):
 
 
 def _table(args, vessel, params_path, candidates, log) -> int:
-    from autopilot.sysid.output import write_effects_yaml, write_json, write_vessel_updated
-    from autopilot.sysid.table import TABLE_CANDIDATES, identify_table, read_table_csv, table_figure
+    from autopilot.sysid.output import (
+        write_effects_yaml,
+        write_json,
+        write_vessel_updated,
+    )
+    from autopilot.sysid.table import (
+        TABLE_CANDIDATES,
+        identify_table,
+        read_table_csv,
+        table_figure,
+    )
 
     rows = read_table_csv(args.table)
     t0 = time.perf_counter()

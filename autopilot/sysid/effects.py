@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -101,7 +102,7 @@ class Effect:
     fields = None
     water = None
     sensed = None
-    field_limits: dict = {}  # VesselParams field -> (lo, hi) a written file must respect
+    field_limits: ClassVar[dict] = {}  # VesselParams field -> (lo, hi) a written file must respect
 
     def written_fields(self, v, vessel) -> dict:
         """``fields`` held inside ``field_limits`` (what vessel-updated.yaml gets)."""
@@ -262,7 +263,7 @@ class YawDampingQuadratic(Effect):
         p = self.params[0]
         return max(p.lo, -vessel.yaw_damping_quadratic_nm_s2), p.hi
 
-    field_limits = {"yaw_damping_quadratic_nm_s2": (0.0, math.inf)}
+    field_limits: ClassVar[dict] = {"yaw_damping_quadratic_nm_s2": (0.0, math.inf)}
 
     def fields(self, v, vessel):
         return {"yaw_damping_quadratic_nm_s2": vessel.yaw_damping_quadratic_nm_s2 + float(v["n_rr_nm_s2"])}
@@ -290,7 +291,7 @@ class HydroRefit(Effect):
     def reported(self, name, value, vessel):
         return getattr(vessel, name) + value
 
-    field_limits = {"n_r_nd": (-math.inf, 0.0), "resistance_linear_n_s_m": (0.0, math.inf)}
+    field_limits: ClassVar[dict] = {"n_r_nd": (-math.inf, 0.0), "resistance_linear_n_s_m": (0.0, math.inf)}
 
     def fields(self, v, vessel):
         """Any VesselParams field given as a change (the table mode re-fits more of them)."""

@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from autopilot.sim import VesselParams
-from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, bounds as effect_bounds
+from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
+from autopilot.sysid.effects import bounds as effect_bounds
 from autopilot.sysid.replay import Prepared, predict, residuals
 
 # scales of the nuisance initial state (north, east, psi, u, v, r) and their FD steps (scaled units)

@@ -30,13 +30,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from autopilot.sim import VesselParams
 from autopilot.sysid import judge, search
 from autopilot.sysid.effects import EFFECT_NAMES
 from autopilot.sysid.fit import Fit, fit_model
-from autopilot.sysid.holdout import baseline_held_out, cross_validate, held_out_folds, held_out_gain, with_jackknife
+from autopilot.sysid.holdout import (
+    baseline_held_out,
+    cross_validate,
+    held_out_folds,
+    held_out_gain,
+    with_jackknife,
+)
 from autopilot.sysid.noise import NoiseBounds
 from autopilot.sysid.replay import Prepared, initial_states, prepare
 

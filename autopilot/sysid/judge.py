@@ -28,7 +28,15 @@ import numpy as np
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
 from autopilot.sysid.fit import Fit
 from autopilot.sysid.noise import NoiseBounds, estimate, restricted_deviance
-from autopilot.sysid.replay import Noise, Prepared, channel_costs, predict, raw_residuals, residuals, rmse
+from autopilot.sysid.replay import (
+    Noise,
+    Prepared,
+    channel_costs,
+    predict,
+    raw_residuals,
+    residuals,
+    rmse,
+)
 
 ADEQUATE_CHI2 = 1.3  # per channel and measurement
 # the deviance a noise model free of the sensor's bounds may gain before the residual counts as more

@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 
-
 TURN_RATE_RAD_S = 0.05
 LOW_SPEED_M_S = 1.0
 STEP_N = 3.0

@@ -83,7 +83,7 @@ class NoiseBounds:
     def time_prior(self) -> tuple[float, float]:
         return self.time_prior_s, self.time_prior_factor
 
-    def for_search(self) -> "NoiseBounds":
+    def for_search(self) -> NoiseBounds:
         """These bounds with the wander capped at the search's (above)."""
         import dataclasses
 

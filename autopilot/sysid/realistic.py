@@ -30,7 +30,13 @@ import numpy as np
 
 from autopilot.gnc.thrust_curve import ThrustCurve
 from autopilot.sim import VesselParams
-from autopilot.sim.gps_error import GpsErrorModel, HeadingErrorModel, heading_errors, position_errors, quantise_deg
+from autopilot.sim.gps_error import (
+    GpsErrorModel,
+    HeadingErrorModel,
+    heading_errors,
+    position_errors,
+    quantise_deg,
+)
 from autopilot.sysid.trials import Trial, trial_from_columns
 from autopilot.sysid.truth import Truth, sensed, simulate_truth
 
@@ -120,5 +126,4 @@ def write_columns_csv(cols: dict[str, np.ndarray], path) -> None:
     data = np.column_stack([np.asarray(cols[k], dtype=float) for k in names])
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(",".join(names) + "\n")
-        for row in data:
-            fh.write(",".join("" if not np.isfinite(v) else f"{v:.6f}" for v in row) + "\n")
+        fh.writelines(",".join("" if not np.isfinite(v) else f"{v:.6f}" for v in row) + "\n" for row in data)

@@ -26,7 +26,11 @@ import numpy as np
 
 from autopilot.geo import wrap_pi
 from autopilot.sim import STATE_NAMES, VesselParams, simulate
-from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, SENSED_EFFECTS, THRUST_EFFECTS
+from autopilot.sysid.effects import (
+    BY_NAME,
+    SENSED_EFFECTS,
+    THRUST_EFFECTS,
+)
 from autopilot.sysid.noise import ChannelNoise, Whitener, outliers, white_scale
 from autopilot.sysid.trials import Trial
 
@@ -91,13 +95,13 @@ class Prepared:
         """Weighted residual rows of trial i (north, east, heading)."""
         return 2 * self.pos_weights[i].rows + self.psi_weights[i].rows
 
-    def with_noise(self, noise: Noise) -> "Prepared":
+    def with_noise(self, noise: Noise) -> Prepared:
         """The same trials weighted by another noise model."""
         pw = tuple(Whitener(m.t_pos_s, noise.position) for m in self.measured)
         hw = tuple(Whitener(m.t_psi_s, noise.heading) for m in self.measured)
         return dataclasses.replace(self, noise=noise, pos_weights=pw, psi_weights=hw)
 
-    def subset(self, trials, end_s: float | None = None) -> "Prepared":
+    def subset(self, trials, end_s: float | None = None) -> Prepared:
         """Trials ``trials`` only (renumbered 0, 1, ...), cut at ``end_s`` when given (a fit's horizon)."""
         idx = list(trials)
         size = self.t_grid.size if end_s is None else int(min(self.t_grid.size, math.floor(end_s / self.dt_s + 1e-9) + 2))

@@ -14,7 +14,16 @@ import numpy as np
 
 from autopilot.sim import VesselParams
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
-from autopilot.sysid.fit import DIVERGED, FREE_STATES, GN_MAX_STEP, X0_LIMIT, X0_SCALE, Fit, Problem, theta_bounds
+from autopilot.sysid.fit import (
+    DIVERGED,
+    FREE_STATES,
+    GN_MAX_STEP,
+    X0_LIMIT,
+    X0_SCALE,
+    Fit,
+    Problem,
+    theta_bounds,
+)
 from autopilot.sysid.replay import Prepared, predict, residuals
 
 

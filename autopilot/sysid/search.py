@@ -26,8 +26,8 @@ import numpy as np
 
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
 from autopilot.sysid.fit import Fit, fit_model
-from autopilot.sysid.screen import screen
 from autopilot.sysid.replay import Prepared, initial_states, prepare
+from autopilot.sysid.screen import screen
 
 # growing fit horizons from the first-seconds states: a 10 s first step from a rough start (0.8 m
 # noise, a hard turn at 6 s) fell into a wrong basin, 5 s did not (seed 1711974792 of the tests)

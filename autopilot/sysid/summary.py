@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 from autopilot.sysid.effects import BY_NAME
 from autopilot.sysid.fit import Fit
 from autopilot.sysid.judge import noise_summary, predict_fit

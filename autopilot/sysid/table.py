@@ -129,7 +129,7 @@ def _gap(vessel, values, rows) -> dict:
         return (sim[k, j] - meas) / meas if math.isfinite(sim[k, j]) else FAILED_RESIDUAL
     sp = [rel(k, 0, rows[k].speed_m_s) for k in moving]
     yr = [rel(k, 1, rows[k].yaw_rate_rad_s) for k in turning]
-    rms = lambda x: float(np.sqrt(np.mean(np.square(x)))) if len(x) else None  # noqa: E731
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x)))) if len(x) else None
     return {"speed_rel_rms": rms(sp), "yaw_rate_rel_rms": rms(yr), "position_m": None, "heading_deg": None}
 
 
