@@ -209,7 +209,9 @@ async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
                  origin_lat_deg=mission.origin_lat_deg, origin_lon_deg=mission.origin_lon_deg,
                  heading_noise_deg=cfg.sim.heading_noise_deg, position_noise_m=cfg.sim.position_noise_m,
                  seed=cfg.sim.seed, sc30_baudrate=cfg.serial.sc30_baud,
-                 sc30_options=dict(zip(("fast_sentences", "slow_sentences"), sim_sentences(cfg))),
+                 sc30_options={**dict(zip(("fast_sentences", "slow_sentences"), sim_sentences(cfg))),
+                               "position_error": cfg.sim.position_error_model,
+                               "heading_error": cfg.sim.heading_error_model},
                  battery=BatteryConfig(capacity_ah=cfg.sim.battery_capacity_ah, initial_soc=cfg.sim.battery_initial_soc))
     rig.mbed.report_battery = cfg.sim.mbed_reports_battery
     await rig.start()

@@ -172,6 +172,35 @@ class SimConfig:
     mbed_reports_battery: bool = param(True, doc="the simulated Mbed reports the battery voltage (false: old firmware)")
     traffic: str = param("", doc="a traffic scenario (a shipped name such as head-on, or a YAML file): its vessels "
                          "are sent as AIS sentences by a simulated receiver on its own pseudo-terminal; empty = none")
+    # realistic SC-30 errors (autopilot.sim.gps_error, the identification's measurement model); 0 = off
+    position_wander_m: float = param(0.0, unit="m", lo=0.0, hi=50.0, source="issue 12: 0.5-2 m", doc="wandering (Gauss-Markov) GPS error per axis, 1 sigma; > 0 (or an outlier rate) switches to one fix per second with position_noise_m as its white part")
+    position_wander_time_s: float = param(45.0, unit="s", lo=0.1, hi=1e5, source="issue 12: 30-60 s", doc="correlation time of the GPS wander")
+    position_outlier_rate: float = param(0.0, unit="-", lo=0.0, hi=1.0, source="issue 12: 1 %", doc="fraction of GPS fixes that jump by position_outlier_m")
+    position_outlier_m: float = param(10.0, unit="m", lo=0.0, hi=1000.0, source="issue 12: 10 m", doc="size of a single-fix GPS jump")
+    heading_wander_deg: float = param(0.0, unit="deg", lo=0.0, hi=30.0, source="issue 12: 0.3 deg", doc="slowly wandering heading error, 1 sigma; > 0 (or a loss rate) adds it to heading_noise_deg")
+    heading_wander_time_s: float = param(30.0, unit="s", lo=0.1, hi=1e5, doc="correlation time of the heading wander")
+    heading_loss_rate: float = param(0.0, unit="-", lo=0.0, hi=1.0, source="issue 12: 0.5 %", doc="fraction of heading sentences lost")
+
+    @property
+    def position_error_model(self):
+        """The realistic GPS error of the simulated SC-30, or None (plain position_noise_m per sentence)."""
+        from autopilot.sim.gps_error import GpsErrorModel
+
+        if self.position_wander_m == 0.0 and self.position_outlier_rate == 0.0:
+            return None
+        return GpsErrorModel(wander_m=self.position_wander_m, wander_time_s=self.position_wander_time_s,
+                             white_m=self.position_noise_m, outlier_rate=self.position_outlier_rate,
+                             outlier_m=self.position_outlier_m)
+
+    @property
+    def heading_error_model(self):
+        """The realistic heading error of the simulated SC-30, or None (plain heading_noise_deg)."""
+        from autopilot.sim.gps_error import HeadingErrorModel
+
+        if self.heading_wander_deg == 0.0 and self.heading_loss_rate == 0.0:
+            return None
+        return HeadingErrorModel(wander_deg=self.heading_wander_deg, wander_time_s=self.heading_wander_time_s,
+                                 white_deg=self.heading_noise_deg, loss_rate=self.heading_loss_rate)
 
 
 @dataclass(frozen=True)

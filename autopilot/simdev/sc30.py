@@ -14,6 +14,10 @@ Heading: true heading plus Gaussian noise, quantised to 0.1 deg (the SC-30's
 resolution, SPEC section 1). Position: one GNSS epoch a second (position with
 Gaussian noise in metres north/east, speed, course), reported by every
 position sentence of that second with the epoch's UTC time, as a receiver does.
+With ``position_error`` / ``heading_error`` (:mod:`autopilot.sim.gps_error`,
+the same model as the identification's realistic trials) the errors are the
+realistic ones instead: each epoch's fix with wandering error and single-fix
+outliers, and a wandering, quantised heading with lost sentences.
 
 Fault controls (set at any time): ``heading_dropout`` (no heading
 sentences), ``heading_invalid`` (empty HDT, THS mode V, empty GPatt),
@@ -37,6 +41,7 @@ import numpy as np
 from autopilot.clock import Clock
 from autopilot.drivers.nmea import checksum, encode_heading, encode_position, encode_rot, encode_zda
 from autopilot.drivers.sc30_output import default_sentences
+from autopilot.sim.gps_error import GpsErrorModel, HeadingErrorModel, HeadingErrorStream, PositionErrorStream
 from autopilot.simdev.boat import SimBoat
 from autopilot.simdev.pty import PtyEndpoint
 
@@ -68,6 +73,8 @@ class SimulatedSC30:
         fast_period_s: float = 0.1,
         slow_every: int = 10,
         name: str = "sc30",
+        position_error: GpsErrorModel | None = None,
+        heading_error: HeadingErrorModel | None = None,
     ) -> None:
         self.boat = boat
         self.clock = clock
@@ -81,6 +88,10 @@ class SimulatedSC30:
         self.fast_period_s = float(fast_period_s)
         self.slow_every = int(slow_every)
         self._rng = np.random.default_rng(seed)
+        # realistic errors (autopilot.sim.gps_error): own generators, so the sentence draws above are unchanged
+        self._pos_error = None if position_error is None else PositionErrorStream(position_error, np.random.default_rng([seed, 1]))
+        self._hdg_error = None if heading_error is None else HeadingErrorStream(heading_error, np.random.default_rng([seed, 2]))
+        self._hdg: tuple[float, float | None] = (0.0, 0.0)  # this tick's (t_s, heading error deg or None = lost)
         self._endpoint = PtyEndpoint(directory, name)
         self.path = self._endpoint.path
         # fault controls
@@ -156,14 +167,19 @@ class SimulatedSC30:
         """What the compass measures now: the true heading plus its noise (None: reported invalid)."""
         if self.heading_invalid:
             return None
-        noise_rad = math.radians(self._rng.normal(0.0, self.heading_noise_deg)) if self.heading_noise_deg else 0.0
+        if self._hdg_error is not None:
+            noise_rad = math.radians(self._hdg[1])
+        else:
+            noise_rad = math.radians(self._rng.normal(0.0, self.heading_noise_deg)) if self.heading_noise_deg else 0.0
         h = self.boat.psi_rad + noise_rad
         self.last_heading_sent_deg = round(math.degrees(h) % 360.0, 1) % 360.0  # the 0.1 deg the sentence carries
         return h
 
     def _body(self, kind: str, t_s: float) -> str | None:
         if kind in HEADING_SENTENCES:
-            return None if self.heading_dropout else encode_heading(kind, self._heading_rad(), self.talker)
+            if self.heading_dropout or (self._hdg_error is not None and self._hdg[1] is None):
+                return None  # dropped, or lost (realistic heading error model)
+            return encode_heading(kind, self._heading_rad(), self.talker)
         if kind == "ROT":
             return encode_rot(self.boat.r_rad_s, self.talker)
         # UTC from the clock: the simulated day starts at 00:00:00 on 2024-06-01
@@ -181,7 +197,10 @@ class SimulatedSC30:
         """The GNSS fix of this second: position (with its error), speed and course, reported by every
         position sentence of the second (a receiver computes one solution per epoch)."""
         b = self.boat
-        n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
+        if self._pos_error is not None:
+            n_m, e_m = self._pos_error.next(t_s)
+        else:
+            n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
         lat, lon = b.latlon_deg(n_m, e_m)
         self._epoch = {"t_s": t_s, "lat_deg": lat, "lon_deg": lon, "sog_m_s": b.sog_m_s, "cog_rad": b.cog_rad}
 
@@ -201,6 +220,8 @@ class SimulatedSC30:
             t_s = t0 + tick * self.fast_period_s
             await self.clock.sleep_until(t_s)
             self.boat.advance_to(t_s)
+            if self._hdg_error is not None:  # one heading measurement a tick, whichever sentences carry it
+                self._hdg = (t_s, self._hdg_error.next(t_s))
             kinds = list(self.fast_sentences)
             # One slow sentence per tick, after the heading, as a real compass interleaves them:
             # a 1 Hz burst at 4800 baud would hold the line ~0.5 s and starve the 10 Hz heading.

@@ -13,13 +13,13 @@ import numpy as np
 
 from autopilot.sysid.effects import EFFECT_NAMES, EFFECTS, Effect, EffectParam
 from autopilot.sysid.identify import Identification, identify
+from autopilot.sysid.mission_log import read_mission_log
 from autopilot.sysid.output import load_effects, updated_vessel
 from autopilot.sysid.replay import initial_state, predict, prepare
 from autopilot.sysid.table import identify_table, read_table_csv, write_table_csv
 from autopilot.sysid.trials import (
     Trial,
     make_trial,
-    read_mission_log,
     read_trial,
     read_trial_csv,
     write_trial_csv,
@@ -33,9 +33,9 @@ def replay(trial: Trial, vessel, effects: dict | None = None, *, x0=None) -> dic
     x0 defaults to the state estimated from the trial's first seconds. Returns the
     grid ``t_s`` and what the sensors would report (north_m, east_m, psi_rad) plus u, v, r.
     """
-    prep = prepare([trial])
+    prep = prepare([trial], reject=False)
     start = initial_state(trial) if x0 is None else np.asarray(x0, dtype=float)
-    out = predict(prep, vessel, [0], start[None, :], dict(effects or {}))
+    out = predict(prep, vessel, [0], start[None, :], dict(effects or {}), sway_over_ground=True)
     result = {k: v[0] for k, v in out.items()}
     result["t_s"] = prep.t_grid
     return result

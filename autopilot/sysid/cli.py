@@ -27,6 +27,11 @@ def register(subparsers) -> None:
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--effects", help="comma-separated candidate identifiers (default: all)")
     p.add_argument("--top-k", type=int, default=3, help="candidates fitted fully after screening (default 3)")
+    p.add_argument("--gps-wander-max", type=float, metavar="M",
+                   help="largest wandering GPS error your receiver has, 1 sigma per axis (m; default 3): a residual "
+                        "needing more is model error (autopilot/sysid/noise.py NoiseBounds)")
+    p.add_argument("--heading-wander-max", type=float, metavar="DEG",
+                   help="largest wandering heading error of your compass (deg; default 1)")
     p.add_argument("--no-report", action="store_true", help="skip report.html (faster)")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=run_cli)
@@ -56,11 +61,31 @@ def run_cli(args: argparse.Namespace) -> int:
     from autopilot.sysid.trials import read_trial
     from autopilot.sysid.workflow import run
 
+    bounds = _bounds(args)
     trials = [read_trial(p) for p in args.trials]
     summary = run(trials, vessel, args.out, params_file=str(params_path), candidates=candidates,
-                  top_k=args.top_k, report=not args.no_report, log=log)
+                  top_k=args.top_k, report=not args.no_report, log=log, bounds=bounds)
     _print(summary, args.out)
     return 0
+
+
+def _bounds(args):
+    """NoiseBounds from --gps-wander-max / --heading-wander-max (ConfigError naming the option and range)."""
+    import dataclasses
+    import math
+
+    from autopilot.sysid.noise import NoiseBounds
+
+    changes = {}
+    for opt, value, name in (("--gps-wander-max", args.gps_wander_max, "position_wander_max_m"),
+                             ("--heading-wander-max", args.heading_wander_max, "heading_wander_max_deg")):
+        if value is None:
+            continue
+        meta = next(f for f in dataclasses.fields(NoiseBounds) if f.name == name).metadata
+        if not (math.isfinite(value) and meta["lo"] <= value <= meta["hi"]):
+            raise ConfigError(f"{opt}: {value!r} is outside the allowed range [{meta['lo']:g}, {meta['hi']:g}] {meta['unit']}")
+        changes[name] = value
+    return dataclasses.replace(NoiseBounds(), **changes)
 
 
 def _table(args, vessel, params_path, candidates, log) -> int:
@@ -104,9 +129,17 @@ def _table(args, vessel, params_path, candidates, log) -> int:
 
 def _print(summary: dict, out) -> None:
     print(f"verdict: {', '.join(summary['verdict'])}")
+    for ch, a in (summary.get("adequacy") or {}).items():
+        unit = "m" if ch == "position" else "deg"
+        print(f"  {ch}: residual {a[f'residual_rms_{unit}']:.3g} {unit} against noise {a[f'noise_rms_{unit}']:.3g} {unit}, "
+              f"chi-square {a['chi2_per_measurement']:.3g} per measurement: {'adequate' if a['adequate'] else 'NOT adequate'}")
     for name, eff in summary.get("effects", {}).items():
         for p in eff["params"]:
             print(f"  {name}.{p['name']} = {p['value']:.4g} {p['unit']}  (95 %: {p['ci95'][0]:.4g} .. {p['ci95'][1]:.4g})")
+    for c in summary.get("nearest") or []:
+        worst = ", ".join(f"{ch} chi-square {a['chi2_per_measurement']:.3g}" for ch, a in (c.get("adequacy") or {}).items()
+                          if not a["adequate"])
+        print(f"  nearest: {c['effect']} (delta BIC {c['delta_bic']:+.0f}; still not adequate: {worst or 'see summary.json'})")
     for part in ("fitted", "held_out"):
         b, a = summary["rmse_before"][part], summary["rmse_after"][part]
         figures = ", ".join(f"{k} {b[k]:.4g} -> {a[k]:.4g}" for k in b if isinstance(b.get(k), float) and a.get(k) is not None)

@@ -1,33 +1,44 @@
-"""Candidate effects: physically named extensions of the model, few parameters each.
+"""Candidate effects: physically named extensions of the model, few parameters each, each in one place.
 
-Every effect is applied outside the simulator's equations, on its inputs
-(thrust series), through its ``external_force`` hook, or on its outputs
-(what the sensors report), so the simulator itself stays as the lead wrote it:
+An effect declares its parameters (name, unit, no-effect value, bounds, scale)
+and carries its own hooks; the replay (``replay.predict``), the reports, the
+YAML outputs and the table mode call the hooks and never name an effect.
+Every effect acts outside the simulator's equations, so the simulator stays
+as it is:
 
-    identifier              parameters                        where it acts
-    current                 north_m_s, east_m_s               uniform steady current (exact: the
-                                                              model is written in water-relative
-                                                              velocity, so the ground track is the
-                                                              calm-water track plus current * t)
-    wind_force              north_n, east_n, moment_nm        steady earth-frame force + yaw moment
-    thrust_asymmetry        asymmetry_nd (a)                  T_P (1 + a), T_S (1 - a)
-    thrust_lag              time_constant_s                   first-order lag of both thrusts
-    thrust_deadband         threshold_pct                     no thrust below |duty| = threshold
+    identifier              parameters                        hook: where it acts
+    current                 north_m_s, east_m_s               water: uniform steady current (exact: the
+                                                              model is written in water-relative velocity,
+                                                              so the track is the calm-water track + c t)
+    wind_force              north_n, east_n, moment_nm        force: steady earth-frame force + yaw moment
+    thrust_asymmetry        asymmetry_nd (a)                  thrust: T_P (1 + a), T_S (1 - a)
+    thrust_lag              time_constant_s                   thrust: first-order lag of both thrusts
+    thrust_deadband         threshold_pct                     thrust: none below |duty| = threshold
                                                               (edge softened over +-1 % duty)
-    heading_bias            bias_deg                          compass reads psi + bias
-    antenna_offset          forward_m, starboard_m            GPS antenna at this body lever arm
-    sensor_delay            delay_s                           position and heading reported late
-    yaw_damping_quadratic   n_rr_nm_s2                        extra yaw moment -N_rr |r| r
-    hydro_refit             resistance_linear_n_s_m, n_r_nd   re-fit of VesselParams fields
-                                                              (deltas applied as body forces)
+    heading_bias            bias_deg                          sensed: compass reads psi + bias
+    antenna_offset          forward_m, starboard_m            sensed: GPS antenna at this body lever arm
+    sensor_delay            delay_s                           sensed: position and heading reported late
+    yaw_damping_quadratic   n_rr_nm_s2                        fields (force when batched): extra -N_rr |r| r
+    hydro_refit             resistance_linear_n_s_m, n_r_nd   fields (force when batched): re-fit of
+                                                              VesselParams fields, fitted as changes
 
-``current`` is reported also as speed and direction (towards), with
-intervals by the delta method.
+Hooks (all optional; ``v`` maps the effect's parameter names to per-run arrays):
+``thrust(v, tp, ts, ctx)`` -> (tp, ts); ``force(v, vessel)`` -> f(psi, u, v, r) -> (X, Y, N)
+body-frame; ``fields(v, vessel)`` -> VesselParams changes (scalar values; ``field_limits`` what a
+written file must respect); ``water(v)`` ->
+(north_m_s, east_m_s); ``sensed(v, out, t_s)`` -> out; ``bounds(name, vessel)``;
+``derived(value, sigma)`` -> extra report rows; ``reported(name, value, vessel)``.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+DEADBAND_SOFT_PCT = 1.0  # half-width of the softened deadband edge (keeps the fit differentiable)
 
 
 @dataclass(frozen=True)
@@ -44,7 +55,7 @@ class EffectParam:
     init: float | None = None  # starting value when the null value has no gradient
     grid: tuple[float, ...] | None = None  # screening starts when the cost is far from quadratic
     # the cost is flat between steps (a threshold between the duties a trial holds): a fit stuck
-    # above the noise is profiled over ``grid`` (identify._profile)
+    # above the noise is profiled over ``grid`` (search.profile)
     stepwise: bool = False
 
     def __post_init__(self):
@@ -56,15 +67,16 @@ class EffectParam:
         return self.null if self.init is None else self.init
 
 
-@dataclass(frozen=True)
 class Effect:
-    """A candidate effect and its parameters (SI; degrees only where the name says so)."""
+    """A candidate effect: parameters (SI; degrees only where the name says so) and hooks."""
 
-    name: str
-    params: tuple[EffectParam, ...]
-    doc: str
-    kind: str  # "input", "force", "environment", "sensor", "hydro"
+    name: str = ""
+    params: tuple[EffectParam, ...] = ()
+    doc: str = ""
+    kind: str = ""  # "input", "force", "environment", "sensor", "hydro"
     steady: bool = False  # observable in a steady-state table
+    vessel_fields: bool = False  # written into vessel-updated.yaml (VesselParams fields), else effects.yaml
+    sensed_order: int = 0  # order of the ``sensed`` hooks (delay, then lever arm, then bias)
 
     def key(self, param: EffectParam) -> str:
         return f"{self.name}.{param.name}"
@@ -73,97 +85,262 @@ class Effect:
     def keys(self) -> tuple[str, ...]:
         return tuple(self.key(p) for p in self.params)
 
+    def bounds(self, name: str, vessel) -> tuple[float, float]:
+        p = next(p for p in self.params if p.name == name)
+        return p.lo, p.hi
 
-INF = float("inf")
+    def reported(self, name: str, value: float, vessel) -> float:
+        """The value as reported (hydro_refit: the new field value, not the change)."""
+        return value
+
+    def derived(self, value: dict, sigma: dict) -> list[dict]:
+        """Extra report rows computed from the parameters."""
+        return []
+
+    thrust = None
+    force = None
+    fields = None
+    water = None
+    sensed = None
+    field_limits: ClassVar[dict] = {}  # VesselParams field -> (lo, hi) a written file must respect
+
+    def written_fields(self, v, vessel) -> dict:
+        """``fields`` held inside ``field_limits`` (what vessel-updated.yaml gets)."""
+        out = self.fields(v, vessel)
+        for name, (lo, hi) in self.field_limits.items():
+            if name in out:
+                out[name] = min(max(out[name], lo), hi)
+        return out
+
+    def __repr__(self) -> str:
+        return f"<effect {self.name}>"
+
+
+def _row(name, unit, value, sigma) -> dict:
+    return {"name": name, "unit": unit, "value": value, "ci95": [value - 1.96 * sigma, value + 1.96 * sigma], "sigma": sigma}
+
+
+class Current(Effect):
+    name, kind = "current", "environment"
+    params = (EffectParam("north_m_s", "m/s", 0.0, -2.0, 2.0, 0.1), EffectParam("east_m_s", "m/s", 0.0, -2.0, 2.0, 0.1))
+    doc = "uniform steady water current (velocity towards north/east)"
+
+    def water(self, v):
+        return v["north_m_s"], v["east_m_s"]
+
+    def derived(self, value, sigma):
+        """Speed and direction (towards), intervals by the delta method."""
+        cn, ce, sn, se = value["north_m_s"], value["east_m_s"], sigma["north_m_s"], sigma["east_m_s"]
+        speed = math.hypot(cn, ce)
+        s_speed = math.sqrt((cn * sn) ** 2 + (ce * se) ** 2) / max(speed, 1e-9)
+        s_dir = math.degrees(math.sqrt((ce * sn) ** 2 + (cn * se) ** 2)) / max(speed**2, 1e-12)
+        towards = math.degrees(math.atan2(ce, cn)) % 360.0
+        return [_row("speed_m_s", "m/s", speed, s_speed), _row("towards_deg", "deg", towards, s_dir)]
+
+
+class WindForce(Effect):
+    name, kind = "wind_force", "force"
+    params = (EffectParam("north_n", "N", 0.0, -200.0, 200.0, 5.0), EffectParam("east_n", "N", 0.0, -200.0, 200.0, 5.0),
+              EffectParam("moment_nm", "N m", 0.0, -200.0, 200.0, 2.0))
+    doc = "steady force in the earth frame and a steady yaw moment (wind on the superstructure)"
+
+    def force(self, v, vessel):
+        f_n, f_e, m_z = v["north_n"], v["east_n"], v["moment_nm"]
+
+        def f(psi, u, vv, r):  # earth-frame force into body axes
+            c, s = np.cos(psi), np.sin(psi)
+            return f_n * c + f_e * s, -f_n * s + f_e * c, m_z + 0.0 * psi
+
+        return f
+
+
+class ThrustAsymmetry(Effect):
+    name, kind, steady = "thrust_asymmetry", "input", True
+    params = (EffectParam("asymmetry_nd", "-", 0.0, -0.6, 0.6, 0.05, grid=(-0.08, -0.04, 0.0, 0.04, 0.08)),)
+    doc = "one side pushes more: port thrust x (1 + a), starboard x (1 - a)"
+    order = 0
+
+    def thrust(self, v, tp, ts, ctx):
+        a = np.asarray(v["asymmetry_nd"], dtype=float)
+        a = a[:, None] if tp.ndim == 2 else a
+        return tp * (1.0 + a), ts * (1.0 - a)
+
+
+def deadband_gain(duty_pct: np.ndarray, threshold_pct: np.ndarray) -> np.ndarray:
+    """Thrust gain of a deadband, 0 below the threshold and 1 above, softened over +-DEADBAND_SOFT_PCT."""
+    return np.clip((np.abs(duty_pct) - threshold_pct[:, None]) / (2 * DEADBAND_SOFT_PCT) + 0.5, 0.0, 1.0)
+
+
+class ThrustDeadband(Effect):
+    name, kind, steady = "thrust_deadband", "input", True
+    params = (EffectParam("threshold_pct", "%", 0.0, 0.0, 60.0, 10.0, fd_step=0.03, init=5.0,
+                          grid=(5.0, 12.0, 19.0, 26.0, 33.0, 40.0), stepwise=True),)
+    doc = "no thrust below a duty threshold (the motor does not start)"
+    order = 1
+
+    def thrust(self, v, tp, ts, ctx):
+        d0 = v["threshold_pct"]
+        return tp * deadband_gain(ctx["duty_port_pct"], d0), ts * deadband_gain(ctx["duty_stbd_pct"], d0)
+
+
+def lag_filter(thrust: np.ndarray, tau_s: np.ndarray, dt_s: float) -> np.ndarray:
+    """Interval-mean of a first-order lag driven by a zero-order-hold command (exact for ZOH).
+
+    y' = (u - y) / tau; over [t_k, t_k + dt) with u_k held, the mean of y is
+    u_k + (y_k - u_k) (tau / dt)(1 - a), a = exp(-dt / tau), and y_{k+1} = a y_k + (1 - a) u_k.
+    Using the mean keeps the simulator's zero-order hold centred (no extra half-sample delay).
+    """
+    from scipy.signal import lfilter
+
+    out = thrust.copy()
+    for j in range(thrust.shape[0]):
+        tau = float(tau_s[j])
+        if tau <= 1e-6:
+            continue
+        a = math.exp(-dt_s / tau)
+        g = tau / dt_s * (1.0 - a)
+        u = thrust[j]
+        y = np.empty_like(u)
+        y[0] = u[0]
+        # y_{k+1} = a y_k + (1 - a) u_k  ->  y[1:] from u[:-1], initial state y_0 = u_0 (at rest)
+        y[1:], _ = lfilter([1.0 - a], [1.0, -a], u[:-1], zi=[a * u[0]])
+        out[j] = u + (y - u) * g
+    return out
+
+
+class ThrustLag(Effect):
+    name, kind = "thrust_lag", "input"
+    params = (EffectParam("time_constant_s", "s", 0.0, 0.0, 10.0, 0.5, grid=(0.0, 0.5, 1.0, 2.0)),)
+    doc = "motor spin-up: thrust follows the command with a first-order lag"
+    order = 2  # after the gain effects: the lag acts on the thrust the motor makes
+
+    def thrust(self, v, tp, ts, ctx):
+        tau = v["time_constant_s"]
+        return lag_filter(tp, tau, ctx["dt_s"]), lag_filter(ts, tau, ctx["dt_s"])
+
+
+class HeadingBias(Effect):
+    name, kind, sensed_order = "heading_bias", "sensor", 2
+    params = (EffectParam("bias_deg", "deg", 0.0, -30.0, 30.0, 1.0),)
+    doc = "compass mounted off the centre line: it reads psi + bias"
+
+    def sensed(self, v, out, t_s):
+        return {**out, "psi_rad": out["psi_rad"] + np.radians(v["bias_deg"])[:, None]}
+
+
+class AntennaOffset(Effect):
+    name, kind, sensed_order = "antenna_offset", "sensor", 1
+    params = (EffectParam("forward_m", "m", 0.0, -5.0, 5.0, 0.5), EffectParam("starboard_m", "m", 0.0, -5.0, 5.0, 0.5))
+    doc = "GPS antenna away from the centre of gravity (body lever arm)"
+
+    def sensed(self, v, out, t_s):
+        lx, ly = v["forward_m"][:, None], v["starboard_m"][:, None]
+        c, s = np.cos(out["psi_rad"]), np.sin(out["psi_rad"])
+        return {**out, "north_m": out["north_m"] + lx * c - ly * s, "east_m": out["east_m"] + lx * s + ly * c}
+
+
+class SensorDelay(Effect):
+    name, kind, sensed_order = "sensor_delay", "sensor", 0
+    params = (EffectParam("delay_s", "s", 0.0, 0.0, 5.0, 0.3, grid=(0.0, 0.5, 1.0, 1.5)),)
+    doc = "position and heading reported late by a fixed delay"
+
+    def sensed(self, v, out, t_s):
+        out = {k: a.copy() for k, a in out.items()}
+        for j, delay in enumerate(v["delay_s"]):
+            if delay > 0:
+                tq = np.maximum(t_s - delay, 0.0)
+                for k in ("north_m", "east_m", "psi_rad"):
+                    out[k][j] = np.interp(tq, t_s, out[k][j])
+        return out
+
+
+class YawDampingQuadratic(Effect):
+    name, kind, steady, vessel_fields = "yaw_damping_quadratic", "force", True, True
+    params = (EffectParam("n_rr_nm_s2", "N m s^2", 0.0, -1e5, 1e5, 20.0, grid=(0.0, 15.0, 40.0)),)
+    doc = "unmodelled quadratic yaw damping: extra moment -N_rr |r| r"
+
+    def bounds(self, name, vessel):
+        p = self.params[0]
+        return max(p.lo, -vessel.yaw_damping_quadratic_nm_s2), p.hi
+
+    field_limits: ClassVar[dict] = {"yaw_damping_quadratic_nm_s2": (0.0, math.inf)}
+
+    def fields(self, v, vessel):
+        return {"yaw_damping_quadratic_nm_s2": vessel.yaw_damping_quadratic_nm_s2 + float(v["n_rr_nm_s2"])}
+
+    def force(self, v, vessel):
+        n_rr = v["n_rr_nm_s2"]
+        return lambda psi, u, vv, r: (0.0 * r, 0.0 * r, -n_rr * np.abs(r) * r)
+
+
+class HydroRefit(Effect):
+    name, kind, steady, vessel_fields = "hydro_refit", "hydro", True, True
+    params = (EffectParam("resistance_linear_n_s_m", "N s/m", 0.0, -1e3, 1e3, 1.0),
+              EffectParam("n_r_nd", "-", 0.0, -50.0, 50.0, 0.02))
+    doc = ("re-fit of existing hydrodynamic coefficients (linear resistance r1, MMG N'_r); "
+           "parameters are the new values, fitted as changes from the base set")
+
+    def bounds(self, name, vessel):
+        p = next(p for p in self.params if p.name == name)
+        if name == "resistance_linear_n_s_m":
+            return max(p.lo, -vessel.resistance_linear_n_s_m), p.hi
+        if name == "n_r_nd":
+            return max(p.lo, -50.0 - vessel.n_r_nd), min(p.hi, -vessel.n_r_nd)
+        return p.lo, p.hi
+
+    def reported(self, name, value, vessel):
+        return getattr(vessel, name) + value
+
+    field_limits: ClassVar[dict] = {"n_r_nd": (-math.inf, 0.0), "resistance_linear_n_s_m": (0.0, math.inf)}
+
+    def fields(self, v, vessel):
+        """Any VesselParams field given as a change (the table mode re-fits more of them)."""
+        return {name: getattr(vessel, name) + float(delta) for name, delta in v.items()}
+
+    def force(self, v, vessel):
+        d_r1 = v["resistance_linear_n_s_m"]
+        k_nr = vessel.moment_scale_kg * vessel.length_m * v["n_r_nd"]
+
+        def f(psi, u, vv, r):  # R = r1 u (SPEC 5); N_H term 1/2 rho L^2 d U N'_r L r (Eq 3.21); water-relative u, v
+            return -d_r1 * u, 0.0 * u, k_nr * np.sqrt(u * u + vv * vv) * r
+
+        return f
+
 
 EFFECTS: tuple[Effect, ...] = (
-    Effect(
-        "current",
-        (
-            EffectParam("north_m_s", "m/s", 0.0, -2.0, 2.0, 0.1),
-            EffectParam("east_m_s", "m/s", 0.0, -2.0, 2.0, 0.1),
-        ),
-        "uniform steady water current (velocity towards north/east)",
-        "environment",
-    ),
-    Effect(
-        "wind_force",
-        (
-            EffectParam("north_n", "N", 0.0, -200.0, 200.0, 5.0),
-            EffectParam("east_n", "N", 0.0, -200.0, 200.0, 5.0),
-            EffectParam("moment_nm", "N m", 0.0, -200.0, 200.0, 2.0),
-        ),
-        "steady force in the earth frame and a steady yaw moment (wind on the superstructure)",
-        "force",
-    ),
-    Effect(
-        "thrust_asymmetry",
-        (EffectParam("asymmetry_nd", "-", 0.0, -0.6, 0.6, 0.05, grid=(-0.08, -0.04, 0.0, 0.04, 0.08)),),
-        "one side pushes more: port thrust x (1 + a), starboard x (1 - a)",
-        "input",
-        steady=True,
-    ),
-    Effect(
-        "thrust_lag",
-        (EffectParam("time_constant_s", "s", 0.0, 0.0, 10.0, 0.5, grid=(0.0, 0.5, 1.0, 2.0)),),
-        "motor spin-up: thrust follows the command with a first-order lag",
-        "input",
-    ),
-    Effect(
-        "thrust_deadband",
-        (EffectParam("threshold_pct", "%", 0.0, 0.0, 60.0, 10.0, fd_step=0.03, init=5.0,
-                     grid=(5.0, 12.0, 19.0, 26.0, 33.0, 40.0), stepwise=True),),
-        "no thrust below a duty threshold (the motor does not start)",
-        "input",
-        steady=True,
-    ),
-    Effect(
-        "heading_bias",
-        (EffectParam("bias_deg", "deg", 0.0, -30.0, 30.0, 1.0),),
-        "compass mounted off the centre line: it reads psi + bias",
-        "sensor",
-    ),
-    Effect(
-        "antenna_offset",
-        (
-            EffectParam("forward_m", "m", 0.0, -5.0, 5.0, 0.5),
-            EffectParam("starboard_m", "m", 0.0, -5.0, 5.0, 0.5),
-        ),
-        "GPS antenna away from the centre of gravity (body lever arm)",
-        "sensor",
-    ),
-    Effect(
-        "sensor_delay",
-        (EffectParam("delay_s", "s", 0.0, 0.0, 5.0, 0.3, grid=(0.0, 0.5, 1.0, 1.5)),),
-        "position and heading reported late by a fixed delay",
-        "sensor",
-    ),
-    Effect(
-        "yaw_damping_quadratic",
-        (EffectParam("n_rr_nm_s2", "N m s^2", 0.0, -1e5, 1e5, 20.0, grid=(0.0, 15.0, 40.0)),),
-        "unmodelled quadratic yaw damping: extra moment -N_rr |r| r",
-        "force",
-        steady=True,
-    ),
-    Effect(
-        "hydro_refit",
-        (
-            EffectParam("resistance_linear_n_s_m", "N s/m", 0.0, -1e3, 1e3, 1.0),
-            EffectParam("n_r_nd", "-", 0.0, -50.0, 50.0, 0.02),
-        ),
-        "re-fit of existing hydrodynamic coefficients (linear resistance r1, MMG N'_r); "
-        "parameters are the new values, fitted as changes from the base set",
-        "hydro",
-        steady=True,
-    ),
+    Current(), WindForce(), ThrustAsymmetry(), ThrustLag(), ThrustDeadband(), HeadingBias(), AntennaOffset(),
+    SensorDelay(), YawDampingQuadratic(), HydroRefit(),
 )
 
 BY_NAME: dict[str, Effect] = {e.name: e for e in EFFECTS}
 EFFECT_NAMES: tuple[str, ...] = tuple(BY_NAME)
 ALL_KEYS: tuple[str, ...] = tuple(k for e in EFFECTS for k in e.keys)
 PARAM_BY_KEY: dict[str, EffectParam] = {e.key(p): p for e in EFFECTS for p in e.params}
+THRUST_EFFECTS = tuple(sorted((e for e in EFFECTS if e.thrust is not None), key=lambda e: e.order))
+SENSED_EFFECTS = tuple(sorted((e for e in EFFECTS if e.sensed is not None), key=lambda e: e.sensed_order))
+
+
+def split_key(key: str) -> tuple[Effect, str]:
+    """"identifier.param" -> (effect, param name)."""
+    name, _, pname = key.partition(".")
+    return BY_NAME[name], pname
+
+
+def bounds(key: str, vessel) -> tuple[float, float]:
+    """Bounds of an effect parameter, tightened so the updated VesselParams stays in range."""
+    eff, pname = split_key(key)
+    return eff.bounds(pname, vessel)
 
 
 def null_values() -> dict[str, float]:
     """Every effect parameter at its no-effect value."""
     return {k: p.null for k, p in PARAM_BY_KEY.items()}
+
+
+def by_effect(values: dict) -> dict[Effect, dict]:
+    """{"identifier.param": value} -> {effect: {param: value}} (only effects named in ``values``)."""
+    out: dict[Effect, dict] = {}
+    for key, value in values.items():
+        eff, pname = split_key(key)
+        out.setdefault(eff, {})[pname] = value
+    return out

@@ -2,10 +2,12 @@
 
 The unknowns are the effect parameters (shared by all trials) and each
 trial's initial state (a nuisance: a noisy start would otherwise bias every
-effect). Residuals are measured minus predicted position and heading, each
-divided by that trial's measurement noise (estimated from the data), so the
-cost is a chi-square and the 95 % intervals come from the Jacobian:
-cov = s^2 (J^T J)^-1, s^2 = cost / (m - n).
+effect). Residuals are measured minus predicted position and heading at the
+measurement times, weighted through the noise model (``noise.Whitener``:
+wandering + white, the generalised least-squares cost r' S^-1 r), so the cost
+is a chi-square over the m measurements and the 95 % intervals come from the
+Jacobian: cov = s^2 (J^T J)^-1, s^2 = max(cost / (m - n), 1) (never narrower
+than the noise model says).
 
 The Jacobian is a batched finite difference: the initial state of trial i
 only moves trial i, so one ``simulate`` call with N (1 + 4 + p) runs gives
@@ -22,6 +24,7 @@ import numpy as np
 
 from autopilot.sim import VesselParams
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
+from autopilot.sysid.effects import bounds as effect_bounds
 from autopilot.sysid.replay import Prepared, predict, residuals
 
 # scales of the nuisance initial state (north, east, psi, u, v, r) and their FD steps (scaled units)
@@ -38,16 +41,8 @@ DIVERGED = 1e3  # residual of every sample when a trial step makes the simulatio
 
 
 def theta_bounds(key: str, vessel: VesselParams) -> tuple[float, float]:
-    """Bounds of an effect parameter, tightened so the updated VesselParams stays in range."""
-    p = PARAM_BY_KEY[key]
-    lo, hi = p.lo, p.hi
-    if key == "yaw_damping_quadratic.n_rr_nm_s2":
-        lo = max(lo, -vessel.yaw_damping_quadratic_nm_s2)
-    elif key == "hydro_refit.resistance_linear_n_s_m":
-        lo = max(lo, -vessel.resistance_linear_n_s_m)
-    elif key == "hydro_refit.n_r_nd":
-        lo, hi = max(lo, -50.0 - vessel.n_r_nd), min(hi, -vessel.n_r_nd)
-    return lo, hi
+    """Bounds of an effect parameter (its effect's ``bounds`` hook: the updated VesselParams stays in range)."""
+    return effect_bounds(key, vessel)
 
 
 @dataclass
@@ -61,7 +56,7 @@ class Fit:
     x0: np.ndarray  # (len(trials), 6)
     trials: tuple[int, ...]
     cost: float  # weighted sum of squared residuals (chi-square)
-    n_obs: int
+    n_obs: int  # measurements (the weighted rows may be more: noise.Whitener)
     nfev: int = 0
     fixed: dict = field(default_factory=dict)
 
@@ -97,8 +92,12 @@ class Problem:
         self.fixed = dict(fixed or {})
         self.scale = np.array([PARAM_BY_KEY[k].scale for k in self.keys])
         self.fd = np.array([PARAM_BY_KEY[k].fd_step for k in self.keys])
-        self.sizes = [prep.n_residuals(i) for i in self.trials]
+        self.sizes = [prep.n_rows(i) for i in self.trials]
         self.offsets = np.concatenate([[0], np.cumsum(self.sizes)])
+        self.n_obs = int(sum(prep.n_measurements(i) for i in self.trials))
+        # d(weighted residual) / d(north offset): the weighted -1 of every position (the model is
+        # translation invariant), the same for east
+        self.pos_ones = [prep.pos_weights[i].apply(-np.ones(prep.measured[i].t_pos_s.size)) for i in self.trials]
         self.nfev = 0
 
     @property
@@ -131,7 +130,7 @@ class Problem:
             return predict(self.prep, self.vessel, tri, x0s, values)
 
     def residual_vector(self, pred, runs) -> np.ndarray:
-        r = np.concatenate([residuals(self.prep, i, pred, j) for i, j in zip(self.trials, runs)])
+        r = np.concatenate([residuals(self.prep, i, pred, [j])[0] for i, j in zip(self.trials, runs)])
         return np.where(np.isfinite(r), r, DIVERGED)
 
     def fun(self, z) -> np.ndarray:
@@ -171,16 +170,15 @@ class Problem:
         col0 = self.p if with_theta else 0
         for t_pos, i in enumerate(self.trials):
             lo, hi = self.offsets[t_pos], self.offsets[t_pos + 1]
-            npos = self.prep.pos_idx[i].size
-            sp = self.prep.sigma_pos_m[i]
+            rows_p = self.prep.pos_weights[i].rows
             c = col0 + nf * t_pos
-            jac[lo : lo + npos, c] = -X0_SCALE[0] / sp
-            jac[lo + npos : lo + 2 * npos, c + 1] = -X0_SCALE[1] / sp
+            jac[lo : lo + rows_p, c] = X0_SCALE[0] * self.pos_ones[t_pos]
+            jac[lo + rows_p : lo + 2 * rows_p, c + 1] = X0_SCALE[1] * self.pos_ones[t_pos]
+            fd_runs = [(q + 1) * n + t_pos for q in range(len(FD_STATES))]
+            r = residuals(self.prep, i, pred, fd_runs)
+            r = np.where(np.isfinite(r), r, DIVERGED)
             for q, s in enumerate(FD_STATES):
-                run = (q + 1) * n + t_pos
-                r = residuals(self.prep, i, pred, run)
-                r = np.where(np.isfinite(r), r, DIVERGED)
-                jac[lo:hi, c + FREE_STATES.index(s)] = (r - base[lo:hi]) / X0_FD
+                jac[lo:hi, c + FREE_STATES.index(s)] = (r[q] - base[lo:hi]) / X0_FD
         for k in cols:
             runs = range((1 + len(FD_STATES) + k) * n, (2 + len(FD_STATES) + k) * n)
             r = self.residual_vector(pred, runs)
@@ -209,49 +207,58 @@ def fit_model(
     Given values (``theta0``) are held there and only the states fit; without
     ``theta0`` the parameters fit from their starts through the horizons too.
     """
-    from scipy.optimize import least_squares
-
-    from autopilot.sysid.replay import prepare, truncate
-
     keys = tuple(k for e in effects for k in BY_NAME[e].keys)
     trials = tuple(trials)
     x0 = np.asarray(x0, dtype=float)
-    x0_in = x0_h = x0
-    theta_h = theta0
-    # Given values are held through the horizons (only the states fit): a short horizon may hold
-    # nothing that fixes a parameter, which then drifts onto a flat stretch it cannot leave (a 23.0 %
-    # deadband started at its true value went to 29 % at chi-square 1.13 for 0.93, seed 1008).
-    hold = dict(fixed or {}) | (dict(zip(keys, (float(v) for v in theta0))) if keys and theta0 is not None else {})
-    held = bool(keys) and theta0 is not None
-    if held and len(theta0) != len(keys):
+    if not keys and len(trials) > 1:  # states only: the trials are separate problems
+        return _fit_states_apart(prep, vessel, effects, trials, x0, fixed=fixed, max_nfev=max_nfev, horizons_s=horizons_s)
+    if keys and theta0 is not None and len(theta0) != len(keys):
         raise ValueError(f"theta0 has {len(theta0)} values for {len(keys)} parameters {keys}")
+    if horizons_s:
+        x0, theta0 = _through_horizons(prep, vessel, effects, keys, trials, x0, theta0, fixed, horizons_s)
+    return _solve(prep, vessel, effects, keys, trials, x0, theta0, fixed, max_nfev)
+
+
+def _cost(prep, vessel, keys, trials, x0, theta, fixed) -> float:
+    probe = Problem(prep, vessel, keys, trials, x0, fixed=fixed)
+    return float(np.sum(probe.fun(probe.pack(theta, x0)) ** 2))
+
+
+def _through_horizons(prep, vessel, effects, keys, trials, x0, theta0, fixed, horizons_s):
+    """(states, values) to start the whole fit from: fitted through growing horizons, kept only when they
+    fit the whole trials better than the given start, and never worse than "no effect" from the given
+    states. Given values are held through the horizons (only the states fit): a short horizon may hold
+    nothing that fixes a parameter, which then drifts onto a flat stretch it cannot leave (a 23.0 %
+    deadband started at its true value went to 29 % at chi-square 1.13 for 0.93, seed 1008)."""
+    held = bool(keys) and theta0 is not None
+    hold = dict(fixed or {}) | (dict(zip(keys, (float(v) for v in theta0))) if held else {})
+    x0_h, theta_h = x0, theta0
     for h in horizons_s:
         if h >= prep.t_grid[-1] * 0.8:
             break
-        short = prepare([truncate(prep.trials[i], h) for i in trials], dt_s=prep.dt_s)
-        f = fit_model(short, vessel, () if held else effects, tuple(range(len(trials))), x0_h,
+        f = fit_model(prep.subset(trials, h), vessel, () if held else effects, tuple(range(len(trials))), x0_h,
                       theta0=None if held else theta_h, fixed=hold, max_nfev=15)
         x0_h, theta_h = f.x0, (list(f.theta) if keys and not held else theta_h)
-    if horizons_s:  # keep whichever start fits the whole trials better
-        probe = Problem(prep, vessel, keys, trials, x0, fixed=fixed)
-        t_start = [PARAM_BY_KEY[k].start for k in keys] if theta0 is None else theta0
-        t_hor = [PARAM_BY_KEY[k].start for k in keys] if theta_h is None else theta_h
-        c_start = float(np.sum(probe.fun(probe.pack(t_start, x0)) ** 2))
-        probe = Problem(prep, vessel, keys, trials, x0_h, fixed=fixed)
-        c_hor = float(np.sum(probe.fun(probe.pack(t_hor, x0_h)) ** 2))
-        if c_hor <= c_start:
-            x0, theta0, c_start = x0_h, theta_h, c_hor
-        if keys:  # and never start worse than "no effect" from the given states
-            null = [PARAM_BY_KEY[k].null for k in keys]
-            probe = Problem(prep, vessel, keys, trials, x0_in, fixed=fixed)
-            if float(np.sum(probe.fun(probe.pack(null, x0_in)) ** 2)) < c_start:
-                x0, theta0 = x0_in, null
+    starts = [PARAM_BY_KEY[k].start for k in keys]
+    c_start = _cost(prep, vessel, keys, trials, x0, starts if theta0 is None else theta0, fixed)
+    c_hor = _cost(prep, vessel, keys, trials, x0_h, starts if theta_h is None else theta_h, fixed)
+    best_x0, best_theta, best = (x0_h, theta_h, c_hor) if c_hor <= c_start else (x0, theta0, c_start)
+    if keys:
+        null = [PARAM_BY_KEY[k].null for k in keys]
+        if _cost(prep, vessel, keys, trials, x0, null, fixed) < best:
+            return x0, null
+    return best_x0, best_theta
+
+
+def _solve(prep, vessel, effects, keys, trials, x0, theta0, fixed, max_nfev) -> Fit:
+    """The trust-region least squares from (x0, theta0), with the curvature intervals."""
+    from scipy.optimize import least_squares
+
     prob = Problem(prep, vessel, keys, trials, x0, fixed=fixed)
     if theta0 is None:
         theta0 = [PARAM_BY_KEY[k].start for k in keys]
     lo, hi = prob.bounds()
-    z0 = prob.pack(theta0, x0)
-    z0 = np.clip(z0, lo * 0.999, hi * 0.999)
+    z0 = np.clip(prob.pack(theta0, x0), lo * 0.999, hi * 0.999)
     p = len(keys)
     if p:  # strictly inside the bounds (trf requires it)
         pad = 1e-9 * (np.abs(lo[:p]) + np.abs(hi[:p]) + 1.0)
@@ -261,101 +268,25 @@ def fit_model(
                         ftol=3e-5, xtol=1e-6, gtol=1e-8, max_nfev=max_nfev)
     theta, x0_fit = prob.split(sol.x)
     cost = float(np.sum(sol.fun**2))
-    m = sol.fun.size
-    sigma = np.full(len(keys), np.nan)
-    if keys:
-        j = sol.jac
-        dof = max(m - j.shape[1], 1)
-        s2 = cost / dof
+    m = prob.n_obs
+    sigma = np.full(p, np.nan)
+    if p:
+        dof = max(m - sol.jac.shape[1], 1)
         try:
-            cov = np.linalg.pinv(j.T @ j) * s2
-            sigma = np.sqrt(np.maximum(np.diag(cov)[: len(keys)], 0.0)) * prob.scale
+            cov = np.linalg.pinv(sol.jac.T @ sol.jac) * max(cost / dof, 1.0)
+            sigma = np.sqrt(np.maximum(np.diag(cov)[:p], 0.0)) * prob.scale
         except np.linalg.LinAlgError:
             pass
     return Fit(tuple(effects), keys, theta, sigma, x0_fit, tuple(trials), cost, m, prob.nfev, dict(fixed or {}))
 
 
-def screen(prep: Prepared, vessel: VesselParams, base: Fit, candidates, *, iterations: int = 3) -> dict[str, dict]:
-    """A few Gauss-Newton steps of every candidate from ``base``, all candidates in one batch per step.
-
-    Each step solves the linearised problem [J_x0 | J_effect] (the initial-state columns are the
-    base's); a step that raises the actual cost is halved. Returns per candidate the lowest
-    actual cost met (``predicted_cost``, used for ranking) and its parameters and states as a start.
-    One linear step misranks large effects (30 deg heading errors are far from linear).
-    """
-    n = len(base.trials)
-    tri = np.array(base.trials)
-    base_values = base.values()
-    prob = Problem(prep, vessel, base.keys, base.trials, base.x0, fixed=base.fixed)
-    j_x0 = prob.jac(prob.pack(base.theta, base.x0))[:, len(base.keys) :]
-    free = list(FREE_STATES)
-    state = {}
-    for c in candidates:
-        if c in base.effects:
-            continue
-        for g, start in enumerate(_starts(BY_NAME[c])):
-            state[(c, g)] = {"theta": dict(start), "x0": base.x0.copy(), "cost": np.inf, "prev": None,
-                             "best": (np.inf, dict(start), base.x0.copy())}
-    for _ in range(iterations + 1):
-        runs_vals, runs_x0, meta = [], [], []
-        for key, st in state.items():
-            c = key[0]
-            runs_vals.append(dict(st["theta"]))
-            runs_x0.append(st["x0"])
-            meta.append((key, None))
-            for k in BY_NAME[c].keys:
-                v = dict(st["theta"])
-                v[k] += PARAM_BY_KEY[k].fd_step * PARAM_BY_KEY[k].scale
-                runs_vals.append(v)
-                runs_x0.append(st["x0"])
-                meta.append((key, k))
-        all_keys = sorted({k for v in runs_vals for k in v} | set(base_values))
-        values = {k: np.repeat([v.get(k, base_values.get(k, PARAM_BY_KEY[k].null)) for v in runs_vals], n)
-                  for k in all_keys}
-        pred = predict(prep, vessel, np.tile(tri, len(runs_vals)), np.vstack(runs_x0), values)
-        resid = {}
-        for q, mk in enumerate(meta):
-            r = np.concatenate([residuals(prep, i, pred, j) for i, j in zip(base.trials, range(q * n, (q + 1) * n))])
-            resid[mk] = np.where(np.isfinite(r), r, DIVERGED)
-        for key, st in state.items():
-            eff = BY_NAME[key[0]]
-            r0 = resid[(key, None)]
-            cost = float(np.sum(r0**2))
-            if cost < st["best"][0]:
-                st["best"] = (cost, dict(st["theta"]), st["x0"].copy())
-            if st["prev"] is not None and cost > st["cost"]:  # overshoot: back half way
-                p_theta, p_x0 = st["prev"]
-                st["theta"] = {k: 0.5 * (st["theta"][k] + p_theta[k]) for k in st["theta"]}
-                st["x0"] = 0.5 * (st["x0"] + p_x0)
-                continue
-            st["cost"] = cost
-            cols = [(resid[(key, k)] - r0) / PARAM_BY_KEY[k].fd_step for k in eff.keys]
-            a = np.column_stack([j_x0] + cols)
-            step, *_ = np.linalg.lstsq(a, -r0, rcond=None)
-            st["prev"] = (dict(st["theta"]), st["x0"].copy())
-            for k, d in zip(eff.keys, step[-len(eff.keys) :]):
-                lo, hi = theta_bounds(k, vessel)
-                d = float(np.clip(d, -GN_MAX_STEP, GN_MAX_STEP))  # a linearisation is not trusted far out
-                st["theta"][k] = float(np.clip(st["theta"][k] + d * PARAM_BY_KEY[k].scale, lo, hi))
-            dx = step[: j_x0.shape[1]].reshape(n, len(free)) * X0_SCALE[free]
-            x0 = st["x0"].copy()
-            x0[:, free] += dx
-            x0[:, free] = np.clip(x0[:, free], -X0_LIMIT[free], X0_LIMIT[free])
-            st["x0"] = x0
-    out = {}
-    for (c, g), st in state.items():
-        cost, theta, x0 = st["best"]
-        if c not in out or cost < out[c]["predicted_cost"]:
-            out[c] = {"predicted_cost": cost, "theta": [theta[k] for k in BY_NAME[c].keys], "x0": x0}
-    return out
-
-
-def _starts(eff) -> list[dict]:
-    """Screening starts of an effect: its start values, and a grid where the parameter has one."""
-    grids = [PARAM_BY_KEY[k].grid or (PARAM_BY_KEY[k].start,) for k in eff.keys]
-    if all(len(g) == 1 for g in grids):
-        return [{k: g[0] for k, g in zip(eff.keys, grids)}]
-    import itertools
-
-    return [dict(zip(eff.keys, combo)) for combo in itertools.product(*grids)]
-
+def _fit_states_apart(prep, vessel, effects, trials, x0, *, fixed, max_nfev, horizons_s) -> Fit:
+    """Only initial states to fit (no effect, or effects held fixed): each trial on its own, exactly the
+    joint problem's solution but not stalled by the others (a joint trust region, one radius for all,
+    stopped one trial of five 6.5 deg off, a basin it left when fitted alone; its error then made a
+    wind force "fit"). Also faster: four runs a trial stay on the simulator's scalar path."""
+    parts = [fit_model(prep, vessel, effects, (i,), x0[[k]], fixed=fixed, max_nfev=max_nfev, horizons_s=horizons_s)
+             for k, i in enumerate(trials)]
+    return Fit(tuple(effects), (), np.zeros(0), np.zeros(0), np.vstack([f.x0 for f in parts]), tuple(trials),
+               float(sum(f.cost for f in parts)), int(sum(f.n_obs for f in parts)), int(sum(f.nfev for f in parts)),
+               dict(fixed or {}))

@@ -1,6 +1,6 @@
 """Where the baseline replay disagrees with the measurements, and how the gap grows.
 
-Samples are classed by what the boat was doing (model state of the baseline
+Measurements are classed by what the boat was doing (model state of the baseline
 replay, commands): straight or turning, port or starboard turn, low or high
 speed, the seconds after a thrust step. For each class: heading residual RMS
 and mean, and the rate at which the position error grows (m/s). Patterns:
@@ -13,8 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-from autopilot.geo import wrap_pi
 
 TURN_RATE_RAD_S = 0.05
 LOW_SPEED_M_S = 1.0
@@ -40,47 +38,66 @@ def _classes(u, r, tp, ts, t, dt):
     }
 
 
+def _at(grid_t, series, t):
+    return np.interp(t, grid_t, series)
+
+
+def _growth(m, rn, re) -> np.ndarray:
+    """Growth rate (m/s) of the position error between fixes at least GROWTH_WINDOW_S apart (NaN at the end)."""
+    later = np.searchsorted(m.t_pos_s, m.t_pos_s + GROWTH_WINDOW_S - 1e-9)
+    has = later < m.t_pos_s.size
+    growth = np.full(m.t_pos_s.size, np.nan)
+    lk = later[has]
+    growth[has] = np.hypot(rn[lk] - rn[has], re[lk] - re[has]) / (m.t_pos_s[lk] - m.t_pos_s[has])
+    return growth
+
+
+def _accumulate(acc: dict, cls: dict, k_h, k_p, rh, rn, re, growth) -> None:
+    for name, mask in cls.items():
+        mh, mp = mask[k_h], mask[k_p]
+        a = acc.setdefault(name, {"n": 0, "h2": 0.0, "h1": 0.0, "np": 0, "p2": 0.0, "g": 0.0, "ng": 0})
+        a["n"] += int(mh.sum())
+        a["h2"] += float(np.sum(rh[mh] ** 2))
+        a["h1"] += float(np.sum(rh[mh]))
+        a["np"] += int(mp.sum())
+        a["p2"] += float(np.sum(rn[mp] ** 2 + re[mp] ** 2))
+        gm = mp & np.isfinite(growth)
+        a["g"] += float(np.sum(growth[gm]))
+        a["ng"] += int(gm.sum())
+
+
 def locate(prep, pred, trials_idx, runs) -> dict:
-    """Residual statistics per class and the growth patterns (``pred`` from replay.predict)."""
-    dt = prep.dt_s
+    """Residual statistics per class and the growth patterns (``pred`` from replay.predict), each
+    measurement at the time it was taken (replay.raw_residuals)."""
+    from autopilot.sysid.replay import raw_residuals
+
+    dt, g = prep.dt_s, prep.t_grid
     acc = {}
     drift_v, lag_x, lag_y, head_all = [], [], [], []
     for i, j in zip(trials_idx, runs):
-        tr = prep.trials[i]
-        g = prep.t_grid
-        n_m = np.interp(g, tr.t_s, np.nan_to_num(tr.north_m, nan=np.nanmean(tr.north_m)))
-        e_m = np.interp(g, tr.t_s, np.nan_to_num(tr.east_m, nan=np.nanmean(tr.east_m)))
-        valid_h = np.isfinite(tr.heading_rad)
-        h_m = np.interp(g, tr.t_s[valid_h], np.unwrap(tr.heading_rad[valid_h]))
-        inside = g <= tr.t_s[-1]
-        rn, re = n_m - pred["north_m"][j], e_m - pred["east_m"][j]
-        rh = wrap_pi(h_m - pred["psi_rad"][j])
-        w = max(int(GROWTH_WINDOW_S / dt), 1)
-        growth = np.full(g.size, np.nan)
-        growth[w:] = np.hypot(rn[w:] - rn[:-w], re[w:] - re[:-w]) / (w * dt)
+        m = prep.measured[i]
+        rn, re, rh = (x[0] for x in raw_residuals(prep, i, pred, [j]))
         cls = _classes(pred["u_m_s"][j], pred["r_rad_s"][j], prep.thrust_port_n[i], prep.thrust_stbd_n[i], g, dt)
-        for name, mask in cls.items():
-            m = mask & inside
-            a = acc.setdefault(name, {"n": 0, "h2": 0.0, "h1": 0.0, "g": 0.0, "ng": 0})
-            a["n"] += int(m.sum())
-            a["h2"] += float(np.sum(rh[m] ** 2))
-            a["h1"] += float(np.sum(rh[m]))
-            gm = m & np.isfinite(growth)
-            a["g"] += float(np.sum(growth[gm]))
-            a["ng"] += int(gm.sum())
-        tt = g[inside]
-        if tt.size > 10:
-            drift_v.append([np.polyfit(tt, rn[inside], 1)[0], np.polyfit(tt, re[inside], 1)[0]])
-        r = pred["r_rad_s"][j][inside]
-        lag_x.append(r)
-        lag_y.append(rh[inside])
-        head_all.append(rh[inside])
+        k_p = np.clip(np.rint(m.t_pos_s / dt).astype(int), 0, g.size - 1)
+        k_h = np.clip(np.rint(m.t_psi_s / dt).astype(int), 0, g.size - 1)
+        _accumulate(acc, cls, k_h, k_p, rh, rn, re, _growth(m, rn, re))
+        if m.t_pos_s.size > 10:
+            drift_v.append([np.polyfit(m.t_pos_s, rn, 1)[0], np.polyfit(m.t_pos_s, re, 1)[0]])
+        lag_x.append(_at(g, pred["r_rad_s"][j], m.t_psi_s))
+        lag_y.append(rh)
+        head_all.append(rh)
+    return _summarise(acc, drift_v, lag_x, lag_y, head_all)
+
+
+def _summarise(acc, drift_v, lag_x, lag_y, head_all) -> dict:
     segments = {}
     for name, a in acc.items():
         if a["n"] == 0:
             continue
         segments[name] = {
             "samples": a["n"],
+            "position_fixes": a["np"],
+            "position_rms_m": math.sqrt(a["p2"] / a["np"]) if a["np"] else None,
             "heading_rms_deg": math.degrees(math.sqrt(a["h2"] / a["n"])),
             "heading_mean_deg": math.degrees(a["h1"] / a["n"]),
             "position_error_growth_m_s": a["g"] / a["ng"] if a["ng"] else None,

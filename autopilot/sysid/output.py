@@ -2,9 +2,9 @@
 
 ``vessel-updated.yaml`` is a VesselParams file (autopilot.sim.load_params reads
 it): the base set with the effects that are VesselParams fields written in
-(``hydro_refit`` -> the re-fitted fields; ``yaw_damping_quadratic``
--> yaw_damping_quadratic_nm_s2 + N_rr). Every other effect has no field in
-VesselParams and goes to ``effects.yaml``::
+(``Effect.vessel_fields``, through each effect's ``fields`` hook: ``hydro_refit`` ->
+the re-fitted fields; ``yaw_damping_quadratic`` -> yaw_damping_quadratic_nm_s2 + N_rr).
+Every other effect has no field in VesselParams and goes to ``effects.yaml``::
 
     effects:
       <identifier>:            # see autopilot/sysid/effects.py
@@ -27,24 +27,18 @@ import yaml
 
 from autopilot.schema import ConfigError, to_dict
 from autopilot.sim import VesselParams
-from autopilot.sysid.effects import BY_NAME
+from autopilot.sysid.effects import BY_NAME, EFFECTS, by_effect
 
-FIELD_EFFECTS = ("hydro_refit", "yaw_damping_quadratic")
+FIELD_EFFECTS = tuple(e.name for e in EFFECTS if e.vessel_fields)
 
 
 def updated_vessel(vessel: VesselParams, values: dict, *, digits: int | None = None) -> VesselParams:
-    """The base parameters with the field-type effects written in (rounded to ``digits`` if given)."""
+    """The base parameters with the field-type effects written in (their ``fields`` hooks; rounded
+    to ``digits`` if given)."""
     changes = {}
-    if "yaw_damping_quadratic.n_rr_nm_s2" in values:
-        changes["yaw_damping_quadratic_nm_s2"] = max(vessel.yaw_damping_quadratic_nm_s2 + values["yaw_damping_quadratic.n_rr_nm_s2"], 0.0)
-    for key, delta in values.items():  # hydro_refit.<VesselParams field>: a change of that field
-        if key.startswith("hydro_refit."):
-            name = key.split(".", 1)[1]
-            changes[name] = getattr(vessel, name) + delta
-    if "n_r_nd" in changes:
-        changes["n_r_nd"] = min(changes["n_r_nd"], 0.0)
-    if "resistance_linear_n_s_m" in changes:
-        changes["resistance_linear_n_s_m"] = max(changes["resistance_linear_n_s_m"], 0.0)
+    for eff, v in by_effect(values).items():
+        if eff.vessel_fields:
+            changes.update(eff.written_fields(v, vessel))
     if digits is not None:
         changes = {k: float(f"{v:.{digits}g}") for k, v in changes.items()}
     return dataclasses.replace(vessel, **changes)

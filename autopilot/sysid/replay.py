@@ -1,13 +1,19 @@
-"""Batched replay of trials through the simulator with candidate effects applied.
+"""Batched replay of trials through the simulator with candidate effects, and its residuals.
 
-All trials are put on one uniform time grid (the median sample interval),
-thrust held from each command to the next (the motors hold their last
-command). A *run* is one trial with one initial state and one set of effect
-values; many runs are integrated in a single batched ``simulate`` call, so a
-finite-difference Jacobian over all trials costs one call.
+All trials are put on one uniform time grid (the median row interval), thrust
+held from each command to the next (the motors hold their last command). A
+*run* is one trial with one initial state and one set of effect values; many
+runs are integrated in a single batched ``simulate`` call, so a
+finite-difference Jacobian over all trials costs one call. The effects act
+through their own hooks (:mod:`autopilot.sysid.effects`); this module names none.
+
+Measurements are compared at the times they were measured (``Trial.position_time_s``,
+``heading_time_s``; the prediction interpolated on the grid), weighted by the
+noise model of :mod:`autopilot.sysid.noise` (wandering + white, one per channel).
+Single-fix outliers are rejected here, before any fit, and counted.
 
 Initial state of a run: (north_m, east_m, psi_rad, u_m_s, v_m_s, r_rad_s) at
-the trial's first sample, u and v over ground (the shared state contract).
+the trial's first row, u and v over ground (the shared state contract).
 """
 
 from __future__ import annotations
@@ -20,18 +26,51 @@ import numpy as np
 
 from autopilot.geo import wrap_pi
 from autopilot.sim import STATE_NAMES, VesselParams, simulate
-from autopilot.sysid.effects import PARAM_BY_KEY
-from autopilot.sysid.trials import Trial, noise_sigma
+from autopilot.sysid.effects import (
+    BY_NAME,
+    SENSED_EFFECTS,
+    THRUST_EFFECTS,
+)
+from autopilot.sysid.noise import ChannelNoise, Whitener, outliers, white_scale
+from autopilot.sysid.trials import Trial
 
 SCALAR_MAX_RUNS = 24  # below this many runs the scalar loop beats numpy batching
-DEADBAND_SOFT_PCT = 1.0  # half-width of the softened deadband edge (keeps the fit differentiable)
-POS_NOISE_FLOOR_M = 0.02
-HEADING_NOISE_FLOOR_RAD = math.radians(0.03)
+# model-free outlier rejection (noise.outliers): a fix against its 4 nearest neighbours (a 1 Hz GPS:
+# +-2 s, where a turning boat's track is still a quadratic to ~0.7 m), a heading against 6 (+-0.3 s; a heading
+# held on a row without its time, 0.1 s old at 0.3 rad/s, is 1.7 deg off)
+OUTLIER_POSITION_M = 3.0
+OUTLIER_HEADING_RAD = math.radians(1.0)
+CHANNELS = ("position", "heading")
+
+
+@dataclass(frozen=True)
+class Noise:
+    """The noise model of both channels (shared by all trials: one receiver, one compass)."""
+
+    position: ChannelNoise
+    heading: ChannelNoise
+
+
+@dataclass(frozen=True)
+class Measured:
+    """One trial's measurements at their times, with their interpolation on the grid."""
+
+    t_pos_s: np.ndarray
+    north_m: np.ndarray
+    east_m: np.ndarray
+    t_psi_s: np.ndarray
+    psi_rad: np.ndarray
+    pos_at: tuple[np.ndarray, np.ndarray]  # (grid index k, weight of k + 1)
+    psi_at: tuple[np.ndarray, np.ndarray]
+    rejected_positions: int
+    rejected_headings: int
+    white_position_m: float | None  # model-free estimates of the white noise (noise.white_scale)
+    white_heading_rad: float | None
 
 
 @dataclass(frozen=True)
 class Prepared:
-    """Trials on a common grid with their measurements and noise levels."""
+    """Trials on a common grid with their measurements, noise model and weights."""
 
     trials: tuple[Trial, ...]
     dt_s: float
@@ -40,21 +79,137 @@ class Prepared:
     thrust_stbd_n: np.ndarray
     duty_port_pct: np.ndarray
     duty_stbd_pct: np.ndarray
-    pos_idx: tuple[np.ndarray, ...]  # per trial: sample indices with a valid position
-    psi_idx: tuple[np.ndarray, ...]  # per trial: sample indices with a valid heading
-    sigma_pos_m: np.ndarray  # (N,)
-    sigma_psi_rad: np.ndarray  # (N,)
+    measured: tuple[Measured, ...]
+    noise: Noise
+    pos_weights: tuple[Whitener, ...]
+    psi_weights: tuple[Whitener, ...]
 
     @property
     def n_trials(self) -> int:
         return len(self.trials)
 
-    def n_residuals(self, i: int) -> int:
-        return 2 * self.pos_idx[i].size + self.psi_idx[i].size
+    def n_measurements(self, i: int) -> int:
+        return 2 * self.measured[i].t_pos_s.size + self.measured[i].t_psi_s.size
+
+    def n_rows(self, i: int) -> int:
+        """Weighted residual rows of trial i (north, east, heading)."""
+        return 2 * self.pos_weights[i].rows + self.psi_weights[i].rows
+
+    def with_noise(self, noise: Noise) -> Prepared:
+        """The same trials weighted by another noise model."""
+        pw = tuple(Whitener(m.t_pos_s, noise.position) for m in self.measured)
+        hw = tuple(Whitener(m.t_psi_s, noise.heading) for m in self.measured)
+        return dataclasses.replace(self, noise=noise, pos_weights=pw, psi_weights=hw)
+
+    def subset(self, trials, end_s: float | None = None) -> Prepared:
+        """Trials ``trials`` only (renumbered 0, 1, ...), cut at ``end_s`` when given (a fit's horizon)."""
+        idx = list(trials)
+        size = self.t_grid.size if end_s is None else int(min(self.t_grid.size, math.floor(end_s / self.dt_s + 1e-9) + 2))
+        measured = []
+        for i in idx:
+            m = self.measured[i]
+            if end_s is not None:
+                kp, kh = m.t_pos_s <= end_s, m.t_psi_s <= end_s
+                m = dataclasses.replace(m, t_pos_s=m.t_pos_s[kp], north_m=m.north_m[kp], east_m=m.east_m[kp],
+                                        t_psi_s=m.t_psi_s[kh], psi_rad=m.psi_rad[kh],
+                                        pos_at=tuple(a[kp] for a in m.pos_at), psi_at=tuple(a[kh] for a in m.psi_at))
+            measured.append(m)
+        cut = dataclasses.replace(
+            self, trials=tuple(self.trials[i] for i in idx), t_grid=self.t_grid[:size],
+            thrust_port_n=self.thrust_port_n[idx, :size], thrust_stbd_n=self.thrust_stbd_n[idx, :size],
+            duty_port_pct=self.duty_port_pct[idx, :size], duty_stbd_pct=self.duty_stbd_pct[idx, :size],
+            measured=tuple(measured))
+        return cut.with_noise(self.noise)
 
 
-def prepare(trials, *, dt_s: float | None = None) -> Prepared:
-    """Put trials on one grid and estimate each trial's measurement noise."""
+def _grid_weights(t_s: np.ndarray, dt_s: float, size: int) -> tuple[np.ndarray, np.ndarray]:
+    k = np.clip(np.floor(t_s / dt_s + 1e-9).astype(int), 0, size - 2)
+    return k, np.clip(t_s / dt_s - k, 0.0, 1.0)
+
+
+def _measured(tr: Trial, dt_s: float, size: int, reject: bool) -> Measured:
+    end = tr.t_s[-1]
+    p = tr.fix_rows
+    p = p[(tr.position_time_s[p] >= 0.0) & (tr.position_time_s[p] <= end)]
+    tp, n, e = tr.position_time_s[p], tr.north_m[p], tr.east_m[p]
+    h = tr.heading_rows
+    h = h[(tr.heading_time_s[h] >= 0.0) & (tr.heading_time_s[h] <= end)]
+    th, psi = tr.heading_time_s[h], tr.heading_rad[h]
+    order_p, order_h = np.argsort(tp, kind="stable"), np.argsort(th, kind="stable")
+    tp, n, e, th, psi = tp[order_p], n[order_p], e[order_p], th[order_h], psi[order_h]
+    bad_p = np.zeros(tp.size, bool)
+    bad_h = np.zeros(th.size, bool)
+    if reject:
+        bad_p = outliers(tp, n, neighbours=4, window_s=4.0, floor=OUTLIER_POSITION_M)
+        bad_p |= outliers(tp, e, neighbours=4, window_s=4.0, floor=OUTLIER_POSITION_M)
+        bad_h = outliers(th, np.unwrap(psi), neighbours=6, window_s=1.0, floor=OUTLIER_HEADING_RAD)
+    tp, n, e, th, psi = tp[~bad_p], n[~bad_p], e[~bad_p], th[~bad_h], psi[~bad_h]
+    wn, we = (white_scale(tp, y, neighbours=4, window_s=4.0) for y in (n, e))
+    w_pos = None if wn is None or we is None else math.sqrt(0.5 * (wn * wn + we * we))
+    w_psi = white_scale(th, np.unwrap(psi), neighbours=6, window_s=1.0)
+    return Measured(tp, n, e, th, psi, _grid_weights(tp, dt_s, size), _grid_weights(th, dt_s, size),
+                    int(bad_p.sum()), int(bad_h.sum()), w_pos, w_psi)
+
+
+def _interval_means(t_rows: np.ndarray, u: np.ndarray, g: np.ndarray, dt_s: float) -> np.ndarray:
+    """Mean over each grid interval [g, g + dt) of ``u`` held from each row's time to the next (before the
+    first row: its value). The simulator holds a grid interval's value for the whole interval: a log's
+    rows come a few milliseconds after the grid's times (the loop starts each cycle a little late), and
+    the value *at* each grid time would be the previous row's: every command one step (0.1 s) late,
+    which fits as a thrust lag of a tenth of a second (five calm closed-loop logs did)."""
+    integral = np.concatenate([[0.0], np.cumsum(u[:-1] * np.diff(t_rows))])  # from t_rows[0] to each row
+
+    def at(t):
+        k = np.clip(np.searchsorted(t_rows, t, side="right") - 1, 0, t_rows.size - 1)
+        return integral[k] + u[k] * (t - t_rows[k])
+
+    return (at(g + dt_s) - at(g)) / dt_s
+
+
+def _commands(tr: Trial, g: np.ndarray, dt_s: float):
+    """The trial's commands on the grid: each interval's mean of the commands held from each row.
+    Across a missing row of a CSV (a dropped row: the command then is unknown) they are interpolated,
+    which is exact on ramps and half wrong at a step (holding is wrong on every ramp sample); a
+    mission log holds (the motors did)."""
+    srcs = (tr.thrust_port_n, tr.thrust_stbd_n, tr.duty_port_pct, tr.duty_stbd_pct)
+    out = [_interval_means(tr.t_s, src, g, dt_s) for src in srcs]
+    k = np.clip(np.searchsorted(tr.t_s, g + 1e-9, side="right") - 1, 0, tr.t_s.size - 1)
+    gap = (np.abs(tr.t_s[k] - g) > 0.5 * dt_s) & (g <= tr.t_s[-1])
+    if gap.any() and not tr.commands_held:
+        for arr, src in zip(out, srcs):
+            arr[gap] = np.interp(g[gap], tr.t_s, src)
+    return out
+
+
+# the wander and correlation time the search weights by before any model's noise is known: a
+# typical sensor's (issue 12: 0.5-2 m, 30-60 s; 0.3 deg). Not the baseline's: its residual holds the
+# missing effect, and a noise that wanders by the effect's size hides it (a 0.2 m/s current in five
+# pond logs, fitted at 0.11 m/s under a baseline noise at the sensor's bounds).
+SEARCH_POSITION_WANDER_M = 1.0
+SEARCH_HEADING_WANDER_RAD = math.radians(0.3)
+SEARCH_WANDER_TIME_S = 30.0
+WHITE_FLOOR_POSITION_M = 0.05
+WHITE_FLOOR_HEADING_RAD = math.radians(0.05)
+
+
+def first_guess_noise(measured) -> Noise:
+    """The search's noise: the white parts measured without a model (noise.white_scale, the median over
+    the trials), the wander a typical sensor's (above). Replaced by the best model's own noise once
+    the candidates are fitted (identify.renoise)."""
+    def median(values, floor):
+        v = [x for x in values if x is not None and math.isfinite(x)]
+        return max(float(np.median(v)) if v else floor, floor)
+
+    return Noise(
+        ChannelNoise(median([m.white_position_m for m in measured], WHITE_FLOOR_POSITION_M), SEARCH_POSITION_WANDER_M,
+                     SEARCH_WANDER_TIME_S),
+        ChannelNoise(median([m.white_heading_rad for m in measured], WHITE_FLOOR_HEADING_RAD), SEARCH_HEADING_WANDER_RAD,
+                     SEARCH_WANDER_TIME_S),
+    )
+
+
+def prepare(trials, *, dt_s: float | None = None, noise: Noise | None = None, reject: bool = True) -> Prepared:
+    """Put trials on one grid, take their measurements (outliers rejected) and weight them by ``noise``."""
     trials = tuple(trials)
     if not trials:
         raise ValueError("no trials")
@@ -63,63 +218,46 @@ def prepare(trials, *, dt_s: float | None = None) -> Prepared:
         dt_s = max(round(dt_s, 3), 0.01)
     length = max(t.t_s[-1] for t in trials)
     g = np.arange(0.0, length + dt_s * 0.999, dt_s)
-    shape = (len(trials), g.size)
-    tp, ts, dp, ds = (np.empty(shape) for _ in range(4))
-    pos_idx, psi_idx, s_pos, s_psi = [], [], [], []
-    for i, tr in enumerate(trials):
-        k = np.clip(np.searchsorted(tr.t_s, g + 1e-9, side="right") - 1, 0, tr.t_s.size - 1)
-        tp[i], ts[i] = tr.thrust_port_n[k], tr.thrust_stbd_n[k]
-        dp[i], ds[i] = tr.duty_port_pct[k], tr.duty_stbd_pct[k]
-        # a grid time with no logged sample (a dropped row): the command sent then is unknown;
-        # interpolating between the neighbours is exact on ramps and half wrong at a step,
-        # holding the previous one is wrong on every ramp sample (measurably biases the fits)
-        gap = np.abs(tr.t_s[k] - g) > 0.5 * dt_s
-        gap &= g <= tr.t_s[-1]
-        if gap.any():
-            for arr, src in ((tp, tr.thrust_port_n), (ts, tr.thrust_stbd_n), (dp, tr.duty_port_pct), (ds, tr.duty_stbd_pct)):
-                arr[i, gap] = np.interp(g[gap], tr.t_s, src)
-        pos_idx.append(np.flatnonzero(np.isfinite(tr.north_m) & np.isfinite(tr.east_m)))
-        psi_idx.append(np.flatnonzero(np.isfinite(tr.heading_rad)))
-        sn = noise_sigma(tr.north_m, tr.t_s, floor=POS_NOISE_FLOOR_M)
-        se = noise_sigma(tr.east_m, tr.t_s, floor=POS_NOISE_FLOOR_M)
-        s_pos.append(math.sqrt(0.5 * (sn * sn + se * se)))
-        s_psi.append(noise_sigma(_unwrap_gappy(tr.heading_rad), tr.t_s, floor=HEADING_NOISE_FLOOR_RAD))
-    return Prepared(trials, dt_s, g, tp, ts, dp, ds, tuple(pos_idx), tuple(psi_idx), np.array(s_pos), np.array(s_psi))
-
-
-def _unwrap_gappy(angle_rad: np.ndarray) -> np.ndarray:
-    """np.unwrap over the valid samples, NaN kept in the gaps."""
-    out = np.full(angle_rad.shape, np.nan)
-    ok = np.isfinite(angle_rad)
-    out[ok] = np.unwrap(angle_rad[ok])
-    return out
+    cmds = np.array([_commands(tr, g, dt_s) for tr in trials])  # (N, 4, G)
+    measured = tuple(_measured(tr, dt_s, g.size, reject) for tr in trials)
+    noise = noise or first_guess_noise(measured)
+    prep = Prepared(trials, dt_s, g, cmds[:, 0], cmds[:, 1], cmds[:, 2], cmds[:, 3], measured, noise, (), ())
+    return prep.with_noise(noise)
 
 
 def truncate(trial: Trial, end_s: float) -> Trial:
-    """The trial's samples up to ``end_s``."""
+    """The trial's rows up to ``end_s``."""
     keep = trial.t_s <= end_s
-    changes = {}
-    for f in dataclasses.fields(trial):
-        val = getattr(trial, f.name)
-        if isinstance(val, np.ndarray):
-            changes[f.name] = val[keep]
+    changes = {f.name: getattr(trial, f.name)[keep] for f in dataclasses.fields(trial)
+               if isinstance(getattr(trial, f.name), np.ndarray)}
     return dataclasses.replace(trial, **changes)
 
 
 def initial_state(trial: Trial, *, window_s: float = 3.0) -> np.ndarray:
-    """State at the first sample from quadratic fits to the first seconds of position and heading.
+    """State at the first row from quadratic fits to the first seconds of position and heading
+    (the trial's outliers rejected first: a 10 m jump in the first fix bent a whole trial's start)."""
+    return measured_initial_state(_measured(trial, 0.1, 2, True), window_s=window_s)
 
-    Only a start: noise makes the velocities rough (``fit.estimate_x0`` refines them).
+
+def initial_states(prep: Prepared, *, window_s: float = 3.0) -> np.ndarray:
+    """:func:`initial_state` of every trial of ``prep`` from its measurements (outliers rejected)."""
+    return np.array([measured_initial_state(m, window_s=window_s) for m in prep.measured])
+
+
+def measured_initial_state(m: Measured, *, window_s: float = 3.0) -> np.ndarray:
+    """State at t = 0 from quadratic fits to the first seconds of the measurements.
+
+    Only a start: noise makes the velocities rough (``fit.fit_model`` refines them). With 1 Hz
+    fixes the window grows until it holds six of them.
     """
-    t = trial.t_s
-    sel = t <= t[0] + window_s
-    ok = sel & np.isfinite(trial.north_m) & np.isfinite(trial.east_m)
-    okh = sel & np.isfinite(trial.heading_rad)
+    tp, th = m.t_pos_s, m.t_psi_s
+    wp = max(window_s, float(tp[min(5, tp.size - 1)]) + 1e-6) if tp.size else window_s
+    ok, okh = tp <= wp, th <= window_s
     deg = 2 if ok.sum() > 10 else 1
-    pn = np.polyfit(t[ok] - t[0], trial.north_m[ok], deg)
-    pe = np.polyfit(t[ok] - t[0], trial.east_m[ok], deg)
-    psi_u = np.unwrap(trial.heading_rad[okh])
-    ph = np.polyfit(t[okh] - t[0], psi_u, 2 if okh.sum() > 10 else 1)
+    pn = np.polyfit(tp[ok], m.north_m[ok], deg)
+    pe = np.polyfit(tp[ok], m.east_m[ok], deg)
+    psi_u = np.unwrap(m.psi_rad[okh])
+    ph = np.polyfit(th[okh], psi_u, 2 if okh.sum() > 10 else 1)
     psi0 = float(ph[-1])
     vn, ve = float(pn[-2]), float(pe[-2])
     c, s = math.cos(psi0), math.sin(psi0)
@@ -127,218 +265,189 @@ def initial_state(trial: Trial, *, window_s: float = 3.0) -> np.ndarray:
     return np.array([pn[-1], pe[-1], wrap_pi(psi0), vn * c + ve * s, 0.0, ph[-2]])
 
 
-def _values(values: dict, key: str, n_runs: int) -> np.ndarray | None:
-    """Per-run values of one effect parameter, or None when it is at its no-effect value everywhere."""
-    if key not in values:
-        return None
-    v = np.broadcast_to(np.asarray(values[key], dtype=float), (n_runs,))
-    return None if np.all(v == PARAM_BY_KEY[key].null) else v
+class _Active:
+    """The effects active in a batch of runs and their per-run parameter arrays (None: at null everywhere)."""
+
+    def __init__(self, values: dict, n_runs: int):
+        per: dict = {}
+        for key, val in values.items():
+            name, _, pname = key.partition(".")
+            arr = np.broadcast_to(np.asarray(val, dtype=float), (n_runs,))
+            per.setdefault(name, {})[pname] = arr
+        self.v = {}
+        for name, given in per.items():
+            eff = BY_NAME[name]
+            if all(np.all(given.get(p.name, p.null) == p.null) for p in eff.params):
+                continue
+            self.v[eff] = {p.name: given.get(p.name, np.full(n_runs, p.null)) for p in eff.params}
+
+    def having(self, hook: str):
+        return [(e, v) for e, v in self.v.items() if getattr(e, hook) is not None]
 
 
-def lag_filter(thrust: np.ndarray, tau_s: np.ndarray, dt_s: float) -> np.ndarray:
-    """Interval-mean of a first-order lag driven by a zero-order-hold command (exact for ZOH).
+def _external(terms):
+    """One body-frame external force from the force hooks (state water-relative: see _predict)."""
+    def external(t_s, state):
+        psi, u, vv, r = state[:, 2], state[:, 3], state[:, 4], state[:, 5]
+        x = y = n = 0.0
+        for f in terms:
+            fx, fy, fn = f(psi, u, vv, r)
+            x, y, n = x + fx, y + fy, n + fn
+        return x, y, n
 
-    y' = (u - y) / tau; over [t_k, t_k + dt) with u_k held, the mean of y is
-    u_k + (y_k - u_k) (tau / dt)(1 - a), a = exp(-dt / tau), and y_{k+1} = a y_k + (1 - a) u_k.
-    Using the mean keeps the simulator's zero-order hold centred (no extra half-sample delay).
-    """
-    out = thrust.copy()
-    for j in range(thrust.shape[0]):
-        tau = float(tau_s[j])
-        if tau <= 1e-6:
-            continue
-        a = math.exp(-dt_s / tau)
-        g = tau / dt_s * (1.0 - a)
-        u = thrust[j]
-        y = np.empty_like(u)
-        y[0] = u[0]
-        from scipy.signal import lfilter
-
-        # y_{k+1} = a y_k + (1 - a) u_k  ->  y[1:] from u[:-1], initial state y_0 = u_0 (at rest)
-        y[1:], _ = lfilter([1.0 - a], [1.0, -a], u[:-1], zi=[a * u[0]])
-        out[j] = u + (y - u) * g
-    return out
+    return external
 
 
-def _deadband_gain(duty_pct: np.ndarray, threshold_pct: np.ndarray) -> np.ndarray:
-    return np.clip((np.abs(duty_pct) - threshold_pct[:, None]) / (2 * DEADBAND_SOFT_PCT) + 0.5, 0.0, 1.0)
-
-
-def _simulate_scalar(vessel, g, tp, ts, x0, dt, n_rr, d_r1, d_nr, external=None) -> dict:
-    """Runs one by one on the simulator's scalar path (faster than a small batch).
-
-    The hydro-type effects are written into VesselParams fields here, which is
-    exactly what the batched path's external force adds.
-    """
+def _simulate_scalar(vessel, g, tp, ts, x0, dt, field_effects) -> dict:
+    """Runs one by one on the simulator's scalar path (faster than a small batch): the field-type
+    effects are written into VesselParams (exactly what the batched path's force hooks add)."""
     n_runs = tp.shape[0]
     out = {name: np.empty((n_runs, g.size)) for name in STATE_NAMES}
     for j in range(n_runs):
         changes = {}
-        if n_rr is not None:
-            changes["yaw_damping_quadratic_nm_s2"] = vessel.yaw_damping_quadratic_nm_s2 + float(n_rr[j])
-        if d_r1 is not None:
-            changes["resistance_linear_n_s_m"] = vessel.resistance_linear_n_s_m + float(d_r1[j])
-        if d_nr is not None:
-            changes["n_r_nd"] = vessel.n_r_nd + float(d_nr[j])
+        for eff, v in field_effects:
+            changes.update(eff.fields({k: a[j] for k, a in v.items()}, vessel))
         params = dataclasses.replace(vessel, **changes) if changes else vessel
         # a parameter trial far out may blow up: NaN, the fit sees huge residuals
-        run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, external_force=external, diverged_as_nan=True)
+        run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, diverged_as_nan=True)
         for name in STATE_NAMES:
             out[name][j] = run[name]
     return out
 
 
-def predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict) -> dict:
+def predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict, *, sway_over_ground: bool = False) -> dict:
     """Simulate runs and return what the sensors would report on the grid (see :func:`_predict`)."""
     with np.errstate(all="ignore"):  # a far-out parameter trial may overflow; the caller sees NaN
-        return _predict(prep, vessel, trial_idx, x0, values)
+        return _predict(prep, vessel, trial_idx, x0, values, sway_over_ground)
 
 
-def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict) -> dict:
-    """Simulate runs and return what the sensors would report on the grid.
+def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict, sway_over_ground: bool) -> dict:
+    """trial_idx: (R,) trial of each run; x0: (R, 6) initial states; values: effect key -> scalar
+    or (R,) array. Returns ``north_m``, ``east_m``, ``psi_rad`` (R, G) as sensed (the sensed hooks
+    applied) and the true ``u_m_s``, ``v_m_s``, ``r_rad_s`` over ground.
 
-    trial_idx: (R,) trial of each run; x0: (R, 6) initial states; values: effect key ->
-    scalar or (R,) array. Returns ``north_m``, ``east_m``, ``psi_rad`` (R, G) as measured
-    (delay, antenna, bias applied) and the true ``u_m_s``, ``v_m_s``, ``r_rad_s``.
-    """
+    x0's u and r are over ground (the state contract); its sway v is relative to the water unless
+    ``sway_over_ground``: the fits hold the sway at its start value (fit.FREE_STATES), and a boat
+    that starts without sideways motion through the water moves sideways over ground with the
+    current. Held over ground instead, a current model starts the boat slipping through the water
+    at the current's cross component: a sway transient that turns the boat (N_v v) and made a
+    hidden current lose to other effects in closed-loop logs."""
     idx = np.asarray(trial_idx, dtype=int)
     n_runs = idx.size
     x0 = np.array(np.broadcast_to(np.asarray(x0, dtype=float), (n_runs, 6)))
     g, dt = prep.t_grid, prep.dt_s
-    tp = prep.thrust_port_n[idx].copy()
-    ts = prep.thrust_stbd_n[idx].copy()
-    v = lambda key: _values(values, key, n_runs)  # noqa: E731
-
-    if (a := v("thrust_asymmetry.asymmetry_nd")) is not None:
-        tp *= 1.0 + a[:, None]
-        ts *= 1.0 - a[:, None]
-    if (d0 := v("thrust_deadband.threshold_pct")) is not None:
-        tp *= _deadband_gain(prep.duty_port_pct[idx], d0)
-        ts *= _deadband_gain(prep.duty_stbd_pct[idx], d0)
-    if (tau := v("thrust_lag.time_constant_s")) is not None:
-        tp, ts = lag_filter(tp, tau, dt), lag_filter(ts, tau, dt)
-
-    f_n, f_e, m_z = v("wind_force.north_n"), v("wind_force.east_n"), v("wind_force.moment_nm")
-    n_rr = v("yaw_damping_quadratic.n_rr_nm_s2")
-    d_r1 = v("hydro_refit.resistance_linear_n_s_m")
-    d_nr = v("hydro_refit.n_r_nd")
-    forces = any(x is not None for x in (f_n, f_e, m_z, n_rr, d_r1, d_nr))
-    external = None
-    if forces:
-        zeros = np.zeros(n_runs)
-        f_n = zeros if f_n is None else f_n
-        f_e = zeros if f_e is None else f_e
-        k_nr = None if d_nr is None else vessel.moment_scale_kg * vessel.length_m * d_nr
-
-        def external(t_s, state):  # body-frame (X, Y, N); state is water-relative (see below)
-            psi, u, vv, r = state[:, 2], state[:, 3], state[:, 4], state[:, 5]
-            c, s = np.cos(psi), np.sin(psi)
-            x_e = f_n * c + f_e * s
-            y_e = -f_n * s + f_e * c
-            n_e = zeros if m_z is None else m_z
-            if n_rr is not None:
-                n_e = n_e - n_rr * np.abs(r) * r
-            if d_r1 is not None:  # R = r1 u (SPEC 5): a change of r1 is a force -d_r1 u_r
-                x_e = x_e - d_r1 * u
-            if k_nr is not None:  # N_H term 1/2 rho L^2 d U N'_r L r (Eq 3.21)
-                n_e = n_e + k_nr * np.sqrt(u * u + vv * vv) * r
-            return x_e, y_e, n_e
-
-    # A uniform steady current only shifts the water-relative motion (model.py works in
-    # relative velocity; the added forces depend on psi and r only): simulate calm water
-    # from the relative initial velocity and add current * t to the track.
-    c_n, c_e = v("current.north_m_s"), v("current.east_m_s")
-    has_current = c_n is not None or c_e is not None
-    if has_current:
-        c_n = np.zeros(n_runs) if c_n is None else c_n
-        c_e = np.zeros(n_runs) if c_e is None else c_e
-        cp, sp = np.cos(x0[:, 2]), np.sin(x0[:, 2])
-        x0[:, 3] -= c_n * cp + c_e * sp
+    act = _Active(values, n_runs)
+    tp, ts = prep.thrust_port_n[idx].copy(), prep.thrust_stbd_n[idx].copy()
+    ctx = {"duty_port_pct": prep.duty_port_pct[idx], "duty_stbd_pct": prep.duty_stbd_pct[idx], "dt_s": dt}
+    for eff in THRUST_EFFECTS:
+        if eff in act.v:
+            tp, ts = eff.thrust(act.v[eff], tp, ts, ctx)
+    # A uniform steady current only shifts the water-relative motion (model.py works in relative
+    # velocity; the added forces depend on psi, the relative velocity and r only): simulate calm
+    # water from the relative initial velocity and add current * t to the track.
+    c_n, c_e = np.zeros(n_runs), np.zeros(n_runs)
+    for eff, v in act.having("water"):
+        dn, de = eff.water(v)
+        c_n, c_e = c_n + dn, c_e + de
+    cp, sp = np.cos(x0[:, 2]), np.sin(x0[:, 2])
+    x0[:, 3] -= c_n * cp + c_e * sp
+    if sway_over_ground:
         x0[:, 4] -= -c_n * sp + c_e * cp
-
-    wind = any(x is not None for x in (v("wind_force.north_n"), v("wind_force.east_n"), m_z))
-    if not wind and n_runs <= SCALAR_MAX_RUNS:
-        out = _simulate_scalar(vessel, g, tp, ts, x0, dt, n_rr, d_r1, d_nr)
-    else:
-        # batched; a run that blows up (a far-out parameter trial) comes back NaN, the others stand
+    forces = act.having("force")
+    fields = act.having("fields")
+    if n_runs <= SCALAR_MAX_RUNS and all(e.fields is not None for e, _ in forces):
+        out = _simulate_scalar(vessel, g, tp, ts, x0, dt, fields)
+    else:  # batched; a run that blows up comes back NaN, the others stand
+        external = _external([e.force(v, vessel) for e, v in forces]) if forces else None
         out = simulate(vessel, g, tp, ts, x0=x0, external_force=external, dt_s=dt, diverged_as_nan=True)
-    north, east, psi = out["north_m"], out["east_m"], out["psi_rad"]
-    u, vv, r = out["u_m_s"], out["v_m_s"], out["r_rad_s"]
-    if has_current:
-        north = north + c_n[:, None] * g
-        east = east + c_e[:, None] * g
-        # report ground velocity in body axes
-        c, s = np.cos(psi), np.sin(psi)
-        u = u + c_n[:, None] * c + c_e[:, None] * s
-        vv = vv - c_n[:, None] * s + c_e[:, None] * c
-
-    if (delay := v("sensor_delay.delay_s")) is not None:
-        north, east, psi = north.copy(), east.copy(), psi.copy()
-        for j in range(n_runs):
-            if delay[j] > 0:
-                tq = np.maximum(g - delay[j], 0.0)
-                north[j] = np.interp(tq, g, north[j])
-                east[j] = np.interp(tq, g, east[j])
-                psi[j] = np.interp(tq, g, psi[j])
-    lx, ly = v("antenna_offset.forward_m"), v("antenna_offset.starboard_m")
-    if lx is not None or ly is not None:
-        lx = np.zeros(n_runs) if lx is None else lx
-        ly = np.zeros(n_runs) if ly is None else ly
-        c, s = np.cos(psi), np.sin(psi)
-        north = north + lx[:, None] * c - ly[:, None] * s
-        east = east + lx[:, None] * s + ly[:, None] * c
-    if (bias := v("heading_bias.bias_deg")) is not None:
-        psi = psi + np.radians(bias)[:, None]
-    return {"north_m": north, "east_m": east, "psi_rad": psi, "u_m_s": u, "v_m_s": vv, "r_rad_s": r}
+    psi = out["psi_rad"]
+    c, s = np.cos(psi), np.sin(psi)
+    sensed = {"north_m": out["north_m"] + c_n[:, None] * g, "east_m": out["east_m"] + c_e[:, None] * g, "psi_rad": psi}
+    for eff in SENSED_EFFECTS:
+        if eff in act.v:
+            sensed = eff.sensed(act.v[eff], sensed, g)
+    return {**sensed, "u_m_s": out["u_m_s"] + c_n[:, None] * c + c_e[:, None] * s,
+            "v_m_s": out["v_m_s"] - c_n[:, None] * s + c_e[:, None] * c, "r_rad_s": out["r_rad_s"]}
 
 
-def residuals(prep: Prepared, i: int, pred: dict, j: int, *, weighted: bool = True) -> np.ndarray:
-    """Residuals (measured - predicted) of run ``j`` of ``pred`` against trial ``i``.
+def _at(series: np.ndarray, where: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    k, w = where
+    return series[:, k] * (1.0 - w) + series[:, k + 1] * w
 
-    Order: north at valid positions, east at valid positions, heading at valid headings;
-    divided by the trial's noise sigmas when ``weighted``.
-    """
-    tr = prep.trials[i]
-    t = tr.t_s
-    pi, hi = prep.pos_idx[i], prep.psi_idx[i]
-    g = prep.t_grid
-    k = np.rint(t / prep.dt_s).astype(int)
-    on_grid = np.all(np.abs(g[np.minimum(k, g.size - 1)] - t) < 1e-6)
-    if on_grid:
-        n_p = pred["north_m"][j, k[pi]]
-        e_p = pred["east_m"][j, k[pi]]
-        h_p = pred["psi_rad"][j, k[hi]]
-    else:
-        n_p = np.interp(t[pi], g, pred["north_m"][j])
-        e_p = np.interp(t[pi], g, pred["east_m"][j])
-        h_p = np.interp(t[hi], g, pred["psi_rad"][j])
-    rn = tr.north_m[pi] - n_p
-    re = tr.east_m[pi] - e_p
-    rh = wrap_pi(tr.heading_rad[hi] - h_p)
-    if weighted:
-        sp, sh = prep.sigma_pos_m[i], prep.sigma_psi_rad[i]
-        return np.concatenate([rn / sp, re / sp, rh / sh])
-    return np.concatenate([rn, re, rh])
+
+def raw_residuals(prep: Prepared, i: int, pred: dict, runs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(north_m, east_m, heading_rad) residuals, measured - predicted, of runs ``runs`` of ``pred``
+    against trial ``i``: each (len(runs), samples)."""
+    m = prep.measured[i]
+    runs = np.atleast_1d(np.asarray(runs, dtype=int))
+    rn = m.north_m[None, :] - _at(pred["north_m"][runs], m.pos_at)
+    re = m.east_m[None, :] - _at(pred["east_m"][runs], m.pos_at)
+    rh = wrap_pi(m.psi_rad[None, :] - _at(pred["psi_rad"][runs], m.psi_at))
+    return rn, re, rh
+
+
+def residuals(prep: Prepared, i: int, pred: dict, runs) -> np.ndarray:
+    """Weighted residuals (len(runs), prep.n_rows(i)): north, east, heading, each through its noise model."""
+    rn, re, rh = raw_residuals(prep, i, pred, runs)
+    pw, hw = prep.pos_weights[i], prep.psi_weights[i]
+    return np.hstack([pw.apply(rn.T).T, pw.apply(re.T).T, hw.apply(rh.T).T])
+
+
+def channel_costs(prep: Prepared, pred: dict, trials_idx, runs) -> dict:
+    """Weighted cost and number of measurements per channel: {"position": (cost, n), "heading": (cost, n)}."""
+    cost = {"position": 0.0, "heading": 0.0}
+    count = {"position": 0, "heading": 0}
+    for i, j in zip(trials_idx, runs):
+        r = np.nan_to_num(residuals(prep, i, pred, [j])[0], nan=1e3)
+        rows_p = prep.pos_weights[i].rows
+        cost["position"] += float(np.sum(r[: 2 * rows_p] ** 2))
+        cost["heading"] += float(np.sum(r[2 * rows_p :] ** 2))
+        count["position"] += 2 * prep.measured[i].t_pos_s.size
+        count["heading"] += prep.measured[i].t_psi_s.size
+    return {ch: (cost[ch], count[ch]) for ch in CHANNELS}
+
+
+def noise_floor(t_s: np.ndarray, noise: ChannelNoise) -> float:
+    """Expected sum of squares of pure noise at times ``t_s`` once its mean is removed (what a fitted
+    initial offset absorbs): trace(S) - 1' S 1 / n, S the noise covariance (O(n): the sum of
+    exp(-|t_i - t_j| / tau) over pairs by the recursion a_i = exp(-(t_i - t_{i-1}) / tau) (a_{i-1} + 1))."""
+    n = t_s.size
+    if n < 2:
+        return 0.0
+    pairs = 0.0
+    if noise.has_wander:
+        decay = np.exp(-np.diff(t_s) / noise.time_s).tolist()
+        a = 0.0
+        for d in decay:
+            a = d * (a + 1.0)
+            pairs += a
+    total = n * (noise.white**2 + (noise.wander**2 if noise.has_wander else 0.0))
+    one_s_one = n * noise.white**2 + (noise.wander**2 * (n + 2.0 * pairs) if noise.has_wander else 0.0)
+    return float(total - one_s_one / n)
 
 
 def rmse(prep: Prepared, trials_idx, pred: dict, runs) -> dict:
-    """Position (m, horizontal distance) and heading (deg) RMS errors over the given trials."""
-    se_pos = se_psi = noise_pos = noise_psi = 0.0
-    n_pos = n_psi = 0
+    """Position (m, horizontal distance) and heading (deg) RMS errors over the given trials, the noise's
+    share of them (``*_noise_*``: what the noise model expects) and the rest (``*_model_*``)."""
+    se = {"position": 0.0, "heading": 0.0}
+    floor = dict(se)
+    count = {"position": 0, "heading": 0}
     for i, j in zip(trials_idx, runs):
-        r = residuals(prep, i, pred, j, weighted=False)
-        m = prep.pos_idx[i].size
-        se_pos += float(np.sum(r[:m] ** 2) + np.sum(r[m : 2 * m] ** 2))
-        se_psi += float(np.sum(r[2 * m :] ** 2))
-        noise_pos += 2.0 * m * prep.sigma_pos_m[i] ** 2
-        noise_psi += (r.size - 2 * m) * prep.sigma_psi_rad[i] ** 2
-        n_pos += m
-        n_psi += r.size - 2 * m
-    n_pos, n_psi = max(n_pos, 1), max(n_psi, 1)
+        rn, re, rh = raw_residuals(prep, i, pred, [j])
+        m = prep.measured[i]
+        se["position"] += float(np.sum(rn**2) + np.sum(re**2))
+        se["heading"] += float(np.sum(rh**2))
+        floor["position"] += 2.0 * noise_floor(m.t_pos_s, prep.noise.position)
+        floor["heading"] += noise_floor(m.t_psi_s, prep.noise.heading)
+        count["position"] += m.t_pos_s.size
+        count["heading"] += m.t_psi_s.size
+    n_pos, n_psi = max(count["position"], 1), max(count["heading"], 1)
     return {
-        "position_m": math.sqrt(se_pos / n_pos),
-        "heading_deg": math.degrees(math.sqrt(se_psi / n_psi)),
-        # the part of the gap the measurement noise (estimated from the data) does not explain
-        "position_model_m": math.sqrt(max(se_pos - noise_pos, 0.0) / n_pos),
-        "heading_model_deg": math.degrees(math.sqrt(max(se_psi - noise_psi, 0.0) / n_psi)),
+        "position_m": math.sqrt(se["position"] / n_pos),
+        "heading_deg": math.degrees(math.sqrt(se["heading"] / n_psi)),
+        "position_noise_m": math.sqrt(floor["position"] / n_pos),
+        "heading_noise_deg": math.degrees(math.sqrt(floor["heading"] / n_psi)),
+        # the part of the gap the measurement noise (its model estimated from the data) does not explain
+        "position_model_m": math.sqrt(max(se["position"] - floor["position"], 0.0) / n_pos),
+        "heading_model_deg": math.degrees(math.sqrt(max(se["heading"] - floor["heading"], 0.0) / n_psi)),
     }

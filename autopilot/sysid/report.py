@@ -29,9 +29,9 @@ def track_figure(prep, before, after, trials_idx, max_trials: int = 6):
     rows = math.ceil(len(shown) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 4.0 * rows), squeeze=False)
     for ax, (j, i) in zip(axes.ravel(), enumerate(shown)):
-        tr = prep.trials[i]
+        tr, m = prep.trials[i], prep.measured[i]
         inside = prep.t_grid <= tr.t_s[-1]
-        ax.plot(tr.east_m, tr.north_m, ".", ms=1.5, color="0.5", label="measured")
+        ax.plot(m.east_m, m.north_m, ".", ms=2.5, color="0.5", label="measured fixes")
         ax.plot(before["east_m"][j][inside], before["north_m"][j][inside], "-", color="tab:red", lw=1, label="model before")
         if after is not None:
             ax.plot(after["east_m"][j][inside], after["north_m"][j][inside], "-", color="tab:blue", lw=1, label="model after")
@@ -49,20 +49,17 @@ def residual_figure(prep, before, after, trials_idx, max_trials: int = 6):
     """Position error and heading error over time, before and after."""
     import matplotlib.pyplot as plt
 
-    from autopilot.geo import wrap_pi
+    from autopilot.sysid.replay import raw_residuals
 
     fig, (ax_p, ax_h) = plt.subplots(2, 1, figsize=(12, 6), sharex=True)
     for j, i in enumerate(list(trials_idx)[:max_trials]):
-        tr = prep.trials[i]
+        tr, m = prep.trials[i], prep.measured[i]
         for pred, style, label in ((before, "-", "before"), (after, "--", "after")):
             if pred is None:
                 continue
-            n = np.interp(tr.t_s, prep.t_grid, pred["north_m"][j])
-            e = np.interp(tr.t_s, prep.t_grid, pred["east_m"][j])
-            h = np.interp(tr.t_s, prep.t_grid, pred["psi_rad"][j])
-            ax_p.plot(tr.t_s, np.hypot(tr.north_m - n, tr.east_m - e), style, lw=0.8, color=f"C{j}",
-                      label=f"{tr.name} {label}")
-            ax_h.plot(tr.t_s, np.degrees(wrap_pi(tr.heading_rad - h)), style, lw=0.8, color=f"C{j}")
+            rn, re, rh = raw_residuals(prep, i, pred, [j])
+            ax_p.plot(m.t_pos_s, np.hypot(rn[0], re[0]), style, lw=0.8, color=f"C{j}", label=f"{tr.name} {label}")
+            ax_h.plot(m.t_psi_s, np.degrees(rh[0]), style, lw=0.8, color=f"C{j}")
     ax_p.set_ylabel("position error (m)")
     ax_h.set_ylabel("heading error (deg)")
     ax_h.set_xlabel("time (s)")
@@ -111,6 +108,15 @@ def write_html(path, summary: dict, figures: dict) -> None:
     ]
     for note in summary.get("notes", []):
         parts.append(f"<p><i>{esc(note)}</i></p>")
+    if summary.get("adequacy"):
+        parts.append("<h2>Is the model adequate?</h2><table><tr><th>channel</th><th>chi-square per measurement</th>"
+                     "<th>residual RMS</th><th>noise RMS</th><th>beyond the noise</th><th>adequate</th></tr>")
+        for ch, a in summary["adequacy"].items():
+            unit = "m" if ch == "position" else "deg"
+            parts.append(f"<tr><td>{esc(ch)}</td><td>{a['chi2_per_measurement']:.3g}</td><td>{a[f'residual_rms_{unit}']:.3g} {unit}</td>"
+                         f"<td>{a[f'noise_rms_{unit}']:.3g} {unit}</td><td>{a[f'beyond_noise_{unit}']:.3g} {unit}</td>"
+                         f"<td>{'yes' if a['adequate'] else 'no'}</td></tr>")
+        parts.append("</table>")
     if summary.get("effects"):
         parts.append("<h2>Effects</h2><table><tr><th>effect</th><th>parameter</th><th>value</th><th>95 % interval</th><th>unit</th></tr>")
         for name, eff in summary["effects"].items():

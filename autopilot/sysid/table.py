@@ -28,8 +28,8 @@ from autopilot.schema import ConfigError
 from autopilot.sim import VesselParams
 from autopilot.sim.calibrate import FREE as CALIBRATE_FREE
 from autopilot.sim.steady import solve_steady
-from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
-from autopilot.sysid.fit import theta_bounds
+from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, by_effect
+from autopilot.sysid.effects import bounds as theta_bounds
 from autopilot.sysid.output import updated_vessel
 
 TABLE_CANDIDATES = ("thrust_asymmetry", "yaw_damping_quadratic", "hydro_refit")
@@ -77,23 +77,28 @@ def write_table_csv(rows, path) -> None:
             w.writerow([r.name, r.thrust_port_n, r.thrust_stbd_n, r.yaw_rate_rad_s, r.speed_m_s])
 
 
-def _model(vessel: VesselParams, values: dict):
-    params = updated_vessel(vessel, values)
-    a = values.get("thrust_asymmetry.asymmetry_nd", 0.0)
-    return params, a
+def _thrusts(values: dict, rows) -> tuple[np.ndarray, np.ndarray]:
+    """The rows' thrusts through the thrust hooks of the effects in ``values`` (a steady table has
+    no duty series: only gain-type thrust effects, which is what TABLE_CANDIDATES holds)."""
+    tp = np.array([[r.thrust_port_n for r in rows]])
+    ts = np.array([[r.thrust_stbd_n for r in rows]])
+    for eff, v in by_effect(values).items():
+        if eff.thrust is not None:
+            tp, ts = eff.thrust({k: np.atleast_1d(x) for k, x in v.items()}, tp, ts, {})
+    return tp[0], ts[0]
 
 
 def steady_response(vessel: VesselParams, values: dict, rows) -> np.ndarray:
     """(speed, yaw rate) of each row under the model with the effects; NaN where no steady state."""
-    params, a = _model(vessel, values)
+    params = updated_vessel(vessel, values)
+    tp, ts = _thrusts(values, rows)
     out = np.full((len(rows), 2), np.nan)
     for k, row in enumerate(rows):
         if row.speed_m_s == 0 and row.thrust_port_n == 0 and row.thrust_stbd_n == 0:
             out[k] = 0.0
             continue
         sign = -1.0 if row.thrust_port_n + row.thrust_stbd_n < 0 else 1.0
-        sol = solve_steady(params, row.thrust_port_n * (1 + a), row.thrust_stbd_n * (1 - a),
-                           (sign * row.speed_m_s, 0.0, row.yaw_rate_rad_s))
+        sol = solve_steady(params, float(tp[k]), float(ts[k]), (sign * row.speed_m_s, 0.0, row.yaw_rate_rad_s))
         if sol is not None:
             u, v, r = sol
             out[k] = (math.hypot(u, v), r)
@@ -124,7 +129,7 @@ def _gap(vessel, values, rows) -> dict:
         return (sim[k, j] - meas) / meas if math.isfinite(sim[k, j]) else FAILED_RESIDUAL
     sp = [rel(k, 0, rows[k].speed_m_s) for k in moving]
     yr = [rel(k, 1, rows[k].yaw_rate_rad_s) for k in turning]
-    rms = lambda x: float(np.sqrt(np.mean(np.square(x)))) if len(x) else None  # noqa: E731
+    rms = lambda x: float(np.sqrt(np.mean(np.square(x)))) if len(x) else None
     return {"speed_rel_rms": rms(sp), "yaw_rate_rel_rms": rms(yr), "position_m": None, "heading_deg": None}
 
 
@@ -195,9 +200,9 @@ def _report(vessel, fit, effects) -> dict:
         for key in table_keys(e):
             name = key.split(".", 1)[1]
             k = fit["keys"].index(key)
-            off = getattr(vessel, name) if e == "hydro_refit" else 0.0
             unit = PARAM_BY_KEY[key].unit if key in PARAM_BY_KEY else _field_unit(name)
             v, s = float(fit["theta"][k]), float(fit["sigma"][k])
+            off = BY_NAME[e].reported(name, v, vessel) - v
             params.append({"name": name, "unit": unit, "value": v + off,
                            "ci95": [v - 1.96 * s + off, v + 1.96 * s + off], "sigma": s})
         out[e] = {"doc": BY_NAME[e].doc, "params": params}
@@ -212,6 +217,23 @@ def identify_table(rows, vessel: VesselParams, *, candidates=TABLE_CANDIDATES, b
     bad = [c for c in candidates if c not in TABLE_CANDIDATES]
     if bad:
         raise ConfigError(f"effects {', '.join(bad)} do not change a steady state; a table can test {', '.join(TABLE_CANDIDATES)}")
+    fits = _fits(vessel, rows, candidates, bic_margin, say)
+    chosen = fits.pop("chosen")
+    notes = []
+    cv_before = _cv_sse(vessel, (), rows, None)
+    cv_after = cv_before
+    if chosen:
+        cv_after = _cv_sse(vessel, chosen, rows, fits[chosen]["theta"])
+        gain = 1 - cv_after / cv_before
+        say(f"cross-validated SSE {cv_before:.3f} -> {cv_after:.3f} ({100 * gain:.0f} %)")
+        if gain < min_cv_gain:
+            notes.append(f"{'+'.join(chosen)} won on BIC but cut the cross-validated error by only {100 * gain:.1f} %: verdict none")
+            chosen, cv_after = (), cv_before
+    return _table_summary(vessel, rows, fits, chosen, cv_before, cv_after, notes)
+
+
+def _fits(vessel, rows, candidates, bic_margin, say) -> dict:
+    """The baseline, every single and (when a single wins) every pair with it; ``chosen`` by BIC."""
     r0 = table_residuals(vessel, {}, rows)
     m = r0.size
     base = {"keys": [], "theta": np.zeros(0), "sigma": np.zeros(0), "sse": float(np.sum(r0**2)), "m": m}
@@ -233,16 +255,12 @@ def identify_table(rows, vessel: VesselParams, *, candidates=TABLE_CANDIDATES, b
         bp = min(pairs, key=lambda k: fits[k]["bic"]) if pairs else None
         if bp and fits[bp]["bic"] < fits[best]["bic"] - bic_margin:
             chosen = bp
-    notes = []
-    cv_before = _cv_sse(vessel, (), rows, None)
-    cv_after = cv_before
-    if chosen:
-        cv_after = _cv_sse(vessel, chosen, rows, fits[chosen]["theta"])
-        gain = 1 - cv_after / cv_before
-        say(f"cross-validated SSE {cv_before:.3f} -> {cv_after:.3f} ({100 * gain:.0f} %)")
-        if gain < min_cv_gain:
-            notes.append(f"{'+'.join(chosen)} won on BIC but cut the cross-validated error by only {100 * gain:.1f} %: verdict none")
-            chosen, cv_after = (), cv_before
+    fits["chosen"] = chosen
+    return fits
+
+
+def _table_summary(vessel, rows, fits, chosen, cv_before, cv_after, notes) -> dict:
+    base, m = fits[()], fits[()]["m"]
     values = dict(zip(fits[chosen]["keys"], fits[chosen]["theta"]))
     cands = []
     for key, f in sorted(fits.items(), key=lambda kv: kv[1]["bic"]):
@@ -253,8 +271,6 @@ def identify_table(rows, vessel: VesselParams, *, candidates=TABLE_CANDIDATES, b
                       "fitted_params": {e: {p["name"]: p["value"] for p in v["params"]} for e, v in _report(vessel, f, key).items()}})
     held_before = {"sse_cv": cv_before, "rms_cv": math.sqrt(cv_before / m), "position_m": None, "heading_deg": None}
     held_after = {"sse_cv": cv_after, "rms_cv": math.sqrt(cv_after / m), "position_m": None, "heading_deg": None}
-    before = _gap(vessel, {}, rows)
-    after = _gap(vessel, values, rows)
     return {
         "mode": "table",
         "rows": [r.name for r in rows],
@@ -262,8 +278,8 @@ def identify_table(rows, vessel: VesselParams, *, candidates=TABLE_CANDIDATES, b
         "effects": _report(vessel, fits[chosen], chosen) if chosen else {},
         "candidates": cands,
         "score": "delta_bic: n ln(SSE/n) + k ln n minus the baseline's (noise level unknown)",
-        "rmse_before": {"fitted": before, "held_out": held_before},
-        "rmse_after": {"fitted": after, "held_out": held_after},
+        "rmse_before": {"fitted": _gap(vessel, {}, rows), "held_out": held_before},
+        "rmse_after": {"fitted": _gap(vessel, values, rows), "held_out": held_after},
         "rows_before": _rows(vessel, {}, rows),
         "rows_after": _rows(vessel, values, rows),
         "values": values,

@@ -1,4 +1,4 @@
-"""Measured trials for identification: CSV trial files and daemon mission logs.
+"""Measured trials for identification: CSV trial files (and, via mission_log.py, daemon mission logs).
 
 Trial CSV (one file per trial, header line, one row per sample, any order of
 columns, unknown columns ignored; empty cells, ``nan`` or text are gaps)::
@@ -10,18 +10,36 @@ columns, unknown columns ignored; empty cells, ``nan`` or text are gaps)::
     north_m, east_m                  position (m, local frame), or
     lat_deg, lon_deg                 position, converted around the first fix (autopilot.geo)
     heading_deg                      heading from north, clockwise (deg)
+    position_time_s, heading_time_s  optional: when the row's position fix / heading was
+                                     measured (s, the clock of t_s)
     sog_m_s, cog_deg, rot_deg_s      optional: speed/course over ground, rate of turn
 
+Measurements as they were taken (issue 12, "Build" 1; the rules agreed with
+``review --export csv``): a trial holds only *new* measurements, each at the
+time it was measured (``position_time_s`` / ``heading_time_s`` of the
+:class:`Trial`, NaN on the rows that carry none):
+
+- a row whose position cells are empty, or repeat the previous fix, is not a new
+  fix (a GPS gives a fix a second; a 10 Hz log repeats it on every row between:
+  a held fix is ~0.45 s old on average and fitted as new it mimics an antenna
+  aft of the centre); the fix was measured at ``position_time_s`` when the file
+  has it, else at the row where it first appears;
+- with a ``heading_time_s`` column, a heading whose time did not advance is
+  held, not new; without it every heading cell is a measurement at its row;
+- rows the caller excludes (``make_trial(exclude=...)``: a mission log's
+  failsafe stretches and the cycles after skipped deadlines) keep their
+  commands (the motors had them) but contribute no measurement.
+
 Rows without a usable time are dropped; a missing thrust keeps the previous
-command (the motors hold their last command); missing position or heading
-cells are gaps (NaN), never zeros.
+command (the motors hold their last command). What was dropped is counted in
+``Trial.counts`` (shown in summary.json).
 """
 
 from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -30,12 +48,21 @@ from autopilot.geo import latlon_to_local
 from autopilot.gnc.thrust_curve import ThrustCurve
 from autopilot.schema import ConfigError
 
-MIN_SAMPLES = 20
+MIN_SAMPLES = 20  # rows with a usable time
+MIN_FIXES = 8  # new position fixes (a 1 Hz GPS: eight seconds)
+MIN_HEADINGS = 20
+SAME_TIME_S = 1e-4  # a measurement time that moved less than this did not advance
+OPTIONAL_ROW_COLUMNS = ("sog_m_s", "cog_deg", "rot_deg_s")
 
 
 @dataclass(frozen=True)
 class Trial:
-    """One measured trial on its own time base (t_s starts at 0). NaN marks a gap."""
+    """One measured trial on its own time base (t_s starts at 0).
+
+    Commands (thrust, duty) are per row. Measurements are per row too, but a row
+    carries a position (heading) only where it holds a *new* measurement, taken at
+    ``position_time_s`` (``heading_time_s``); NaN everywhere else.
+    """
 
     name: str
     t_s: np.ndarray
@@ -46,13 +73,27 @@ class Trial:
     north_m: np.ndarray
     east_m: np.ndarray
     heading_rad: np.ndarray
+    position_time_s: np.ndarray
+    heading_time_s: np.ndarray
     sog_m_s: np.ndarray | None = None
     cog_rad: np.ndarray | None = None
     yaw_rate_rad_s: np.ndarray | None = None
+    commands_held: bool = False  # a row missing between two rows: the motors held the command (mission logs)
+    counts: dict = field(default_factory=dict)
 
     @property
     def duration_s(self) -> float:
         return float(self.t_s[-1] - self.t_s[0])
+
+    @property
+    def fix_rows(self) -> np.ndarray:
+        """Rows that carry a new position fix."""
+        return np.flatnonzero(np.isfinite(self.north_m) & np.isfinite(self.east_m) & np.isfinite(self.position_time_s))
+
+    @property
+    def heading_rows(self) -> np.ndarray:
+        """Rows that carry a new heading."""
+        return np.flatnonzero(np.isfinite(self.heading_rad) & np.isfinite(self.heading_time_s))
 
 
 def _forward_fill(x: np.ndarray) -> np.ndarray:
@@ -69,6 +110,46 @@ def _forward_fill(x: np.ndarray) -> np.ndarray:
     return x
 
 
+def _increasing_rows(t: np.ndarray) -> np.ndarray:
+    """Rows with a finite time later than every earlier one (a repeated or backwards stamp is a glitch)."""
+    good, last = [], -math.inf
+    for i in np.flatnonzero(np.isfinite(t)):
+        if t[i] > last:
+            good.append(i)
+            last = t[i]
+    return np.asarray(good, dtype=int)
+
+
+def new_fixes(north_m: np.ndarray, east_m: np.ndarray, t_row_s: np.ndarray, fix_time_s: np.ndarray | None):
+    """(is_new, fix_time_s) per row: a fix is new when its cells are set and differ from the last fix."""
+    is_new = np.zeros(t_row_s.size, dtype=bool)
+    times = np.full(t_row_s.size, np.nan)
+    last_ne, last_t = None, -math.inf
+    for k in np.flatnonzero(np.isfinite(north_m) & np.isfinite(east_m)):
+        ne = (north_m[k], east_m[k])
+        t = fix_time_s[k] if fix_time_s is not None and math.isfinite(fix_time_s[k]) else t_row_s[k]
+        if ne == last_ne or t <= last_t + SAME_TIME_S:
+            continue
+        is_new[k], times[k] = True, t
+        last_ne, last_t = ne, t
+    return is_new, times
+
+
+def new_headings(heading: np.ndarray, t_row_s: np.ndarray, heading_time_s: np.ndarray | None):
+    """(is_new, heading_time_s) per row: without a time column every heading cell is new."""
+    ok = np.isfinite(heading)
+    if heading_time_s is None:
+        return ok, np.where(ok, t_row_s, np.nan)
+    t = np.where(np.isfinite(heading_time_s), heading_time_s, t_row_s)
+    is_new = np.zeros(t.size, dtype=bool)
+    last = -math.inf
+    for k in np.flatnonzero(ok):
+        if t[k] > last + SAME_TIME_S:
+            is_new[k] = True
+            last = t[k]
+    return is_new, np.where(is_new, t, np.nan)
+
+
 def make_trial(
     name: str,
     t_s,
@@ -80,56 +161,80 @@ def make_trial(
     thrust_stbd_n=None,
     pwm_port_pct=None,
     pwm_stbd_pct=None,
+    position_time_s=None,
+    heading_time_s=None,
+    exclude=None,
     sog_m_s=None,
     cog_deg=None,
     rot_deg_s=None,
     curve: ThrustCurve | None = None,
+    commands_held: bool = False,
 ) -> Trial:
-    """Build a clean :class:`Trial` from raw columns (degrees and duty only at this edge)."""
+    """Build a :class:`Trial` from raw per-row columns (degrees and duty only at this edge).
+
+    ``exclude``: rows whose measurements are not used (their commands are).
+    """
     curve = curve or ThrustCurve()
     t = np.asarray(t_s, dtype=float)
-    keep = np.isfinite(t)
-    # keep only strictly increasing times (a repeated or backwards stamp is a logging glitch)
-    idx = np.flatnonzero(keep)
-    good, last = [], -math.inf
-    for i in idx:
-        if t[i] > last:
-            good.append(i)
-            last = t[i]
-    sel = np.asarray(good, dtype=int)
+    sel = _increasing_rows(t)
     if sel.size < MIN_SAMPLES:
         raise ConfigError(f"trial {name}: only {sel.size} samples with a usable t_s (need {MIN_SAMPLES})")
 
     def col(x):
         return None if x is None else np.asarray(x, dtype=float)[sel]
 
-    if thrust_port_n is not None and thrust_stbd_n is not None:
-        tp, ts = _forward_fill(col(thrust_port_n)), _forward_fill(col(thrust_stbd_n))
-        dp, ds = curve.signed_duty_pct(tp), curve.signed_duty_pct(ts)
-    elif pwm_port_pct is not None and pwm_stbd_pct is not None:
-        dp, ds = _forward_fill(col(pwm_port_pct)), _forward_fill(col(pwm_stbd_pct))
-        tp, ts = curve.thrust_from_signed_duty_n(dp), curve.thrust_from_signed_duty_n(ds)
-    else:
-        raise ConfigError(f"trial {name}: needs thrust_port_n/thrust_stbd_n or pwm_port_pct/pwm_stbd_pct")
-    heading = col(heading_deg)
-    n, e = col(north_m), col(east_m)
-    if np.sum(np.isfinite(n) & np.isfinite(e)) < MIN_SAMPLES or np.sum(np.isfinite(heading)) < MIN_SAMPLES:
-        raise ConfigError(f"trial {name}: fewer than {MIN_SAMPLES} valid positions or headings")
+    tp, ts, dp, ds = _commands(name, col(thrust_port_n), col(thrust_stbd_n), col(pwm_port_pct), col(pwm_stbd_pct), curve)
     t_sel = t[sel]
+    t0 = t_sel[0]
+    n, e, heading = col(north_m), col(east_m), col(heading_deg)
+    drop = np.zeros(sel.size, dtype=bool) if exclude is None else np.asarray(exclude, dtype=bool)[sel]
+    fix_new, fix_t = new_fixes(n, e, t_sel, col(position_time_s))
+    hdg_new, hdg_t = new_headings(heading, t_sel, col(heading_time_s))
+    counts = _counts(n, e, heading, fix_new, hdg_new, drop)
+    fix_new &= ~drop
+    hdg_new &= ~drop
+    if fix_new.sum() < MIN_FIXES or hdg_new.sum() < MIN_HEADINGS:
+        raise ConfigError(f"trial {name}: {int(fix_new.sum())} position fixes and {int(hdg_new.sum())} headings "
+                          f"usable (need {MIN_FIXES} and {MIN_HEADINGS})")
     return Trial(
         name=name,
-        t_s=t_sel - t_sel[0],
-        thrust_port_n=np.asarray(tp, dtype=float),
-        thrust_stbd_n=np.asarray(ts, dtype=float),
-        duty_port_pct=np.asarray(dp, dtype=float),
-        duty_stbd_pct=np.asarray(ds, dtype=float),
-        north_m=n,
-        east_m=e,
-        heading_rad=np.radians(heading),
+        t_s=t_sel - t0,
+        thrust_port_n=tp, thrust_stbd_n=ts, duty_port_pct=dp, duty_stbd_pct=ds,
+        north_m=np.where(fix_new, n, np.nan),
+        east_m=np.where(fix_new, e, np.nan),
+        heading_rad=np.where(hdg_new, np.radians(heading), np.nan),
+        position_time_s=np.where(fix_new, fix_t - t0, np.nan),
+        heading_time_s=np.where(hdg_new, hdg_t - t0, np.nan),
         sog_m_s=col(sog_m_s),
         cog_rad=None if cog_deg is None else np.radians(col(cog_deg)),
         yaw_rate_rad_s=None if rot_deg_s is None else np.radians(col(rot_deg_s)),
+        commands_held=commands_held,
+        counts=counts,
     )
+
+
+def _counts(n, e, heading, fix_new, hdg_new, drop) -> dict:
+    """What the rules kept and dropped (summary.json ``measurements``)."""
+    return {
+        "rows": int(drop.size),
+        "position_fixes": int(np.sum(fix_new & ~drop)),
+        "held_fix_rows": int(np.sum(np.isfinite(n) & np.isfinite(e) & ~fix_new)),
+        "headings": int(np.sum(hdg_new & ~drop)),
+        "held_heading_rows": int(np.sum(np.isfinite(heading) & ~hdg_new)),
+        "excluded_rows": int(drop.sum()),
+    }
+
+
+def _commands(name, tp, ts, dp, ds, curve: ThrustCurve):
+    """(thrust_port_n, thrust_stbd_n, duty_port_pct, duty_stbd_pct), the missing ones from the thrust curve."""
+    if tp is not None and ts is not None:
+        tp, ts = _forward_fill(tp), _forward_fill(ts)
+        return tp, ts, curve.signed_duty_pct(tp), curve.signed_duty_pct(ts)
+    if dp is not None and ds is not None:
+        dp, ds = _forward_fill(dp), _forward_fill(ds)
+        return (np.asarray(curve.thrust_from_signed_duty_n(dp), dtype=float),
+                np.asarray(curve.thrust_from_signed_duty_n(ds), dtype=float), dp, ds)
+    raise ConfigError(f"trial {name}: needs thrust_port_n/thrust_stbd_n or pwm_port_pct/pwm_stbd_pct")
 
 
 def _number(text: str) -> float:
@@ -138,6 +243,30 @@ def _number(text: str) -> float:
     except (TypeError, ValueError):
         return math.nan
     return value if math.isfinite(value) else math.nan
+
+
+def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = None) -> Trial:
+    """A trial from the CSV's columns (name -> per-row values, NaN = empty cell); ConfigError names what is missing."""
+    get = cols.get
+    north, east = get("north_m"), get("east_m")
+    if north is None or east is None:
+        lat, lon = get("lat_deg"), get("lon_deg")
+        if lat is None or lon is None:
+            raise ConfigError("needs north_m/east_m or lat_deg/lon_deg columns")
+        ok = np.isfinite(lat) & np.isfinite(lon)
+        if not ok.any():
+            raise ConfigError("no valid lat_deg/lon_deg")
+        i0 = np.flatnonzero(ok)[0]
+        north, east = latlon_to_local(lat, lon, float(lat[i0]), float(lon[i0]))
+    if get("heading_deg") is None:
+        raise ConfigError("needs a heading_deg column")
+    return make_trial(
+        name, cols["t_s"], north_m=north, east_m=east, heading_deg=get("heading_deg"),
+        thrust_port_n=get("thrust_port_n"), thrust_stbd_n=get("thrust_stbd_n"),
+        pwm_port_pct=get("pwm_port_pct"), pwm_stbd_pct=get("pwm_stbd_pct"),
+        position_time_s=get("position_time_s"), heading_time_s=get("heading_time_s"),
+        sog_m_s=get("sog_m_s"), cog_deg=get("cog_deg"), rot_deg_s=get("rot_deg_s"), curve=curve,
+    )
 
 
 def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
@@ -156,79 +285,33 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
         r = r[:width]
         data[i, : len(r)] = r
     cols = {h: data[:, k] for k, h in enumerate(header)}
-    get = cols.get
-    north, east = get("north_m"), get("east_m")
-    if north is None or east is None:
-        lat, lon = get("lat_deg"), get("lon_deg")
-        if lat is None or lon is None:
-            raise ConfigError(f"{path}: needs north_m/east_m or lat_deg/lon_deg columns")
-        ok = np.isfinite(lat) & np.isfinite(lon)
-        if not ok.any():
-            raise ConfigError(f"{path}: no valid lat_deg/lon_deg")
-        i0 = np.flatnonzero(ok)[0]
-        north, east = latlon_to_local(lat, lon, float(lat[i0]), float(lon[i0]))
-    if get("heading_deg") is None:
-        raise ConfigError(f"{path}: needs a heading_deg column")
     try:
-        return make_trial(
-            path.stem,
-            cols["t_s"],
-            north_m=north,
-            east_m=east,
-            heading_deg=get("heading_deg"),
-            thrust_port_n=get("thrust_port_n"),
-            thrust_stbd_n=get("thrust_stbd_n"),
-            pwm_port_pct=get("pwm_port_pct"),
-            pwm_stbd_pct=get("pwm_stbd_pct"),
-            sog_m_s=get("sog_m_s"),
-            cog_deg=get("cog_deg"),
-            rot_deg_s=get("rot_deg_s"),
-            curve=curve,
-        )
+        return trial_from_columns(path.stem, cols, curve=curve)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
-
-
-def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
-    """A daemon mission log (docs/log-schema.md, cycle lines) as a trial."""
-    from autopilot.review.reader import check_mission_log, read_log
-
-    log = read_log(check_mission_log(path))
-    if log.n_cycles < MIN_SAMPLES:
-        raise ConfigError(f"{path}: only {log.n_cycles} cycle lines (need {MIN_SAMPLES})")
-    c = log.col
-    return make_trial(
-        Path(path).stem,
-        c("t_s"),
-        north_m=c("north_m"),
-        east_m=c("east_m"),
-        heading_deg=c("heading_deg"),
-        thrust_port_n=c("thrust_port_n"),
-        thrust_stbd_n=c("thrust_stbd_n"),
-        sog_m_s=c("sog_m_s"),
-        cog_deg=c("cog_deg"),
-        rot_deg_s=c("yaw_rate_deg_s"),
-        curve=curve,
-    )
 
 
 def read_trial(path, *, curve: ThrustCurve | None = None) -> Trial:
     """A trial CSV (``.csv``) or a mission log (``.jsonl``/``.json``)."""
     suffix = Path(path).suffix.lower()
     if suffix in (".jsonl", ".json", ".log"):
+        from autopilot.sysid.mission_log import read_mission_log
+
         return read_mission_log(path, curve=curve)
     return read_trial_csv(path, curve=curve)
 
 
 def write_trial_csv(trial: Trial, path) -> None:
-    """Write a trial in the CSV format above (thrust, local position, heading in degrees)."""
+    """Write a trial in the CSV format above: the new measurements only, each with its time."""
     cols = {
         "t_s": trial.t_s,
         "thrust_port_n": trial.thrust_port_n,
         "thrust_stbd_n": trial.thrust_stbd_n,
         "north_m": trial.north_m,
         "east_m": trial.east_m,
+        "position_time_s": trial.position_time_s,
         "heading_deg": np.degrees(trial.heading_rad) % 360.0,
+        "heading_time_s": trial.heading_time_s,
     }
     names = list(cols)
     data = np.column_stack([cols[k] for k in names])
@@ -236,21 +319,5 @@ def write_trial_csv(trial: Trial, path) -> None:
         w = csv.writer(fh)
         w.writerow(names)
         for row in data:
-            w.writerow(["" if not math.isfinite(v) else f"{v:.6g}" for v in row])
+            w.writerow(["" if not math.isfinite(v) else f"{v:.9g}" for v in row])
 
-
-def noise_sigma(x: np.ndarray, t_s: np.ndarray, *, floor: float) -> float:
-    """White measurement noise of a smooth signal from second differences (robust, MAD).
-
-    For a signal sampled evenly, x[k+1] - 2x[k] + x[k-1] removes the motion
-    (its curvature is tiny at 10 Hz) and leaves 6 sigma^2 of white noise.
-    """
-    x = np.asarray(x, dtype=float)
-    dt = np.diff(t_s)
-    ok = np.isfinite(x[:-2]) & np.isfinite(x[1:-1]) & np.isfinite(x[2:])
-    ok &= np.abs(dt[:-1] - dt[1:]) < 1e-6 * np.maximum(dt[1:], 1e-9) + 1e-9
-    d2 = (x[2:] - 2 * x[1:-1] + x[:-2])[ok]
-    if d2.size < 10:
-        return floor
-    mad = np.median(np.abs(d2 - np.median(d2)))
-    return max(float(1.4826 * mad / math.sqrt(6.0)), floor)

@@ -1,0 +1,95 @@
+"""A daemon mission log (docs/log-schema.md) as a trial: the one place sysid names the log's fields.
+
+Read with :func:`autopilot.review.reader.read_log`. Per ``cycle`` line:
+
+- commands: ``thrust_port_n``, ``thrust_stbd_n`` (what the motors had, every
+  cycle, also in failsafe: zero), held between cycles (a skipped deadline sends
+  nothing, so the motors keep the last command);
+- position fix measured at ``t_s - position_age_s`` (a fix whose cells repeat
+  the previous one is held, not new: the SC-30 sends one fix a second in GGA
+  and RMC, the daemon restamps it on each); heading measured at
+  ``t_s - heading_age_s`` (new when that time advances);
+- cycles whose ``mode`` is not ``auto`` (failsafe, waiting, complete, hold) and
+  the cycle right after skipped deadlines are excluded from the fit: their
+  commands stay, their measurements go; the leading and trailing stretches
+  that are not ``auto`` (waiting for data, the stop at the end) are cut off.
+
+Skipped deadlines come from ``skipped_cycles`` (cumulative) and from any gap
+of more than 1.5 periods between cycles (``rate_hz`` of ``mission_start``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from autopilot.gnc.thrust_curve import ThrustCurve
+from autopilot.schema import ConfigError
+from autopilot.sysid.trials import MIN_SAMPLES, Trial, make_trial
+
+# log field -> its meaning here (docs/log-schema.md, cycle line)
+F_TIME = "t_s"
+F_NORTH, F_EAST = "north_m", "east_m"
+F_HEADING = "heading_deg"
+F_POSITION_AGE, F_HEADING_AGE = "position_age_s", "heading_age_s"
+F_THRUST_PORT, F_THRUST_STBD = "thrust_port_n", "thrust_stbd_n"
+F_SOG, F_COG, F_RATE = "sog_m_s", "cog_deg", "yaw_rate_deg_s"
+F_SKIPPED = "skipped_cycles"
+MODE_FITTED = "auto"
+GAP_PERIODS = 1.5  # a cycle this many periods after the previous one followed skipped deadlines
+
+
+def _column(log, name: str) -> np.ndarray | None:
+    try:
+        return log.col(name)
+    except KeyError:  # a field this reader does not keep
+        return None
+
+
+def after_skipped_deadlines(log, t_s: np.ndarray) -> np.ndarray:
+    """Per cycle: it came right after one or more skipped deadlines (``skipped_cycles`` grew, or the cycle
+    came more than GAP_PERIODS periods after the previous one: a log cut and pasted, or an older daemon's)."""
+    rate_hz = (log.start or {}).get("rate_hz")
+    period_s = 1.0 / rate_hz if isinstance(rate_hz, (int, float)) and rate_hz > 0 else float(np.median(np.diff(t_s)))
+    after = np.r_[False, np.diff(t_s) > GAP_PERIODS * period_s]
+    skipped = _column(log, F_SKIPPED)
+    if skipped is not None and np.isfinite(skipped).any():
+        after |= np.r_[False, np.diff(np.nan_to_num(skipped, nan=0.0)) > 0]
+    return after
+
+
+def _fitted_modes(log) -> np.ndarray:
+    from autopilot.review.reader import MODES
+
+    return log.mode == MODES.index(MODE_FITTED)
+
+
+def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
+    """A daemon mission log as a trial (rules in the module docstring)."""
+    from autopilot.review.reader import check_mission_log, read_log
+
+    log = read_log(check_mission_log(path))
+    if log.n_cycles < MIN_SAMPLES:
+        raise ConfigError(f"{path}: only {log.n_cycles} cycle lines (need {MIN_SAMPLES})")
+    c = log.col
+    t = c(F_TIME)
+    auto = _fitted_modes(log)
+    if not auto.any():
+        raise ConfigError(f"{path}: no cycle in mode {MODE_FITTED!r} (the boat never steered): nothing to fit")
+    first, last = np.flatnonzero(auto)[[0, -1]]
+    keep = slice(first, last + 1)
+    exclude = (~auto | after_skipped_deadlines(log, t))[keep]
+    try:
+        trial = make_trial(
+            Path(path).stem, t[keep],
+            north_m=c(F_NORTH)[keep], east_m=c(F_EAST)[keep], heading_deg=c(F_HEADING)[keep],
+            position_time_s=(t - c(F_POSITION_AGE))[keep], heading_time_s=(t - c(F_HEADING_AGE))[keep],
+            thrust_port_n=c(F_THRUST_PORT)[keep], thrust_stbd_n=c(F_THRUST_STBD)[keep],
+            exclude=exclude, sog_m_s=c(F_SOG)[keep], cog_deg=c(F_COG)[keep], rot_deg_s=c(F_RATE)[keep],
+            curve=curve, commands_held=True,
+        )
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from exc
+    trial.counts["cut_not_auto_rows"] = int(log.n_cycles - (last + 1 - first))
+    return trial

@@ -1,0 +1,287 @@
+"""Measurement noise of a channel (position per axis, heading): wandering plus white, estimated, whitened.
+
+Model of one series (one trial, one channel; measurement times t_k, issue 12 "Build" 2)::
+
+    y_k = h(x(t_k)) + b_k + e_k
+    e_k ~ N(0, s_w^2)                                      white
+    b_k = phi_k b_{k-1} + w_k,  phi_k = exp(-(t_k - t_{k-1}) / tau),
+          w_k ~ N(0, q_k),  q_k = s_g^2 (1 - phi_k^2),  b_0 ~ N(0, s_g^2)   Gauss-Markov wander
+
+so cov(y) = S = s_w^2 I + G, G_kl = s_g^2 exp(-|t_k - t_l| / tau). The fit minimises the
+generalised least-squares cost r^T S^-1 r of the residuals r, written as a sum of squares by
+profiling the wander out (a Gauss-Markov error state per sample, solved exactly)::
+
+    min_b |r - b|^2 / s_w^2 + |D b|^2 = r^T S^-1 r        D b: (b_0 / s_g, (b_k - phi_k b_{k-1}) / sqrt(q_k))
+    b* = M^-1 r / s_w^2,  M = D^T D + I / s_w^2            (tridiagonal: one banded Cholesky per series)
+    weighted residuals = [(r - b*) / s_w ; D b*]           (2n rows, linear in r)
+
+The noise (s_w, s_g, tau) of a channel is shared by all trials (one receiver, one compass) and
+estimated by restricted maximum likelihood from a fitted model's residuals (:func:`estimate`,
+each series' mean removed as the initial state's offset absorbs it), inside the bounds a real
+sensor has (:class:`NoiseBounds`): a residual that needs more than that is model error, not noise.
+Single-fix outliers are rejected before any fit, without a model (:func:`outliers`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_solve_banded, cholesky_banded
+
+from autopilot.schema import param
+
+MIN_DT_S = 1e-3  # two measurements closer than this are treated as this far apart
+EPS_WANDER = 1e-6  # below this (relative to the white part) the wander is off: white noise only
+
+
+@dataclass(frozen=True)
+class ChannelNoise:
+    """Noise of one channel: white part, wander (Gauss-Markov) and its correlation time (SI: m or rad)."""
+
+    white: float
+    wander: float
+    time_s: float
+
+    @property
+    def rms(self) -> float:
+        return math.hypot(self.white, self.wander)
+
+    @property
+    def has_wander(self) -> bool:
+        return self.wander > EPS_WANDER * max(self.white, 1e-12)
+
+
+@dataclass(frozen=True)
+class NoiseBounds:
+    """What a sensor's noise may be (estimates are held inside; beyond them a residual is model error)."""
+
+    position_white_min_m: float = param(0.05, unit="m", lo=0.001, hi=10.0, doc="the replay's own position resolution")
+    position_white_max_m: float = param(3.0, unit="m", lo=0.01, hi=50.0, doc="largest white GPS noise")
+    position_wander_max_m: float = param(3.0, unit="m", lo=0.01, hi=50.0, source="issue 12: 0.5-2 m", doc="largest wandering GPS error (1 sigma per axis)")
+    position_time_max_s: float = param(120.0, unit="s", lo=1.0, hi=3600.0, source="issue 12: 30-60 s", doc="longest correlation time of the GPS wander")
+    heading_white_min_deg: float = param(0.05, unit="deg", lo=0.001, hi=10.0, source="SPEC 1: 0.1 deg resolution", doc="the replay's own heading resolution")
+    heading_white_max_deg: float = param(1.0, unit="deg", lo=0.01, hi=30.0, source="SPEC 1: 0.5 deg rms", doc="largest white heading noise")
+    heading_wander_max_deg: float = param(1.0, unit="deg", lo=0.01, hi=30.0, source="SPEC 1: 0.5 deg rms", doc="largest wandering heading error")
+    heading_time_max_s: float = param(120.0, unit="s", lo=1.0, hi=3600.0, doc="longest correlation time of the heading wander")
+    time_min_s: float = param(2.0, unit="s", lo=0.1, hi=100.0, doc="shortest correlation time of a wander")
+    # The search (screening and first fits) weights by the baseline's noise, whose wander holds the
+    # missing effect too: capped at a typical sensor's, or a model that misses an effect would weight
+    # by a noise that hides it and flatten the cost the fits follow (a hidden 0.2 m/s current in
+    # closed-loop logs was fitted at 0.11 m/s under a baseline noise at the sensor bounds).
+    position_wander_search_m: float = param(1.0, unit="m", lo=0.01, hi=50.0, doc="largest GPS wander the search weights by")
+    heading_wander_search_deg: float = param(0.3, unit="deg", lo=0.01, hi=30.0, doc="largest heading wander the search weights by")
+
+    # The wander's correlation time from trials about as long as it is poorly determined: after each
+    # trial's initial state took its share, a 45 s wander fitted as 10 s and half its size, and the
+    # intervals with it (z = 3.3 for a current). A log-normal prior holds it near a GPS's.
+    time_prior_s: float = param(40.0, unit="s", lo=1.0, hi=3600.0, source="issue 12: 30-60 s", doc="centre of the prior on the wander's correlation time")
+    time_prior_factor: float = param(2.0, unit="-", lo=1.01, hi=100.0, doc="one sigma of that prior, as a factor (log-normal)")
+
+    @property
+    def time_prior(self) -> tuple[float, float]:
+        return self.time_prior_s, self.time_prior_factor
+
+    def for_search(self) -> NoiseBounds:
+        """These bounds with the wander capped at the search's (above)."""
+        import dataclasses
+
+        return dataclasses.replace(self, position_wander_max_m=min(self.position_wander_max_m, self.position_wander_search_m),
+                                   heading_wander_max_deg=min(self.heading_wander_max_deg, self.heading_wander_search_deg))
+
+    def channel(self, name: str) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+        """((white lo, hi), (wander lo, hi), (time lo, hi)) of ``position`` (m) or ``heading`` (rad)."""
+        if name == "position":
+            return ((self.position_white_min_m, self.position_white_max_m), (1e-3, self.position_wander_max_m),
+                    (self.time_min_s, self.position_time_max_s))
+        rad = math.radians
+        return ((rad(self.heading_white_min_deg), rad(self.heading_white_max_deg)), (rad(1e-3), rad(self.heading_wander_max_deg)),
+                (self.time_min_s, self.heading_time_max_s))
+
+
+class Whitener:
+    """The linear map r -> weighted residuals of one series (module docstring); 2n rows with wander, else n."""
+
+    def __init__(self, t_s: np.ndarray, noise: ChannelNoise):
+        t = np.asarray(t_s, dtype=float)
+        self.n = t.size
+        self.noise = noise
+        self.s_w = float(noise.white)
+        self.wander = noise.has_wander and self.n > 1
+        if not self.wander:
+            self.rows = self.n
+            return
+        self.rows = 2 * self.n
+        dt = np.maximum(np.diff(t), MIN_DT_S)
+        phi = np.r_[0.0, np.exp(-dt / noise.time_s)]
+        q = noise.wander**2 * np.maximum(1.0 - phi * phi, 1e-12)
+        self.phi, self.d = phi, 1.0 / np.sqrt(q)  # D row k: d_k (b_k - phi_k b_{k-1})
+        d2 = self.d**2
+        diag = d2 + 1.0 / self.s_w**2
+        diag[:-1] += (phi[1:] * self.d[1:]) ** 2
+        ab = np.zeros((2, self.n))
+        ab[0, 1:] = -phi[1:] * d2[1:]  # upper form: ab[0, k] = M[k-1, k]
+        ab[1] = diag
+        self.chol = cholesky_banded(ab, lower=False)
+        self.logdet = float(2 * self.n * math.log(self.s_w) + np.sum(np.log(q)) + 2.0 * np.sum(np.log(self.chol[1])))
+
+    def _d_times(self, b: np.ndarray) -> np.ndarray:
+        out = self.d[:, None] * b
+        out[1:] -= (self.d[1:] * self.phi[1:])[:, None] * b[:-1]
+        return out
+
+    def apply(self, r: np.ndarray) -> np.ndarray:
+        """Weighted residuals of ``r`` (n,) or (n, k) -> (rows,) or (rows, k)."""
+        r = np.asarray(r, dtype=float)
+        one = r.ndim == 1
+        r2 = r[:, None] if one else r
+        if not self.wander:
+            out = r2 / self.s_w
+        else:
+            b = cho_solve_banded((self.chol, False), r2 / self.s_w**2, check_finite=False)
+            out = np.vstack([(r2 - b) / self.s_w, self._d_times(b)])
+        return out[:, 0] if one else out
+
+    def solve(self, v: np.ndarray) -> np.ndarray:
+        """S^-1 v (Woodbury: (v - M^-1 v / s_w^2) / s_w^2)."""
+        if not self.wander:
+            return v / self.s_w**2
+        b = cho_solve_banded((self.chol, False), v / self.s_w**2, check_finite=False)
+        return (v - b) / self.s_w**2
+
+    def log_det(self) -> float:
+        return float(self.logdet) if self.wander else 2.0 * self.n * math.log(self.s_w)
+
+
+def restricted_deviance(series, noise: ChannelNoise) -> float:
+    """-2 restricted log-likelihood (constant dropped) of residual series.
+
+    Each item is ``(t_s, r)`` (its mean is what the fit absorbed) or ``(blocks, design)``: blocks
+    [(t_s, r), ...] of one trial that share the fitted parameters whose sensitivities are the columns
+    of ``design`` (rows: the blocks' samples in order). Restricted likelihood counts what the fit
+    absorbed: without it the noise left after fitting initial states looks whiter and smaller than
+    the sensor's (a 45 s wander came out at 9 s, and the intervals with it)."""
+    total = 0.0
+    for item in series:
+        blocks, design = _blocks(item)
+        n = sum(r.size for _, r in blocks)
+        if n <= design.shape[1]:
+            continue
+        quad, logdet, xtr, xtx, row = 0.0, 0.0, np.zeros(design.shape[1]), np.zeros((design.shape[1],) * 2), 0
+        for t, r in blocks:
+            x = design[row : row + r.size]
+            row += r.size
+            w = Whitener(t, noise)
+            sol = w.solve(np.column_stack([r, x]))
+            quad += float(r @ sol[:, 0])
+            xtr += x.T @ sol[:, 0]
+            xtx += x.T @ sol[:, 1:]
+            logdet += w.log_det()
+        sign, logdet_x = np.linalg.slogdet(xtx)
+        if sign <= 0:
+            continue
+        total += logdet + logdet_x + quad - float(xtr @ np.linalg.solve(xtx, xtr))
+    return total
+
+
+def _blocks(item):
+    first, second = item
+    if isinstance(first, list):
+        return first, np.asarray(second, dtype=float)
+    t, r = np.asarray(first, float), np.asarray(second, float)
+    return [(t, r)], np.ones((r.size, 1))
+
+
+def estimate(series, bounds: tuple, start: ChannelNoise | None = None, time_prior: tuple | None = None) -> ChannelNoise:
+    """Restricted maximum-likelihood noise of a channel from residual series, inside ``bounds``
+    ((white lo, hi), (wander lo, hi), (time lo, hi) as NoiseBounds.channel), with the log-normal
+    prior ``time_prior`` = (centre s, factor for one sigma) on the correlation time when given
+    (NoiseBounds.time_prior: trials about as long as the correlation time cannot pin it down)."""
+    from scipy.optimize import minimize
+
+    series = [item for item in series if sum(r.size for _, r in _blocks(item)[0]) >= 2]
+    if not series:
+        (w_lo, _), _, (t_lo, _) = bounds
+        return ChannelNoise(w_lo, 0.0, t_lo)
+    lo = np.log([b[0] for b in bounds])
+    hi = np.log([b[1] for b in bounds])
+    if start is None:
+        spread = math.sqrt(float(np.mean(np.concatenate([r - r.mean() for item in series for _, r in _blocks(item)[0]]) ** 2)))
+        z0 = np.log([0.3 * spread, 0.8 * spread, 30.0])
+    else:
+        z0 = np.log([start.white, max(start.wander, 1e-9), start.time_s])
+    z0 = np.clip(z0, lo + 1e-6, hi - 1e-6)
+
+    def f(z):
+        prior = 0.0 if time_prior is None else ((z[2] - math.log(time_prior[0])) / math.log(time_prior[1])) ** 2
+        return restricted_deviance(series, ChannelNoise(*np.exp(z))) + prior
+
+    best = minimize(f, z0, method="L-BFGS-B", bounds=list(zip(lo, hi)), options={"maxiter": 60})
+    return ChannelNoise(*(float(x) for x in np.exp(best.x)))
+
+
+def outliers(t_s: np.ndarray, y: np.ndarray, *, neighbours: int, window_s: float, floor: float,
+             k: float = 6.0) -> np.ndarray:
+    """Single-sample outliers of a smooth series, without a model: each sample against a quadratic
+    through its ``neighbours`` nearest valid neighbours within ``window_s`` (itself left out); flagged
+    above max(k robust sigmas, ``floor``), the worst first, the others judged again without it.
+    Returns a boolean mask."""
+    t, y = np.asarray(t_s, float), np.asarray(y, float)
+    bad = np.zeros(t.size, dtype=bool)
+    if t.size < neighbours + 4:
+        return bad
+    while True:
+        err = _leave_one_out_errors(t, y, bad, neighbours, window_s)
+        ok = np.isfinite(err)
+        if ok.sum() < 5:
+            return bad
+        scale = 1.4826 * float(np.median(np.abs(err[ok])))
+        limit = max(k * scale, floor)
+        worst = int(np.nanargmax(np.where(ok, np.abs(err), -np.inf)))
+        if not abs(err[worst]) > limit:
+            return bad
+        bad[worst] = True
+
+
+def _leave_one_out_errors(t, y, bad, neighbours: int, window_s: float, *, with_gain: bool = False):
+    """Each sample minus the quadratic through its nearest valid neighbours at its time (NaN where too
+    few within ``window_s``); with ``with_gain`` also sum(w^2) of the prediction's weights (the error's
+    variance for white noise s^2 is s^2 (1 + sum w^2)). Vectorised over the samples."""
+    err = np.full(t.size, np.nan)
+    gain = np.full(t.size, np.nan)
+    good = np.flatnonzero(~bad)
+    n = good.size
+    if n > neighbours:
+        tg, yg = t[good], y[good]
+        offsets = np.r_[np.arange(-neighbours, 0), np.arange(1, neighbours + 1)]
+        cand = np.arange(n)[:, None] + offsets[None, :]  # positions in the good samples
+        inside = (cand >= 0) & (cand < n)
+        cand_c = np.clip(cand, 0, n - 1)
+        dt = np.where(inside, tg[cand_c] - tg[:, None], np.inf)
+        order = np.argsort(np.abs(dt), axis=1, kind="stable")[:, :neighbours]
+        pick = np.take_along_axis(cand_c, order, axis=1)
+        dtp = np.take_along_axis(dt, order, axis=1)
+        ok = np.all(np.abs(dtp) <= window_s, axis=1)
+        if ok.any():
+            d = dtp[ok]
+            vander = np.stack([d * d, d, np.ones_like(d)], axis=2)  # (m, neighbours, 3)
+            w = np.linalg.pinv(vander)[:, 2, :]  # weights of the fitted value at dt = 0
+            err[good[ok]] = yg[ok] - np.sum(w * yg[pick[ok]], axis=1)
+            gain[good[ok]] = np.sum(w * w, axis=1)
+    return (err, gain) if with_gain else err
+
+
+def white_scale(t_s: np.ndarray, y: np.ndarray, *, neighbours: int, window_s: float, bad=None) -> float | None:
+    """A model-free estimate of the white part of a smooth series' noise: the robust spread of the
+    leave-one-out errors (:func:`outliers`' local quadratics), each divided by sqrt(1 + sum w^2).
+    Slow wander and the motion pass the local quadratic almost untouched; None when too short."""
+    t, y = np.asarray(t_s, float), np.asarray(y, float)
+    if t.size < neighbours + 4:
+        return None
+    err, gain = _leave_one_out_errors(t, y, np.zeros(t.size, bool) if bad is None else bad, neighbours, window_s,
+                                      with_gain=True)
+    ok = np.isfinite(err)
+    if ok.sum() < 5:
+        return None
+    return float(1.4826 * np.median(np.abs(err[ok]) / np.sqrt(1.0 + gain[ok])))

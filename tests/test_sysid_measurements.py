@@ -1,0 +1,228 @@
+"""Measurements as they were taken (issue 12, Build 1-2): held fixes, measurement times, mission-log rules,
+the noise model (Gauss-Markov + white), outlier rejection, and the shared GPS/heading error model."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from autopilot.schema import ConfigError
+from autopilot.sim.gps_error import (
+    GpsErrorModel,
+    HeadingErrorModel,
+    PositionErrorStream,
+    gauss_markov,
+    position_errors,
+    quantise_deg,
+)
+from autopilot.sysid import read_trial
+from autopilot.sysid.noise import (
+    ChannelNoise,
+    Whitener,
+    estimate,
+    outliers,
+    restricted_deviance,
+)
+from autopilot.sysid.replay import noise_floor
+from autopilot.sysid.trials import make_trial
+
+
+def _held_csv(path, *, cells="held", time_column=False, n_rows=120):
+    """10 Hz rows, a fix every second at t = k + 0.35 shown from the next row on (held or empty between)."""
+    t = np.arange(n_rows) * 0.1
+    t_fix = np.arange(0.35, t[-1], 1.0)
+    lines = ["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg" + (",position_time_s" if time_column else "")]
+    for k, tk in enumerate(t):
+        j = np.searchsorted(t_fix, tk + 1e-9, side="right") - 1
+        fresh = j >= 0 and (k == 0 or np.searchsorted(t_fix, t[k - 1] + 1e-9, side="right") - 1 != j)
+        show = j >= 0 and (cells == "held" or fresh)
+        pos = f"{2.0 * t_fix[j]:.3f},{-1.0 * t_fix[j]:.3f}" if show else ","
+        row = f"{tk:.1f},10,10,{pos},{(30 + tk) % 360:.1f}"
+        if time_column:
+            row += f",{t_fix[j]:.3f}" if show else ","
+        lines.append(row)
+    path.write_text("\n".join(lines) + "\n")
+    return t_fix
+
+
+@pytest.mark.parametrize("cells,time_column", [("held", False), ("held", True), ("empty", False), ("empty", True)])
+def test_held_fixes_are_not_new_measurements(tmp_path, cells, time_column):
+    """A 10 Hz CSV with a 1 Hz GPS: only the fixes are measurements (the old reader took every row's
+    repeated fix as new: ~0.45 s old on average, which an aft antenna mimics), each at its own time."""
+    t_fix = _held_csv(tmp_path / "t.csv", cells=cells, time_column=time_column)
+    tr = read_trial(tmp_path / "t.csv")
+    rows = tr.fix_rows
+    assert rows.size == t_fix.size
+    assert np.isnan(np.delete(tr.north_m, rows)).all()
+    want = t_fix if time_column else np.ceil(t_fix * 10) / 10  # without the column: the row it first appears on
+    assert_allclose(tr.position_time_s[rows], want, atol=1e-6)
+    assert_allclose(tr.north_m[rows], 2.0 * t_fix, atol=1e-3)
+    assert tr.counts["position_fixes"] == t_fix.size
+    assert tr.counts["held_fix_rows"] == (120 - 4 - t_fix.size if cells == "held" else 0)
+    assert np.isfinite(tr.heading_rad).all()  # no heading_time_s column: every heading is a measurement
+
+
+def test_held_heading_with_its_time_is_not_new(tmp_path):
+    t = np.arange(40) * 0.1
+    h_time = t.copy()
+    h_time[[10, 11, 25]] = h_time[[9, 9, 24]]  # lost sentences: the row repeats the last heading and its time
+    heading = 10.0 + t
+    heading[[10, 11, 25]] = heading[[9, 9, 24]]
+    tr = make_trial("h", t, north_m=t, east_m=0 * t, heading_deg=heading, heading_time_s=h_time,
+                    thrust_port_n=0 * t + 5, thrust_stbd_n=0 * t + 5)
+    assert np.isnan(tr.heading_rad[[10, 11, 25]]).all() and tr.counts["held_heading_rows"] == 3
+    assert_allclose(tr.heading_time_s[tr.heading_rows], np.delete(t, [10, 11, 25]))
+
+
+def test_too_few_fixes_is_a_clear_error():
+    t = np.arange(60) * 0.1
+    with pytest.raises(ConfigError, match=r"trial x: 6 position fixes"):
+        make_trial("x", t, north_m=np.floor(t), east_m=0 * t, heading_deg=0 * t, thrust_port_n=0 * t, thrust_stbd_n=0 * t)
+
+
+def _cycle(k, t, **over):
+    rec = {"event": "cycle", "t_s": t, "timestamp": "2026-01-01T00:00:00Z", "cycle": k, "mode": "auto",
+           "thrust_port_n": 10.0 + k, "thrust_stbd_n": 12.0, "north_m": float(np.floor(t)), "east_m": 0.5 * float(np.floor(t)),
+           "heading_deg": 1.0 * k % 360, "position_age_s": t - np.floor(t) + 0.05, "heading_age_s": 0.02,
+           "sog_m_s": 1.0, "cog_deg": 0.0, "yaw_rate_deg_s": 0.5, "skipped_cycles": 0}
+    rec.update(over)
+    return json.dumps(rec)
+
+
+def test_mission_log_measurement_times_and_exclusions(tmp_path):
+    """Fix time t - position_age_s, heading time t - heading_age_s; the waiting start and the complete end cut off;
+    failsafe cycles and the cycle after skipped deadlines give no measurement but keep their commands."""
+    lines = [json.dumps({"event": "mission_start", "t_s": 0.0, "timestamp": "2026-01-01T00:00:00Z", "rate_hz": 10.0})]
+    times = [0.1 * k for k in range(300)]
+    del times[150:153]  # three skipped deadlines: the cycle at 15.3 s follows a 0.4 s gap
+    for k, t in enumerate(times):
+        over = {}
+        if k < 5:
+            over["mode"] = "waiting"
+        elif 100 <= k < 120:
+            over.update(mode="failsafe", thrust_port_n=0.0, thrust_stbd_n=0.0)
+        elif k >= 290:
+            over["mode"] = "complete"
+        lines.append(_cycle(k, t, **over))
+    path = tmp_path / "m.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    tr = read_trial(path)
+    assert tr.t_s.size == 285 and tr.commands_held  # rows 5..289
+    assert tr.counts["cut_not_auto_rows"] == 12 and tr.counts["excluded_rows"] == 21  # 5 waiting + 7 complete
+    fixes = tr.position_time_s[tr.fix_rows] + 0.5  # back on the log's clock (the trial starts at 0.5 s)
+    assert_allclose(fixes, np.round(fixes) - 0.05, atol=1e-9)  # each fix measured 0.05 s before its second
+    assert not np.isin(np.round(fixes + 0.05), [10, 11, 15]).any()  # none from the failsafe, none first shown after the gap
+    heading_t = tr.heading_time_s[tr.heading_rows] + 0.5
+    assert_allclose(heading_t, np.array(times)[5:290][tr.heading_rows] - 0.02, atol=1e-9)
+    assert np.isnan(tr.heading_rad[95:115]).all()  # failsafe rows 100..119 of the log
+    after_gap = int(np.argmin(np.abs(tr.t_s + 0.5 - 15.3)))
+    assert np.isnan(tr.heading_rad[after_gap]) and np.isfinite(tr.heading_rad[after_gap + 1])
+    assert_allclose(tr.thrust_port_n[95:115], 0.0)  # the failsafe's zero thrust is what the motors had
+
+
+def test_mission_log_never_in_auto_is_a_clear_error(tmp_path):
+    lines = [_cycle(k, 0.1 * k, mode="waiting") for k in range(40)]
+    (tmp_path / "w.jsonl").write_text("\n".join(lines) + "\n")
+    with pytest.raises(ConfigError, match="w.jsonl: no cycle in mode 'auto'"):
+        read_trial(tmp_path / "w.jsonl")
+
+
+@pytest.mark.parametrize("wander", [0.0, 1.3])
+def test_whitened_cost_is_the_generalised_least_squares_cost(wander):
+    rng = np.random.default_rng(3)
+    t = np.sort(rng.uniform(0, 100, 60))
+    nz = ChannelNoise(0.2, wander, 40.0)
+    cov = nz.white**2 * np.eye(t.size) + wander**2 * np.exp(-np.abs(t[:, None] - t[None, :]) / nz.time_s)
+    r = rng.standard_normal((t.size, 3))
+    w = Whitener(t, nz)
+    assert_allclose(np.sum(w.apply(r) ** 2, axis=0), np.einsum("ik,ik->k", r, np.linalg.solve(cov, r)), rtol=1e-9)
+    assert_allclose(w.log_det(), np.linalg.slogdet(cov)[1], rtol=1e-9)
+    assert_allclose(noise_floor(t, nz), np.trace(cov) - cov.sum() / t.size, rtol=1e-9)
+
+
+def test_noise_estimate_recovers_gauss_markov_plus_white():
+    """Restricted maximum likelihood over ten 120-s series (1 Hz) of wander 1.2 m (45 s) + 0.15 m white."""
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 120.0, 1.0)
+    series = []
+    for _ in range(20):
+        y = gauss_markov(t, 1.2, 45.0, rng) + 0.15 * rng.standard_normal(t.size)
+        series.append((t, y - y.mean()))
+    est = estimate(series, ((0.05, 3.0), (1e-3, 3.0), (2.0, 120.0)))
+    assert 0.9 < est.wander < 1.6 and 0.1 < est.white < 0.2 and 25.0 < est.time_s < 110.0, est
+    # the estimate explains the data better than a white-only model of the same total variance
+    white_only = ChannelNoise(math.hypot(est.white, est.wander), 0.0, 1.0)
+    assert restricted_deviance(series, est) < restricted_deviance(series, white_only) - 100
+
+
+def test_outliers_are_found_without_a_model():
+    rng = np.random.default_rng(1)
+    t = np.arange(0.0, 90.0, 1.0)
+    radius_m, rate = 2.5, 0.6  # a hard turn at 1.5 m/s: the worst case for a local quadratic
+    north = radius_m * np.sin(rate * t) + 0.15 * rng.standard_normal(t.size)
+    assert not outliers(t, north, neighbours=4, window_s=4.0, floor=3.0).any()
+    jumped = north.copy()
+    jumped[[10, 11, 50]] += [10.0, -8.0, 10.0]  # two adjacent jumps too
+    assert_allclose(np.flatnonzero(outliers(t, jumped, neighbours=4, window_s=4.0, floor=3.0)), [10, 11, 50])
+
+
+def test_gauss_markov_statistics():
+    rng = np.random.default_rng(7)
+    t = np.arange(0.0, 20000.0, 1.0)
+    b = gauss_markov(t, 2.0, 30.0, rng)
+    assert_allclose(np.std(b), 2.0, rtol=0.1)
+    lag = 30
+    assert_allclose(np.corrcoef(b[:-lag], b[lag:])[0, 1], math.exp(-1.0), atol=0.06)
+    stream = PositionErrorStream(GpsErrorModel(wander_m=2.0, wander_time_s=30.0, white_m=0.0, outlier_rate=0.0),
+                                 np.random.default_rng(8))
+    s = np.array([stream.next(tk) for tk in t[:5000]])
+    assert_allclose(np.std(s, axis=0), 2.0, rtol=0.25)
+    n, e, jump = position_errors(GpsErrorModel(outlier_rate=0.05), t[:4000], rng)
+    assert 0.03 < jump.mean() < 0.07
+    assert_allclose(quantise_deg([359.96, 12.34, -0.04], 0.1), [0.0, 12.3, 0.0], atol=1e-9)
+
+
+def test_simulated_sc30_sends_one_fix_a_second_in_gga_and_rmc(tmp_path):
+    """With the realistic model the GGA and RMC of a second carry the same fix (one epoch, its wandering
+    error); the next second's differs; the heading changes from one 100 ms sentence to the next. Read from
+    what the simulated SC-30 put on its pseudo-terminal."""
+    import asyncio
+
+    from autopilot.clock import Clock
+    from autopilot.sim import default_params_path, load_params
+    from autopilot.simdev.boat import SimBoat
+    from autopilot.simdev.sc30 import SimulatedSC30
+
+    boat = SimBoat(load_params(default_params_path()), origin_lat_deg=52.0, origin_lon_deg=4.4, x0=(0, 0, 0.3, 0, 0, 0))
+    clock = Clock(4.0)
+    sc30 = SimulatedSC30(boat, clock, directory=tmp_path, seed=4, baudrate=38400,
+                         position_error=GpsErrorModel(wander_m=1.0, outlier_rate=0.0),
+                         heading_error=HeadingErrorModel(wander_deg=0.3, loss_rate=0.0))
+
+    async def fly():
+        await sc30.start()
+        await clock.sleep_until(3.05)
+        await sc30.stop()
+
+    asyncio.run(fly())
+    by_second: dict[str, dict[int, list[str]]] = {"GGA": {}, "RMC": {}}
+    headings = []
+    for t_s, line in sc30.sent_log:
+        f = line.split("*")[0].split(",")
+        kind = f[0][3:]
+        if kind == "GGA":
+            by_second["GGA"].setdefault(int(float(f[1][4:])), []).append(",".join(f[2:6]))
+        elif kind == "RMC":
+            by_second["RMC"].setdefault(int(float(f[1][4:])), []).append(",".join(f[3:7]))
+        elif kind == "HDT":
+            headings.append(f[1])
+    seconds = sorted(set(by_second["GGA"]) & set(by_second["RMC"]))
+    assert len(seconds) >= 2
+    for sec in seconds:
+        assert by_second["GGA"][sec] == by_second["RMC"][sec]  # one fix, both sentences
+    assert by_second["GGA"][seconds[0]] != by_second["GGA"][seconds[1]]  # the boat is still: the error wandered
+    assert len(headings) >= 20 and len(set(headings)) >= 2  # a still boat: only the heading error moves it
