@@ -45,7 +45,7 @@ import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
-from autopilot.drivers.framing import LineFramer, xor_checksum
+from autopilot.drivers.framing import LineFramer, checked_body, xor_checksum
 from autopilot.schema import param
 from autopilot.units import knots_to_m_s
 
@@ -82,8 +82,6 @@ MIN_BITS = {1: 168, 2: 168, 3: 168, 5: 420, 18: 168, 19: 312, 24: 160}
 _ADDRESS = re.compile(r"![A-Z]{2}VD[MO]\Z")
 _ANY_ADDRESS = re.compile(r"![A-Z0-9]{2,7}\Z")
 _ARMOUR = re.compile(r"[0-W`-w]*\Z")  # the 6-bit armouring: '0'..'W' and '`'..'w' (ITU-R M.1371 / IEC 61162-1)
-_HEX2 = re.compile(r"[0-9A-Fa-f]{2}\Z")
-_BODY = re.compile(r"[\x20-\x7e]*\Z")
 
 # "not available" codes (ITU-R M.1371-5 Annex 2 / 8, as gpsd's AIVDM document lists them)
 LAT_NA_DEG = 91.0
@@ -148,19 +146,7 @@ def parse_fragment(line: str) -> AisFragment:
     Raises :class:`AisChecksumError` for a missing/wrong checksum and :class:`AisSentenceError`
     for anything else that is not a fragment (another encapsulated sentence included).
     """
-    s = line.strip("\r\n")
-    if not s.startswith("!"):
-        raise AisSentenceError("does not start with '!'")
-    star = s.rfind("*")
-    if star < 0:
-        raise AisChecksumError("no '*hh' checksum")
-    body, given = s[1:star], s[star + 1 :]
-    if not _HEX2.match(given):
-        raise AisChecksumError(f"malformed checksum {given!r}")
-    if not _BODY.match(body) or any(c in body for c in "$!*\\"):
-        raise AisSentenceError("reserved or non-printable character in sentence")
-    if given.upper() != xor_checksum(body):
-        raise AisChecksumError(f"checksum {given.upper()} != {xor_checksum(body)}")
+    body = checked_body(line, "!", checksum_error=AisChecksumError, sentence_error=AisSentenceError)
     f = body.split(",")
     address = "!" + f[0]
     if not _ADDRESS.match(address):
@@ -182,7 +168,7 @@ def parse_fragment(line: str) -> AisFragment:
         raise AisSentenceError(f"fill bits {fill_s!r}")
     return AisFragment(
         talker=f[0][:2], own_ship=f[0][2:] == "VDO", count=int(count_s), number=int(number_s),
-        seq_id=int(seq_s) if seq_s else None, channel=channel, payload=payload, fill_bits=int(fill_s), raw=s,
+        seq_id=int(seq_s) if seq_s else None, channel=channel, payload=payload, fill_bits=int(fill_s), raw=line.strip("\r\n"),
     )
 
 

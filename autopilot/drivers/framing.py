@@ -19,9 +19,10 @@ are not ASCII. Clean NMEA has none; a single flipped bit gives one.
 from __future__ import annotations
 
 import math
+import re
 from collections import deque
 
-__all__ = ["LineFramer", "GarbageDetector", "LINE_BYTES", "xor_checksum"]
+__all__ = ["LineFramer", "GarbageDetector", "LINE_BYTES", "xor_checksum", "checked_body"]
 
 LINE_BYTES = bytes(range(0x20, 0x7F)) + b"\r\n"  # what a line-based protocol may carry
 
@@ -33,6 +34,30 @@ def xor_checksum(body: str) -> str:
     for ch in body.encode("ascii"):
         c ^= ch
     return f"{c:02X}"
+
+
+_HEX2 = re.compile(r"[0-9A-Fa-f]{2}\Z")
+_BODY = re.compile(r"[\x20-\x7e]*\Z")
+
+
+def checked_body(line: str, lead: str, *, checksum_error: type[Exception], sentence_error: type[Exception]) -> str:
+    """The body of ``<lead>body*hh`` (CR/LF around it allowed) once its framing and checksum are right:
+    NMEA's ``$`` and AIS's ``!`` sentences alike. Raises ``checksum_error`` for a missing, malformed or
+    wrong checksum, ``sentence_error`` for the wrong lead or a reserved or non-printable character."""
+    s = line.strip("\r\n")
+    if not s.startswith(lead):
+        raise sentence_error(f"does not start with {lead!r}")
+    star = s.rfind("*")
+    if star < 0:
+        raise checksum_error("no '*hh' checksum")
+    body, given = s[1:star], s[star + 1 :]
+    if not _HEX2.match(given):
+        raise checksum_error(f"malformed checksum {given!r}")
+    if not _BODY.match(body) or any(c in body for c in "$!*\\"):
+        raise sentence_error("reserved or non-printable character in sentence")
+    if given.upper() != xor_checksum(body):
+        raise checksum_error(f"checksum {given.upper()} != {xor_checksum(body)}")
+    return body
 
 
 class LineFramer:

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import pynmea2
 
-from autopilot.drivers.framing import LineFramer, xor_checksum
+from autopilot.drivers.framing import LineFramer, checked_body, xor_checksum
 from autopilot.units import KNOT_M_S, deg_min_to_rad_s, knots_to_m_s
 
 __all__ = [
@@ -50,9 +50,6 @@ __all__ = [
 MAX_LINE_CHARS = 200
 
 _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)\Z")
-_HEX2 = re.compile(r"[0-9A-Fa-f]{2}\Z")
-# printable ASCII without the NMEA reserved delimiters $ ! * (and \ for TAG blocks)
-_BODY = re.compile(r"[\x20-\x7e]*\Z")
 _ADDRESS = re.compile(r"(?:[A-Z0-9]{2}[A-Z]{3}|P[A-Z0-9]{3,5})\Z")
 
 # sentences pynmea2 knows and we decode from its field list
@@ -352,19 +349,7 @@ def decode_line(line: str) -> NmeaUpdate | None:
     Raises :class:`ChecksumError` for a missing/wrong checksum and
     :class:`SentenceError` for bad framing or field values.
     """
-    s = line.strip("\r\n")
-    if not s.startswith("$"):
-        raise SentenceError("does not start with '$'")
-    star = s.rfind("*")
-    if star < 0:
-        raise ChecksumError("no '*hh' checksum")
-    body, given = s[1:star], s[star + 1 :]
-    if not _HEX2.match(given):
-        raise ChecksumError(f"malformed checksum {given!r}")
-    if not _BODY.match(body) or any(c in body for c in "$!*\\"):
-        raise SentenceError("reserved or non-printable character in sentence")
-    if given.upper() != checksum(body):
-        raise ChecksumError(f"checksum {given.upper()} != {checksum(body)}")
+    body = checked_body(line, "$", checksum_error=ChecksumError, sentence_error=SentenceError)
     fields = body.split(",")
     address = fields[0]
     if not _ADDRESS.match(address):
@@ -379,7 +364,7 @@ def decode_line(line: str) -> NmeaUpdate | None:
         # pynmea2 with check=True is the reference for framing of standard sentences;
         # its field values are re-converted strictly below.
         try:
-            msg = pynmea2.parse(f"${body}*{given}", check=True)
+            msg = pynmea2.parse(f"${body}*{xor_checksum(body)}", check=True)
         except pynmea2.ChecksumError as exc:
             raise ChecksumError(str(exc)) from None
         except Exception as exc:  # pynmea2 raises several kinds on odd input
