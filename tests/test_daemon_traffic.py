@@ -76,8 +76,14 @@ def test_the_boat_gives_way_to_starboard_and_keeps_its_distance(head_on):
     tt = np.array([r["t_s"] - r["age_s"] for r in tgt])
     tn, te = np.array([r["north_m"] for r in tgt]), np.array([r["east_m"] for r in tgt])
     tc, ts = np.radians([r["course_deg"] for r in tgt]), np.array([r["speed_m_s"] for r in tgt])
-    fixes = [(c["t_s"] - c["position_age_s"], c["north_m"], c["east_m"]) for c in cycles
-             if c["north_m"] is not None and c["position_age_s"] < 0.05]
+    fixes, last = [], None  # each fix once, at the time it was measured (held on the cycles after it)
+    for c in cycles:
+        if c["north_m"] is not None and c["position_age_s"] is not None:
+            when = round(c["t_s"] - c["position_age_s"], 6)
+            if when != last:
+                fixes.append((when, c["north_m"], c["east_m"]))
+                last = when
+    assert len(fixes) > 50
     dist = []
     for t, n, e in fixes:
         k = int(np.searchsorted(tt, t)) - 1

@@ -283,7 +283,13 @@ def test_link_loss_takes_its_action(tmp_path):
     boat = Boat(tmp_path, config={"mavlink": {"gcs_timeout_s": 1.5, "gcs_lost_action": "hold"}})
     try:
         boat.mode_is("auto", 20.0)
-        boat.recv("HEARTBEAT")  # the ground station has been seen: it beats while waiting
+        boat.recv("HEARTBEAT")  # the ground station now knows the boat's address (UDP: it learns it from what it receives)
+        # and beats for a second more, so that the boat has seen it (beats sent before the ground station knew the
+        # address went nowhere: when the boat reached auto quickly, it had never seen one and had nothing to lose)
+        t_end = time.monotonic() + 1.0
+        while time.monotonic() < t_end:
+            boat.beat()
+            boat.gcs.recv_match(blocking=True, timeout=0.05)
         t_silent = time.monotonic()
         boat.last_hb = math.inf  # the ground station goes quiet
         lost = boat.wait_log(lambda r: r["event"] == "gcs" and r["state"] == "lost", what="link lost")

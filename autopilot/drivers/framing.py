@@ -71,15 +71,21 @@ class LineFramer:
         self.invalid_bytes = 0  # bytes outside printable ASCII, CR, LF, counted on arrival
 
     def feed(self, data: bytes) -> list[bytes]:
+        return [line for line, _, _ in self.feed_spans(data)]
+
+    def feed_spans(self, data: bytes) -> list[tuple[bytes, int, int]]:
+        """Complete lines with where they sat in the stream: (line, its characters with the LF, the characters
+        of ``data`` after its LF). A serial driver times a line from them (line_timing.py)."""
         self.invalid_bytes += len(data.translate(None, LINE_BYTES))
         self._buf += data
-        lines: list[bytes] = []
+        lines: list[tuple[bytes, int, int]] = []
         start = 0
         while True:
             nl = self._buf.find(b"\n", start)
             if nl < 0:
                 break
             line = bytes(self._buf[start:nl])
+            chars, after = nl + 1 - start, len(self._buf) - nl - 1
             start = nl + 1
             if self._overflow:  # the tail of an overlong line: already counted
                 self._overflow = False
@@ -87,7 +93,7 @@ class LineFramer:
             if len(line.rstrip(b"\r")) > self.max_line_chars:
                 self.too_long += 1
                 continue
-            lines.append(line)
+            lines.append((line, chars, after))
         del self._buf[:start]
         if len(self._buf) > self.max_line_chars + 1:  # + 1: a CR may precede the LF
             if not self._overflow:

@@ -508,12 +508,17 @@ class NmeaStreamDecoder:
 
     def feed(self, data: bytes) -> list[NmeaUpdate]:
         """Decode every complete line in ``data`` (plus what was held back). Never raises."""
-        out: list[NmeaUpdate] = []
+        return [u for u, _, _ in self.feed_spans(data)]
+
+    def feed_spans(self, data: bytes) -> list[tuple[NmeaUpdate, int, int]]:
+        """:meth:`feed` with each update's line span: (update, the line's characters with its line end, the
+        characters of ``data`` after it) (framing.LineFramer.feed_spans)."""
+        out: list[tuple[NmeaUpdate, int, int]] = []
         try:
-            for line in self._framer.feed(data):
+            for line, chars, after in self._framer.feed_spans(data):
                 update = self._line(line)
                 if update is not None:
-                    out.append(update)
+                    out.append((update, chars, after))
         except Exception:  # pragma: no cover - defensive: the loop must survive anything
             self._framer.clear()
             self.stats.garbage += 1

@@ -16,6 +16,7 @@ from __future__ import annotations
 from autopilot.clock import Clock
 from autopilot.devices import EventSink, NavSample, Stamped
 from autopilot.drivers.line_device import LineDevice
+from autopilot.drivers.line_timing import TickClock, WireClock
 from autopilot.drivers.nmea import NmeaStreamDecoder, NmeaUpdate
 
 __all__ = ["SC30Driver", "HEADING_PRIORITY"]
@@ -30,6 +31,10 @@ class SC30Driver(LineDevice):
     ``heading_window_s``: a lower-priority heading sentence is used only when
     no higher-priority one arrived within this time (so a compass sending
     THS and HDT is steered by THS, and HDT takes over if THS stops).
+    Every quantity is stamped with the time it was measured, not the time it
+    arrived (:mod:`autopilot.drivers.line_timing`): a heading at its tick
+    (``heading_period_s`` apart, SPEC 10: 100 ms), the rest when its sentence
+    began on the line.
     ``garbage_burst_lines`` / ``garbage_burst_bytes``: more rejected lines, or
     more bytes that no NMEA line can hold, than these within 1 s are a garbage
     burst (:class:`~autopilot.drivers.framing.GarbageDetector`): one
@@ -50,6 +55,7 @@ class SC30Driver(LineDevice):
         reconnect_max_s: float = 5.0,
         events: EventSink | None = None,
         heading_window_s: float = 0.5,
+        heading_period_s: float = 0.1,
         garbage_burst_lines: int = 5,
         garbage_burst_bytes: int = 32,
         encapsulated=None,
@@ -66,6 +72,9 @@ class SC30Driver(LineDevice):
         self._heading_window_s = float(heading_window_s)
         self._by_source: dict[str, Stamped] = {}
         self._fix_time = None  # UTC time of the epoch of the last position sentence
+        self._wire = WireClock(baudrate)
+        self._heading_period_s = float(heading_period_s)
+        self._ticks: dict[str, TickClock] = {}  # heading sentence -> its measurement ticks
 
     # ------------------------------------------------------------------ public
     @property
@@ -84,9 +93,20 @@ class SC30Driver(LineDevice):
     # ------------------------------------------------------------------ decoding
     def _on_bytes(self, data: bytes) -> None:
         now_s = self._clock.now_s()
-        for u in self._decoder.feed(data):
-            self.apply(u, now_s)
+        for u, chars, after in self._decoder.feed_spans(data):
+            self.apply(u, self.measured_s(u, now_s, chars, after))
         self._check_garbage(now_s, self._decoder.stats.dropped, self._decoder.invalid_bytes, stats=self.stats)
+
+    def measured_s(self, u: NmeaUpdate, read_s: float, chars: int, after: int) -> float:
+        """When the sentence was measured (line_timing.py): a heading at its tick, anything else when it began
+        on the wire."""
+        start_s, idle = self._wire.line(read_s, chars, after)
+        if u.sentence not in HEADING_PRIORITY:
+            return start_s
+        ticks = self._ticks.get(u.sentence)
+        if ticks is None:
+            ticks = self._ticks[u.sentence] = TickClock(self._heading_period_s)
+        return ticks.measured(start_s, idle)
 
     def sample(self) -> NavSample:
         """The latest of each quantity (:class:`autopilot.devices.NavSample`)."""

@@ -110,6 +110,7 @@ class SimulatedSC30:
         self.raw_started_s: float | None = None  # when the last injected bytes began on the wire
         self.last_heading_sent_deg: float | None = None
         self.sent_log: deque[tuple[float, str]] = deque(maxlen=2000)  # (t_s, sentence) for tests
+        self.made_log: deque[tuple[float, str]] = deque(maxlen=2000)  # (the tick it was measured at, sentence)
         self._line_free_s = 0.0
         self._queue: asyncio.Queue[tuple[float, bytes, str]] | None = None
         self._epoch: dict = {}
@@ -197,12 +198,14 @@ class SimulatedSC30:
         """The GNSS fix of this second: position (with its error), speed and course, reported by every
         position sentence of the second (a receiver computes one solution per epoch)."""
         b = self.boat
+        sog, cog = b.sog_m_s, b.cog_rad
         if self._pos_error is not None:
             n_m, e_m = self._pos_error.next(t_s)
+            sog, cog = self._pos_error.velocity(sog * math.cos(cog), sog * math.sin(cog))
         else:
             n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
         lat, lon = b.latlon_deg(n_m, e_m)
-        self._epoch = {"t_s": t_s, "lat_deg": lat, "lon_deg": lon, "sog_m_s": b.sog_m_s, "cog_rad": b.cog_rad}
+        self._epoch = {"t_s": t_s, "lat_deg": lat, "lon_deg": lon, "sog_m_s": sog, "cog_rad": cog}
 
     def _frame(self, body: str) -> bytes:
         cs = checksum(body)
@@ -275,3 +278,4 @@ class SimulatedSC30:
             self.sentences_sent += 1
             self.bytes_sent += len(line)
             self.sent_log.append((self.clock.now_s(), line.decode("ascii")))
+            self.made_log.append((t_s, line.decode("ascii")))
