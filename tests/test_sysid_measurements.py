@@ -226,3 +226,69 @@ def test_simulated_sc30_sends_one_fix_a_second_in_gga_and_rmc(tmp_path):
         assert by_second["GGA"][sec] == by_second["RMC"][sec]  # one fix, both sentences
     assert by_second["GGA"][seconds[0]] != by_second["GGA"][seconds[1]]  # the boat is still: the error wandered
     assert len(headings) >= 20 and len(set(headings)) >= 2  # a still boat: only the heading error moves it
+
+
+def test_speed_and_course_are_new_where_they_change_measured_with_the_latest_fix(tmp_path):
+    """The receiver's speed and course (RMC/VTG) come a sentence after the epoch's GGA: on the row of a new fix
+    the log may still hold the last epoch's. A pair is new where it changes, and was measured with the latest
+    fix at or before its row; held rows between are not new."""
+    t = np.arange(100) * 0.1
+    epoch = np.floor(t + 1e-9)  # a fix each second, shown from its own row
+    fix_row = np.isclose(t, epoch)
+    rmc_epoch = np.floor(t - 0.1 + 1e-9)  # the speed arrives one row later (the next sentence of the epoch)
+    sog = 1.0 + 0.1 * np.maximum(rmc_epoch, 0)
+    cog = 30.0 + np.maximum(rmc_epoch, 0)
+    sog[0] = cog[0] = np.nan  # nothing before the first RMC
+    path = tmp_path / "v.csv"
+    rows = ["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg,sog_m_s,cog_deg"]
+    for k in range(t.size):
+        rows.append(f"{t[k]:.1f},10,10,{epoch[k]:.1f},{0.5 * epoch[k]:.2f},{30 + t[k]:.1f},"
+                    + ("," if np.isnan(sog[k]) else f"{sog[k]:.2f},{cog[k]:.1f}"))
+    path.write_text("\n".join(rows) + "\n")
+    tr = read_trial(path)
+    v = tr.velocity_rows
+    assert_allclose(tr.t_s[v], t[np.flatnonzero(fix_row)[:v.size] + 1], atol=1e-9)  # the row after each fix
+    assert_allclose(tr.velocity_time_s[v], np.arange(v.size), atol=1e-9)  # measured with that epoch's fix
+    assert_allclose(tr.sog_m_s[v], 1.0 + 0.1 * np.arange(v.size), atol=1e-9)
+    assert tr.counts["velocities"] == v.size == 10
+    # and back: the trial CSV writes each new pair once, read again to the same samples
+    from autopilot.sysid.trials import write_trial_csv
+
+    write_trial_csv(tr, tmp_path / "w.csv")
+    again = read_trial(tmp_path / "w.csv")
+    assert_allclose(again.velocity_time_s[again.velocity_rows], tr.velocity_time_s[v], atol=1e-6)
+    assert_allclose(again.cog_rad[again.velocity_rows], tr.cog_rad[v], atol=1e-6)
+
+
+def test_a_mission_log_and_its_csv_export_give_the_same_velocity_samples(tmp_path):
+    """The daemon logs the speed and course on every cycle (held); review --export csv writes each new pair
+    once. Both read to the same measurements, each with its fix's time."""
+    from autopilot.review.export import write_trial_csv
+    from autopilot.review.reader import read_log
+
+    lines = [json.dumps({"event": "mission_start", "t_s": 0.0, "timestamp": "2026-01-01T00:00:00Z", "rate_hz": 10.0})]
+    for k in range(200):
+        t = 0.1 * k
+        rmc = max(np.floor(t - 0.1 + 1e-9), 0.0)  # the epoch whose RMC has arrived by this row
+        lines.append(_cycle(k, t, sog_m_s=1.0 + 0.01 * rmc, cog_deg=10.0 + rmc))
+    path = tmp_path / "m.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    a = read_trial(path)
+    write_trial_csv(read_log(path), tmp_path / "m.csv")
+    b = read_trial(tmp_path / "m.csv")
+    for tr in (a, b):
+        assert tr.velocity_rows.size == 20  # one pair an epoch
+    assert_allclose(a.velocity_time_s[a.velocity_rows], b.velocity_time_s[b.velocity_rows], atol=1e-6)
+    assert_allclose(a.sog_m_s[a.velocity_rows], b.sog_m_s[b.velocity_rows], atol=1e-6)
+
+
+def test_the_velocity_error_is_white_at_its_size():
+    stream = PositionErrorStream(GpsErrorModel(velocity_white_m_s=0.07), np.random.default_rng(3))
+    v = []
+    for k in range(4000):
+        stream.next(float(k))
+        sog, cog = stream.velocity(1.0, 0.5)
+        v.append((sog * math.cos(cog) - 1.0, sog * math.sin(cog) - 0.5))
+    v = np.array(v)
+    assert_allclose(np.std(v, axis=0), 0.07, rtol=0.06)
+    assert abs(np.corrcoef(v[1:, 0], v[:-1, 0])[0, 1]) < 0.06  # no wander: a Doppler velocity

@@ -200,7 +200,7 @@ def test_mission_log_and_its_csv_export_agree(current_logs, tmp_path):
     from autopilot.sysid import read_trial
 
     d = current_logs[3]
-    paths = sorted(d.glob("*.jsonl"))
+    paths = sorted(d.rglob("*.jsonl"))
     csvs = []
     for p in paths:
         assert main(["review", str(p), "--out", str(tmp_path / p.stem), "--export", "csv", "--no-plots"]) == 0
@@ -250,3 +250,52 @@ def test_cli_on_trial_files_writes_everything(tmp_path):
     assert (out / "report.html").read_text().count("<img") == 3
     assert load(out / "vessel-updated.yaml").name.endswith("-sysid")
     assert set(load_effects(out / "effects.yaml")) == {"current.north_m_s", "current.east_m_s"}
+
+
+@pytest.mark.slow
+def test_speed_over_ground_tells_a_current_from_the_gps_wander():
+    """One 40-s trial, 2 m of GPS wander, a hidden 0.2 m/s current: the receiver's speed and course over ground
+    (a Doppler velocity, without the position's wander) pin the current that the positions alone can barely
+    tell from the wander (its interval several times wider without them)."""
+    from autopilot.sim.gps_error import GpsErrorModel
+    from autopilot.sysid.realistic import make_realistic_trials
+
+    hidden = {"current.north_m_s": 0.12, "current.east_m_s": -0.16}
+    gps = GpsErrorModel(wander_m=2.0, wander_time_s=45.0, white_m=0.15, outlier_rate=0.01, velocity_white_m_s=0.08)
+    sigma = {}
+    for velocity in (True, False):
+        trials = make_realistic_trials(VESSEL, hidden, 20261204, n_trials=1, duration_s=40.0, gps=gps, velocity=velocity)
+        result = identify(trials, VESSEL, candidates=("current", "wind_force", "hydro_refit"))
+        print(f"  velocity {velocity}: {result.status} {result.verdict} {result.chosen.values()} {result.notes}")
+        if velocity:
+            assert result.verdict == ("current",) and result.status == "effects"
+            assert "velocity" in result.adequacy and result.adequacy["velocity"]["adequate"]
+            fit = result.chosen
+        else:  # a candidate fitted, named or not: its interval
+            from autopilot.sysid.fit import fit_model
+            from autopilot.sysid.replay import initial_states
+
+            fit = fit_model(result.prep, VESSEL, ("current",), (0,), initial_states(result.prep))
+        z = [(fit.values()[k] - v) / fit.sigma[fit.keys.index(k)] for k, v in hidden.items()]
+        sigma[velocity] = float(np.hypot(*fit.sigma))
+        if velocity:
+            assert max(abs(x) for x in z) < Z_MAX, z
+    assert sigma[False] > 3.0 * sigma[True], sigma
+
+
+@pytest.mark.slow
+def test_noise_at_the_sensor_bound_is_inconclusive_not_none():
+    """GPS wander 1.5 m on a receiver the user bounded at 1.2 m, nothing hidden: the estimate sits at the bound,
+    where a missing effect of that size could hide; the verdict says so instead of "none", and lists what the
+    trials cannot rule out."""
+    from autopilot.sim.gps_error import GpsErrorModel
+    from autopilot.sysid.noise import NoiseBounds
+    from autopilot.sysid.realistic import make_realistic_trials
+
+    gps = GpsErrorModel(wander_m=1.5, wander_time_s=45.0, white_m=0.15, outlier_rate=0.01)
+    trials = make_realistic_trials(VESSEL, {}, 2, n_trials=2, duration_s=60.0, gps=gps)
+    result = identify(trials, VESSEL, bounds=NoiseBounds(position_wander_max_m=1.2))
+    assert result.status == "inconclusive" and result.verdict == (), result.notes
+    assert any("position noise's wander part is at its bound" in n for n in result.notes)
+    current = [c for c in result.not_excluded if c["effect"] == "current"]
+    assert current and all(c["ci95"][0] < 0.0 < c["ci95"][1] for c in current)

@@ -177,6 +177,7 @@ class SimConfig:
     position_wander_time_s: float = param(45.0, unit="s", lo=0.1, hi=1e5, source="issue 12: 30-60 s", doc="correlation time of the GPS wander")
     position_outlier_rate: float = param(0.0, unit="-", lo=0.0, hi=1.0, source="issue 12: 1 %", doc="fraction of GPS fixes that jump by position_outlier_m")
     position_outlier_m: float = param(10.0, unit="m", lo=0.0, hi=1000.0, source="issue 12: 10 m", doc="size of a single-fix GPS jump")
+    velocity_noise_m_s: float = param(0.05, unit="m/s", lo=0.0, hi=5.0, source="not in the sources: a GNSS receiver's Doppler velocity", doc="error of the reported speed and course over ground, as a velocity error per axis (white, 1 sigma), with the realistic GPS error above")
     heading_wander_deg: float = param(0.0, unit="deg", lo=0.0, hi=30.0, source="issue 12: 0.3 deg", doc="slowly wandering heading error, 1 sigma; > 0 (or a loss rate) adds it to heading_noise_deg")
     heading_wander_time_s: float = param(30.0, unit="s", lo=0.1, hi=1e5, doc="correlation time of the heading wander")
     heading_loss_rate: float = param(0.0, unit="-", lo=0.0, hi=1.0, source="issue 12: 0.5 %", doc="fraction of heading sentences lost")
@@ -190,7 +191,7 @@ class SimConfig:
             return None
         return GpsErrorModel(wander_m=self.position_wander_m, wander_time_s=self.position_wander_time_s,
                              white_m=self.position_noise_m, outlier_rate=self.position_outlier_rate,
-                             outlier_m=self.position_outlier_m)
+                             outlier_m=self.position_outlier_m, velocity_white_m_s=self.velocity_noise_m_s)
 
     @property
     def heading_error_model(self):

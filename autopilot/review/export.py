@@ -224,7 +224,8 @@ def trial_columns(log: MissionLog) -> dict[str, np.ndarray]:
 
     A position appears on the row where its fix first reached the daemon, with
     ``position_time_s`` the time it was measured (``t_s - position_age_s``); the rows that
-    only repeat a held fix leave it empty. Likewise the heading and ``heading_time_s``.
+    only repeat a held fix leave it empty. Likewise the heading and ``heading_time_s``. Speed
+    and course over ground appear where they change (``MissionLog.velocity_rows``).
     """
     lat_row, lon_row = track_latlon(log)
     n = log.n_cycles
@@ -236,6 +237,7 @@ def trial_columns(log: MissionLog) -> dict[str, np.ndarray]:
 
     fix, fix_t = log.fix_rows()
     head, head_t = log.heading_rows()
+    vel = log.velocity_rows()
     heading = log.col("heading_deg")
     heading = np.where(np.isfinite(heading), wrap_360(heading), np.nan)
     position_time_s, heading_time_s = np.full(n, np.nan), np.full(n, np.nan)
@@ -247,7 +249,7 @@ def trial_columns(log: MissionLog) -> dict[str, np.ndarray]:
         "position_time_s": position_time_s,
         "heading_deg": once(head, heading), "heading_time_s": heading_time_s,
         "lat_deg": once(fix, lat_row), "lon_deg": once(fix, lon_row),
-        "sog_m_s": once(fix, log.col("sog_m_s")), "cog_deg": once(fix, log.col("cog_deg")),
+        "sog_m_s": once(vel, log.col("sog_m_s")), "cog_deg": once(vel, log.col("cog_deg")),
         "rot_deg_s": log.col("yaw_rate_deg_s"),
     }
 

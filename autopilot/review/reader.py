@@ -209,6 +209,16 @@ class MissionLog:
         have = (np.isfinite(n) & np.isfinite(e)) | (np.isfinite(lat) & np.isfinite(lon))
         return _new_samples(self.col("t_s"), self.col("position_age_s"), have, (n, e, lat, lon))
 
+    def velocity_rows(self) -> np.ndarray:
+        """Row indices of the cycles with a new speed and course over ground: where the pair changes (a
+        receiver reports them once an epoch, in RMC/VTG, often a sentence after the epoch's GGA; they are
+        measured with that epoch's fix: autopilot.sysid.trials)."""
+        sog, cog = self.col("sog_m_s"), self.col("cog_deg")
+        rows = np.nonzero(np.isfinite(sog) & np.isfinite(cog))[0]
+        new = np.ones(rows.size, dtype=bool)
+        new[1:] = (sog[rows[1:]] != sog[rows[:-1]]) | (cog[rows[1:]] != cog[rows[:-1]])
+        return rows[new]
+
     def heading_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """(row indices, measurement times) of the cycles with a new heading sample (see :meth:`fix_rows`).
 

@@ -11,6 +11,9 @@ same kind of error:
   ``outlier_rate`` of the fixes jumps by ``outlier_m`` in a random direction
   (a single-fix outlier: the next fix is clean again). The GPS computes one
   fix per second; the error is drawn at the fix times.
+- Velocity (the speed and course over ground the receiver reports with each fix):
+  the true velocity over ground plus white noise per axis (``velocity_white_m_s``),
+  a Doppler measurement that does not carry the position's wander.
 - Heading: a first-order Gauss-Markov wander (``wander_deg``,
   ``wander_time_s``) plus white noise (``white_deg``), quantised to
   ``resolution_deg`` (the SC-30 prints 0.1 deg, SPEC 1); a fraction
@@ -45,6 +48,7 @@ __all__ = [
     "heading_errors",
     "position_errors",
     "quantise_deg",
+    "velocity_errors",
 ]
 
 
@@ -57,6 +61,7 @@ class GpsErrorModel:
     white_m: float = param(0.15, unit="m", lo=0.0, hi=50.0, source="issue 12: ~0.15 m", doc="1-sigma of the white part per axis")
     outlier_rate: float = param(0.01, unit="-", lo=0.0, hi=1.0, source="issue 12: 1 %", doc="fraction of fixes that jump")
     outlier_m: float = param(10.0, unit="m", lo=0.0, hi=1000.0, source="issue 12: 10 m", doc="size of a jump (random direction)")
+    velocity_white_m_s: float = param(0.05, unit="m/s", lo=0.0, hi=5.0, source="not in the sources: a GNSS receiver's Doppler velocity", doc="1-sigma of the velocity error per axis behind the reported speed and course over ground (white)")
 
     @property
     def rms_m(self) -> float:
@@ -110,6 +115,12 @@ def position_errors(model: GpsErrorModel, t_fix_s, rng: np.random.Generator) -> 
     return north, east, jump
 
 
+def velocity_errors(model: GpsErrorModel, t_fix_s, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """(north_m_s, east_m_s) errors of the velocity reported with the fixes at ``t_fix_s``."""
+    n = np.asarray(t_fix_s, dtype=float).size
+    return rng.normal(0.0, 1.0, n) * model.velocity_white_m_s, rng.normal(0.0, 1.0, n) * model.velocity_white_m_s
+
+
 def quantise_deg(heading_deg, resolution_deg: float):
     """Heading as printed: rounded to ``resolution_deg`` and wrapped to [0, 360)."""
     h = np.asarray(heading_deg, dtype=float) % 360.0
@@ -148,6 +159,13 @@ class PositionErrorStream:
             a = rng.uniform(0.0, 2.0 * math.pi)
             err = err + m.outlier_m * np.array([math.cos(a), math.sin(a)])
         return float(err[0]), float(err[1])
+
+    def velocity(self, vn_m_s: float, ve_m_s: float) -> tuple[float, float]:
+        """(speed_m_s, course_rad in [0, 2 pi)) reported for a true velocity over ground (north, east) at this
+        fix: the receiver's velocity error added."""
+        dv = self.model.velocity_white_m_s * self._rng.standard_normal(2)
+        vn, ve = vn_m_s + float(dv[0]), ve_m_s + float(dv[1])
+        return math.hypot(vn, ve), math.atan2(ve, vn) % (2.0 * math.pi)
 
 
 class HeadingErrorStream:

@@ -115,7 +115,9 @@ def simulate(
             (n_runs, 6); rest at the origin heading north if omitted.
         current: (speed_m_s, towards_deg); wind: (speed_m_s, from_deg).
         external_force: f(t_s, state) -> (X_n, Y_n, N_nm) in body axes,
-            state of shape (6,) or (n_runs, 6).
+            state of shape (6,) or (n_runs, 6); or, when it has ``takes_columns = True``,
+            f(t_s, north, east, psi, u, v, r) with each state a float or an array over the runs
+            (no array built per call: the identification's force hooks).
         dt_s: the largest RK4 step (s); each output interval is split evenly.
         env: a full :class:`Environment` instead of current/wind.
         diverged_as_nan: return a run that blew up as NaN from start to end instead of raising

@@ -118,6 +118,7 @@ def _bind(p, current_ne_m_s, wind_ne_m_s, wind_on, sinus, ext, xp) -> Rhs:
     wind_n = -p.air_density_kg_m3 * p.wind_cn * p.lateral_area_m2 * length
     if isinstance(wind_on, np.ndarray):  # a batch: the runs without wind have no windage term at all
         wind_x, wind_y, wind_n = wind_x * wind_on, wind_y * wind_on, wind_n * wind_on
+    ext_columns = bool(getattr(ext, "takes_columns", False))
 
     def rhs(t_s, n, e, psi, u, v, r, thrust_port_n, thrust_stbd_n):
         c, s = cos(psi), sin(psi)
@@ -146,8 +147,10 @@ def _bind(p, current_ne_m_s, wind_ne_m_s, wind_on, sinus, ext, xp) -> Rhs:
             fx = fx + f_d * cos(sinus.angle_rad - psi)
             fy = fy + f_d * sin(sinus.angle_rad - psi)
         if ext is not None:
-            state = np.stack(np.broadcast_arrays(n, e, psi, u, v, r), axis=-1)
-            x_e, y_e, n_e = ext(t_s, state)
+            if ext_columns:  # the states as they are (floats or arrays over the runs): nothing to stack
+                x_e, y_e, n_e = ext(t_s, n, e, psi, u, v, r)
+            else:
+                x_e, y_e, n_e = ext(t_s, np.stack(np.broadcast_arrays(n, e, psi, u, v, r), axis=-1))
             fx, fy, mz = fx + x_e, fy + y_e, mz + n_e
         # Eq 3.3 in relative velocities
         du_r = (fx + my * v_r * r) * inv_mx

@@ -82,10 +82,11 @@ class Case:
     duration_s: float = 60.0
     current_towards_deg: float | None = None  # closed loop: the current's direction (None: drawn)
     speedup: float | None = None  # closed loop: the daemon's clock (None: closed_loop.SPEEDUP)
+    velocity: bool = False  # realistic: the trials carry the receiver's speed and course over ground
 
     @property
     def label(self) -> str:
-        return f"{'+'.join(self.effects) or 'none'}/{self.kind}"
+        return f"{'+'.join(self.effects) or 'none'}/{self.kind}{'+sog' if self.velocity else ''}"
 
     @property
     def unlisted(self) -> bool:
@@ -101,8 +102,8 @@ def make(case: Case, seed: int, vessel, work_dir=None):
 
         cells, columns = MEASUREMENTS[int(rng.integers(len(MEASUREMENTS)))]
         trials = make_realistic_trials(vessel, hidden, seed, n_trials=case.n_trials, duration_s=case.duration_s,
-                                       cells=cells, time_columns=columns)
-        return hidden, trials, f"cells {cells}, time columns {columns}"
+                                       cells=cells, time_columns=columns, velocity=case.velocity)
+        return hidden, trials, f"cells {cells}, time columns {columns}{', SOG/COG' if case.velocity else ''}"
     if case.kind == "white":
         from autopilot.sysid.synthetic import make_trials
 
@@ -142,10 +143,12 @@ def score(case: Case, hidden: dict, result) -> dict:
     if case.unlisted:
         out["right"] = result.status == "unexplained" or not out["adequate"]
     else:
-        out["right"] = set(result.verdict) == set(listed) and (result.status != "unexplained" or not listed)
+        # nothing hidden: "none" (not inconclusive, not unexplained); hidden: exactly those effects, named
+        out["right"] = result.status == "none" if not listed else (
+            result.status == "effects" and set(result.verdict) == set(listed))
     z = _z_scores({k: v for k, v in hidden.items() if k in PARAM_BY_KEY}, result.chosen) if out["right"] and listed else {}
     out["z"] = z
-    out["covered95"] = {k: abs(v) <= Z_95 for k, v in z.items()}
+    out["covered95"] = {k: bool(abs(v) <= Z_95) for k, v in z.items()}
     out["error_cut"] = _error_cut(result)
     return out
 
@@ -155,7 +158,8 @@ def _error_cut(result) -> dict:
     noise, in units of the noise's) and how much of that the chosen model removes held out."""
     b, a = result.rmse_before["held_out"], result.rmse_after["held_out"]
     out = {}
-    for ch, unit in (("position", "m"), ("heading", "deg")):
+    for c in result.prep.channels:
+        ch, unit = c.name, c.key_unit
         noise = max(b[f"{ch}_noise_{unit}"], 1e-9)
         before, after = b[f"{ch}_model_{unit}"], a[f"{ch}_model_{unit}"]
         out[ch] = {"moved_noise": before / noise, "cut": 1.0 - after / before if before > 0 else None}

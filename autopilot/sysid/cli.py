@@ -128,10 +128,13 @@ def _table(args, vessel, params_path, candidates, log) -> int:
 
 
 def _print(summary: dict, out) -> None:
+    from autopilot.sysid.channels import BY_NAME as CHANNEL_BY_NAME
+
     print(f"verdict: {', '.join(summary['verdict'])}")
     for ch, a in (summary.get("adequacy") or {}).items():
-        unit = "m" if ch == "position" else "deg"
-        print(f"  {ch}: residual {a[f'residual_rms_{unit}']:.3g} {unit} against noise {a[f'noise_rms_{unit}']:.3g} {unit}, "
+        c = CHANNEL_BY_NAME[ch]
+        unit, k = c.unit, c.key_unit
+        print(f"  {ch}: residual {a[f'residual_rms_{k}']:.3g} {unit} against noise {a[f'noise_rms_{k}']:.3g} {unit}, "
               f"chi-square {a['chi2_per_measurement']:.3g} per measurement: {'adequate' if a['adequate'] else 'NOT adequate'}")
     for name, eff in summary.get("effects", {}).items():
         for p in eff["params"]:
@@ -140,6 +143,9 @@ def _print(summary: dict, out) -> None:
         worst = ", ".join(f"{ch} chi-square {a['chi2_per_measurement']:.3g}" for ch, a in (c.get("adequacy") or {}).items()
                           if not a["adequate"])
         print(f"  nearest: {c['effect']} (delta BIC {c['delta_bic']:+.0f}; still not adequate: {worst or 'see summary.json'})")
+    if summary.get("not_excluded"):
+        shown = ", ".join(f"{c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} {c['unit']}" for c in summary["not_excluded"][:6])
+        print(f"  not ruled out (95 %): {shown}")
     for part in ("fitted", "held_out"):
         b, a = summary["rmse_before"][part], summary["rmse_after"][part]
         figures = ", ".join(f"{k} {b[k]:.4g} -> {a[k]:.4g}" for k in b if isinstance(b.get(k), float) and a.get(k) is not None)

@@ -146,10 +146,12 @@ class WindForce(Effect):
 
     def force(self, v, vessel):
         f_n, f_e, m_z = v["north_n"], v["east_n"], v["moment_nm"]
+        scalar = isinstance(f_n, float)  # one run on the simulator's scalar path: plain floats
+        cos, sin = (math.cos, math.sin) if scalar else (np.cos, np.sin)
 
         def f(psi, u, vv, r):  # earth-frame force into body axes
-            c, s = np.cos(psi), np.sin(psi)
-            return f_n * c + f_e * s, -f_n * s + f_e * c, m_z + 0.0 * psi
+            c, s = cos(psi), sin(psi)
+            return f_n * c + f_e * s, -f_n * s + f_e * c, m_z if scalar else m_z + 0.0 * psi
 
         return f
 

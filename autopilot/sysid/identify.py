@@ -22,7 +22,10 @@
    still be clearly away from no effect with them.
 6. Verdict (:func:`verdict`): the final model's channels are adequate -> its effects, or ``none``;
    otherwise ``unexplained``, with the nearest candidates and how far they fall short: never a
-   confident name for a model that does not fit.
+   confident name for a model that does not fit. A ``none`` whose noise estimate sits at a sensor's
+   bound is ``inconclusive`` (the residual may hold a model error the size of the noise); beside any
+   verdict but ``unexplained``, the fitted candidates not named with their 95 % intervals (what the
+   trials cannot rule out).
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ from dataclasses import dataclass, field
 
 from autopilot.sim import VesselParams
 from autopilot.sysid import judge, search
-from autopilot.sysid.effects import EFFECT_NAMES
+from autopilot.sysid.effects import EFFECT_NAMES, PARAM_BY_KEY
 from autopilot.sysid.fit import Fit, fit_model
 from autopilot.sysid.holdout import (
     baseline_held_out,
@@ -70,8 +73,8 @@ class Identification:
     vessel: VesselParams
     base: Fit
     chosen: Fit
-    verdict: tuple[str, ...]  # the named effects; () for none and for unexplained
-    status: str  # "effects", "none" or "unexplained"
+    verdict: tuple[str, ...]  # the named effects; () for none, inconclusive and unexplained
+    status: str  # "effects", "none", "inconclusive" or "unexplained"
     candidates: list[dict]
     held_out: tuple[tuple[int, ...], ...]  # cross-validation folds
     rmse_before: dict
@@ -79,6 +82,7 @@ class Identification:
     adequacy: dict  # per channel of the final model (judge.channels)
     nearest: list[dict] = field(default_factory=list)  # unexplained: the candidates that came closest
     notes: list[str] = field(default_factory=list)
+    not_excluded: list[dict] = field(default_factory=list)  # fitted candidates not named: their 95 % intervals
 
     def values(self) -> dict[str, float]:
         return self.chosen.values() if self.verdict else {}
@@ -118,16 +122,22 @@ def baseline(prep: Prepared, vessel, x0_init, s: Settings, say) -> tuple[Prepare
 
 
 def _noise_text(prep: Prepared) -> str:
-    p, h = prep.noise.position, prep.noise.heading
-    return (f"position {p.white:.2f} m white + {p.wander:.2f} m wander ({p.time_s:.0f} s), heading "
-            f"{math.degrees(h.white):.2f} deg + {math.degrees(h.wander):.2f} deg ({h.time_s:.0f} s)")
+    parts = []
+    for c in prep.channels:
+        n = prep.noise.of(c.name)
+        parts.append(f"{c.name} {c.shown(n.white):.3g} {c.unit} white + {c.shown(n.wander):.3g} {c.unit} wander "
+                     f"({n.time_s:.0f} s)")
+    return ", ".join(parts)
 
 
 def renoise(prep: Prepared, vessel, fits: dict, scores, say, key=None) -> tuple[Prepared, dict]:
     """The fits' weighting changed to the noise of the best-scoring model (or ``key``'s), every fit
     rescored under it (their chi-square: what the retries and the held-out costs use)."""
     key = min(fits, key=lambda k: scores.delta_bic(fits[k], fits[()])) if key is None else key
-    prep = prep.with_noise(scores(fits[key])["noise"])
+    noise = scores(fits[key])["noise"]
+    if noise == prep.noise:  # already weighted so (the confirmation's call after the choice's)
+        return prep, fits
+    prep = prep.with_noise(noise)
     fits = {k: judge.rescore(prep, vessel, f) for k, f in fits.items()}
     say(f"noise from {'+'.join(key) or 'the baseline'}: {_noise_text(prep)}")
     return prep, fits
@@ -229,6 +239,16 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
     adequacy = judge.channels(prep, vessel, fits[chosen], s.bounds, adequate_chi2=s.adequate_chi2)
     adequate = all(c["adequate"] for c in adequacy.values())
     status = ("effects" if chosen else "none") if adequate else "unexplained"
+    bound = judge.at_bounds(prep.noise, s.bounds) if adequate else []
+    if bound:
+        why = "; ".join(bound)
+        if status == "none":
+            status = "inconclusive"
+            notes.append(f"{why}: the trials cannot tell a missing effect of the noise's size from the sensor's own "
+                         "noise, so no effect is not the same as none: verdict inconclusive (fly longer or more "
+                         "trials, or bound the sensor: --gps-wander-max, --heading-wander-max)")
+        else:
+            notes.append(f"{why}: the intervals may be too narrow")
     cands = candidate_table(prep, vessel, fits, screen_cost, scores, s)
     nearest = [] if adequate else [c for c in cands if c.get("adequacy")][:3]
     if not adequate:
@@ -250,7 +270,23 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
         rmse_before={"fitted": fitted(base), "held_out": held_before},
         rmse_after={"fitted": fitted(fits[named]), "held_out": held_after if named else held_before},
         adequacy=adequacy, nearest=nearest, notes=notes,
+        not_excluded=not_excluded(fits, named) if status in ("none", "inconclusive") else [],
     )
+
+
+def not_excluded(fits: dict, named: tuple) -> list[dict]:
+    """Each fitted single candidate not named, with the 95 % interval of each parameter (SI, as the effect
+    declares it): what the trials cannot rule out (a "none" from one short log may still allow a 0.3 m/s
+    current)."""
+    out = []
+    for key, f in fits.items():
+        if len(key) != 1 or key[0] in named:
+            continue
+        for k, (lo, hi) in f.ci95().items():
+            p = PARAM_BY_KEY[k]
+            if math.isfinite(lo) and math.isfinite(hi):
+                out.append({"effect": key[0], "param": k, "unit": p.unit, "null": p.null, "ci95": [lo, hi]})
+    return out
 
 
 def candidate_table(prep, vessel, fits: dict, screen_cost: dict, scores, s: Settings) -> list[dict]:

@@ -2,7 +2,7 @@
 
 - :func:`model_noise`: the noise model (per channel) estimated from a fit's residuals
   (``noise.estimate``, restricted maximum likelihood inside the sensor's bounds).
-- :func:`channels`: per channel (position, heading) the weighted chi-square per measurement
+- :func:`channels`: per channel (position, heading, velocity) the weighted chi-square per measurement
   under the noise model, the raw residual RMS and what the noise alone would leave.
   A channel is *adequate* when its chi-square per measurement is at most ADEQUATE_CHI2 and a
   noise model free of the sensor's bounds (:class:`noise.NoiseBounds`) explains the residual no
@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from autopilot.sysid.channels import CHANNELS, POSITION
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
 from autopilot.sysid.fit import Fit
 from autopilot.sysid.noise import NoiseBounds, estimate, restricted_deviance
@@ -32,8 +33,8 @@ from autopilot.sysid.replay import (
     Noise,
     Prepared,
     channel_costs,
+    channel_residuals,
     predict,
-    raw_residuals,
     residuals,
     rmse,
 )
@@ -52,10 +53,16 @@ def predict_fit(prep: Prepared, vessel, fit: Fit) -> dict:
     return predict(prep, vessel, np.array(fit.trials), fit.x0, values)
 
 
-def _series(prep: Prepared, vessel, fit: Fit) -> tuple[list, list]:
-    """A fit's residual series of both channels for noise.restricted_deviance: per trial the position
-    blocks (north, east) and the heading block, each with the residuals' sensitivities to the trial's
-    fitted initial state (what the fit absorbed), by finite differences.
+# the initial states whose sensitivities each channel's noise estimate projects out (besides the
+# position's north and east offsets): the heading pins the heading and yaw rate, so those are the
+# heading's; the speed is everyone's
+OWN_STATES = {"position": (3,), "heading": None, "velocity": (3,)}  # None: every finite-differenced state
+
+
+def _series(prep: Prepared, vessel, fit: Fit) -> dict:
+    """A fit's residual series per channel for noise.restricted_deviance: per trial the channel's
+    component blocks (north and east, or the heading), each with the residuals' sensitivities to the
+    trial's fitted initial state (what the fit absorbed), by finite differences.
 
     The states are shared by the channels, and the heading (10 Hz, a tenth of a degree) pins the
     initial heading and yaw rate: those are the heading's design, not the position's. Left free in
@@ -72,20 +79,28 @@ def _series(prep: Prepared, vessel, fit: Fit) -> tuple[list, list]:
         tri.append(np.array(fit.trials))
     values = {k: np.full(n * (1 + len(FD_STATES)), v) for k, v in fit.values().items()}
     pred = predict(prep, vessel, np.concatenate(tri), np.vstack(x0s), values)
-    pos, hdg = [], []
+    steps = X0_FD * X0_SCALE[list(FD_STATES)]
+    out = {c.name: [] for c in prep.channels}
     for j, i in enumerate(fit.trials):
         runs = [j + q * n for q in range(1 + len(FD_STATES))]
-        rn, re, rh = raw_residuals(prep, i, pred, runs)
-        if not (np.all(np.isfinite(rn)) and np.all(np.isfinite(rh))):
+        res = {c: channel_residuals(prep, i, pred, runs, c) for c in prep.channels}
+        if not all(np.all(np.isfinite(r)) for parts in res.values() for r in parts):
             continue
-        m = prep.measured[i]
-        d = [(x[1:] - x[0]).T / (X0_FD * X0_SCALE[list(FD_STATES)]) for x in (rn, re, rh)]  # (samples, states)
-        zeros, ones = np.zeros(m.t_pos_s.size), np.ones(m.t_pos_s.size)
-        u = list(FD_STATES).index(3)
-        design = np.vstack([np.column_stack([ones, zeros, d[0][:, u]]), np.column_stack([zeros, ones, d[1][:, u]])])
-        pos.append(([(m.t_pos_s, rn[0]), (m.t_pos_s, re[0])], _independent(design)))
-        hdg.append(([(m.t_psi_s, rh[0])], _independent(d[2])))
-    return pos, hdg
+        for c, parts in res.items():
+            if not parts or parts[0].shape[1] == 0:
+                continue
+            t = prep.measured[i].get(c.name).t_s
+            d = [(x[1:] - x[0]).T / steps for x in parts]  # per component (samples, states)
+            own = OWN_STATES[c.name]
+            cols = list(range(len(FD_STATES))) if own is None else [FD_STATES.index(q) for q in own]
+            if c is POSITION:  # the offsets are exact (translation invariance), the speed by difference
+                zeros, ones = np.zeros(t.size), np.ones(t.size)
+                design = np.vstack([np.column_stack([ones, zeros, d[0][:, cols]]),
+                                    np.column_stack([zeros, ones, d[1][:, cols]])])
+            else:
+                design = np.vstack([dq[:, cols] for dq in d])
+            out[c.name].append(([(t, x[0]) for x in parts], _independent(design)))
+    return out
 
 
 def _independent(design: np.ndarray) -> np.ndarray:
@@ -98,11 +113,15 @@ def _independent(design: np.ndarray) -> np.ndarray:
     return cols[:, np.sort(piv[: int(keep.sum())])]
 
 
+def _estimate(series: dict, prep: Prepared, bounds: NoiseBounds) -> Noise:
+    """Each channel's noise (restricted maximum likelihood inside ``bounds``) from residual series."""
+    return Noise(**{name: estimate(items, bounds.channel(name), prep.noise.of(name), bounds.prior(name))
+                    for name, items in series.items()})
+
+
 def model_noise(prep: Prepared, vessel, fit: Fit, bounds: NoiseBounds) -> Noise:
-    """The noise both channels would need to explain ``fit``'s residuals (inside ``bounds``)."""
-    pos, hdg = _series(prep, vessel, fit)
-    return Noise(estimate(pos, bounds.channel("position"), prep.noise.position, bounds.time_prior),
-                 estimate(hdg, bounds.channel("heading"), prep.noise.heading, bounds.time_prior))
+    """The noise each channel would need to explain ``fit``'s residuals (inside ``bounds``)."""
+    return _estimate(_series(prep, vessel, fit), prep, bounds)
 
 
 def beyond_sensor(prep: Prepared, vessel, fit: Fit, bounds: NoiseBounds) -> dict:
@@ -111,11 +130,11 @@ def beyond_sensor(prep: Prepared, vessel, fit: Fit, bounds: NoiseBounds) -> dict
     the bounds to the best without them). Near zero when the residual is the sensor's noise; large
     when it holds what no sensor gives (metres of slow drift, degrees of heading error)."""
     out = {}
-    for ch, series in zip(("position", "heading"), _series(prep, vessel, fit)):
-        inside = estimate(series, bounds.channel(ch), getattr(prep.noise, ch), bounds.time_prior)
+    for ch, series in _series(prep, vessel, fit).items():
+        inside = estimate(series, bounds.channel(ch), prep.noise.of(ch), bounds.prior(ch))
         (w_lo, w_hi), (g_lo, g_hi), (t_lo, t_hi) = bounds.channel(ch)
         free = ((w_lo, 100 * w_hi), (g_lo, 100 * g_hi), (t_lo, 100 * t_hi))
-        outside = estimate(series, free, inside, bounds.time_prior)
+        outside = estimate(series, free, inside, bounds.prior(ch))
         out[ch] = max(restricted_deviance(series, inside) - restricted_deviance(series, outside), 0.0)
     return out
 
@@ -152,16 +171,12 @@ class Scores:
     def noise(self, fit: Fit) -> Noise:
         key = self._key(fit)
         if key not in self._noise:
-            pos, hdg = self.series(fit)
-            b = self.bounds
-            self._noise[key] = Noise(estimate(pos, b.channel("position"), self.prep.noise.position, b.time_prior),
-                                     estimate(hdg, b.channel("heading"), self.prep.noise.heading, b.time_prior))
+            self._noise[key] = _estimate(self.series(fit), self.prep, self.bounds)
         return self._noise[key]
 
     def deviance(self, fit: Fit, noise: Noise | None = None) -> float:
         noise = noise or self.noise(fit)
-        pos, hdg = self.series(fit)
-        return restricted_deviance(pos, noise.position) + restricted_deviance(hdg, noise.heading)
+        return sum(restricted_deviance(items, noise.of(ch)) for ch, items in self.series(fit).items())
 
     def delta_bic(self, fit: Fit, ref: Fit) -> float:
         """BIC of ``fit`` minus ``ref``'s, each under its own noise (class docstring)."""
@@ -188,34 +203,61 @@ def channels(prep: Prepared, vessel, fit: Fit, bounds: NoiseBounds, *, adequate_
     gap = rmse(prep, fit.trials, pred, range(len(fit.trials)))
     beyond = beyond_sensor(prep, vessel, fit, bounds) if full else {}
     out = {}
-    for ch, unit in (("position", "m"), ("heading", "deg")):
-        cost, count = costs[ch]
+    for c in prep.channels:
+        cost, count = costs[c.name]
         c2 = cost / max(count, 1)
-        ok = c2 <= adequate_chi2 and beyond.get(ch, 0.0) <= BEYOND_SENSOR_MAX
-        out[ch] = {"chi2_per_measurement": c2, "measurements": count, "adequate": bool(ok),
-                   f"residual_rms_{unit}": gap[f"{ch}_{unit}"], f"noise_rms_{unit}": gap[f"{ch}_noise_{unit}"],
-                   f"beyond_noise_{unit}": gap[f"{ch}_model_{unit}"],
-                   "deviance_beyond_sensor": beyond.get(ch)}
+        ok = c2 <= adequate_chi2 and beyond.get(c.name, 0.0) <= BEYOND_SENSOR_MAX
+        k = c.key_unit
+        out[c.name] = {"chi2_per_measurement": c2, "measurements": count, "adequate": bool(ok),
+                       f"residual_rms_{k}": gap[f"{c.name}_{k}"], f"noise_rms_{k}": gap[f"{c.name}_noise_{k}"],
+                       f"beyond_noise_{k}": gap[f"{c.name}_model_{k}"],
+                       "deviance_beyond_sensor": beyond.get(c.name)}
     return out
 
 
 def noise_summary(noise: Noise) -> dict:
-    p, h = noise.position, noise.heading
-    return {"position": {"white_m": p.white, "wander_m": p.wander, "time_s": p.time_s, "rms_m": p.rms},
-            "heading": {"white_deg": math.degrees(h.white), "wander_deg": math.degrees(h.wander), "time_s": h.time_s,
-                        "rms_deg": math.degrees(h.rms)}}
+    """Each channel's noise model in its shown unit (white, wander, its correlation time, the RMS of both)."""
+    out = {}
+    for c in CHANNELS:
+        n = noise.of(c.name)
+        if n is not None:
+            k = c.key_unit
+            out[c.name] = {f"white_{k}": c.shown(n.white), f"wander_{k}": c.shown(n.wander), "time_s": n.time_s,
+                           f"rms_{k}": c.shown(n.rms)}
+    return out
 
 
 def explained(prep: Prepared, vessel, ref: Fit, fit: Fit) -> dict:
     """Per channel the residual RMS ``fit`` removes from ``ref``'s, in units of the sensor's noise RMS
-    (white and wander together, of ``prep``'s noise model; horizontal for the position)."""
+    (white and wander together, of ``prep``'s noise model; horizontal for position and velocity)."""
     a = rmse(prep, ref.trials, predict_fit(prep, vessel, ref), range(len(ref.trials)))
     b = rmse(prep, fit.trials, predict_fit(prep, vessel, fit), range(len(fit.trials)))
-    scale = {"position": math.sqrt(2.0) * prep.noise.position.rms, "heading": math.degrees(prep.noise.heading.rms)}
     out = {}
-    for ch, unit in (("position", "m"), ("heading", "deg")):
-        gone = math.sqrt(max(a[f"{ch}_{unit}"] ** 2 - b[f"{ch}_{unit}"] ** 2, 0.0))
-        out[ch] = gone / max(scale[ch], 1e-9)
+    for c in prep.channels:
+        key = f"{c.name}_{c.key_unit}"
+        scale = c.shown(prep.noise.of(c.name).rms) * (math.sqrt(2.0) if c.horizontal else 1.0)
+        gone = math.sqrt(max(a[key] ** 2 - b[key] ** 2, 0.0))
+        out[c.name] = gone / max(scale, 1e-9)
+    return out
+
+
+AT_BOUND = 0.97  # an estimate this close to its largest allowed value sits at the bound
+
+
+def at_bounds(noise: Noise, bounds: NoiseBounds) -> list[str]:
+    """The channels whose noise estimate sits at the largest a sensor may have (white or wander part), as
+    sentences: there the residual may hold a model error of the noise's size that the data cannot tell
+    from noise (one short log, a current against metres of GPS wander)."""
+    out = []
+    for c in CHANNELS:
+        n = noise.of(c.name)
+        if n is None:
+            continue
+        (_, w_hi), (_, g_hi), _ = bounds.channel(c.name)
+        for part, value, hi in (("white", n.white, w_hi), ("wander", n.wander, g_hi)):
+            if value >= AT_BOUND * hi:
+                out.append(f"the {c.name} noise's {part} part is at its bound ({c.shown(value):.3g} of "
+                           f"{c.shown(hi):.3g} {c.unit})")
     return out
 
 

@@ -65,6 +65,12 @@ class NoiseBounds:
     heading_white_max_deg: float = param(1.0, unit="deg", lo=0.01, hi=30.0, source="SPEC 1: 0.5 deg rms", doc="largest white heading noise")
     heading_wander_max_deg: float = param(1.0, unit="deg", lo=0.01, hi=30.0, source="SPEC 1: 0.5 deg rms", doc="largest wandering heading error")
     heading_time_max_s: float = param(120.0, unit="s", lo=1.0, hi=3600.0, doc="longest correlation time of the heading wander")
+    # A receiver's velocity (Doppler) error is nearly white; a short wander allows for one that smooths
+    # its output. Held short and small: a velocity error that wanders for minutes would be a current.
+    velocity_white_min_m_s: float = param(0.005, unit="m/s", lo=0.0001, hi=1.0, doc="SOG as printed: 0.01 kn")
+    velocity_white_max_m_s: float = param(0.5, unit="m/s", lo=0.001, hi=10.0, doc="largest white velocity noise per axis")
+    velocity_wander_max_m_s: float = param(0.1, unit="m/s", lo=0.001, hi=10.0, doc="largest wandering velocity error per axis")
+    velocity_time_max_s: float = param(10.0, unit="s", lo=1.0, hi=3600.0, doc="longest correlation time of the velocity wander")
     time_min_s: float = param(2.0, unit="s", lo=0.1, hi=100.0, doc="shortest correlation time of a wander")
     # The search (screening and first fits) weights by the baseline's noise, whose wander holds the
     # missing effect too: capped at a typical sensor's, or a model that misses an effect would weight
@@ -83,6 +89,11 @@ class NoiseBounds:
     def time_prior(self) -> tuple[float, float]:
         return self.time_prior_s, self.time_prior_factor
 
+    def prior(self, name: str) -> tuple[float, float] | None:
+        """The prior on the correlation time of ``name``'s wander (the GPS's and the compass's; the
+        velocity's is short and bounded instead)."""
+        return None if name == "velocity" else self.time_prior
+
     def for_search(self) -> NoiseBounds:
         """These bounds with the wander capped at the search's (above)."""
         import dataclasses
@@ -91,10 +102,14 @@ class NoiseBounds:
                                    heading_wander_max_deg=min(self.heading_wander_max_deg, self.heading_wander_search_deg))
 
     def channel(self, name: str) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
-        """((white lo, hi), (wander lo, hi), (time lo, hi)) of ``position`` (m) or ``heading`` (rad)."""
+        """((white lo, hi), (wander lo, hi), (time lo, hi)) of ``position`` (m), ``velocity`` (m/s) or
+        ``heading`` (rad)."""
         if name == "position":
             return ((self.position_white_min_m, self.position_white_max_m), (1e-3, self.position_wander_max_m),
                     (self.time_min_s, self.position_time_max_s))
+        if name == "velocity":
+            return ((self.velocity_white_min_m_s, self.velocity_white_max_m_s), (1e-4, self.velocity_wander_max_m_s),
+                    (self.time_min_s, self.velocity_time_max_s))
         rad = math.radians
         return ((rad(self.heading_white_min_deg), rad(self.heading_white_max_deg)), (rad(1e-3), rad(self.heading_wander_max_deg)),
                 (self.time_min_s, self.heading_time_max_s))

@@ -16,6 +16,11 @@ project's simulator, independent of the replay code). The measurement model is
 - Heading every 100 ms: 0.3 deg of Gauss-Markov wander (correlation time 20-60 s),
   quantised to 0.1 deg, 0.5 % of the sentences lost (an empty cell, or the
   last heading held with its own time when ``cells="held"``).
+- ``velocity=True`` adds the receiver's speed and course over ground (``sog_m_s``,
+  ``cog_deg``) with each fix, as RMC carries them: the antenna's true velocity plus a
+  white error of ``VELOCITY_WHITE_M_S`` per axis (drawn per set of trials; a Doppler
+  velocity, the SC-30's own accuracy is not in the sources), printed to 0.01 kn and
+  0.1 deg. The issue's measurement model has no velocity; the daemon's logs do.
 
 The trial is built from these columns by the same code that reads a trial CSV
 (:func:`autopilot.sysid.trials.trial_from_columns`), so the held-fix rules are
@@ -24,6 +29,7 @@ exercised exactly as on a user's file.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,11 +42,14 @@ from autopilot.sim.gps_error import (
     heading_errors,
     position_errors,
     quantise_deg,
+    velocity_errors,
 )
 from autopilot.sysid.trials import Trial, trial_from_columns
-from autopilot.sysid.truth import Truth, sensed, simulate_truth
+from autopilot.sysid.truth import Truth, sensed, sensed_velocity, simulate_truth
 
 CELLS = ("held", "empty")
+VELOCITY_WHITE_M_S = (0.03, 0.1)  # range of the velocity error per axis (1 sigma)
+KNOT_M_S = 1852.0 / 3600.0
 
 
 @dataclass(frozen=True)
@@ -52,6 +61,7 @@ class Measurement:
     fix_period_s: float = 1.0
     cells: str = "held"  # rows between fixes: "held" (last fix repeated) or "empty"
     time_columns: bool = False  # write position_time_s / heading_time_s
+    velocity: bool = False  # write sog_m_s / cog_deg with each fix (gps.velocity_white_m_s per axis)
 
     def __post_init__(self):
         if self.cells not in CELLS:
@@ -99,6 +109,14 @@ def measure(truth: Truth, meas: Measurement, rng: np.random.Generator) -> dict[s
     if meas.time_columns:
         cols["position_time_s"] = np.where(show, t_fix[kk], np.nan)
         cols["heading_time_s"] = np.where(ok, h_t, np.nan)
+    if meas.velocity:  # drawn after the position and heading errors: the same seed gives them unchanged
+        vn, ve = sensed_velocity(truth, t_fix)
+        dvn, dve = velocity_errors(meas.gps, t_fix, rng)
+        vn, ve = vn + dvn, ve + dve
+        sog = np.round(np.hypot(vn, ve) / KNOT_M_S, 2) * KNOT_M_S  # as RMC prints them
+        cog = np.round(np.degrees(np.arctan2(ve, vn)) % 360.0, 1)
+        cols["sog_m_s"] = np.where(show, sog[kk], np.nan)
+        cols["cog_deg"] = np.where(show, cog[kk], np.nan)
     return cols
 
 
@@ -111,11 +129,14 @@ def make_realistic_trial(vessel: VesselParams, effects: dict, rng: np.random.Gen
 
 def make_realistic_trials(vessel: VesselParams, effects: dict, seed: int, *, n_trials: int = 4,
                           duration_s: float = 60.0, cells: str = "held", time_columns: bool = False,
-                          gps: GpsErrorModel | None = None, heading: HeadingErrorModel | None = None) -> list[Trial]:
+                          velocity: bool = False, gps: GpsErrorModel | None = None,
+                          heading: HeadingErrorModel | None = None) -> list[Trial]:
     """``n_trials`` trials with the hidden ``effects``, one sensor (drawn unless given), reproducible from ``seed``."""
     rng = np.random.default_rng(seed)
     g, h = draw_models(rng)
-    meas = Measurement(gps=gps or g, heading=heading or h, cells=cells, time_columns=time_columns)
+    if velocity and gps is None:  # its own stream: the other draws stay those of the same seed without it
+        g = dataclasses.replace(g, velocity_white_m_s=float(np.random.default_rng([seed, 7]).uniform(*VELOCITY_WHITE_M_S)))
+    meas = Measurement(gps=gps or g, heading=heading or h, cells=cells, time_columns=time_columns, velocity=velocity)
     return [make_realistic_trial(vessel, effects, rng, meas, name=f"trial{i}", duration_s=duration_s)
             for i in range(n_trials)]
 

@@ -19,6 +19,7 @@ the trial's first row, u and v over ground (the shared state contract).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -26,6 +27,7 @@ import numpy as np
 
 from autopilot.geo import wrap_pi
 from autopilot.sim import STATE_NAMES, VesselParams, simulate
+from autopilot.sysid.channels import CHANNELS, HEADING, POSITION, VELOCITY, Channel
 from autopilot.sysid.effects import (
     BY_NAME,
     SENSED_EFFECTS,
@@ -37,35 +39,74 @@ from autopilot.sysid.trials import Trial
 SCALAR_MAX_RUNS = 24  # below this many runs the scalar loop beats numpy batching
 # model-free outlier rejection (noise.outliers): a fix against its 4 nearest neighbours (a 1 Hz GPS:
 # +-2 s, where a turning boat's track is still a quadratic to ~0.7 m), a heading against 6 (+-0.3 s; a heading
-# held on a row without its time, 0.1 s old at 0.3 rad/s, is 1.7 deg off)
+# held on a row without its time, 0.1 s old at 0.3 rad/s, is 1.7 deg off), a velocity against 4 (a thrust
+# step changes the acceleration at once: a quadratic over +-2 s misses it by ~0.1 m/s)
 OUTLIER_POSITION_M = 3.0
 OUTLIER_HEADING_RAD = math.radians(1.0)
-CHANNELS = ("position", "heading")
+OUTLIER_VELOCITY_M_S = 0.5
+# (neighbours, window_s, floor) of the outlier test and the model-free white-noise estimate, per channel
+LOCAL_FIT = {"position": (4, 4.0, OUTLIER_POSITION_M), "heading": (6, 1.0, OUTLIER_HEADING_RAD),
+             "velocity": (4, 4.0, OUTLIER_VELOCITY_M_S)}
+CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 
 
 @dataclass(frozen=True)
 class Noise:
-    """The noise model of both channels (shared by all trials: one receiver, one compass)."""
+    """The noise model of each channel (shared by all trials: one receiver, one compass); velocity None
+    when the trials carry no speed and course over ground."""
 
     position: ChannelNoise
     heading: ChannelNoise
+    velocity: ChannelNoise | None = None
+
+    def of(self, channel: str) -> ChannelNoise | None:
+        return getattr(self, channel)
+
+
+@dataclass(frozen=True)
+class Samples:
+    """One channel's measurements of one trial at their times, with their interpolation on the grid."""
+
+    t_s: np.ndarray  # (n,)
+    values: np.ndarray  # (components, n), SI (the heading unwrapped as measured, wrapped in residuals)
+    at: tuple[np.ndarray, np.ndarray]  # (grid index k, weight of k + 1)
+    rejected: int  # single-sample outliers rejected
+    white: float | None  # model-free estimate of the white noise (noise.white_scale), None when too short
+
+    @property
+    def size(self) -> int:
+        return self.t_s.size
 
 
 @dataclass(frozen=True)
 class Measured:
-    """One trial's measurements at their times, with their interpolation on the grid."""
+    """One trial's measurements, per channel (``series``: only the channels the trial has)."""
 
-    t_pos_s: np.ndarray
-    north_m: np.ndarray
-    east_m: np.ndarray
-    t_psi_s: np.ndarray
-    psi_rad: np.ndarray
-    pos_at: tuple[np.ndarray, np.ndarray]  # (grid index k, weight of k + 1)
-    psi_at: tuple[np.ndarray, np.ndarray]
-    rejected_positions: int
-    rejected_headings: int
-    white_position_m: float | None  # model-free estimates of the white noise (noise.white_scale)
-    white_heading_rad: float | None
+    series: dict  # channel name -> Samples
+
+    def get(self, channel: str) -> Samples | None:
+        return self.series.get(channel)
+
+    # the two channels every trial has, by name, for the readers of tracks and headings
+    @property
+    def t_pos_s(self) -> np.ndarray:
+        return self.series["position"].t_s
+
+    @property
+    def north_m(self) -> np.ndarray:
+        return self.series["position"].values[0]
+
+    @property
+    def east_m(self) -> np.ndarray:
+        return self.series["position"].values[1]
+
+    @property
+    def t_psi_s(self) -> np.ndarray:
+        return self.series["heading"].t_s
+
+    @property
+    def psi_rad(self) -> np.ndarray:
+        return self.series["heading"].values[0]
 
 
 @dataclass(frozen=True)
@@ -81,25 +122,54 @@ class Prepared:
     duty_stbd_pct: np.ndarray
     measured: tuple[Measured, ...]
     noise: Noise
-    pos_weights: tuple[Whitener, ...]
-    psi_weights: tuple[Whitener, ...]
+    weights: dict  # channel name -> (Whitener per trial) for the channels of ``channels``
 
     @property
     def n_trials(self) -> int:
         return len(self.trials)
 
+    @functools.cached_property
+    def channels(self) -> tuple[Channel, ...]:
+        """The channels some trial measured (position and heading always), in CHANNELS order."""
+        return tuple(c for c in CHANNELS if any(c.name in m.series for m in self.measured))
+
+    @property
+    def has_velocity(self) -> bool:
+        return VELOCITY in self.channels
+
+    @property
+    def pos_weights(self) -> tuple[Whitener, ...]:
+        return self.weights["position"]
+
     def n_measurements(self, i: int) -> int:
-        return 2 * self.measured[i].t_pos_s.size + self.measured[i].t_psi_s.size
+        return sum(len(c.components) * self._size(i, c.name) for c in self.channels)
+
+    def _size(self, i: int, channel: str) -> int:
+        s = self.measured[i].get(channel)
+        return 0 if s is None else s.size
 
     def n_rows(self, i: int) -> int:
-        """Weighted residual rows of trial i (north, east, heading)."""
-        return 2 * self.pos_weights[i].rows + self.psi_weights[i].rows
+        """Weighted residual rows of trial i (each channel's components in order)."""
+        return sum(len(c.components) * self.weights[c.name][i].rows for c in self.channels)
+
+    def row_blocks(self, i: int) -> list[tuple[Channel, int, int]]:
+        """(channel, first row, rows per component) of trial i's weighted residuals, in order."""
+        out, row = [], 0
+        for c in self.channels:
+            rows = self.weights[c.name][i].rows
+            out.append((c, row, rows))
+            row += len(c.components) * rows
+        return out
 
     def with_noise(self, noise: Noise) -> Prepared:
         """The same trials weighted by another noise model."""
-        pw = tuple(Whitener(m.t_pos_s, noise.position) for m in self.measured)
-        hw = tuple(Whitener(m.t_psi_s, noise.heading) for m in self.measured)
-        return dataclasses.replace(self, noise=noise, pos_weights=pw, psi_weights=hw)
+        weights = {}
+        for c in CHANNELS:
+            ch_noise = noise.of(c.name)
+            if ch_noise is None or not any(c.name in m.series for m in self.measured):
+                continue
+            weights[c.name] = tuple(Whitener(_times(m, c.name), ch_noise) for m in self.measured)
+        return dataclasses.replace(self, noise=noise, weights=weights)
 
     def subset(self, trials, end_s: float | None = None) -> Prepared:
         """Trials ``trials`` only (renumbered 0, 1, ...), cut at ``end_s`` when given (a fit's horizon)."""
@@ -109,10 +179,7 @@ class Prepared:
         for i in idx:
             m = self.measured[i]
             if end_s is not None:
-                kp, kh = m.t_pos_s <= end_s, m.t_psi_s <= end_s
-                m = dataclasses.replace(m, t_pos_s=m.t_pos_s[kp], north_m=m.north_m[kp], east_m=m.east_m[kp],
-                                        t_psi_s=m.t_psi_s[kh], psi_rad=m.psi_rad[kh],
-                                        pos_at=tuple(a[kp] for a in m.pos_at), psi_at=tuple(a[kh] for a in m.psi_at))
+                m = Measured({name: _cut(s, s.t_s <= end_s) for name, s in m.series.items()})
             measured.append(m)
         cut = dataclasses.replace(
             self, trials=tuple(self.trials[i] for i in idx), t_grid=self.t_grid[:size],
@@ -122,33 +189,58 @@ class Prepared:
         return cut.with_noise(self.noise)
 
 
+def _times(m: Measured, channel: str) -> np.ndarray:
+    s = m.get(channel)
+    return np.zeros(0) if s is None else s.t_s
+
+
+def _cut(s: Samples, keep: np.ndarray) -> Samples:
+    return dataclasses.replace(s, t_s=s.t_s[keep], values=s.values[:, keep], at=tuple(a[keep] for a in s.at))
+
+
 def _grid_weights(t_s: np.ndarray, dt_s: float, size: int) -> tuple[np.ndarray, np.ndarray]:
     k = np.clip(np.floor(t_s / dt_s + 1e-9).astype(int), 0, size - 2)
     return k, np.clip(t_s / dt_s - k, 0.0, 1.0)
 
 
+def _raw_samples(tr: Trial) -> dict:
+    """channel -> (rows' measurement times, values (components, n)) of the trial's new measurements."""
+    out = {}
+    p = tr.fix_rows
+    out["position"] = (tr.position_time_s[p], np.vstack([tr.north_m[p], tr.east_m[p]]))
+    h = tr.heading_rows
+    out["heading"] = (tr.heading_time_s[h], tr.heading_rad[h][None, :])
+    v = tr.velocity_rows
+    if v.size:
+        sog, cog = tr.sog_m_s[v], tr.cog_rad[v]
+        out["velocity"] = (tr.velocity_time_s[v], np.vstack([sog * np.cos(cog), sog * np.sin(cog)]))
+    return out
+
+
+def _samples(channel: str, t: np.ndarray, values: np.ndarray, end_s: float, dt_s: float, size: int,
+             reject: bool) -> Samples:
+    """One channel's measurements inside the trial, in time order, outliers rejected (any component)."""
+    inside = (t >= 0.0) & (t <= end_s)
+    t, values = t[inside], values[:, inside]
+    order = np.argsort(t, kind="stable")
+    t, values = t[order], values[:, order]
+    if channel == "heading":
+        values = np.unwrap(values, axis=1)
+    neighbours, window_s, floor = LOCAL_FIT[channel]
+    bad = np.zeros(t.size, dtype=bool)
+    if reject:
+        for y in values:
+            bad |= outliers(t, y, neighbours=neighbours, window_s=window_s, floor=floor)
+    t, values = t[~bad], values[:, ~bad]
+    scales = [white_scale(t, y, neighbours=neighbours, window_s=window_s) for y in values]
+    white = None if any(w is None for w in scales) else math.sqrt(sum(w * w for w in scales) / len(scales))
+    return Samples(t, values, _grid_weights(t, dt_s, size), int(bad.sum()), white)
+
+
 def _measured(tr: Trial, dt_s: float, size: int, reject: bool) -> Measured:
     end = tr.t_s[-1]
-    p = tr.fix_rows
-    p = p[(tr.position_time_s[p] >= 0.0) & (tr.position_time_s[p] <= end)]
-    tp, n, e = tr.position_time_s[p], tr.north_m[p], tr.east_m[p]
-    h = tr.heading_rows
-    h = h[(tr.heading_time_s[h] >= 0.0) & (tr.heading_time_s[h] <= end)]
-    th, psi = tr.heading_time_s[h], tr.heading_rad[h]
-    order_p, order_h = np.argsort(tp, kind="stable"), np.argsort(th, kind="stable")
-    tp, n, e, th, psi = tp[order_p], n[order_p], e[order_p], th[order_h], psi[order_h]
-    bad_p = np.zeros(tp.size, bool)
-    bad_h = np.zeros(th.size, bool)
-    if reject:
-        bad_p = outliers(tp, n, neighbours=4, window_s=4.0, floor=OUTLIER_POSITION_M)
-        bad_p |= outliers(tp, e, neighbours=4, window_s=4.0, floor=OUTLIER_POSITION_M)
-        bad_h = outliers(th, np.unwrap(psi), neighbours=6, window_s=1.0, floor=OUTLIER_HEADING_RAD)
-    tp, n, e, th, psi = tp[~bad_p], n[~bad_p], e[~bad_p], th[~bad_h], psi[~bad_h]
-    wn, we = (white_scale(tp, y, neighbours=4, window_s=4.0) for y in (n, e))
-    w_pos = None if wn is None or we is None else math.sqrt(0.5 * (wn * wn + we * we))
-    w_psi = white_scale(th, np.unwrap(psi), neighbours=6, window_s=1.0)
-    return Measured(tp, n, e, th, psi, _grid_weights(tp, dt_s, size), _grid_weights(th, dt_s, size),
-                    int(bad_p.sum()), int(bad_h.sum()), w_pos, w_psi)
+    return Measured({name: _samples(name, t, values, end, dt_s, size, reject)
+                     for name, (t, values) in _raw_samples(tr).items()})
 
 
 def _interval_means(t_rows: np.ndarray, u: np.ndarray, g: np.ndarray, dt_s: float) -> np.ndarray:
@@ -188,24 +280,28 @@ def _commands(tr: Trial, g: np.ndarray, dt_s: float):
 SEARCH_POSITION_WANDER_M = 1.0
 SEARCH_HEADING_WANDER_RAD = math.radians(0.3)
 SEARCH_WANDER_TIME_S = 30.0
-WHITE_FLOOR_POSITION_M = 0.05
-WHITE_FLOOR_HEADING_RAD = math.radians(0.05)
+# a receiver's velocity error is nearly white (Doppler); a little short wander for a smoothing receiver
+SEARCH_VELOCITY_WANDER_M_S = 0.02
+SEARCH_VELOCITY_TIME_S = 5.0
+WHITE_FLOOR = {"position": 0.05, "heading": math.radians(0.05), "velocity": 0.005}  # SI; 0.005 m/s: 0.01 kn printed
+SEARCH_WANDER = {"position": (SEARCH_POSITION_WANDER_M, SEARCH_WANDER_TIME_S),
+                 "heading": (SEARCH_HEADING_WANDER_RAD, SEARCH_WANDER_TIME_S),
+                 "velocity": (SEARCH_VELOCITY_WANDER_M_S, SEARCH_VELOCITY_TIME_S)}
 
 
 def first_guess_noise(measured) -> Noise:
     """The search's noise: the white parts measured without a model (noise.white_scale, the median over
     the trials), the wander a typical sensor's (above). Replaced by the best model's own noise once
     the candidates are fitted (identify.renoise)."""
-    def median(values, floor):
-        v = [x for x in values if x is not None and math.isfinite(x)]
-        return max(float(np.median(v)) if v else floor, floor)
-
-    return Noise(
-        ChannelNoise(median([m.white_position_m for m in measured], WHITE_FLOOR_POSITION_M), SEARCH_POSITION_WANDER_M,
-                     SEARCH_WANDER_TIME_S),
-        ChannelNoise(median([m.white_heading_rad for m in measured], WHITE_FLOOR_HEADING_RAD), SEARCH_HEADING_WANDER_RAD,
-                     SEARCH_WANDER_TIME_S),
-    )
+    out = {}
+    for name in CHANNEL_NAMES:
+        samples = [m.get(name) for m in measured if m.get(name) is not None]
+        if not samples:
+            continue
+        v = [s.white for s in samples if s.white is not None and math.isfinite(s.white)]
+        white = max(float(np.median(v)) if v else WHITE_FLOOR[name], WHITE_FLOOR[name])
+        out[name] = ChannelNoise(white, *SEARCH_WANDER[name])
+    return Noise(**out)
 
 
 def prepare(trials, *, dt_s: float | None = None, noise: Noise | None = None, reject: bool = True) -> Prepared:
@@ -221,7 +317,7 @@ def prepare(trials, *, dt_s: float | None = None, noise: Noise | None = None, re
     cmds = np.array([_commands(tr, g, dt_s) for tr in trials])  # (N, 4, G)
     measured = tuple(_measured(tr, dt_s, g.size, reject) for tr in trials)
     noise = noise or first_guess_noise(measured)
-    prep = Prepared(trials, dt_s, g, cmds[:, 0], cmds[:, 1], cmds[:, 2], cmds[:, 3], measured, noise, (), ())
+    prep = Prepared(trials, dt_s, g, cmds[:, 0], cmds[:, 1], cmds[:, 2], cmds[:, 3], measured, noise, {})
     return prep.with_noise(noise)
 
 
@@ -260,6 +356,10 @@ def measured_initial_state(m: Measured, *, window_s: float = 3.0) -> np.ndarray:
     ph = np.polyfit(th[okh], psi_u, 2 if okh.sum() > 10 else 1)
     psi0 = float(ph[-1])
     vn, ve = float(pn[-2]), float(pe[-2])
+    vel = m.get("velocity")
+    if vel is not None and vel.size >= 3:  # the receiver's own velocity: far better than differenced fixes
+        okv = vel.t_s <= max(window_s, float(vel.t_s[2]) + 1e-6)
+        vn, ve = (float(np.polyfit(vel.t_s[okv], y[okv], 1)[-1]) for y in vel.values)
     c, s = math.cos(psi0), math.sin(psi0)
     # sway from a few seconds of noisy positions is mostly noise; it decays within a second anyway
     return np.array([pn[-1], pe[-1], wrap_pi(psi0), vn * c + ve * s, 0.0, ph[-2]])
@@ -286,30 +386,34 @@ class _Active:
 
 
 def _external(terms):
-    """One body-frame external force from the force hooks (state water-relative: see _predict)."""
-    def external(t_s, state):
-        psi, u, vv, r = state[:, 2], state[:, 3], state[:, 4], state[:, 5]
-        x = y = n = 0.0
+    """One body-frame external force from the force hooks (state water-relative: see _predict), taking the
+    state's columns (sim.integrate.simulate's ``takes_columns``)."""
+    def external(t_s, n, e, psi, u, vv, r):
+        x = y = m = 0.0
         for f in terms:
             fx, fy, fn = f(psi, u, vv, r)
-            x, y, n = x + fx, y + fy, n + fn
-        return x, y, n
+            x, y, m = x + fx, y + fy, m + fn
+        return x, y, m
 
+    external.takes_columns = True
     return external
 
 
-def _simulate_scalar(vessel, g, tp, ts, x0, dt, field_effects) -> dict:
+def _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces) -> dict:
     """Runs one by one on the simulator's scalar path (faster than a small batch): the field-type
-    effects are written into VesselParams (exactly what the batched path's force hooks add)."""
+    effects written into VesselParams, the other force hooks bound to the run's own values (exactly what
+    the batched path adds)."""
     n_runs = tp.shape[0]
     out = {name: np.empty((n_runs, g.size)) for name in STATE_NAMES}
     for j in range(n_runs):
         changes = {}
-        for eff, v in field_effects:
+        for eff, v in fields:
             changes.update(eff.fields({k: a[j] for k, a in v.items()}, vessel))
         params = dataclasses.replace(vessel, **changes) if changes else vessel
+        terms = [eff.force({k: float(a[j]) for k, a in v.items()}, vessel) for eff, v in forces if eff.fields is None]
         # a parameter trial far out may blow up: NaN, the fit sees huge residuals
-        run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, diverged_as_nan=True)
+        run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, diverged_as_nan=True,
+                       external_force=_external(terms) if terms else None)
         for name in STATE_NAMES:
             out[name][j] = run[name]
     return out
@@ -355,8 +459,8 @@ def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict, 
         x0[:, 4] -= -c_n * sp + c_e * cp
     forces = act.having("force")
     fields = act.having("fields")
-    if n_runs <= SCALAR_MAX_RUNS and all(e.fields is not None for e, _ in forces):
-        out = _simulate_scalar(vessel, g, tp, ts, x0, dt, fields)
+    if n_runs <= SCALAR_MAX_RUNS:
+        out = _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces)
     else:  # batched; a run that blows up comes back NaN, the others stand
         external = _external([e.force(v, vessel) for e, v in forces]) if forces else None
         out = simulate(vessel, g, tp, ts, x0=x0, external_force=external, dt_s=dt, diverged_as_nan=True)
@@ -366,6 +470,9 @@ def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict, 
     for eff in SENSED_EFFECTS:
         if eff in act.v:
             sensed = eff.sensed(act.v[eff], sensed, g)
+    if prep.has_velocity:  # the antenna's velocity over ground: what the receiver reports as SOG/COG
+        for comp, pos in (("vn_m_s", "north_m"), ("ve_m_s", "east_m")):
+            sensed[comp] = np.gradient(sensed[pos], dt, axis=1, edge_order=2) if g.size > 2 else np.zeros_like(sensed[pos])
     return {**sensed, "u_m_s": out["u_m_s"] + c_n[:, None] * c + c_e[:, None] * s,
             "v_m_s": out["v_m_s"] - c_n[:, None] * s + c_e[:, None] * c, "r_rad_s": out["r_rad_s"]}
 
@@ -375,36 +482,45 @@ def _at(series: np.ndarray, where: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     return series[:, k] * (1.0 - w) + series[:, k + 1] * w
 
 
+def channel_residuals(prep: Prepared, i: int, pred: dict, runs, channel: Channel) -> list[np.ndarray]:
+    """Per component of ``channel``, measured - predicted (len(runs), samples) of runs ``runs`` of ``pred``
+    against trial ``i`` (the heading wrapped); [] when the trial has no such measurement."""
+    s = prep.measured[i].get(channel.name)
+    if s is None:
+        return []
+    runs = np.atleast_1d(np.asarray(runs, dtype=int))
+    out = [s.values[q][None, :] - _at(pred[comp][runs], s.at) for q, comp in enumerate(channel.components)]
+    return [wrap_pi(r) for r in out] if channel.angle else out
+
+
 def raw_residuals(prep: Prepared, i: int, pred: dict, runs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(north_m, east_m, heading_rad) residuals, measured - predicted, of runs ``runs`` of ``pred``
     against trial ``i``: each (len(runs), samples)."""
-    m = prep.measured[i]
-    runs = np.atleast_1d(np.asarray(runs, dtype=int))
-    rn = m.north_m[None, :] - _at(pred["north_m"][runs], m.pos_at)
-    re = m.east_m[None, :] - _at(pred["east_m"][runs], m.pos_at)
-    rh = wrap_pi(m.psi_rad[None, :] - _at(pred["psi_rad"][runs], m.psi_at))
+    rn, re = channel_residuals(prep, i, pred, runs, POSITION)
+    (rh,) = channel_residuals(prep, i, pred, runs, HEADING)
     return rn, re, rh
 
 
 def residuals(prep: Prepared, i: int, pred: dict, runs) -> np.ndarray:
-    """Weighted residuals (len(runs), prep.n_rows(i)): north, east, heading, each through its noise model."""
-    rn, re, rh = raw_residuals(prep, i, pred, runs)
-    pw, hw = prep.pos_weights[i], prep.psi_weights[i]
-    return np.hstack([pw.apply(rn.T).T, pw.apply(re.T).T, hw.apply(rh.T).T])
+    """Weighted residuals (len(runs), prep.n_rows(i)): each channel's components in turn (position north
+    and east, heading, velocity north and east), each through its channel's noise model."""
+    parts = []
+    for c in prep.channels:
+        w = prep.weights[c.name][i]
+        parts += [w.apply(r.T).T for r in channel_residuals(prep, i, pred, runs, c)]
+    return np.hstack(parts)
 
 
 def channel_costs(prep: Prepared, pred: dict, trials_idx, runs) -> dict:
-    """Weighted cost and number of measurements per channel: {"position": (cost, n), "heading": (cost, n)}."""
-    cost = {"position": 0.0, "heading": 0.0}
-    count = {"position": 0, "heading": 0}
+    """Weighted cost and number of measurements per channel: {"position": (cost, n), "heading": (cost, n), ...}."""
+    cost = {c.name: 0.0 for c in prep.channels}
+    count = {c.name: 0 for c in prep.channels}
     for i, j in zip(trials_idx, runs):
         r = np.nan_to_num(residuals(prep, i, pred, [j])[0], nan=1e3)
-        rows_p = prep.pos_weights[i].rows
-        cost["position"] += float(np.sum(r[: 2 * rows_p] ** 2))
-        cost["heading"] += float(np.sum(r[2 * rows_p :] ** 2))
-        count["position"] += 2 * prep.measured[i].t_pos_s.size
-        count["heading"] += prep.measured[i].t_psi_s.size
-    return {ch: (cost[ch], count[ch]) for ch in CHANNELS}
+        for c, row, rows in prep.row_blocks(i):
+            cost[c.name] += float(np.sum(r[row : row + len(c.components) * rows] ** 2))
+            count[c.name] += len(c.components) * prep._size(i, c.name)
+    return {name: (cost[name], count[name]) for name in cost}
 
 
 def noise_floor(t_s: np.ndarray, noise: ChannelNoise) -> float:
@@ -427,27 +543,26 @@ def noise_floor(t_s: np.ndarray, noise: ChannelNoise) -> float:
 
 
 def rmse(prep: Prepared, trials_idx, pred: dict, runs) -> dict:
-    """Position (m, horizontal distance) and heading (deg) RMS errors over the given trials, the noise's
-    share of them (``*_noise_*``: what the noise model expects) and the rest (``*_model_*``)."""
-    se = {"position": 0.0, "heading": 0.0}
-    floor = dict(se)
-    count = {"position": 0, "heading": 0}
-    for i, j in zip(trials_idx, runs):
-        rn, re, rh = raw_residuals(prep, i, pred, [j])
-        m = prep.measured[i]
-        se["position"] += float(np.sum(rn**2) + np.sum(re**2))
-        se["heading"] += float(np.sum(rh**2))
-        floor["position"] += 2.0 * noise_floor(m.t_pos_s, prep.noise.position)
-        floor["heading"] += noise_floor(m.t_psi_s, prep.noise.heading)
-        count["position"] += m.t_pos_s.size
-        count["heading"] += m.t_psi_s.size
-    n_pos, n_psi = max(count["position"], 1), max(count["heading"], 1)
-    return {
-        "position_m": math.sqrt(se["position"] / n_pos),
-        "heading_deg": math.degrees(math.sqrt(se["heading"] / n_psi)),
-        "position_noise_m": math.sqrt(floor["position"] / n_pos),
-        "heading_noise_deg": math.degrees(math.sqrt(floor["heading"] / n_psi)),
+    """Per channel, the RMS error over the given trials in its shown unit (position and velocity horizontal:
+    ``position_m``, ``heading_deg``, ``velocity_m_s``), the noise's share of it (``*_noise_*``: what the
+    noise model expects) and the rest (``*_model_*``)."""
+    out = {}
+    for c in prep.channels:
+        se = floor = 0.0
+        count = 0
+        noise = prep.noise.of(c.name)
+        for i, j in zip(trials_idx, runs):
+            parts = channel_residuals(prep, i, pred, [j], c)
+            if not parts:
+                continue
+            t = prep.measured[i].get(c.name).t_s
+            se += float(sum(np.sum(r**2) for r in parts))
+            floor += len(parts) * noise_floor(t, noise)
+            count += t.size
+        n = max(count, 1)
+        k = c.key_unit
+        out[f"{c.name}_{k}"] = c.shown(math.sqrt(se / n))
+        out[f"{c.name}_noise_{k}"] = c.shown(math.sqrt(floor / n))
         # the part of the gap the measurement noise (its model estimated from the data) does not explain
-        "position_model_m": math.sqrt(max(se["position"] - floor["position"], 0.0) / n_pos),
-        "heading_model_deg": math.degrees(math.sqrt(max(se["heading"] - floor["heading"], 0.0) / n_psi)),
-    }
+        out[f"{c.name}_model_{k}"] = c.shown(math.sqrt(max(se - floor, 0.0) / n))
+    return out

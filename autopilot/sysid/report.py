@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from autopilot.sysid.channels import BY_NAME as CHANNEL_BY_NAME
+
 
 def _png(fig) -> str:
     buf = io.BytesIO()
@@ -46,25 +48,31 @@ def track_figure(prep, before, after, trials_idx, max_trials: int = 6):
 
 
 def residual_figure(prep, before, after, trials_idx, max_trials: int = 6):
-    """Position error and heading error over time, before and after."""
+    """Each channel's error over time (position and velocity: the horizontal size), before and after."""
     import matplotlib.pyplot as plt
 
-    from autopilot.sysid.replay import raw_residuals
+    from autopilot.sysid.replay import channel_residuals
 
-    fig, (ax_p, ax_h) = plt.subplots(2, 1, figsize=(12, 6), sharex=True)
+    chans = prep.channels
+    fig, axes = plt.subplots(len(chans), 1, figsize=(12, 3 * len(chans)), sharex=True, squeeze=False)
+    axes = axes[:, 0]
     for j, i in enumerate(list(trials_idx)[:max_trials]):
         tr, m = prep.trials[i], prep.measured[i]
         for pred, style, label in ((before, "-", "before"), (after, "--", "after")):
             if pred is None:
                 continue
-            rn, re, rh = raw_residuals(prep, i, pred, [j])
-            ax_p.plot(m.t_pos_s, np.hypot(rn[0], re[0]), style, lw=0.8, color=f"C{j}", label=f"{tr.name} {label}")
-            ax_h.plot(m.t_psi_s, np.degrees(rh[0]), style, lw=0.8, color=f"C{j}")
-    ax_p.set_ylabel("position error (m)")
-    ax_h.set_ylabel("heading error (deg)")
-    ax_h.set_xlabel("time (s)")
+            for ax, c in zip(axes, chans):
+                parts = channel_residuals(prep, i, pred, [j], c)
+                if not parts:
+                    continue
+                size = np.sqrt(sum(r[0] ** 2 for r in parts)) if c.horizontal else parts[0][0]
+                ax.plot(m.get(c.name).t_s, c.shown(1.0) * size, style, lw=0.8, color=f"C{j}",
+                        label=f"{tr.name} {label}" if c is chans[0] else None)
+    for ax, c in zip(axes, chans):
+        ax.set_ylabel(f"{c.name} error ({c.unit})")
+    axes[-1].set_xlabel("time (s)")
     # beside the panels, not over the data (six trials before and after: twelve entries)
-    ax_p.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     fig.tight_layout()
     return fig
 
@@ -112,9 +120,10 @@ def write_html(path, summary: dict, figures: dict) -> None:
         parts.append("<h2>Is the model adequate?</h2><table><tr><th>channel</th><th>chi-square per measurement</th>"
                      "<th>residual RMS</th><th>noise RMS</th><th>beyond the noise</th><th>adequate</th></tr>")
         for ch, a in summary["adequacy"].items():
-            unit = "m" if ch == "position" else "deg"
-            parts.append(f"<tr><td>{esc(ch)}</td><td>{a['chi2_per_measurement']:.3g}</td><td>{a[f'residual_rms_{unit}']:.3g} {unit}</td>"
-                         f"<td>{a[f'noise_rms_{unit}']:.3g} {unit}</td><td>{a[f'beyond_noise_{unit}']:.3g} {unit}</td>"
+            c = CHANNEL_BY_NAME[ch]
+            unit, k = c.unit, c.key_unit
+            parts.append(f"<tr><td>{esc(ch)}</td><td>{a['chi2_per_measurement']:.3g}</td><td>{a[f'residual_rms_{k}']:.3g} {unit}</td>"
+                         f"<td>{a[f'noise_rms_{k}']:.3g} {unit}</td><td>{a[f'beyond_noise_{k}']:.3g} {unit}</td>"
                          f"<td>{'yes' if a['adequate'] else 'no'}</td></tr>")
         parts.append("</table>")
     if summary.get("effects"):

@@ -137,7 +137,11 @@ def _window(tr, start: float, window_s: float):
               if isinstance(getattr(tr, f.name), np.ndarray) and getattr(tr, f.name).shape == tr.t_s.shape}
     fields["north_m"] = np.where(fixes[sel], fields["north_m"], np.nan)
     fields["heading_rad"] = np.where(heads[sel], fields["heading_rad"], np.nan)
-    for name in ("t_s", "position_time_s", "heading_time_s"):
+    times = ["t_s", "position_time_s", "heading_time_s"]
+    if tr.velocity_time_s is not None:
+        fields["velocity_time_s"] = np.where(fields["velocity_time_s"] >= start, fields["velocity_time_s"], np.nan)
+        times.append("velocity_time_s")
+    for name in times:
         fields[name] = fields[name] - start
     return dataclasses.replace(tr, name=f"{tr.name}@{start - tr.t_s[0]:.0f}s", **fields)
 

@@ -34,8 +34,9 @@ def _counts(prep) -> dict:
     for tr, m in zip(prep.trials, prep.measured):
         for k, v in tr.counts.items():
             total[k] = total.get(k, 0) + v
-        total["rejected_position_outliers"] = total.get("rejected_position_outliers", 0) + m.rejected_positions
-        total["rejected_heading_outliers"] = total.get("rejected_heading_outliers", 0) + m.rejected_headings
+        for name, samples in m.series.items():
+            key = f"rejected_{name}_outliers"
+            total[key] = total.get(key, 0) + samples.rejected
     return total
 
 
@@ -59,13 +60,15 @@ def summarise(ident, *, params_file: str = "", seconds: float | None = None) -> 
         "trials": [t.name for t in prep.trials],
         # cross-validation: each fold's trials held out in turn; held_out RMSEs are over all folds
         "held_out_folds": [[prep.trials[i].name for i in fold] for fold in ident.held_out],
-        "verdict": list(ident.verdict) or [ident.status if ident.status == "unexplained" else "none"],
+        "verdict": list(ident.verdict) or [ident.status if ident.status in ("unexplained", "inconclusive") else "none"],
+        "status": ident.status,
         "adequate": all(c["adequate"] for c in ident.adequacy.values()),
         "adequacy": ident.adequacy,
         "nearest": [{"effect": c["effect"], "delta_bic": c.get("delta_bic"), "adequacy": c.get("adequacy"),
                      "fitted_params": {n: {p["name"]: p["value"] for p in e["params"]} for n, e in c.get("fitted", {}).items()}}
                     for c in ident.nearest],
         "effects": effect_report(final, ident.vessel) if ident.verdict else {},
+        "not_excluded": ident.not_excluded,
         "candidates": cands,
         "score": "delta_bic: BIC of the fitted model minus the baseline's (chi-square under the noise model + k ln m); "
         "screened-only candidates carry screen_delta, the change of chi-square predicted by the screening steps",

@@ -12,7 +12,9 @@ columns, unknown columns ignored; empty cells, ``nan`` or text are gaps)::
     heading_deg                      heading from north, clockwise (deg)
     position_time_s, heading_time_s  optional: when the row's position fix / heading was
                                      measured (s, the clock of t_s)
-    sog_m_s, cog_deg, rot_deg_s      optional: speed/course over ground, rate of turn
+    sog_m_s, cog_deg                 optional: the receiver's speed (m/s) and course (deg) over
+                                     ground (RMC/VTG): the velocity channel (sysid/channels.py)
+    rot_deg_s                        optional: rate of turn
 
 Measurements as they were taken (issue 12, "Build" 1; the rules agreed with
 ``review --export csv``): a trial holds only *new* measurements, each at the
@@ -26,6 +28,10 @@ time it was measured (``position_time_s`` / ``heading_time_s`` of the
   has it, else at the row where it first appears;
 - with a ``heading_time_s`` column, a heading whose time did not advance is
   held, not new; without it every heading cell is a measurement at its row;
+- a speed and course over ground are new where they change (a receiver sends them
+  once an epoch, in RMC/VTG, often a sentence after the epoch's GGA: the row of a new
+  fix may still hold the last epoch's), measured with the latest fix at or before
+  their row (one epoch, one solution); fewer than MIN_VELOCITIES: no velocity channel;
 - rows the caller excludes (``make_trial(exclude=...)``: a mission log's
   failsafe stretches and the cycles after skipped deadlines) keep their
   commands (the motors had them) but contribute no measurement.
@@ -51,6 +57,7 @@ from autopilot.schema import ConfigError
 MIN_SAMPLES = 20  # rows with a usable time
 MIN_FIXES = 8  # new position fixes (a 1 Hz GPS: eight seconds)
 MIN_HEADINGS = 20
+MIN_VELOCITIES = 8  # new speed/course pairs for a velocity channel (eight seconds of a 1 Hz receiver)
 SAME_TIME_S = 1e-4  # a measurement time that moved less than this did not advance
 OPTIONAL_ROW_COLUMNS = ("sog_m_s", "cog_deg", "rot_deg_s")
 
@@ -77,6 +84,7 @@ class Trial:
     heading_time_s: np.ndarray
     sog_m_s: np.ndarray | None = None
     cog_rad: np.ndarray | None = None
+    velocity_time_s: np.ndarray | None = None  # when a row's new speed/course was measured (NaN: none new)
     yaw_rate_rad_s: np.ndarray | None = None
     commands_held: bool = False  # a row missing between two rows: the motors held the command (mission logs)
     counts: dict = field(default_factory=dict)
@@ -94,6 +102,13 @@ class Trial:
     def heading_rows(self) -> np.ndarray:
         """Rows that carry a new heading."""
         return np.flatnonzero(np.isfinite(self.heading_rad) & np.isfinite(self.heading_time_s))
+
+    @property
+    def velocity_rows(self) -> np.ndarray:
+        """Rows that carry a new speed and course over ground."""
+        if self.velocity_time_s is None or self.sog_m_s is None or self.cog_rad is None:
+            return np.zeros(0, dtype=int)
+        return np.flatnonzero(np.isfinite(self.sog_m_s) & np.isfinite(self.cog_rad) & np.isfinite(self.velocity_time_s))
 
 
 def _forward_fill(x: np.ndarray) -> np.ndarray:
@@ -150,6 +165,31 @@ def new_headings(heading: np.ndarray, t_row_s: np.ndarray, heading_time_s: np.nd
     return is_new, np.where(is_new, t, np.nan)
 
 
+def new_velocities(sog: np.ndarray | None, cog: np.ndarray | None, fix_new: np.ndarray, fix_time_s: np.ndarray):
+    """(is_new, time_s) per row: a speed/course pair is new where it changes, measured with the latest fix
+    at or before its row (module docstring); none before the first fix."""
+    n = fix_new.size
+    is_new, times = np.zeros(n, dtype=bool), np.full(n, np.nan)
+    if sog is None or cog is None:
+        return is_new, times
+    last_fix_t = _forward_fill_after(np.where(fix_new, fix_time_s, np.nan))
+    last = None
+    for k in np.flatnonzero(np.isfinite(sog) & np.isfinite(cog) & np.isfinite(last_fix_t)):
+        pair = (sog[k], cog[k])
+        if pair == last:
+            continue
+        is_new[k], times[k], last = True, last_fix_t[k], pair
+    return is_new, times
+
+
+def _forward_fill_after(x: np.ndarray) -> np.ndarray:
+    """NaN replaced by the last valid value; NaN stays before the first one."""
+    ok = np.isfinite(x)
+    idx = np.where(ok, np.arange(x.size), -1)
+    np.maximum.accumulate(idx, out=idx)
+    return np.where(idx >= 0, x[np.maximum(idx, 0)], np.nan)
+
+
 def make_trial(
     name: str,
     t_s,
@@ -190,9 +230,15 @@ def make_trial(
     drop = np.zeros(sel.size, dtype=bool) if exclude is None else np.asarray(exclude, dtype=bool)[sel]
     fix_new, fix_t = new_fixes(n, e, t_sel, col(position_time_s))
     hdg_new, hdg_t = new_headings(heading, t_sel, col(heading_time_s))
+    sog, cog = col(sog_m_s), None if cog_deg is None else np.radians(col(cog_deg))
+    vel_new, vel_t = new_velocities(sog, cog, fix_new, fix_t)
     counts = _counts(n, e, heading, fix_new, hdg_new, drop)
     fix_new &= ~drop
     hdg_new &= ~drop
+    vel_new &= ~drop
+    if vel_new.sum() < MIN_VELOCITIES:
+        vel_new[:] = False
+    counts["velocities"] = int(vel_new.sum())
     if fix_new.sum() < MIN_FIXES or hdg_new.sum() < MIN_HEADINGS:
         raise ConfigError(f"trial {name}: {int(fix_new.sum())} position fixes and {int(hdg_new.sum())} headings "
                           f"usable (need {MIN_FIXES} and {MIN_HEADINGS})")
@@ -205,8 +251,9 @@ def make_trial(
         heading_rad=np.where(hdg_new, np.radians(heading), np.nan),
         position_time_s=np.where(fix_new, fix_t - t0, np.nan),
         heading_time_s=np.where(hdg_new, hdg_t - t0, np.nan),
-        sog_m_s=col(sog_m_s),
-        cog_rad=None if cog_deg is None else np.radians(col(cog_deg)),
+        sog_m_s=sog,
+        cog_rad=cog,
+        velocity_time_s=np.where(vel_new, vel_t - t0, np.nan),
         yaw_rate_rad_s=None if rot_deg_s is None else np.radians(col(rot_deg_s)),
         commands_held=commands_held,
         counts=counts,
@@ -313,6 +360,11 @@ def write_trial_csv(trial: Trial, path) -> None:
         "heading_deg": np.degrees(trial.heading_rad) % 360.0,
         "heading_time_s": trial.heading_time_s,
     }
+    rows = trial.velocity_rows
+    if rows.size:  # each new speed/course on its own row (read back with the latest fix's time)
+        for name, values in (("sog_m_s", trial.sog_m_s), ("cog_deg", np.degrees(trial.cog_rad) % 360.0)):
+            cols[name] = np.full(trial.t_s.size, np.nan)
+            cols[name][rows] = values[rows]
     names = list(cols)
     data = np.column_stack([cols[k] for k in names])
     with Path(path).open("w", newline="", encoding="utf-8") as fh:

@@ -151,6 +151,15 @@ def simulate_truth(vessel: VesselParams, effects: dict, rng: np.random.Generator
     return Truth(t10, dp10, ds10, tf, dict(state), dict(effects))
 
 
+def sensed_velocity(truth: Truth, t_s, h_s: float = 0.5 * FINE_DT_S) -> tuple[np.ndarray, np.ndarray]:
+    """The velocity over ground (north_m_s, east_m_s) of what :func:`sensed` reports (the antenna's, with the
+    hidden sensor effects), by a central difference of it."""
+    t = np.asarray(t_s, dtype=float)
+    n1, e1, _ = sensed(truth, t + h_s)
+    n0, e0, _ = sensed(truth, t - h_s)
+    return (n1 - n0) / (2 * h_s), (e1 - e0) / (2 * h_s)
+
+
 def sensed(truth: Truth, t_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What a perfect sensor with the hidden sensor effects reports at ``t_s``: (north_m, east_m, psi_rad)."""
     e = truth.effects
