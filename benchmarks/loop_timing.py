@@ -4,9 +4,10 @@ Runs the daemon as a subprocess at speedup 1 on a looping mission long enough fo
 duration, stops it with SIGTERM, and reports from its own log and from the kernel:
 
 - loop lateness (cycle start after its absolute deadline): median and 99th percentile;
-- latency from a heading sentence's arrival (driver receive time) to the first command that used
-  it, 99th percentile; and the age of the heading each command used (both from the cycle lines'
-  heading_latency_ms: arrival = cycle time - latency, so commands sharing an arrival are grouped);
+- latency from a heading's measurement (its compass tick, as the driver dates it:
+  drivers/line_timing.py) to the first command that used it, 99th percentile; and the age of the
+  heading each command used (both from the cycle lines' heading_latency_ms: measurement = cycle
+  time - latency, so commands sharing a measurement are grouped);
 - CPU seconds per wall second and peak RSS of the daemon process (wait4 rusage). Under --sim
   the simulated SC-30, Mbed and boat model run in the same process, so these are upper bounds
   of the daemon alone.
@@ -125,9 +126,9 @@ def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800, link: str = "n
     auto = [r for r in cycles if r["mode"] == "auto"]
     late_ms = np.array([c["lateness_ms"] for c in cycles])
     age_ms = np.array([c["heading_latency_ms"] for c in auto if c["heading_latency_ms"] is not None])
-    # Each command's heading arrived at (cycle time - latency); commands whose arrival estimates lie
-    # within a few ms used the same sentence (the estimate jitters by the cycle's compute time, and
-    # sentences are >= 40 ms apart even at 4800 baud). Keep the first use of each.
+    # Each command's heading was measured at (cycle time - latency); commands whose estimates lie
+    # within a few ms used the same heading (the estimate jitters by the cycle's compute time, and
+    # headings are measured 100 ms apart). Keep the first use of each.
     uses = sorted((c["t_s"] * 1e3 - c["heading_latency_ms"], c["heading_latency_ms"]) for c in auto if c["heading_latency_ms"] is not None)
     first_use = []
     last_arrival_ms = -np.inf

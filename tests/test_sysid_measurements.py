@@ -58,7 +58,8 @@ def test_held_fixes_are_not_new_measurements(tmp_path, cells, time_column):
     rows = tr.fix_rows
     assert rows.size == t_fix.size
     assert np.isnan(np.delete(tr.north_m, rows)).all()
-    want = t_fix if time_column else np.ceil(t_fix * 10) / 10  # without the column: the row it first appears on
+    # without the column: half a row before the row it first appears on (it arrived since the row before)
+    want = t_fix if time_column else np.ceil(t_fix * 10) / 10 - 0.05
     assert_allclose(tr.position_time_s[rows], want, atol=1e-6)
     assert_allclose(tr.north_m[rows], 2.0 * t_fix, atol=1e-3)
     assert tr.counts["position_fixes"] == t_fix.size
@@ -248,7 +249,9 @@ def test_speed_and_course_are_new_where_they_change_measured_with_the_latest_fix
     tr = read_trial(path)
     v = tr.velocity_rows
     assert_allclose(tr.t_s[v], t[np.flatnonzero(fix_row)[:v.size] + 1], atol=1e-9)  # the row after each fix
-    assert_allclose(tr.velocity_time_s[v], np.arange(v.size), atol=1e-9)  # measured with that epoch's fix
+    # measured with that epoch's fix, dated half a row before the row it first appears on (no time column;
+    # the first row has no row before it)
+    assert_allclose(tr.velocity_time_s[v], np.r_[0.0, np.arange(1, v.size) - 0.05], atol=1e-9)
     assert_allclose(tr.sog_m_s[v], 1.0 + 0.1 * np.arange(v.size), atol=1e-9)
     assert tr.counts["velocities"] == v.size == 10
     # and back: the trial CSV writes each new pair once, read again to the same samples

@@ -239,7 +239,7 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
     adequacy = judge.channels(prep, vessel, fits[chosen], s.bounds, adequate_chi2=s.adequate_chi2)
     adequate = all(c["adequate"] for c in adequacy.values())
     status = ("effects" if chosen else "none") if adequate else "unexplained"
-    bound = judge.at_bounds(prep.noise, s.bounds) if adequate else []
+    bound = judge.at_bounds(prep.noise, s.bounds, adequacy) if adequate else []
     if bound:
         why = "; ".join(bound)
         if status == "none":

@@ -242,16 +242,21 @@ def explained(prep: Prepared, vessel, ref: Fit, fit: Fit) -> dict:
 
 
 AT_BOUND = 0.97  # an estimate this close to its largest allowed value sits at the bound
+# ... and the bound holds it back when freeing it gains this much deviance (chi-square, 1 degree of freedom,
+# 95 %): the data ask for more noise than a sensor has. An estimate at the bound that gains nothing sits on a
+# flat likelihood (a wander the fitted initial states absorb in short logs), which says nothing of the model.
+BOUND_BINDING = 3.84
 
 
-def at_bounds(noise: Noise, bounds: NoiseBounds) -> list[str]:
-    """The channels whose noise estimate sits at the largest a sensor may have (white or wander part), as
-    sentences: there the residual may hold a model error of the noise's size that the data cannot tell
-    from noise (one short log, a current against metres of GPS wander)."""
+def at_bounds(noise: Noise, bounds: NoiseBounds, adequacy: dict) -> list[str]:
+    """The channels whose noise estimate sits at the largest a sensor may have (white or wander part) and
+    would grow past it (``adequacy``'s deviance_beyond_sensor), as sentences: there the residual may hold a
+    model error of the noise's size that the data cannot tell from noise (one short log, a current against
+    metres of GPS wander)."""
     out = []
     for c in CHANNELS:
         n = noise.of(c.name)
-        if n is None:
+        if n is None or (adequacy.get(c.name, {}).get("deviance_beyond_sensor") or 0.0) < BOUND_BINDING:
             continue
         (_, w_hi), (_, g_hi), _ = bounds.channel(c.name)
         for part, value, hi in (("white", n.white, w_hi), ("wander", n.wander, g_hi)):
