@@ -13,7 +13,8 @@
    must be clearly away from their
    no-effect values and it must explain at least MIN_EFFECT_SIZE noise RMS on some channel. Only
    when the single is not adequate (judge.py: its residual is more than the sensor's noise) is a
-   second effect sought, and it must pass the same three tests against the single.
+   second effect sought, and it must pass the same three tests against the single (and beat the
+   best single in BIC when it was grown from the runner-up).
 5. Confirmation (:func:`confirm`): the noise re-estimated from the chosen model, which is refitted
    under it; cross-validation over trials (``holdout.py``): the chosen model must lower the held-out
    cost of a channel by ``min_holdout_gain`` against the baseline (and not raise the total), a pair
@@ -185,8 +186,13 @@ def choose(prep, vessel, fits: dict, scores, candidates, x0_init, retries, s: Se
         pairs += search.fit_pairs(prep, vessel, fits, leader, seconds, x0_init, retries, say, fits[()])
         if not pairs:  # the leader needs no second effect: neither does the runner-up
             break
+    if not adequate:
+        search.refit_best_pair(prep, vessel, fits, pairs, x0_init, say, fits[()])
+    # a pair grown from the runner-up must also beat the leader: else a wind force at the noise lost
+    # to thrust_asymmetry + yaw_damping_quadratic, which beat only the asymmetry (seed 1360939945)
     good = [p for p in sorted(pairs, key=lambda p: _delta_bic(scores, fits, p, ()))
-            if _passes(prep, vessel, fits, scores, p, p[:1], s)]
+            if _passes(prep, vessel, fits, scores, p, p[:1], s)
+            and (p[:1] == single or _delta_bic(scores, fits, p, single) < -s.bic_margin)]
     if not good:
         return single, single
     alone = search.backward_step(prep, vessel, fits, good[0], x0_init, say, fits[()])
