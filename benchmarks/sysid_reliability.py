@@ -17,6 +17,12 @@ after (the cut is checked where the effect moved the track by more than twice th
     python benchmarks/sysid_reliability.py --seeds 20                      # every group, ~2 h on 1 core
     python benchmarks/sysid_reliability.py --seeds 10 --groups single,none --jobs 2
     python benchmarks/sysid_reliability.py --seeds 5 --groups closed_loop   # flies 5 pond logs per draw
+    python benchmarks/sysid_reliability.py --summarise draws.jsonl           # the tables of a run so far
+
+Every draw's record is appended to ``--jsonl`` as it completes, so a sweep that is stopped (or
+loses its machine) keeps what it measured: ``--summarise`` prints the tables of those draws. The
+seeds are drawn from the master seed in the order of GROUPS, so a sweep over the first groups
+draws the same seeds as the full one.
 """
 
 from __future__ import annotations
@@ -131,6 +137,23 @@ def aims(results: list[dict], cases: dict) -> str:
     return "\n".join(rows)
 
 
+def summarise(path: Path) -> int:
+    """The tables of the draws recorded in a --jsonl file (a sweep stopped early included)."""
+    results = [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+    if not results:
+        print(f"{path}: no draws recorded", file=sys.stderr)
+        return 1
+    cases = {c.label: c for c in cases_of(GROUPS)}
+    unknown = sorted({r["case"] for r in results} - set(cases))
+    if unknown:
+        print(f"{path}: cases not in this benchmark: {', '.join(unknown)}", file=sys.stderr)
+        return 1
+    print(f"{len(results)} draws from {path}")
+    print("\n" + table(results))
+    print("\n" + aims(results, cases))
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5, help="random draws per case")
@@ -138,13 +161,17 @@ def main(argv=None) -> int:
     ap.add_argument("--only", default="", help="comma-separated case labels (e.g. current/realistic)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes")
     ap.add_argument("--master-seed", type=int, default=None, help="seed of the seeds (default: random, printed)")
-    ap.add_argument("--json", help="write every draw's record here")
+    ap.add_argument("--json", help="write every draw's record here (a JSON list, at the end)")
+    ap.add_argument("--jsonl", help="append every draw's record here as it completes (one JSON object a line)")
+    ap.add_argument("--summarise", metavar="JSONL", help="print the tables of the draws recorded in JSONL and stop")
     args = ap.parse_args(argv)
+    sys.path.insert(0, str(ROOT))
+    if args.summarise:
+        return summarise(Path(args.summarise))
     groups = [g for g in args.groups.split(",") if g]
     bad = [g for g in groups if g not in GROUPS]
     if bad:
         ap.error(f"unknown group(s) {bad}; allowed: {', '.join(GROUPS)}")
-    sys.path.insert(0, str(ROOT))
     cases = cases_of(groups)
     if args.only:
         cases = [c for c in cases if c.label in args.only.split(",")]
@@ -153,12 +180,18 @@ def main(argv=None) -> int:
     jobs = [(c, rnd.getrandbits(31)) for c in cases for _ in range(args.seeds)]
     print(f"{len(jobs)} draws, master seed {master}, {args.jobs} process(es), {time.strftime('%Y-%m-%d %H:%M')}", flush=True)
     results = []
+    jsonl = open(args.jsonl, "a", encoding="utf-8") if args.jsonl else None  # noqa: SIM115 (open for the sweep)
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         for r in pool.map(one, *zip(*jobs)):
             results.append(r)
             flag = "ok " if r.get("right") else "MISS"
             print(f"  {flag} {r['case']:36s} seed {r['seed']:10d} {r['wall_s']:5.1f} s  {r.get('status', '')} "
                   f"{r.get('verdict', '')} {r.get('error', '')}", flush=True)
+            if jsonl:
+                jsonl.write(json.dumps(r, default=str) + "\n")
+                jsonl.flush()
+    if jsonl:
+        jsonl.close()
     print("\n" + table(results))
     print("\n" + aims(results, {c.label: c for c in cases}))
     if args.json:
