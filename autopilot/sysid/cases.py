@@ -16,9 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
+from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, Z_95
 
-Z_95 = 1.959964
 MEASUREMENTS = (("held", False), ("empty", False), ("held", True))  # what a user's CSVs look like
 
 

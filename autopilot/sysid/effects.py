@@ -38,6 +38,7 @@ from typing import ClassVar
 
 import numpy as np
 
+Z_95 = 1.959964  # a 95 % interval is value +- Z_95 sigma (the normal 97.5 % quantile), everywhere in sysid
 DEADBAND_SOFT_PCT = 1.0  # half-width of the softened deadband edge (keeps the fit differentiable)
 
 
@@ -117,7 +118,7 @@ class Effect:
 
 
 def _row(name, unit, value, sigma) -> dict:
-    return {"name": name, "unit": unit, "value": value, "ci95": [value - 1.96 * sigma, value + 1.96 * sigma], "sigma": sigma}
+    return {"name": name, "unit": unit, "value": value, "ci95": [value - Z_95 * sigma, value + Z_95 * sigma], "sigma": sigma}
 
 
 class Current(Effect):

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from autopilot.sim import VesselParams
-from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
+from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, Z_95
 from autopilot.sysid.effects import bounds as effect_bounds
 from autopilot.sysid.replay import Prepared, predict, residuals
 
@@ -78,7 +78,7 @@ class Fit:
         return out
 
     def ci95(self) -> dict[str, tuple[float, float]]:
-        return {k: (float(v - 1.96 * s), float(v + 1.96 * s)) for k, v, s in zip(self.keys, self.theta, self.sigma)}
+        return {k: (float(v - Z_95 * s), float(v + Z_95 * s)) for k, v, s in zip(self.keys, self.theta, self.sigma)}
 
 
 class Problem:
