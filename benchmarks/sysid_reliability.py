@@ -21,8 +21,8 @@ after (the cut is checked where the effect moved the track by more than twice th
 
 Every draw's record is appended to ``--jsonl`` as it completes, so a sweep that is stopped (or
 loses its machine) keeps what it measured: ``--summarise`` prints the tables of those draws. The
-seeds are drawn from the master seed in the order of GROUPS, so a sweep over the first groups
-draws the same seeds as the full one.
+seeds are drawn from the master seed in the order of the groups given, so a sweep over the first
+groups of GROUPS, in that order, draws the same seeds as the full one.
 """
 
 from __future__ import annotations

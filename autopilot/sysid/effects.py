@@ -117,7 +117,8 @@ class Effect:
         return f"<effect {self.name}>"
 
 
-def _row(name, unit, value, sigma) -> dict:
+def param_row(name, unit, value, sigma) -> dict:
+    """One reported parameter: value, unit, sigma and its 95 % interval (summary.json, table reports)."""
     return {"name": name, "unit": unit, "value": value, "ci95": [value - Z_95 * sigma, value + Z_95 * sigma], "sigma": sigma}
 
 
@@ -136,7 +137,7 @@ class Current(Effect):
         s_speed = math.sqrt((cn * sn) ** 2 + (ce * se) ** 2) / max(speed, 1e-9)
         s_dir = math.degrees(math.sqrt((ce * sn) ** 2 + (cn * se) ** 2)) / max(speed**2, 1e-12)
         towards = math.degrees(math.atan2(ce, cn)) % 360.0
-        return [_row("speed_m_s", "m/s", speed, s_speed), _row("towards_deg", "deg", towards, s_dir)]
+        return [param_row("speed_m_s", "m/s", speed, s_speed), param_row("towards_deg", "deg", towards, s_dir)]
 
 
 class WindForce(Effect):

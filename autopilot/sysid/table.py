@@ -28,7 +28,7 @@ from autopilot.schema import ConfigError
 from autopilot.sim import VesselParams
 from autopilot.sim.calibrate import FREE as CALIBRATE_FREE
 from autopilot.sim.steady import solve_steady
-from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, Z_95, by_effect
+from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, by_effect, param_row
 from autopilot.sysid.effects import bounds as theta_bounds
 from autopilot.sysid.output import updated_vessel
 
@@ -203,8 +203,7 @@ def _report(vessel, fit, effects) -> dict:
             unit = PARAM_BY_KEY[key].unit if key in PARAM_BY_KEY else _field_unit(name)
             v, s = float(fit["theta"][k]), float(fit["sigma"][k])
             off = BY_NAME[e].reported(name, v, vessel) - v
-            params.append({"name": name, "unit": unit, "value": v + off,
-                           "ci95": [v - Z_95 * s + off, v + Z_95 * s + off], "sigma": s})
+            params.append(param_row(name, unit, v + off, s))
         out[e] = {"doc": BY_NAME[e].doc, "params": params}
     return out
 
