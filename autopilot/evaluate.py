@@ -225,10 +225,12 @@ def run_closed_loop(
     seed: int = 0,
     traffic=None,
     x0=None,
+    rtl: bool = False,
 ):
     """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`. ``traffic``: a
     :class:`autopilot.traffic.feed.TrafficFeed` whose targets the boat sees (through AIS) and avoids;
-    ``x0``: the start state (north, east, psi, u, v, r), at rest at the origin heading north if None.
+    ``x0``: the start state (north, east, psi, u, v, r), at rest at the origin heading north if None;
+    ``rtl``: the mission ends returning to the launch point and holds there until ``t_max_s``.
 
     One run at a time through :class:`autopilot.closed_loop.Flight` (the daemon's control cycle without
     its failsafe, evaluate's scorecard); the campaigns fly the same flights in lockstep."""
@@ -240,7 +242,7 @@ def run_closed_loop(
 
     config = config or GncConfig()
     wps = [(float(n), float(e)) for n, e in waypoints_ne_m]
-    ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, holds_s=holds_s, boat_length_m=params.length_m)
+    ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, holds_s=holds_s, rtl=rtl, boat_length_m=params.length_m)
     # the daemon's navigation: the SC-30's rates (a 1 Hz fix, dead-reckoned), the same assembly
     origin = EVAL_ORIGIN_DEG if traffic is None else traffic.origin  # AIS positions are decoded around it
     sensors = SensorModel(*origin, rates=sensor_rates, position_noise_m=position_noise_m,

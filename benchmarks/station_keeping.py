@@ -6,7 +6,21 @@ navigation): the hold scored from the true position and heading over the 300 s. 
 is the boat left at rest on the point for 300 s with both thrusters off (the drift). With
 --noise the SC-30's position (0.5 m) and heading (0.5 deg) are noisy, several seeds.
 
-    python benchmarks/station_keeping.py [--markdown] [--noise --seeds 5]
+--after-rtl scores instead the hold a return to launch ends in: config/missions/pond-9.1.yaml
+(one waypoint 27 m out) flown with rtl, the boat coming back at the mission's speed, handing over
+to station keeping 8 m out and holding at the launch point; scored from its arrival (the mode
+hold) until the run's limit (the route's time limit plus 300 s), so the overshoot and settling
+count. --position-noise-m sets the SC-30's position noise alone (white, per 1 Hz fix).
+
+--offset: a hold that starts from rest a few metres from its point, the point off the bow by
+0 to 180 deg (a return to launch begun nearby, a "go here" a few metres abeam): a mission of
+one hold item there, flown with the lining up (gnc.hold.reposition_m, shipped) and without it
+(reposition_m 0), calm and current_wind, 0.3 m position noise, --seeds seeds; the time until
+the boat is within 1 m of the point (true position), the largest error over the 30 s after,
+and over the hold's last 60 s.
+
+    python benchmarks/station_keeping.py [--markdown] [--noise --seeds 5] [--after-rtl] [--position-noise-m M]
+    python benchmarks/station_keeping.py --offset [--seeds 3] [--markdown]
 """
 
 from __future__ import annotations
@@ -17,7 +31,7 @@ import math
 
 import numpy as np
 
-from autopilot.evaluate import CONDITION_NAMES, conditions, hold_score, run_closed_loop
+from autopilot.evaluate import CONDITION_NAMES, conditions, hold_score, run_closed_loop, time_limit_s
 from autopilot.gnc import GncConfig
 from autopilot.mission import load_mission
 from autopilot.resources import shipped_missions
@@ -42,25 +56,89 @@ def drift(params, env, hold_s: float = HOLD_S, dt_s: float = 0.05):
     return hold_score(d, h, [0.0] * len(d), 0.1)
 
 
+def offset_row(params, env, rel_deg: float, dist_m: float, cfg, seeds: int, noise_m: float):
+    """(time to within 1 m, max over the 30 s after, max over the last 60 s) per seed: a hold item at ``dist_m``,
+    ``rel_deg`` off the bow of a boat at rest at the origin heading north."""
+    tgt = (dist_m * math.cos(math.radians(rel_deg)), dist_m * math.sin(math.radians(rel_deg)))
+    out = []
+    for seed in range(seeds):
+        r = run_closed_loop(params, [tgt], holds_s=[OFFSET_HOLD_S], config=cfg, env=env, record=True, seed=seed,
+                            position_noise_m=noise_m, t_max_s=OFFSET_HOLD_S + 60.0)
+        t = np.asarray(r.trace["t_s"])
+        d = np.hypot(np.asarray(r.trace["north_m"]) - tgt[0], np.asarray(r.trace["east_m"]) - tgt[1])
+        near = np.flatnonzero(d < 1.0)
+        t1 = float(t[near[0]]) if near.size else math.inf
+        after = d[(t >= t1) & (t <= t1 + 30.0)] if near.size else d
+        out.append((t1, float(after.max()), float(d[t >= t[-1] - 60.0].max())))
+    return out
+
+
+OFFSET_HOLD_S = 150.0
+
+
+def offset_main(args) -> int:
+    params = load_params(default_params_path())
+    envs = conditions()
+    base = GncConfig()
+    ways = {"lining up (shipped)": base,
+            "without (reposition_m 0)": dataclasses.replace(base, hold=dataclasses.replace(base.hold, reposition_m=0.0))}
+    header = ("condition", "point", "hold", "within 1 m after (s)", "max over the next 30 s (m)", "max, last 60 s (m)")
+    out = []
+    for cond in ("calm", "current_wind"):
+        for dist in (4.0, 7.0):
+            for rel in (0.0, 60.0, 90.0, 135.0, 180.0):
+                for name, cfg in ways.items():
+                    rows = offset_row(params, envs[cond], rel, dist, cfg, args.seeds, 0.3)
+                    cols = list(zip(*rows))
+                    out.append((cond, f"{dist:.0f} m, {rel:.0f} deg off the bow", name,
+                                f"{min(cols[0]):.0f}-{max(cols[0]):.0f}", f"{max(cols[1]):.2f}", f"{max(cols[2]):.2f}"))
+    _print(header, out, args.markdown)
+    return 0
+
+
+def _print(header, out, markdown: bool) -> None:
+    if markdown:
+        print("| " + " | ".join(header) + " |")
+        print("|" + "---|" * len(header))
+        for r in out:
+            print("| " + " | ".join(r) + " |")
+    else:
+        print("  ".join(f"{h:>18}" for h in header))
+        for r in out:
+            print("  ".join(f"{c:>18}" for c in r))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--markdown", action="store_true")
     ap.add_argument("--noise", action="store_true", help="noisy SC-30 (0.5 m, 0.5 deg)")
     ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--after-rtl", action="store_true", help="the hold at the launch point after pond-9.1 with rtl")
+    ap.add_argument("--position-noise-m", type=float, default=None, help="position noise alone (m, per fix)")
+    ap.add_argument("--offset", action="store_true", help="holds started from rest with the point off the bow")
     args = ap.parse_args()
+    if args.offset:
+        return offset_main(args)
     params = load_params(default_params_path())
-    mission = load_mission(next(p for p in shipped_missions() if p.stem == "station-keep"))
+    mission = load_mission(next(p for p in shipped_missions() if p.stem == ("pond-9.1" if args.after_rtl
+                                                                              else "station-keep")))
     envs = conditions()
     base = GncConfig()
     ways = {"hold (radius 0)": base,
             "drift-and-return (radius 2 m)": dataclasses.replace(base, hold=dataclasses.replace(base.hold, radius_m=2.0))}
     noise = dict(position_noise_m=0.5, heading_noise_deg=0.5) if args.noise else {}
+    if args.position_noise_m is not None:
+        noise = dict(position_noise_m=args.position_noise_m)
+    extra = {}
+    if args.after_rtl:
+        back = [*mission.waypoints_ne_m, (0.0, 0.0)]  # the route and the way back
+        extra = dict(rtl=True, t_max_s=time_limit_s(back, base.guidance.default_speed_m_s) + HOLD_S)
     rows = []
     for cond in CONDS:
         assert cond in CONDITION_NAMES
         for name, cfg in ways.items():
             scores = [run_closed_loop(params, mission.waypoints_ne_m, holds_s=mission.holds_s, env=envs[cond],
-                                      config=cfg, seed=s, **noise).hold for s in range(args.seeds)]
+                                      config=cfg, seed=s, **noise, **extra).hold for s in range(args.seeds)]
             rows.append((cond, name, scores))
         rows.append((cond, "zero thrust (drift)", [drift(params, envs[cond])]))
     header = ("condition", "hold", "position RMS (m)", "p95 (m)", "max (m)", "heading RMS (deg)", "energy (N s)", "VRX")
@@ -75,15 +153,7 @@ def main() -> int:
         out.append((cond, name, rng([s.position_error_rms_m for s in scores], ".2f"),
                     rng([s.position_error_p95_m for s in scores], ".2f"), rng([s.position_error_max_m for s in scores], ".2f"),
                     heading, rng([s.energy_n_s for s in scores], ".0f"), rng([s.vrx_score for s in scores], ".2f")))
-    if args.markdown:
-        print("| " + " | ".join(header) + " |")
-        print("|" + "---|" * len(header))
-        for r in out:
-            print("| " + " | ".join(r) + " |")
-    else:
-        print("  ".join(f"{h:>18}" for h in header))
-        for r in out:
-            print("  ".join(f"{c:>18}" for c in r))
+    _print(header, out, args.markdown)
     return 0
 
 

@@ -140,9 +140,9 @@ class FakeThrusters:
         pass
 
 
-def _run_loop(tmp_path, quiet_from_s: float, until_s: float):
+def _run_loop(tmp_path, quiet_from_s: float, until_s: float, waypoints=((200.0, 0.0),), listener=None):
     cfg = DaemonConfig()
-    mission = Mission("north", np.array([[200.0, 0.0]]), (None,), None, *ORIGIN)
+    mission = Mission("north", np.array(waypoints, dtype=float), (None,) * len(waypoints), None, *ORIGIN)
 
     async def main():
         clock = SimClock()
@@ -150,6 +150,8 @@ def _run_loop(tmp_path, quiet_from_s: float, until_s: float):
         assert isinstance(compass, Compass) and isinstance(thrusters, ThrusterLink)  # the interfaces, typed
         compass.quiet_from_s = quiet_from_s
         log = MissionLog(tmp_path / "log.jsonl", console=None)
+        if listener is not None:
+            log.listeners.append(listener)
         loop = ControlLoop(cfg, clock=clock, autopilot=Autopilot(cfg.gnc, mission.waypoints_ne_m), mission=mission,
                            mission_path="m.yaml", mission_sha256="x", compass=compass, thrusters=thrusters, log=log,
                            notifier=Notifier(None), store=StateStore(tmp_path / "state"))
@@ -183,3 +185,17 @@ def test_the_loop_on_a_stepped_clock_is_deterministic_and_stops_on_a_stale_headi
     assert driving[-1] in (69, 70) and all(c.is_zero for c in cmds[71:])
     assert driving == list(range(10, driving[-1] + 1))
     assert st.failsafe_causes == ["heading_stale"] and st.cycles == 100
+
+
+def test_a_waypoint_is_saved_as_reached_before_the_log_says_so(tmp_path):
+    """A kill just after the log's waypoint_reached line must not restart at that waypoint: the progress file
+    already steers to the next (the log is what an operator trusts; it may not run ahead of the state)."""
+    seen = []
+
+    def listener(name, t_s, fields):
+        if name == "waypoint_reached":
+            seen.append((fields["wp_index"], StateStore(tmp_path / "state").load()))
+
+    _run_loop(tmp_path, quiet_from_s=math.inf, until_s=12.0, waypoints=((6.0, 0.0), (200.0, 0.0)), listener=listener)
+    assert [i for i, _ in seen] == [0]
+    assert seen[0][1] is not None and seen[0][1].wp_index == 1 and seen[0][1].status == "running"

@@ -100,18 +100,16 @@ def test_each_mode_by_ctl_and_rtl_ends_holding_at_launch(tmp_path):
                 n, e = _boat_ne(d)
                 return math.hypot(n - launch["north_m"], e - launch["east_m"])
 
-            # It may arrive at speed, pass the point by several metres and come back: how long that takes
-            # varied from run to run (a fixed 40 s failed 2 of 7 runs at 7-8 m, 3 of 4 on 7e20f4d), so
-            # wait for it within a bound, then it must stay near. Open finding (2026-12-03): here, in calm
-            # water with 0.3 m of white GPS noise at a 10x clock, the hold then hunts 1.4-2.8 m around the
-            # point (max over 10 s, 8 runs), where benchmarks/station_keeping.py gives 0.06 m RMS calm;
-            # 2 m failed a third of the runs. This checks it returns and stays, not the hold's precision.
-            t_settled = await d.wait(lambda: error_m() < 1.5, 120.0, "settled within 1.5 m of launch")
+            # rtl began 5-7 m from launch with the point abeam: the hold lines the hull up with it and closes
+            # along that line (gnc.hold.reposition_m). Before, it slid across on its lateral correction: 4-6 m
+            # off when rtl called it reached, 13-28 s to come within 1.5 m, 1.4-2.6 m the next 10 s (6 of 8
+            # runs); now within 1.5 m when the hold begins and at most 1.5 m over its first 30 s (8 runs).
+            t_settled = await d.wait(lambda: error_m() < 1.5, 30.0, "within 1.5 m of launch")
             errors = []
             for _ in range(20):  # the true position over the next 10 s
                 errors.append(error_m())
                 await d.clock.sleep(0.5)
-            assert max(errors) <= 4.0, (errors, f"settled {t_settled - t_hold:.0f} s after hold")
+            assert max(errors) <= 2.0, (errors, f"within 1.5 m {t_settled - t_hold:.0f} s after hold")
 
             commands = [(r["command"], r["accepted"], r["answer"]) for r in d.events("command")]
             assert commands == [("pause", True, "paused"), ("resume", True, "auto"), ("hold", True, "hold"),
@@ -222,8 +220,8 @@ def test_position_fault_never_takes_rtl_the_guard_falls_back_to_stop(tmp_path):
             code, text = await d.ctl("rtl")
             assert code == 1 and text == "rtl refused: position stale", text
             d.rig.sc30.position_dropout = False
-            await d.wait(lambda: d.rig.mbed.thrusting, 20.0, "resume")  # the mission goes on
-            assert _last_cycle(d)["mode"] == "auto"
+            # the mission goes on (the Mbed has the command before the daemon logs the cycle that sent it)
+            await d.wait(lambda: d.rig.mbed.thrusting and _last_cycle(d).get("mode") == "auto", 20.0, "resume")
             d.proc.send_signal(2)
             assert await d.finish(30.0) == 0
         finally:

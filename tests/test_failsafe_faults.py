@@ -57,6 +57,10 @@ class Daemon:
     rig: SimRig | None = None
     proc: asyncio.subprocess.Process | None = None
     clock: Clock = field(default_factory=lambda: Clock(SPEEDUP))
+    _log_pid: int | None = None
+    _log_path: Path | None = None
+    _log_pos: int = 0
+    _log_lines: list = field(default_factory=list)
 
     async def start(self, *, fresh: bool = True) -> None:
         if self.rig is None:
@@ -109,12 +113,30 @@ class Daemon:
         return p.returncode, out.decode().strip()
 
     def log(self) -> list[dict]:
-        """Complete lines of the current daemon's log (a line being written is left out)."""
-        for path in (self.tmp / "logs").glob("mission-*.jsonl"):
-            lines = path.read_text().split("\n")[:-1]  # only newline-terminated lines are complete
-            if lines and json.loads(lines[0]).get("pid") == self.proc.pid:
-                return [json.loads(x) for x in lines]
-        return []
+        """Complete lines of the current daemon's log (a line being written is left out).
+
+        Read incrementally: this loop also runs the simulated SC-30, Mbed and boat, and parsing the
+        whole log at every poll (tens of ms once it is long, hundreds of ms of simulated time at 10x)
+        starved them: the boat coasted on stale thrust and the compass sent in bursts."""
+        pid = self.proc.pid
+        if self._log_pid != pid:  # a new daemon writes a new log
+            self._log_pid, self._log_path, self._log_pos, self._log_lines = pid, None, 0, []
+        if self._log_path is None:
+            for path in (self.tmp / "logs").glob("mission-*.jsonl"):
+                with path.open("rb") as f:
+                    first = f.readline()
+                if first.endswith(b"\n") and json.loads(first).get("pid") == pid:
+                    self._log_path = path
+                    break
+            else:
+                return []
+        with self._log_path.open("rb") as f:
+            f.seek(self._log_pos)
+            data = f.read()
+        end = data.rfind(b"\n") + 1  # only newline-terminated lines are complete
+        self._log_pos += end
+        self._log_lines.extend(json.loads(x) for x in data[:end].split(b"\n")[:-1])
+        return list(self._log_lines)  # a snapshot: a caller may keep it
 
     def events(self, name: str) -> list[dict]:
         return [r for r in self.log() if r["event"] == name]

@@ -93,6 +93,46 @@ def test_inside_the_radius_it_drifts_and_it_drives_back_from_the_edge():
     assert sk.step(-0.9, 0.0, 0.0, 0.1, 0.0, 0.1).drifting
 
 
+def test_a_hold_started_across_the_line_to_its_point_lines_up_bow_or_stern_first():
+    """7 m away with the point abeam the boat first puts its bow on it, abaft (140 deg off) its stern, and holds
+    with the hull as it then lies; dead ahead, or with a heading to keep, or nearer than reposition_m, the hold's
+    own law from the start (its reference heading is the boat's)."""
+    cfg = HoldConfig()
+    east = math.radians(90.0)
+    abeam = StationKeeper(cfg, (0.0, 7.0), initial_heading_rad=0.0)
+    out = abeam.step(0.0, 0.0, 0.0, 0.0, 0.0, 0.1)
+    assert out.psi_d_rad == pytest.approx(east) and out.psi_ref_rad == pytest.approx(east)
+    # the hull comes round and closes along the line; the correction for a lateral error is off meanwhile
+    out = abeam.step(0.5, 2.0, math.radians(80.0), 0.5, math.radians(80.0), 0.1)
+    assert out.psi_d_rad == pytest.approx(math.atan2(5.0, -0.5)) and out.tau_com_n > 0.0
+    out = abeam.step(0.2, 5.8, east, 0.3, east, 0.1)  # within half of reposition_m: the hold's law
+    assert out.psi_ref_rad == pytest.approx(math.atan2(5.0, -0.5))  # ... holding the line it came along
+    assert out.psi_d_rad != pytest.approx(out.psi_ref_rad)  # its lateral correction is back
+
+    abaft = StationKeeper(cfg, (7.0 * math.cos(math.radians(140.0)), 7.0 * math.sin(math.radians(140.0))),
+                          initial_heading_rad=0.0)
+    out = abaft.step(0.0, 0.0, 0.0, 0.0, 0.0, 0.1)
+    assert math.degrees(out.psi_ref_rad) == pytest.approx(-40.0)  # the stern on the point
+    assert out.tau_com_n < 0.0  # astern
+
+    for keeper in (StationKeeper(cfg, (7.0, 0.5), initial_heading_rad=0.0),  # dead ahead
+                   StationKeeper(cfg, (0.0, 7.0), heading_rad=0.0),  # a heading to keep
+                   StationKeeper(cfg, (0.0, 2.5), initial_heading_rad=0.0),  # near
+                   StationKeeper(dataclasses.replace(cfg, reposition_m=0.0), (0.0, 7.0), initial_heading_rad=0.0)):
+        assert keeper.step(0.0, 0.0, 0.0, 0.0, 0.0, 0.1).psi_ref_rad == pytest.approx(0.0)
+
+
+def test_a_hold_item_abeam_of_a_boat_at_rest_is_reached_in_seconds(params):
+    """From rest, the point 7 m out 60 deg off the bow (a return to launch begun nearby): within 1 m in 14 s
+    (sliding across on the lateral correction took 35-50 s), and it then holds there."""
+    tgt = (7.0 * math.cos(math.radians(60.0)), 7.0 * math.sin(math.radians(60.0)))
+    r = run_closed_loop(params, [tgt], holds_s=[90.0], record=True, position_noise_m=0.3, seed=1, t_max_s=150.0)
+    t = np.asarray(r.trace["t_s"])
+    d = np.hypot(np.asarray(r.trace["north_m"]) - tgt[0], np.asarray(r.trace["east_m"]) - tgt[1])
+    assert t[np.flatnonzero(d < 1.0)[0]] < 20.0
+    assert d[t > 40.0].max() < 1.2
+
+
 def test_the_least_effort_heading_turns_into_the_disturbance():
     """A steady error to the south (the boat pushed north of the point) grows the estimate southwards
     and the reference heading swings to face it, rate-limited."""
@@ -162,6 +202,19 @@ def test_return_to_launch_ends_holding_within_2_m_of_the_launch_point(params):
     assert held.size > 500 and held[-300:].max() <= 2.0
     causes = [f["cause"] for name, f in ap.pop_events() if name == "mode"]
     assert causes == ["mission: return to launch", "rtl: at the launch point"]
+
+
+def test_evaluate_scores_the_hold_a_return_to_launch_ends_in(params):
+    """run_closed_loop(rtl=True) (benchmarks/station_keeping.py --after-rtl): the route, the way back, then the hold
+    at the launch point is scored until the time limit; without rtl the same route just ends."""
+    r = run_closed_loop(params, [(20.0, 10.0)], rtl=True, t_max_s=200.0, record=True)
+    modes = r.trace["mode"]
+    assert [m for k, m in enumerate(modes) if k == 0 or modes[k - 1] != m] == ["auto", "rtl", "hold"]
+    hold_cycles = sum(m == "hold" for m in modes)
+    assert r.hold is not None and r.hold.time_s == pytest.approx(hold_cycles * 0.1, abs=0.15) and r.hold.time_s > 100.0
+    assert r.hold.position_error_rms_m < 0.5  # calm, no noise: it holds on the launch point
+    plain = run_closed_loop(params, [(20.0, 10.0)], t_max_s=200.0)
+    assert plain.hold is None and plain.completed
 
 
 def test_a_hold_item_holds_its_time_then_the_mission_goes_on(params):

@@ -166,16 +166,17 @@ class ControlLoop:
         st.last_step_s, st.driving = now_s, True
         targets = () if self.ais is None else self.ais.targets(now_s)
         out = self.ap.step(steps.nav_input(nav) if nav.steerable else None, dt_s, targets=targets, t_s=t_s)
+        # saved before it is logged: a kill between the two must not leave a log that runs ahead of the state
         if out.reached_index is not None:
             st.reached.append(out.reached_index)
+            self._save("running")
             self.log.event("waypoint_reached", t_s=t_s, wp_index=out.reached_index, north_m=nav.est_north_m,
                            east_m=nav.est_east_m, distance_m=out.reached_distance_m, how=out.reached_how)
             self._log_passes(self.passes.on_target(self.ap.wp_index), t_s)
-            self._save("running")
         if out.complete and not st.complete:
             st.completed_t_s = t_s
-            self.log.event("mission_complete", t_s=t_s, wp_count=len(self.mission.waypoints_ne_m))
             self._save("complete")
+            self.log.event("mission_complete", t_s=t_s, wp_count=len(self.mission.waypoints_ne_m))
         st.finished = out.finished
         return out
 

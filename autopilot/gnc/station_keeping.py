@@ -25,7 +25,13 @@ point the boat first steers to it at ``approach_speed_m_s`` (the course path), a
 waypoint; inside it the speed to close with never asks for more braking than
 ``brake_m_s2`` (the position -> velocity square-root law of ArduPilot's position
 controllers), so the boat arrives without overshooting on what two thrusters astern
-can stop. With ``radius_m`` > 0 it drifts at zero thrust inside the radius and drives
+can stop. A hold that starts farther than ``reposition_m`` from its point with the point
+well off both the bow and the stern (a return to launch begun a few metres away, a hold
+asked of a boat lying across the line to its point) first lines the hull up with the
+point, bow or stern (ArduPilot Rover's loiter: forward or reverse to the point), closes
+along that line and holds with the hull as it then lies: the heading correction above
+(at most ``max_correction_deg``, through a thrust that is small near the point) would
+take tens of seconds to slide the boat sideways there. With ``radius_m`` > 0 it drifts at zero thrust inside the radius and drives
 back when it reaches it (ArduPilot's loiter for boats: ``LOIT_RADIUS``), until it is
 within half the radius and slow again (else it coasts through and out the other side);
 0 = hold precisely. Pure: numbers in, numbers out.
@@ -41,6 +47,9 @@ from autopilot.mathutil import clamp
 from autopilot.schema import param
 
 __all__ = ["HoldConfig", "HoldOutput", "StationKeeper"]
+
+_ASTERN_DEG = 110.0  # lining up: the stern leads when the point is farther than this off the bow ...
+_ASTERN_BAND_DEG = 20.0  # ... give or take this much (hysteresis)
 
 
 @dataclass(frozen=True)
@@ -78,6 +87,13 @@ class HoldConfig:
                               doc="farther than this the boat first steers to the point as to a waypoint")
     approach_speed_m_s: float = param(1.0, unit="m/s", lo=0.1, hi=3.4, source="Fig 8.2 (CC)",
                                       doc="speed of that approach")
+    reposition_m: float = param(3.0, unit="m", lo=0.0, hi=100.0,
+                                source="chosen: benchmarks/station_keeping.py --offset (reach within 1 m in 6-17 s, was 6-49 s)",
+                                doc="a least-effort hold starting farther than this from its point, the point well off the "
+                                    "bow and the stern, first lines up with it (bow or stern) and closes along that line; "
+                                    "0 = never")
+    reposition_off_deg: float = param(30.0, unit="deg", lo=0.0, hi=90.0, source="chosen",
+                                      doc="... well off: more than this from both the bow and the stern")
 
 
 @dataclass(frozen=True)
@@ -114,6 +130,9 @@ class StationKeeper:
         self._psi_ref = heading_rad if heading_rad is not None else float(initial_heading_rad)
         self._d_n = (0.0, 0.0)  # the disturbance estimate D (north, east), N per thruster
         self._drifting = False
+        self._started = False
+        self._lining_up = False  # closing along the line to the point (bow or stern on it)
+        self._astern = False  # ... stern first
 
     @property
     def disturbance_ne_n(self) -> tuple[float, float]:
@@ -144,17 +163,39 @@ class StationKeeper:
                 dn, de = dn * cfg.integral_limit_n / size, de * cfg.integral_limit_n / size
             self._d_n = (dn, de)
         self._update_reference(dt_s)
+        self._update_line_up(en, ee, d, psi_rad)
         c, s = math.cos(psi_rad), math.sin(psi_rad)
         e_a = en * c + ee * s  # the thrust acts along the hull as it lies now
         v_a = sog_m_s * math.cos(cog_rad - psi_rad) if math.isfinite(sog_m_s) else 0.0
         v_ref = clamp(sqrt_controller(e_a, cfg.speed_gain_per_s, cfg.brake_m_s2), -cfg.approach_speed_m_s,
                       cfg.approach_speed_m_s)
         tau_com = cfg.kv_n_s_per_m * (v_ref - v_a) + self._d_n[0] * c + self._d_n[1] * s
+        if self._lining_up:  # psi_ref is the line; the thrust along the hull closes as the hull comes round
+            return self._out(self._psi_ref, tau_com, 0.0, False, False, d)
         e_l = -en * math.sin(self._psi_ref) + ee * math.cos(self._psi_ref)
         limit = math.radians(cfg.max_correction_deg)
         lead = 1.0 if tau_com >= 0.0 else -1.0  # astern, turning the other way moves the boat the same way
         psi_d = self._psi_ref + clamp(math.atan2(lead * e_l, cfg.lookahead_m), -limit, limit)
         return self._out(wrap_pi(psi_d), tau_com, 0.0, False, False, d)
+
+    def _update_line_up(self, en: float, ee: float, d: float, psi_rad: float) -> None:
+        """Lining up with the point: decided at the hold's first step, ends at half ``reposition_m``; the bow or
+        the stern (astern when the point is more than 110 deg off the bow, with 20 deg of hysteresis: two
+        thrusters astern push less), and the held heading is that line."""
+        cfg = self.config
+        line = math.atan2(ee, en)
+        if not self._started:
+            self._started = True
+            off = abs(wrap_pi(line - psi_rad))
+            self._lining_up = (self.heading_rad is None and cfg.reposition_m > 0.0 and d > cfg.reposition_m
+                               and min(off, math.pi - off) > math.radians(cfg.reposition_off_deg))
+        elif self._lining_up and d < 0.5 * cfg.reposition_m:
+            self._lining_up = False
+        if not self._lining_up:
+            return
+        off = abs(wrap_pi(line - psi_rad))
+        self._astern = off > math.radians(_ASTERN_DEG - _ASTERN_BAND_DEG if self._astern else _ASTERN_DEG + _ASTERN_BAND_DEG)
+        self._psi_ref = wrap_pi(line + math.pi) if self._astern else line
 
     def _update_reference(self, dt_s: float) -> None:
         """Least effort: the bow swings (rate-limited) towards the direction of the disturbance estimate,
