@@ -56,6 +56,9 @@ def drift(params, env, hold_s: float = HOLD_S, dt_s: float = 0.05):
     return hold_score(d, h, [0.0] * len(d), 0.1)
 
 
+OFFSET_HOLD_S = 150.0  # --offset: the hold item's time
+
+
 def offset_row(params, env, rel_deg: float, dist_m: float, cfg, seeds: int, noise_m: float):
     """(time to within 1 m, max over the 30 s after, max over the last 60 s) per seed: a hold item at ``dist_m``,
     ``rel_deg`` off the bow of a boat at rest at the origin heading north."""
@@ -71,9 +74,6 @@ def offset_row(params, env, rel_deg: float, dist_m: float, cfg, seeds: int, nois
         after = d[(t >= t1) & (t <= t1 + 30.0)] if near.size else d
         out.append((t1, float(after.max()), float(d[t >= t[-1] - 60.0].max())))
     return out
-
-
-OFFSET_HOLD_S = 150.0
 
 
 def offset_main(args) -> int:

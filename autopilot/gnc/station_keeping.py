@@ -31,10 +31,10 @@ asked of a boat lying across the line to its point) first lines the hull up with
 point, bow or stern (ArduPilot Rover's loiter: forward or reverse to the point), closes
 along that line and holds with the hull as it then lies: the heading correction above
 (at most ``max_correction_deg``, through a thrust that is small near the point) would
-take tens of seconds to slide the boat sideways there. With ``radius_m`` > 0 it drifts at zero thrust inside the radius and drives
-back when it reaches it (ArduPilot's loiter for boats: ``LOIT_RADIUS``), until it is
-within half the radius and slow again (else it coasts through and out the other side);
-0 = hold precisely. Pure: numbers in, numbers out.
+take tens of seconds to slide the boat sideways there. With ``radius_m`` > 0 it drifts
+at zero thrust inside the radius and drives back when it reaches it (ArduPilot's loiter
+for boats: ``LOIT_RADIUS``), until it is within half the radius and slow again (else it
+coasts through and out the other side); 0 = hold precisely. Pure: numbers in, numbers out.
 """
 
 from __future__ import annotations
@@ -88,7 +88,7 @@ class HoldConfig:
     approach_speed_m_s: float = param(1.0, unit="m/s", lo=0.1, hi=3.4, source="Fig 8.2 (CC)",
                                       doc="speed of that approach")
     reposition_m: float = param(3.0, unit="m", lo=0.0, hi=100.0,
-                                source="chosen: benchmarks/station_keeping.py --offset (reach within 1 m in 6-17 s, was 6-49 s)",
+                                source="chosen: benchmarks/station_keeping.py --offset (within 1 m in 6-17 s, was 6-50 s)",
                                 doc="a least-effort hold starting farther than this from its point, the point well off the "
                                     "bow and the stern, first lines up with it (bow or stern) and closes along that line; "
                                     "0 = never")
