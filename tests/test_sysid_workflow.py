@@ -18,16 +18,23 @@ nothing is hidden; ``unexplained`` or a model flagged not adequate for an effect
 every hidden parameter within 3.29 sigma of its estimate (99.9 %: about fifteen parameters are
 checked per run); where the effect moved the track by more than twice the noise, the held-out
 error beyond the noise cut by 70 %. Each test is armed with a SIGALRM safety net (ALARM_S).
+
+The cases of CASES are independent and CPU-bound: the first of them to run starts every selected one
+in a pool of the machine's cores (at most two: the suite's budget was measured on two) and each test
+then checks its own result. What each computes is what it computed run one after another: the same
+case, seed and code, in a fresh interpreter.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import multiprocessing
 import os
 import secrets
 import signal
 import zlib
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pytest
@@ -66,7 +73,7 @@ def _alarm():
         signal.signal(signal.SIGALRM, old)
 
 
-def _seed(label: str) -> int:
+def _seed(label: str, *, quiet: bool = False) -> int:
     """The seed of one case: SYSID_TEST_SEED (an integer, or ``random``), else fixed per ``label``."""
     base = os.environ.get("SYSID_TEST_SEED", "").strip()
     if base == "random":
@@ -75,19 +82,60 @@ def _seed(label: str) -> int:
         seed = int(base)
     else:
         seed = zlib.crc32(f"{CI_SEED_BASE}:{label}".encode()) & 0x7FFFFFFF
-    print(f"\n[{label}] seed {seed} (SYSID_TEST_SEED={seed} reproduces it)")
+    if not quiet:
+        print(f"\n[{label}] seed {seed} (SYSID_TEST_SEED={seed} reproduces it)")
     return seed
 
 
-def _run(case: Case, work_dir=None):
-    seed = _seed(case.label)
-    hidden, trials, desc = make(case, seed, VESSEL, work_dir=work_dir)
+def _identify_case(case: Case, seed: int):
+    """(hidden, result, score) of one case: the pool's task (module level, so a spawned worker imports it)."""
+    hidden, trials, desc = make(case, seed, VESSEL)
     result = identify(trials, VESSEL)
-    s = score(case, hidden, result)
+    return hidden, desc, result, score(case, hidden, result)
+
+
+# Each pooled test's case from its parameters (the test's name -> case; a seed given by the test or None).
+CASES = {
+    "test_hidden_effect_is_named_and_recovered": lambda p: (Case((p["effect"],)), None),
+    "test_nothing_hidden_gives_none_and_an_adequate_model": lambda p: (Case(()), None),
+    "test_two_hidden_effects_both_named": lambda p: (Case(p["pair"]), None),
+    "test_effect_outside_the_list_is_unexplained": lambda p: (Case(("thrust_fade",), duration_s=45.0), None),
+    "test_white_noise_trials_current_and_thrust_lag": lambda p: (Case(("current", "thrust_lag"), kind="white", n_trials=3), None),
+    "test_deadband_regression_seeds": lambda p: (Case(("thrust_deadband",), kind="white"), p["seed"]),
+}
+
+
+def _case_of(item):
+    """(case, seed) of a collected test item of CASES."""
+    params = getattr(getattr(item, "callspec", None), "params", {})
+    case, seed = CASES[item.originalname](params)
+    return case, (seed if seed is not None else _seed(case.label, quiet=True))
+
+
+@pytest.fixture(scope="module")
+def identified(request):
+    """nodeid -> (case, seed, future) for every selected test of CASES, all submitted at once."""
+    items = [it for it in request.session.items if it.module is request.module and it.originalname in CASES]
+    workers = max(1, min(2, os.cpu_count() or 1, len(items)))
+    # spawn: a forked copy of the suite's process would inherit the threads earlier tests left running
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        jobs = {}
+        for it in items:
+            case, seed = _case_of(it)
+            jobs[it.nodeid] = (case, seed, pool.submit(_identify_case, case, seed))
+        yield jobs
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _outcome(request, identified):
+    """The test's own (case, hidden, result, score), waiting for its pooled identification."""
+    case, seed, future = identified[request.node.nodeid]
+    print(f"\n[{case.label}] seed {seed} (SYSID_TEST_SEED={seed} reproduces it)")
+    hidden, desc, result, s = future.result(timeout=ALARM_S)
     print(f"  hidden {hidden} ({desc})")
     print(f"  {result.status}: {result.verdict}, fitted {result.chosen.values() if result.verdict else {}}")
     print(f"  z-scores {s['z']}, error cut {s['error_cut']}, notes {result.notes}")
-    return hidden, result, s
+    return case, hidden, result, s
 
 
 def check(case: Case, s: dict, *, cut: bool = True) -> None:
@@ -103,20 +151,19 @@ def check(case: Case, s: dict, *, cut: bool = True) -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("effect", list(DRAWS))
-def test_hidden_effect_is_named_and_recovered(effect):
-    case = Case((effect,))
-    _, result, s = _run(case)
+def test_hidden_effect_is_named_and_recovered(effect, request, identified):
+    case, _, result, s = _outcome(request, identified)
+    assert case.effects == (effect,)
     check(case, s)
     assert all(c["adequate"] for c in result.adequacy.values())
 
 
 @pytest.mark.slow
-def test_nothing_hidden_gives_none_and_an_adequate_model():
+def test_nothing_hidden_gives_none_and_an_adequate_model(request, identified):
     """Held fixes of a 1 Hz GPS and its wandering error: the old workflow (noise at its 0.02 m floor,
     every held fix a new measurement) named antenna_offset + wind_force here with chi-square 1800 per
     residual; the verdict must be none because the model explains the data to the noise."""
-    case = Case(())
-    _, result, s = _run(case)
+    case, _, result, s = _outcome(request, identified)
     check(case, s)
     assert result.status == "none" and result.rmse_after == result.rmse_before
     for ch, a in result.adequacy.items():
@@ -127,19 +174,18 @@ def test_nothing_hidden_gives_none_and_an_adequate_model():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("pair", [("heading_bias", "wind_force"), ("thrust_asymmetry", "thrust_deadband")])
-def test_two_hidden_effects_both_named(pair):
-    case = Case(pair)
-    _, _, s = _run(case)
+def test_two_hidden_effects_both_named(pair, request, identified):
+    case, _, _, s = _outcome(request, identified)
+    assert case.effects == pair
     check(case, s)
 
 
 @pytest.mark.slow
-def test_effect_outside_the_list_is_unexplained():
+def test_effect_outside_the_list_is_unexplained(request, identified):
     """A thrust that fades over the trial (a sagging battery) is not a listed effect: the old workflow
     named listed ones with 23-76 % claimed shrinks and said nothing about the fit; now the verdict is
     unexplained, with the nearest candidates and how far they fall short."""
-    case = Case(("thrust_fade",), duration_s=45.0)
-    _, result, s = _run(case)
+    case, _, result, s = _outcome(request, identified)
     check(case, s)
     assert result.status == "unexplained" and result.verdict == ()
     assert result.nearest and all("adequacy" in c for c in result.nearest)
@@ -147,10 +193,9 @@ def test_effect_outside_the_list_is_unexplained():
 
 
 @pytest.mark.slow
-def test_white_noise_trials_current_and_thrust_lag():
+def test_white_noise_trials_current_and_thrust_lag(request, identified):
     """The original test case (white position noise at 10 Hz) stays one case among these."""
-    case = Case(("current", "thrust_lag"), kind="white", n_trials=3)
-    _, _, s = _run(case)
+    case, _, _, s = _outcome(request, identified)
     check(case, s)
 
 
@@ -160,10 +205,9 @@ def test_white_noise_trials_current_and_thrust_lag():
 # (333892304, 1610372544) are in the benchmark's history; the suite keeps the one with its own code path.
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", (1462085713,))
-def test_deadband_regression_seeds(seed, monkeypatch):
-    monkeypatch.setenv("SYSID_TEST_SEED", str(seed))
-    case = Case(("thrust_deadband",), kind="white")
-    _, _, s = _run(case)
+def test_deadband_regression_seeds(seed, request, identified):
+    case, _, _, s = _outcome(request, identified)
+    assert identified[request.node.nodeid][1] == seed
     check(case, s)
 
 
