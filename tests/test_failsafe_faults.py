@@ -12,7 +12,6 @@ the mission resumes and completes.
 from __future__ import annotations
 
 import asyncio
-import json
 import signal
 import sys
 from dataclasses import dataclass, field
@@ -25,6 +24,8 @@ import yaml
 from autopilot.clock import Clock
 from autopilot.sim import default_params_path, load_params
 from autopilot.simdev import SimRig
+
+from .logtail import LogTail
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEEDUP = 10.0
@@ -57,10 +58,7 @@ class Daemon:
     rig: SimRig | None = None
     proc: asyncio.subprocess.Process | None = None
     clock: Clock = field(default_factory=lambda: Clock(SPEEDUP))
-    _log_pid: int | None = None
-    _log_path: Path | None = None
-    _log_pos: int = 0
-    _log_lines: list = field(default_factory=list)
+    _log: LogTail | None = None
 
     async def start(self, *, fresh: bool = True) -> None:
         if self.rig is None:
@@ -113,30 +111,10 @@ class Daemon:
         return p.returncode, out.decode().strip()
 
     def log(self) -> list[dict]:
-        """Complete lines of the current daemon's log (a line being written is left out).
-
-        Read incrementally: this loop also runs the simulated SC-30, Mbed and boat, and parsing the
-        whole log at every poll held them up for 13-28 ms a poll once the log was long (130-280 ms of
-        simulated time at 10x); incrementally a poll takes ~0.04 ms."""
-        pid = self.proc.pid
-        if self._log_pid != pid:  # a new daemon writes a new log
-            self._log_pid, self._log_path, self._log_pos, self._log_lines = pid, None, 0, []
-        if self._log_path is None:
-            for path in (self.tmp / "logs").glob("mission-*.jsonl"):
-                with path.open("rb") as f:
-                    first = f.readline()
-                if first.endswith(b"\n") and json.loads(first).get("pid") == pid:
-                    self._log_path = path
-                    break
-            else:
-                return []
-        with self._log_path.open("rb") as f:
-            f.seek(self._log_pos)
-            data = f.read()
-        end = data.rfind(b"\n") + 1  # only newline-terminated lines are complete
-        self._log_pos += end
-        self._log_lines.extend(json.loads(x) for x in data[:end].split(b"\n")[:-1])
-        return list(self._log_lines)  # a snapshot: a caller may keep it
+        """Complete lines of the current daemon's log (tests.logtail: read as it grows)."""
+        if self._log is None:
+            self._log = LogTail(self.tmp / "logs")
+        return self._log.lines(self.proc.pid)
 
     def events(self, name: str) -> list[dict]:
         return [r for r in self.log() if r["event"] == name]

@@ -23,6 +23,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from autopilot.geo import local_to_latlon
 
+from .logtail import LogTail
+
 ROOT = Path(__file__).resolve().parents[1]
 ORIGIN = (52.0, 4.4)
 SPEEDUP = 4.0
@@ -67,6 +69,7 @@ class Boat:
         self.err = open(tmp / "stderr.txt", "w")  # noqa: SIM115 - closed in stop()
         self.proc = subprocess.Popen(args, cwd=tmp, stdout=subprocess.DEVNULL, stderr=self.err)
         self.last_hb = 0.0
+        self._log = LogTail(tmp / "logs")
 
     def sign_with(self, key: bytes | None) -> None:
         if key is None:
@@ -105,12 +108,8 @@ class Boat:
         raise AssertionError(f"log: no {what} within {timeout_s} s")
 
     def log(self) -> list[dict]:
-        out = []
-        for path in (self.tmp / "logs").glob("mission-*.jsonl"):
-            lines = path.read_text().split("\n")[:-1]
-            if lines and json.loads(lines[0]).get("pid") == self.proc.pid:
-                out = [json.loads(x) for x in lines]
-        return out
+        """Complete lines of the current daemon's log (tests.logtail: read as it grows)."""
+        return self._log.lines(self.proc.pid)
 
     def cycles(self) -> list[dict]:
         return [r for r in self.log() if r["event"] == "cycle"]
