@@ -161,6 +161,25 @@ def test_signal_stops_with_zero_thrust_acknowledged_and_exit_0(signame, tmp_path
 
 
 @pytest.mark.slow
+def test_the_flying_daemon_does_not_carry_the_review_and_identification_libraries(tmp_path):
+    """The boat's PC runs the daemon for hours: scipy, matplotlib and dask are the review's, the
+    identification's and the campaigns' (`autopilot` built every command's parser at start, and the
+    campaign package's imports pulled the identification and scipy into the daemon: 67 MB instead of
+    ~45 MB). Read from the running process's own memory map (their compiled modules)."""
+    p = start(ROOT / "config" / "missions" / "pond-9.4.yaml", tmp_path)
+    try:
+        _wait_for(lambda recs: sum(r["event"] == "cycle" and r["mode"] == "auto" for r in recs) >= 10,
+                  tmp_path / "logs", p)
+        maps = Path(f"/proc/{p.pid}/maps").read_text()
+    finally:
+        p.send_signal(signal.SIGTERM)
+        p.communicate(timeout=30)
+    assert "/numpy/" in maps  # the map is the daemon's own (its model and GNC use numpy)
+    for lib in ("scipy", "matplotlib", "pandas", "pyarrow"):
+        assert f"/{lib}/" not in maps, f"the daemon loaded {lib}"
+
+
+@pytest.mark.slow
 def test_sd_notify_ready_watchdog_stopping_from_a_real_run(tmp_path):
     import socket
 

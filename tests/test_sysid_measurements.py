@@ -27,7 +27,7 @@ from autopilot.sysid.noise import (
     outliers,
     restricted_deviance,
 )
-from autopilot.sysid.replay import noise_floor
+from autopilot.sysid.prediction import noise_floor
 from autopilot.sysid.trials import make_trial
 
 

@@ -18,7 +18,7 @@ from autopilot.sim import default_params_path, load_params, simulate, thesis_par
 from autopilot.sysid import load_effects, read_trial, replay
 from autopilot.sysid.effects import lag_filter
 from autopilot.sysid.output import write_effects_yaml, write_vessel_updated
-from autopilot.sysid.replay import SCALAR_MAX_RUNS, predict, prepare
+from autopilot.sysid.prediction import SCALAR_MAX_RUNS, predict, prepare
 from autopilot.sysid.table import identify_table, read_table_csv, write_table_csv
 from autopilot.sysid.trials import make_trial
 
@@ -236,7 +236,7 @@ def test_given_values_are_held_through_the_fit_horizons():
     flat between the duties a trial holds; fitted through a 5-s horizon with no crossing in it, it
     drifted from its true 23.0 % to 29 % and stayed (chi-square 1.13 against 0.93)."""
     from autopilot.sysid.fit import fit_model
-    from autopilot.sysid.replay import initial_state
+    from autopilot.sysid.prediction import initial_state
     from autopilot.sysid.synthetic import make_trials
 
     true_pct = 23.0035
@@ -276,7 +276,7 @@ def test_effects_live_in_one_place():
     from autopilot.sysid.effects import EFFECT_NAMES
 
     root = Path(sysid.__file__).parent
-    generic = ["replay.py", "fit.py", "screen.py", "search.py", "identify.py", "holdout.py", "judge.py", "output.py",
+    generic = ["prediction.py", "fit.py", "screen.py", "search.py", "identification.py", "holdout.py", "judge.py", "output.py",
                "summary.py", "workflow.py", "locate.py", "noise.py"]
     for name in generic:
         text = (root / name).read_text()
@@ -306,7 +306,7 @@ def test_a_pair_judged_at_a_wide_noise_is_refitted_from_fresh_states():
     from autopilot.sysid.cases import Case, make
     from autopilot.sysid.fit import fit_model
     from autopilot.sysid.noise import ChannelNoise
-    from autopilot.sysid.replay import Noise, initial_states
+    from autopilot.sysid.prediction import Noise, initial_states
 
     case = Case(("thrust_asymmetry", "thrust_deadband"))
     hidden, trials, _ = make(case, 142134752, VESSEL)
@@ -340,7 +340,7 @@ def test_a_pair_grown_from_the_runner_up_must_beat_the_leader(monkeypatch):
     named the runner-up's pair (then dropped to the asymmetry alone: unexplained)."""
     import importlib
 
-    ident = importlib.import_module("autopilot.sysid.identify")
+    ident = importlib.import_module("autopilot.sysid.identification")
     from autopilot.sysid import judge, search
 
     W, A, H = ("wind_force",), ("thrust_asymmetry",), ("hydro_refit",)

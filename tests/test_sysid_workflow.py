@@ -317,7 +317,7 @@ def test_speed_over_ground_tells_a_current_from_the_gps_wander():
             fit = result.chosen
         else:  # a candidate fitted, named or not: its interval
             from autopilot.sysid.fit import fit_model
-            from autopilot.sysid.replay import initial_states
+            from autopilot.sysid.prediction import initial_states
 
             fit = fit_model(result.prep, VESSEL, ("current",), (0,), initial_states(result.prep))
         z = [(fit.values()[k] - v) / fit.sigma[fit.keys.index(k)] for k, v in hidden.items()]

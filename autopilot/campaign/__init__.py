@@ -9,15 +9,24 @@
     results.py   the runs table, Wilson intervals, distributions, sensitivity (summary.json)
     report.py    report.html
     run.py       run_campaign(campaign, DIR): all of it into a directory
-    replay.py    replay(DIR, INDEX): re-fly one run, write its mission log
+    replay_run.py replay(DIR, INDEX): re-fly one run, write its mission log
     cli.py       autopilot campaign
 """
 
-from autopilot.campaign.draw import RunSetup, draw_run
-from autopilot.campaign.lockstep import fly, fly_chunk
-from autopilot.campaign.replay import replay
-from autopilot.campaign.run import run_campaign
-from autopilot.campaign.spec import Campaign, CampaignSpec, load_spec, resolve
+import importlib
 
-__all__ = ["Campaign", "CampaignSpec", "RunSetup", "draw_run", "fly", "fly_chunk", "load_spec", "replay", "resolve",
-           "run_campaign"]
+# Loaded on first use (PEP 562): `autopilot` builds every command's parser at start, and the daemon
+# must not carry the campaign's (and through it the identification's) modules.
+_OWNERS = {
+    "RunSetup": "draw", "draw_run": "draw", "fly": "lockstep", "fly_chunk": "lockstep", "replay": "replay_run",
+    "run_campaign": "run", "Campaign": "spec", "CampaignSpec": "spec", "load_spec": "spec", "resolve": "spec",
+}
+
+
+def __getattr__(name: str):
+    if name in _OWNERS:
+        return getattr(importlib.import_module(f"{__name__}.{_OWNERS[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = sorted(_OWNERS)

@@ -49,7 +49,7 @@ def _cmd(args: argparse.Namespace) -> int:
 
 
 def _replay(args: argparse.Namespace) -> int:
-    from autopilot.campaign.replay import replay, same_row, scorecard_text
+    from autopilot.campaign.replay_run import replay, same_row, scorecard_text
 
     out_dir, index_text = args.replay
     try:

@@ -81,7 +81,7 @@ MIN_BATCH = 24  # fewer runs than this still flying: each moves on its own (nump
 
 
 def _lag_coefficients(tau_s):
-    """(a, g) of the interval mean of a first-order lag under a held command (sysid.replay.lag_filter):
+    """(a, g) of the interval mean of a first-order lag under a held command (sysid.prediction.lag_filter):
     y_{k+1} = a y_k + (1 - a) u, mean = u + (y_k - u) g; no lag: a = g = 0."""
     tau = np.asarray(tau_s, dtype=float)
     lagged = tau > 1e-6

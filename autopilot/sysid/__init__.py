@@ -9,30 +9,40 @@
 
 from __future__ import annotations
 
-import numpy as np
+import importlib
 
-from autopilot.sysid.effects import EFFECT_NAMES, EFFECTS, Effect, EffectParam
-from autopilot.sysid.identify import Identification, identify
-from autopilot.sysid.mission_log import read_mission_log
-from autopilot.sysid.output import load_effects, updated_vessel
-from autopilot.sysid.replay import initial_state, predict, prepare
-from autopilot.sysid.table import identify_table, read_table_csv, write_table_csv
-from autopilot.sysid.trials import (
-    Trial,
-    make_trial,
-    read_trial,
-    read_trial_csv,
-    write_trial_csv,
-)
-from autopilot.sysid.workflow import run
+# Exported names -> the module that owns each. Loaded on first use (PEP 562): the daemon and every
+# other command import autopilot.sysid.effects (campaign specs name effects), and importing the
+# package must not load scipy and the whole workflow into them (the daemon's memory on the boat).
+_OWNERS = {
+    "EFFECTS": "effects", "EFFECT_NAMES": "effects", "Effect": "effects", "EffectParam": "effects",
+    "Identification": "identification", "identify": "identification",
+    "read_mission_log": "mission_log",
+    "load_effects": "output", "updated_vessel": "output",
+    "initial_state": "prediction", "predict": "prediction", "prepare": "prediction",
+    "identify_table": "table", "read_table_csv": "table", "write_table_csv": "table",
+    "Trial": "trials", "make_trial": "trials", "read_trial": "trials", "read_trial_csv": "trials",
+    "write_trial_csv": "trials",
+    "run": "workflow",
+}
 
 
-def replay(trial: Trial, vessel, effects: dict | None = None, *, x0=None) -> dict:
+def __getattr__(name: str):
+    if name in _OWNERS:
+        return getattr(importlib.import_module(f"{__name__}.{_OWNERS[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def replay(trial, vessel, effects: dict | None = None, *, x0=None) -> dict:
     """Simulate one trial from its recorded commands with effects ({"identifier.param": value}).
 
     x0 defaults to the state estimated from the trial's first seconds. Returns the
     grid ``t_s`` and what the sensors would report (north_m, east_m, psi_rad) plus u, v, r.
     """
+    import numpy as np
+
+    from autopilot.sysid.prediction import initial_state, predict, prepare
+
     prep = prepare([trial], reject=False)
     start = initial_state(trial) if x0 is None else np.asarray(x0, dtype=float)
     out = predict(prep, vessel, [0], start[None, :], dict(effects or {}), sway_over_ground=True)

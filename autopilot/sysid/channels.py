@@ -1,6 +1,6 @@
 """The measured channels the identification compares with the replay: what each is and how it is shown.
 
-    channel    predicted series (replay.predict)   measured                                      shown in
+    channel    predicted series (prediction.predict)   measured                                      shown in
     position   north_m, east_m                     the GPS antenna's fixes (1 Hz)                 m
     heading    psi_rad                             the compass (10 Hz), residuals wrapped         deg
     velocity   vn_m_s, ve_m_s                      the receiver's speed and course over ground    m/s

@@ -1,7 +1,7 @@
 """Candidate effects: physically named extensions of the model, few parameters each, each in one place.
 
 An effect declares its parameters (name, unit, no-effect value, bounds, scale)
-and carries its own hooks; the replay (``replay.predict``), the reports, the
+and carries its own hooks; the replay (``prediction.predict``), the reports, the
 YAML outputs and the table mode call the hooks and never name an effect.
 Every effect acts outside the simulator's equations, so the simulator stays
 as it is:

@@ -25,7 +25,7 @@ import numpy as np
 from autopilot.sim import VesselParams
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, Z_95
 from autopilot.sysid.effects import bounds as effect_bounds
-from autopilot.sysid.replay import Prepared, predict, residuals
+from autopilot.sysid.prediction import Prepared, predict, residuals
 
 # scales of the nuisance initial state (north, east, psi, u, v, r) and their FD steps (scaled units)
 X0_SCALE = np.array([1.0, 1.0, 0.05, 0.1, 0.05, 0.02])

@@ -18,7 +18,7 @@ import numpy as np
 
 from autopilot.sysid.effects import Z_95
 from autopilot.sysid.fit import Fit, fit_model
-from autopilot.sysid.replay import channel_costs, predict, rmse
+from autopilot.sysid.prediction import channel_costs, predict, rmse
 from autopilot.sysid.search import BACKWARD_NFEV, HORIZONS_S, STUCK_CHI2
 
 MAX_FOLDS = 6  # beyond six trials, fold j holds out trials j, j + 6, j + 12, ...

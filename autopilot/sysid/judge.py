@@ -29,7 +29,7 @@ from autopilot.sysid.channels import CHANNELS, POSITION
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
 from autopilot.sysid.fit import Fit
 from autopilot.sysid.noise import NoiseBounds, estimate, restricted_deviance
-from autopilot.sysid.replay import (
+from autopilot.sysid.prediction import (
     Noise,
     Prepared,
     channel_costs,

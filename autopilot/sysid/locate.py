@@ -67,9 +67,9 @@ def _accumulate(acc: dict, cls: dict, k_h, k_p, rh, rn, re, growth) -> None:
 
 
 def locate(prep, pred, trials_idx, runs) -> dict:
-    """Residual statistics per class and the growth patterns (``pred`` from replay.predict), each
-    measurement at the time it was taken (replay.raw_residuals)."""
-    from autopilot.sysid.replay import raw_residuals
+    """Residual statistics per class and the growth patterns (``pred`` from prediction.predict), each
+    measurement at the time it was taken (prediction.raw_residuals)."""
+    from autopilot.sysid.prediction import raw_residuals
 
     dt, g = prep.dt_s, prep.t_grid
     acc = {}

@@ -12,7 +12,7 @@ Every other effect has no field in VesselParams and goes to ``effects.yaml``::
     intervals95:
       <identifier>: {<param>: [lo, hi]}
 
-``load_effects`` reads it back as the flat mapping ``replay.predict`` takes,
+``load_effects`` reads it back as the flat mapping ``prediction.predict`` takes,
 refusing unknown identifiers and parameters (ConfigError).
 """
 
@@ -70,7 +70,7 @@ def write_effects_yaml(effects: dict, path) -> None:
         data["intervals95"][name] = {p["name"]: [float(x) for x in p["ci95"]] for p in eff["params"] if p["name"] in own}
     header = ("# Effects found by `autopilot sysid` that VesselParams has no field for.\n"
               "# Meaning and units of every parameter: autopilot/sysid/effects.py; load with\n"
-              "# autopilot.sysid.load_effects(path) and replay with autopilot.sysid.replay.predict.\n")
+              "# autopilot.sysid.load_effects(path) and replay with autopilot.sysid.prediction.predict.\n")
     Path(path).write_text(header + yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
 
 

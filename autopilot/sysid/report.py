@@ -51,7 +51,7 @@ def residual_figure(prep, before, after, trials_idx, max_trials: int = 6):
     """Each channel's error over time (position and velocity: the horizontal size), before and after."""
     import matplotlib.pyplot as plt
 
-    from autopilot.sysid.replay import channel_residuals
+    from autopilot.sysid.prediction import channel_residuals
 
     chans = prep.channels
     fig, axes = plt.subplots(len(chans), 1, figsize=(12, 3 * len(chans)), sharex=True, squeeze=False)

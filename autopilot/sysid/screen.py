@@ -24,7 +24,7 @@ from autopilot.sysid.fit import (
     Problem,
     theta_bounds,
 )
-from autopilot.sysid.replay import Prepared, predict, residuals
+from autopilot.sysid.prediction import Prepared, predict, residuals
 
 
 def screen(prep: Prepared, vessel: VesselParams, base: Fit, candidates, *, iterations: int = 3) -> dict[str, dict]:

@@ -1,6 +1,6 @@
 """The search over candidate effects: screen every candidate, fit the best, retry the stuck, add a second.
 
-Stages (called in this order by :func:`autopilot.sysid.identify.identify`):
+Stages (called in this order by :func:`autopilot.sysid.identification.identify`):
 
 - :func:`screen_candidates`: a few batched Gauss-Newton steps of every candidate from the
   baseline, twice (over whole trials, at most SCREEN_MAX_TRIALS of them, and over 15-s windows,
@@ -27,7 +27,7 @@ import numpy as np
 
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
 from autopilot.sysid.fit import Fit, fit_model
-from autopilot.sysid.replay import Prepared, initial_states, prepare
+from autopilot.sysid.prediction import Prepared, initial_states, prepare
 from autopilot.sysid.screen import screen
 
 # growing fit horizons from the first-seconds states: a 10 s first step from a rough start (0.8 m

@@ -41,7 +41,7 @@ def _counts(prep) -> dict:
 
 
 def summarise(ident, *, params_file: str = "", seconds: float | None = None) -> dict:
-    """summary.json content of an :class:`~autopilot.sysid.identify.Identification`."""
+    """summary.json content of an :class:`~autopilot.sysid.identification.Identification`."""
     base = ident.base
     prep = ident.prep
     cands = []

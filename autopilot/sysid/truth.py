@@ -1,6 +1,6 @@
 """The truth of a synthetic trial: hidden effects simulated by the project's simulator, on a fine grid.
 
-Independent of the identification's replay code (``replay.py`` and the hooks of
+Independent of the identification's replay code (``prediction.py`` and the hooks of
 ``effects.py``), on purpose: a test that checks the replay against itself proves
 nothing. Here the current goes through ``simulate(current=...)``, quadratic yaw
 damping and hydro changes are edits of VesselParams, the deadband is hard (not

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from autopilot.sim import VesselParams
 from autopilot.sysid.effects import EFFECT_NAMES
-from autopilot.sysid.identify import identify
+from autopilot.sysid.identification import identify
 from autopilot.sysid.judge import predict_fit
 from autopilot.sysid.output import write_effects_yaml, write_json, write_vessel_updated
 from autopilot.sysid.summary import summarise

@@ -1,10 +1,10 @@
 """The identification workflow on trials: its stages, in order, and the rules of the verdict.
 
-1. Measurements (``replay.prepare``): each position fix and heading at the time it was measured,
+1. Measurements (``prediction.prepare``): each position fix and heading at the time it was measured,
    single-fix outliers rejected.
 2. Baseline (:func:`baseline`): the trials replayed with no effect, their initial states fitted,
    weighted by the search's noise (wandering + white per channel, ``noise.py``: the white parts
-   measured without a model, the wander a typical sensor's; ``replay.first_guess_noise``).
+   measured without a model, the wander a typical sensor's; ``prediction.first_guess_noise``).
 3. Search (``search.py``): every candidate screened, the best fitted fully; every fitted model
    scored under its own noise (``judge.Scores``) and the fits weighted from then on by the noise
    of the best (:func:`renoise`); stuck fits retried.
@@ -46,7 +46,7 @@ from autopilot.sysid.holdout import (
     with_jackknife,
 )
 from autopilot.sysid.noise import NoiseBounds
-from autopilot.sysid.replay import Prepared, initial_states, prepare
+from autopilot.sysid.prediction import Prepared, initial_states, prepare
 
 BIC_MARGIN = 2.0  # "positive" evidence on the Kass-Raftery scale; held-out, size and z gates follow
 MIN_HOLDOUT_GAIN = 0.05
@@ -116,7 +116,7 @@ def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: in
 
 
 def baseline(prep: Prepared, vessel, x0_init, s: Settings, say) -> tuple[Prepared, Fit]:
-    """The no-effect fit under the search's noise (replay.first_guess_noise)."""
+    """The no-effect fit under the search's noise (prediction.first_guess_noise)."""
     base = fit_model(prep, vessel, (), tuple(range(prep.n_trials)), x0_init, horizons_s=search.HORIZONS_S)
     say(f"baseline: chi2 {search.chi2(base):.3f} over {base.n_obs} measurements; search noise " + _noise_text(prep))
     return prep, base
@@ -264,7 +264,7 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
     held_before = cv[()].rmse(prep, vessel)
     held_after = cv[chosen].rmse(prep, vessel) if chosen in cv else held_before
     from autopilot.sysid.judge import predict_fit
-    from autopilot.sysid.replay import rmse
+    from autopilot.sysid.prediction import rmse
 
     def fitted(f):
         return rmse(prep, f.trials, predict_fit(prep, vessel, f), range(len(f.trials)))

@@ -292,7 +292,7 @@ SEARCH_WANDER = {"position": (SEARCH_POSITION_WANDER_M, SEARCH_WANDER_TIME_S),
 def first_guess_noise(measured) -> Noise:
     """The search's noise: the white parts measured without a model (noise.white_scale, the median over
     the trials), the wander a typical sensor's (above). Replaced by the best model's own noise once
-    the candidates are fitted (identify.renoise)."""
+    the candidates are fitted (identification.renoise)."""
     out = {}
     for name in CHANNEL_NAMES:
         samples = [m.get(name) for m in measured if m.get(name) is not None]
