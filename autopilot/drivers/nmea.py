@@ -391,9 +391,13 @@ def _ddmm(value_deg: float, deg_digits: int) -> str:
 
 
 def _utc_text(t_of_day_s: float) -> str:
-    secs = t_of_day_s % 86400.0
-    hh, mm, ss = int(secs // 3600), int(secs % 3600 // 60), secs % 60
-    return f"{hh:02d}{mm:02d}{ss:05.2f}"
+    """hhmmss.ss of a time of day (s). Rounded to the hundredth before it is split: rounding the
+    seconds alone wrote 59.996 s as "000060.00", which a decoder reads as 00:00:59 (the same
+    epoch as the second before) instead of 00:01:00."""
+    cs = round(t_of_day_s * 100.0) % 8_640_000
+    hh, rest = divmod(cs, 360_000)
+    mm, rest = divmod(rest, 6_000)
+    return f"{hh:02d}{mm:02d}{rest // 100:02d}.{rest % 100:02d}"
 
 
 def _heading_text(heading_rad: float) -> str:
