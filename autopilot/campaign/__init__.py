@@ -29,4 +29,8 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_OWNERS})
+
+
 __all__ = sorted(_OWNERS)

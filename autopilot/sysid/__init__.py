@@ -33,6 +33,10 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_OWNERS})
+
+
 def replay(trial, vessel, effects: dict | None = None, *, x0=None) -> dict:
     """Simulate one trial from its recorded commands with effects ({"identifier.param": value}).
 
