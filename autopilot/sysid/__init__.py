@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import importlib
 
-# Exported names -> the module that owns each. Loaded on first use (PEP 562): the daemon and every
-# other command import autopilot.sysid.effects (campaign specs name effects), and importing the
-# package must not load scipy and the whole workflow into them (the daemon's memory on the boat).
+# Exported names -> the module that owns each. Loaded on first use (PEP 562): importing one light
+# submodule (the campaign spec imports effects; `autopilot` imports sysid.cli to build its parser)
+# runs this file, which must not load scipy and the whole workflow (the daemon's memory on the boat).
 _OWNERS = {
     "EFFECTS": "effects", "EFFECT_NAMES": "effects", "Effect": "effects", "EffectParam": "effects",
     "Identification": "identification", "identify": "identification",
