@@ -404,10 +404,17 @@ class MavlinkLink:
             self._param_value(port, p, index)  # the value stays: the ground station sees it unchanged
             return
 
+        # The set is applied between cycles; a list still going out would send this parameter's old value
+        # meanwhile, after the set, and a ground station that takes the first PARAM_VALUE of the name
+        # as its answer shows the set undone. The answer carries the value to every port instead
+        # (ArduPilot sends a changed parameter to all its links).
+        self._param_queue = collections.deque(q for q in self._param_queue if q[1] != index)
+
         def answer(reply: dict) -> None:
             if not reply["ok"]:
                 self.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"])
-            self._param_value(port, p, index)
+            for each in self.ports:
+                self._param_value(each, p, index)
 
         self.submit({"command": "param_set", "key": p.key, "value": value, "name": p.name, "source": "mavlink"},
                     answer)
