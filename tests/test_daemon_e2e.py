@@ -21,6 +21,8 @@ from autopilot.review.export import GPX_NS, write_gpx
 from autopilot.review.metrics import score
 from autopilot.review.reader import read_log as review_read_log
 
+from .logtail import LogTail
+
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config" / "autopilot.yaml"
 MISSIONS = sorted((ROOT / "config" / "missions").glob("pond-9.*.yaml"))
@@ -111,15 +113,13 @@ def test_pond_mission_runs_to_completion_with_a_complete_log(mission, tmp_path):
 
 def _wait_for(predicate, log_dir: Path, proc: subprocess.Popen, limit_s: float = 60.0):
     """Poll the log (a subprocess is not on our clock) until predicate(records) holds."""
+    tail = LogTail(log_dir)
     deadline = time.monotonic() + limit_s
     while time.monotonic() < deadline:
         assert proc.poll() is None, proc.stderr.read()[-3000:]
-        files = list(log_dir.glob("mission-*.jsonl"))
-        if files:
-            lines = files[0].read_text().splitlines()
-            recs = [json.loads(x) for x in lines[:-1]]  # the last line may be half written
-            if predicate(recs):
-                return recs
+        recs = tail.lines(proc.pid)
+        if recs and predicate(recs):
+            return recs
         time.sleep(0.05)
     raise AssertionError("daemon never reached the awaited state")
 
