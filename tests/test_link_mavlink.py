@@ -251,7 +251,7 @@ def test_parameters_read_set_and_a_bad_one_refused(tmp_path):
         boat.mode_is("auto")
         boat.gcs.mav.param_request_list_send(1, 1)
         values = {}
-        while len(values) < 10:
+        while not values or len(values) < next(iter(values.values()))[1]:  # the whole list, as a planner loads it
             m = boat.recv("PARAM_VALUE")
             values[m.param_id] = (m.param_value, m.param_count)
         count = next(iter(values.values()))[1]
