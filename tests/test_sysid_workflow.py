@@ -88,7 +88,8 @@ def _seed(label: str, *, quiet: bool = False) -> int:
 
 
 def _identify_case(case: Case, seed: int):
-    """(hidden, result, score) of one case: the pool's task (module level, so a spawned worker imports it)."""
+    """(hidden, description, result, score) of one case: the pool's task (module level, so a spawned worker
+    imports it)."""
     hidden, trials, desc = make(case, seed, VESSEL)
     result = identify(trials, VESSEL)
     return hidden, desc, result, score(case, hidden, result)
