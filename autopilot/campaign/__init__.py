@@ -13,7 +13,7 @@
     cli.py         autopilot campaign
 """
 
-import importlib
+from autopilot.lazy import lazy_exports
 
 # Loaded on first use (PEP 562): `autopilot` builds every command's parser at start, and the daemon
 # must not carry the campaign's (and through it the identification's) modules.
@@ -23,14 +23,7 @@ _OWNERS = {
 }
 
 
-def __getattr__(name: str):
-    if name in _OWNERS:
-        return getattr(importlib.import_module(f"{__name__}.{_OWNERS[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_OWNERS})
+__getattr__, __dir__ = lazy_exports(__name__, _OWNERS, globals())
 
 
 __all__ = sorted(_OWNERS)

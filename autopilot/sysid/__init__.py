@@ -9,7 +9,7 @@
 
 from __future__ import annotations
 
-import importlib
+from autopilot.lazy import lazy_exports
 
 # Exported names -> the module that owns each. Loaded on first use (PEP 562): importing one light
 # submodule (the campaign spec imports effects; `autopilot` imports sysid.cli to build its parser)
@@ -27,14 +27,7 @@ _OWNERS = {
 }
 
 
-def __getattr__(name: str):
-    if name in _OWNERS:
-        return getattr(importlib.import_module(f"{__name__}.{_OWNERS[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_OWNERS})
+__getattr__, __dir__ = lazy_exports(__name__, _OWNERS, globals())
 
 
 def replay(trial, vessel, effects: dict | None = None, *, x0=None) -> dict:
