@@ -89,3 +89,18 @@ def test_gga_and_rmc_of_one_epoch_are_one_fix():
     clock.t = 11.15
     drv._on_bytes(gga2.encode())
     assert drv.sample().position.t_s == pytest.approx(11.15 - len(gga2) * 10 / 4800)  # the next epoch is a new fix
+
+
+def test_a_leap_second_is_its_own_epoch_and_not_merged_with_the_second_before():
+    """23:59:60 (a leap second, as the receiver sends it) was read as 23:59:59 and folded into that
+    epoch's fix: the boat's position went a second without a fresh fix."""
+    clock = _Clock()
+    drv = SC30Driver("/dev/null", clock=clock)
+    stamps = []
+    for k, (hms, lat_min) in enumerate([("235959.00", "00.00000"), ("235960.00", "00.00100"), ("000000.00", "00.00200")]):
+        gga = make_sentence(f"GPGGA,{hms},52{lat_min},N,00424.00000,E,1,10,0.9,1.0,M,30.0,M,,")
+        clock.t = 10.15 + 0.98 * k  # a 1 Hz receiver's epochs arrive a little under a second apart at times
+        drv._on_bytes(gga.encode())
+        stamps.append(drv.sample().position.t_s)
+        assert drv.sample().position.value[0] == pytest.approx(52.0 + float(lat_min) / 60.0)
+    assert np.all(np.diff(stamps) > 0.9)  # three fixes, each dated by its own GGA

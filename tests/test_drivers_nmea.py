@@ -82,6 +82,14 @@ def test_zda_and_rmc_utc():
     assert decode_line(make_sentence(body)).utc.isoformat() == "2011-06-01T13:07:11.500000+00:00"
 
 
+def test_a_leap_second_is_read_as_the_second_occurrence_of_the_59th():
+    leap = decode_line(make_sentence("GPGGA,235960.50,5012.790800,N,00806.879600,W,2,,,,,,,")).fix_time
+    before = decode_line(make_sentence("GPGGA,235959.50,5012.790800,N,00806.879600,W,2,,,,,,,")).fix_time
+    assert (leap.second, leap.microsecond, leap.fold) == (59, 500000, 1) and before.fold == 0
+    rmc = decode_line(make_sentence("GPRMC,235960.00,A,5012.790800,N,00806.879600,W,0.5,3.0,311216,,A"))
+    assert rmc.utc.isoformat() == "2016-12-31T23:59:59+00:00" and rmc.utc.fold == 1
+
+
 @pytest.mark.parametrize(
     "line, error",
     [
@@ -107,6 +115,9 @@ def test_zda_and_rmc_utc():
         (make_sentence("GPZDA,193944.00," + "9" * 300 + ",09,2018,00,00"), SentenceError),  # found by fuzz_nmea
         (make_sentence("GP"), SentenceError),
         (make_sentence("GPHDT"), SentenceError),
+        # a 75th second was read as the 59th; a 60th outside 23:59 is no leap second
+        (make_sentence("GPGGA,123575,5012.790800,N,00806.879600,W,2,,,,,,,"), SentenceError),
+        (make_sentence("GPGGA,123560.00,5012.790800,N,00806.879600,W,2,,,,,,,"), SentenceError),
     ],
 )
 def test_decode_rejects(line, error):

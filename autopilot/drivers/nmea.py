@@ -97,7 +97,9 @@ class NmeaUpdate:
     status_valid: bool | None = None
     heading_mag_rad: float | None = None  # HDM, magnetic: never used as heading
     heave_m: float | None = None  # PFEC_GPhve
-    fix_time: _dt.time | None = None  # GGA/RMC/GLL: UTC of the position's epoch (sentences of one epoch share it)
+    # GGA/RMC/GLL: UTC of the position's epoch (sentences of one epoch share it); a leap second
+    # (23:59:60) is 23:59:59 with fold=1
+    fix_time: _dt.time | None = None
 
 
 # --------------------------------------------------------------------------- helpers
@@ -175,10 +177,17 @@ def _time(s: str) -> _dt.time | None:
         raise SentenceError(f"time: malformed {s!r}")
     hh, mm, ss = int(m[1]), int(m[2]), int(m[3])
     us = int((m[4] or "0").ljust(6, "0"))
+    if ss == 60:
+        # A leap second is inserted as 23:59:60 UTC. datetime.time has no 60th second, so it is
+        # 23:59:59 with fold=1 (its second occurrence, as fold marks a repeated wall time): its own
+        # epoch, not the one before it (sc30.py compares the fold too).
+        if (hh, mm) != (23, 59):
+            raise SentenceError(f"time: second 60 in {s!r} (a leap second is only 23:59:60)")
+        return _dt.time(23, 59, 59, us, tzinfo=_dt.timezone.utc, fold=1)
     try:
-        return _dt.time(hh, mm, min(ss, 59), us, tzinfo=_dt.timezone.utc)
+        return _dt.time(hh, mm, ss, us, tzinfo=_dt.timezone.utc)
     except ValueError as exc:
-        raise SentenceError(f"time: {exc}") from None
+        raise SentenceError(f"time: {exc} in {s!r} (hhmmss: hours 0-23, minutes and seconds 0-59)") from None
 
 
 def _date(day: int, month: int, year: int) -> _dt.date:

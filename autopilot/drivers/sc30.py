@@ -129,7 +129,8 @@ class SC30Driver(LineDevice):
             valid = bool(u.status_valid) and pos is not None
             old = latest.get("position")
             # GGA, RMC and GLL of one epoch (same UTC time) are one measurement: the first keeps its stamp
-            same_epoch = (u.fix_time is not None and u.fix_time == self._fix_time and old is not None
+            same_epoch = (u.fix_time is not None and self._fix_time is not None and u.fix_time == self._fix_time
+                          and u.fix_time.fold == self._fix_time.fold and old is not None
                           and old.valid == valid and now_s - old.t_s < 1.0)
             if not same_epoch:
                 latest["position"] = Stamped(pos, now_s, src, valid)
