@@ -104,3 +104,64 @@ def test_a_leap_second_is_its_own_epoch_and_not_merged_with_the_second_before():
         stamps.append(drv.sample().position.t_s)
         assert drv.sample().position.value[0] == pytest.approx(52.0 + float(lat_min) / 60.0)
     assert np.all(np.diff(stamps) > 0.9)  # three fixes, each dated by its own GGA
+
+
+def _gga(hms: str, lat_min: str = "00.00000") -> bytes:
+    return make_sentence(f"GPGGA,{hms},52{lat_min},N,00424.00000,E,1,10,0.9,1.0,M,30.0,M,,").encode()
+
+
+class _Events:
+    def __init__(self):
+        self.seen = []
+
+    def __call__(self, event, **fields):
+        self.seen.append((event, fields))
+
+
+def test_a_held_fix_repeated_every_second_ages_instead_of_looking_fresh():
+    """A receiver (or a multiplexer) that keeps sending its last solution, UTC time and all, was re-stamped
+    as a new fix each second once the last stamp was a second old: the failsafe never saw the position age."""
+    clock = _Clock()
+    drv = SC30Driver("/dev/null", clock=clock)
+    for k in range(6):
+        clock.t = 10.0 + k
+        drv._on_bytes(_gga("120000.00"))
+    assert drv.sample().position.t_s == pytest.approx(10.0 - len(_gga("120000.00")) * 10 / 4800)
+    clock.t = 16.0
+    drv._on_bytes(_gga("120001.00", "00.00100"))  # the receiver moves on: a new fix
+    assert drv.sample().position.t_s == pytest.approx(16.0 - len(_gga("120001.00")) * 10 / 4800)
+
+
+def test_an_epoch_before_the_last_is_refused_once_noted_and_a_receiver_reset_is_accepted():
+    clock = _Clock()
+    events = _Events()
+    drv = SC30Driver("/dev/null", clock=clock, events=events)
+    clock.t = 10.0
+    drv._on_bytes(_gga("120005.00", "00.00500"))
+    first = drv.sample().position
+    for k, hms in enumerate(("120003.00", "120004.00")):  # a replayed recording of the seconds before
+        clock.t = 11.0 + k
+        drv._on_bytes(_gga(hms, "00.00300"))
+        assert drv.sample().position == first
+    assert drv.stats["old_epochs"] == 2
+    assert [e for e, _ in events.seen if e == "nmea_old_epoch"] == ["nmea_old_epoch"]  # once per run of them
+    clock.t = 13.0
+    drv._on_bytes(_gga("115000.00", "00.00900"))  # 15 min back: the receiver's clock started over
+    assert drv.sample().position.value[0] == pytest.approx(52.0 + 0.009 / 60.0) and drv.sample().position.t_s > 12.8
+    clock.t = 14.0
+    drv._on_bytes(_gga("000000.00", "00.00800"))  # and the day rolls over forward
+    assert drv.sample().position.t_s > 13.8
+
+
+@pytest.mark.parametrize("last, new, order", [
+    ("235959.50", "235960.00", "new"), ("235960.90", "000000.00", "new"), ("235960.00", "235959.00", "old"),
+    ("120000.00", "120000.00", "same"), ("120001.00", "120000.00", "old"), ("122000.00", "120000.00", "new"),
+    ("235959.00", "000001.00", "new"), ("000001.00", "235958.00", "old")])
+def test_epoch_order_across_midnight_and_the_leap_second(last, new, order):
+    from autopilot.drivers.nmea import decode_line
+    from autopilot.drivers.sc30 import epoch_order
+
+    def t(hms):
+        return decode_line(_gga(hms).decode()).fix_time
+
+    assert epoch_order(t(new), t(last)) == order

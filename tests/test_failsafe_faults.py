@@ -201,6 +201,19 @@ def _first_fixless(d: Daemon, after_s: float) -> float:
         (line[3:6] == "GGA" and line.split(",")[6] == "0") or (line[3:6] == "RMC" and line.split(",")[2] == "V")))
 
 
+def _epoch_of(line: str) -> str:
+    """The UTC time field of a GGA, RMC or GLL sentence."""
+    f = line.split("*")[0].split(",")
+    return f[5] if line[3:6] == "GLL" else f[1]
+
+
+def _held_epoch_began(d: Daemon, before_s: float) -> float:
+    """Delivery time of the first sentence of the epoch the SC-30 kept repeating (its fix's measurement)."""
+    sent = [(t, line) for t, line in d.rig.sc30.sent_log if t <= before_s and line[3:6] in ("GGA", "RMC", "GLL")]
+    held = _epoch_of(sent[-1][1])
+    return min(t for t, line in sent if _epoch_of(line) == held)
+
+
 # At 4800 baud the SC-30's line is ~80 % busy: a sentence can wait up to MAX_BACKLOG_S (0.5 s)
 # behind the 1 Hz group before it is on the wire, so data faults are timed from what the daemon
 # could see: the last heading/position delivered, or the first fix-less sentence delivered.
@@ -211,6 +224,9 @@ RECOVERABLE = [
      lambda d: setattr(d.rig.sc30, "heading_dropout", False), FAILSAFE["heading_stale_s"], "heading_stale"),
     ("position dropout", lambda d: setattr(d.rig.sc30, "position_dropout", True),
      lambda d: setattr(d.rig.sc30, "position_dropout", False), FAILSAFE["position_stale_s"], "position_stale"),
+    # the receiver keeps sending its last solution, time and all (a held fix): it must age, not look fresh
+    ("fix held", lambda d: setattr(d.rig.sc30, "fix_held", True),
+     lambda d: setattr(d.rig.sc30, "fix_held", False), FAILSAFE["position_stale_s"], "position_stale"),
     # the next GGA (1 Hz) reports quality 0
     ("fix lost", lambda d: setattr(d.rig.sc30, "fix_lost", True),
      lambda d: setattr(d.rig.sc30, "fix_lost", False), 1.0, "no_fix"),
@@ -250,6 +266,8 @@ async def recoverable_scenario(tmp_path: Path):
             t_stop = t_fault + dt_s
             if cause == "heading_stale":
                 t_ref = _last_sent(d, ("HDT", "THS", "PFE"), t_stop)
+            elif name == "fix held":
+                t_ref = _held_epoch_began(d, t_stop)
             elif cause == "position_stale":
                 t_ref = _last_sent(d, ("GGA", "RMC", "GLL"), t_stop)
             elif cause == "no_fix":

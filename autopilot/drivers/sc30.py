@@ -19,10 +19,35 @@ from autopilot.drivers.line_device import LineDevice
 from autopilot.drivers.line_timing import TickClock, WireClock
 from autopilot.drivers.nmea import NmeaStreamDecoder, NmeaUpdate
 
-__all__ = ["SC30Driver", "HEADING_PRIORITY"]
+__all__ = ["SC30Driver", "HEADING_PRIORITY", "epoch_order"]
 
 HEADING_PRIORITY = ("THS", "HDT", "PFEC_GPatt")
 POSITION_SENTENCES = ("GGA", "RMC", "GLL")
+
+
+OLD_EPOCH_WINDOW_S = 600.0  # an epoch at most this far before the last is a replay; farther, a receiver reset
+_DAY_S = 86400.0
+
+
+def _time_of_day_s(t) -> float:
+    """Seconds since midnight; a leap second (23:59:60, ``fold=1`` from the decoder) is the 86401st."""
+    return t.hour * 3600.0 + t.minute * 60.0 + t.second + t.microsecond * 1e-6 + t.fold
+
+
+def epoch_order(fix_time, last_fix_time) -> str:
+    """``"same"``, ``"old"`` or ``"new"``: a position sentence's UTC epoch against the last one's.
+
+    Times of day wrap at midnight (a day with a leap second is a second longer), so "before" is at
+    most ``OLD_EPOCH_WINDOW_S`` behind on the circle; a jump farther back is taken as the receiver's
+    clock starting over (new), or its fixes would be refused until the clock caught up. Without a
+    time on either, every sentence is new (nothing to compare)."""
+    if fix_time is None or last_fix_time is None:
+        return "new"
+    day_s = _DAY_S + 1.0 if fix_time.fold or last_fix_time.fold else _DAY_S
+    behind_s = (_time_of_day_s(last_fix_time) - _time_of_day_s(fix_time)) % day_s
+    if behind_s == 0.0:
+        return "same"
+    return "old" if behind_s <= OLD_EPOCH_WINDOW_S else "new"
 
 
 class SC30Driver(LineDevice):
@@ -72,6 +97,8 @@ class SC30Driver(LineDevice):
         self._heading_window_s = float(heading_window_s)
         self._by_source: dict[str, Stamped] = {}
         self._fix_time = None  # UTC time of the epoch of the last position sentence
+        self.old_epochs = 0  # position sentences refused for an epoch before the last one
+        self._in_old_epochs = False
         self._wire = WireClock(baudrate)
         self._heading_period_s = float(heading_period_s)
         self._ticks: dict[str, TickClock] = {}  # heading sentence -> its measurement ticks
@@ -87,6 +114,7 @@ class SC30Driver(LineDevice):
             open_failures=self._link.open_failures,
             bytes_in=self._link.bytes_in,
             updates=self.updates,
+            old_epochs=self.old_epochs,
         )
         return d
 
@@ -128,13 +156,24 @@ class SC30Driver(LineDevice):
             pos = None if u.lat_deg is None else (u.lat_deg, u.lon_deg)
             valid = bool(u.status_valid) and pos is not None
             old = latest.get("position")
-            # GGA, RMC and GLL of one epoch (same UTC time) are one measurement: the first keeps its stamp
-            same_epoch = (u.fix_time is not None and self._fix_time is not None and u.fix_time == self._fix_time
-                          and u.fix_time.fold == self._fix_time.fold and old is not None
-                          and old.valid == valid and now_s - old.t_s < 1.0)
-            if not same_epoch:
+            order = epoch_order(u.fix_time, self._fix_time) if old is not None else "new"
+            if order == "same":
+                # GGA, RMC and GLL of one epoch (same UTC time) are one measurement, dated by its first
+                # sentence, however late a repeat of it comes (a held fix must age, not look fresh)
+                if old.valid != valid:
+                    latest["position"] = Stamped(pos, old.t_s, src, valid)
+            elif order == "old":
+                # an epoch before the last one (a replayed or buffered fix) is not news: refused
+                self.old_epochs += 1
+                if not self._in_old_epochs:
+                    self._link.emit("nmea_old_epoch", sentence=src, epoch=u.fix_time.isoformat(),
+                                    last_epoch=self._fix_time.isoformat())
+                self._in_old_epochs = True
+            else:
                 latest["position"] = Stamped(pos, now_s, src, valid)
-            self._fix_time = u.fix_time
+            if order != "old":
+                self._in_old_epochs = False
+                self._fix_time = u.fix_time
         if u.fix_quality is not None:
             latest["fix_quality"] = Stamped(u.fix_quality, now_s, src, u.fix_quality > 0)
         if u.yaw_rate_rad_s is not None or src == "ROT":

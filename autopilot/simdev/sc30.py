@@ -22,7 +22,8 @@ outliers, and a wandering, quantised heading with lost sentences.
 Fault controls (set at any time): ``heading_dropout`` (no heading
 sentences), ``heading_invalid`` (empty HDT, THS mode V, empty GPatt),
 ``position_dropout`` (no GGA/RMC/GLL/VTG), ``fix_lost`` (GGA quality 0 and
-RMC status V with empty fields), ``drop_rate`` (probability a sentence is
+RMC status V with empty fields), ``fix_held`` (the position sentences keep
+repeating the last epoch: its UTC time, position, speed and course), ``drop_rate`` (probability a sentence is
 dropped), ``delay_s`` (extra latency of every sentence), ``split`` (write
 each sentence in 1-7 byte fragments paced at the character time),
 ``corrupt_next(n)`` (the next n sentences get a wrong checksum),
@@ -99,6 +100,7 @@ class SimulatedSC30:
         self.heading_invalid = False
         self.position_dropout = False
         self.fix_lost = False
+        self.fix_held = False
         self.drop_rate = 0.0
         self.delay_s = 0.0
         self.split = False
@@ -229,7 +231,7 @@ class SimulatedSC30:
             # One slow sentence per tick, after the heading, as a real compass interleaves them:
             # a 1 Hz burst at 4800 baud would hold the line ~0.5 s and starve the 10 Hz heading.
             slot = tick % self.slow_every
-            if slot == 0:
+            if slot == 0 and not (self.fix_held and self._epoch):
                 self._take_epoch(t_s)
             if len(self.slow_sentences) > self.slow_every:
                 kinds += list(self.slow_sentences[slot :: self.slow_every])
