@@ -108,6 +108,8 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("mavlink link closed", "at the end: what the link received (`stats`: messages by type, bad frames, dropped datagrams, refusals)"),
     ("start refused", "an endpoint could not be opened (`error`); the run stops, exit 2"),
     ("state not saved", "the progress file could not be written (`error`)"),
+    ("log write failed", "not in the file: on the console (journal) and to the ground station, once, when the log's writes start failing (a full disk; `path`, `error`); the boat goes on being controlled"),
+    ("log writes resumed", "the first line after writes failed: how many lines were lost (`lines_lost`) and why (`error`)"),
     ("zero-thrust on stop failed", "the final command could not be sent (`error`)"),
 )
 
@@ -318,7 +320,7 @@ EVENTS: tuple[EventSpec, ...] = (
     )),
     EventSpec("stop", "the last line of a log unless the process was killed (SIGKILL, power loss)", (
         _f("reason", "string", "-", "one of " + ", ".join(f"`{r}`" for r in STOP_REASONS)),
-        _f("signal", "string", "-", "`SIGTERM`, `SIGINT` or null"),
+        _f("signal", "string", "-", "`SIGTERM`, `SIGINT`, `SIGHUP` or null"),
         _f("ack_received", "bool", "-", "the final zero-thrust command was acknowledged within `stop_ack_timeout_s`"),
         _f("cycles", "int", "-", "cycles run"),
         _f("skipped_cycles", "int", "-", "deadlines missed by more than a period and skipped"),

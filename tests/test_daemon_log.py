@@ -35,3 +35,46 @@ def test_infinite_values_become_null(tmp_path):
     log.event("cycle", t_s=0.0, heading_age_s=math.inf)
     log.close()
     assert json.loads((tmp_path / "m.jsonl").read_text())["heading_age_s"] is None
+
+
+_FULL_DISK = r"""
+import io, json, resource, sys
+from autopilot.daemon.missionlog import MissionLog
+
+path, limit = sys.argv[1], int(sys.argv[2])
+console, told = io.StringIO(), []
+log = MissionLog(path, console=console)
+log.listeners.append(lambda name, t_s, fields: told.append([name, fields.get("message")]))
+resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.RLIM_INFINITY))  # the disk fills at `limit` bytes
+for k in range(40):
+    log.event("cycle", t_s=k * 0.1, cycle=k, pad="x" * 50)
+log.event("fault", t_s=4.0, cause="position_stale")  # lost too, but the operator hears of it
+resource.setrlimit(resource.RLIMIT_FSIZE, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))  # room again
+log.event("cycle", t_s=4.1, cycle=40)
+log.close()
+print(json.dumps({"lost": log.lines_lost, "told": told, "console": console.getvalue().count("log write failed")}))
+"""
+
+
+def test_a_full_disk_loses_lines_without_raising_and_the_log_says_how_many(tmp_path):
+    """Each write a line of its own, nothing kept in a buffer: the lines the full disk lost are lost (not
+    written out of order later), the line it cut is ended before the next, and when there is room
+    again the log says how many went missing. The old log raised out of the control loop."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "m.jsonl"
+    out = subprocess.run([sys.executable, "-c", _FULL_DISK, str(path), "1000"], capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 0, out.stderr
+    res = json.loads(out.stdout)
+    recs = [json.loads(line) for line in path.read_text().splitlines() if line.startswith("{") and line.endswith("}")]
+    written = [r["cycle"] for r in recs if r["event"] == "cycle"]
+    assert 5 <= len(written) < 40 and written[:-1] == list(range(len(written) - 1)) and written[-1] == 40
+    resumed = [r for r in recs if r["event"] == "info" and r["message"] == "log writes resumed"]
+    assert len(resumed) == 1 and resumed[0]["lines_lost"] == res["lost"] == 41 - (len(written) - 1)
+    assert "File too large" in resumed[0]["error"]
+    assert res["told"].count(["info", "log write failed"]) == 1 and ["fault", None] in res["told"]  # the link hears
+    assert res["console"] == 1
+    lines = path.read_text().split("\n")
+    assert sum(1 for line in lines if line and not line.endswith("}")) == 1  # the line the limit cut, ended

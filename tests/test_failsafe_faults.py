@@ -55,6 +55,7 @@ class Daemon:
     config: dict = field(default_factory=dict)
     position_noise_m: float = 0.3
     rig_options: dict = field(default_factory=dict)  # more SimRig keywords (battery, env, ...)
+    fsize_limit_bytes: int | None = None  # RLIMIT_FSIZE of the daemon: a full disk for its log
     rig: SimRig | None = None
     proc: asyncio.subprocess.Process | None = None
     clock: Clock = field(default_factory=lambda: Clock(SPEEDUP))
@@ -95,8 +96,16 @@ class Daemon:
                 "--log-dir", str(self.tmp / "logs"), "--state-dir", str(self.tmp / "state")]
         if fresh:
             args.append("--fresh")
+        limit = self.fsize_limit_bytes
+
+        def limits() -> None:  # in the child, before exec
+            import resource
+
+            resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.RLIM_INFINITY))
+
         self.proc = await asyncio.create_subprocess_exec(*args, cwd=self.tmp, stdout=asyncio.subprocess.DEVNULL,
-                                                         stderr=asyncio.subprocess.PIPE)
+                                                         stderr=asyncio.subprocess.PIPE,
+                                                         preexec_fn=limits if limit is not None else None)
 
     @property
     def runtime_dir(self) -> Path:
@@ -356,14 +365,15 @@ def test_geofence_crossing_with_action_stop_stops_the_boat_and_stays_stopped(tmp
 
 
 @pytest.mark.slow
-def test_sigterm_mid_mission_sends_acknowledged_zero_thrust_and_exits_0(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP], ids=lambda s: s.name)  # SIGHUP killed it
+def test_sigterm_mid_mission_sends_acknowledged_zero_thrust_and_exits_0(tmp_path, sig):
     async def scenario():
         d = Daemon(tmp_path, square_mission())
         try:
             await d.start()
             await d.steady_thrust(2.0)
             t_sig = d.clock.now_s()
-            d.proc.send_signal(signal.SIGTERM)
+            d.proc.send_signal(sig)
             dt_s = await d.time_to_stop(t_sig, 2 * PERIOD_S)
             code = await d.finish(30.0)
         finally:
@@ -376,7 +386,67 @@ def test_sigterm_mid_mission_sends_acknowledged_zero_thrust_and_exits_0(tmp_path
     last_cmd = d.rig.mbed.commands[-1]
     assert last_cmd[2] == 0 and last_cmd[4] == 0  # the last command the Mbed got was zero thrust
     stop = d.log()[-1]
-    assert stop["event"] == "stop" and stop["signal"] == "SIGTERM" and stop["ack_received"] is True
+    assert stop["event"] == "stop" and stop["signal"] == sig.name and stop["ack_received"] is True
+
+
+@pytest.mark.slow
+def test_a_full_disk_neither_kills_the_daemon_nor_keeps_it_from_stopping_the_boat(tmp_path):
+    """The log's writes failing (the file-size limit stands for a full disk: EFBIG as ENOSPC) raised out of
+    the loop: exit 1, and with a MAVLink endpoint the link's last report, written first, failed too, so
+    no zero command was sent (the Mbed kept ~89 % until its firmware's own stop). Now the boat goes on
+    being controlled, the operator is told once, and SIGTERM still stops it with an acknowledged zero."""
+    import socket
+
+    from pymavlink import mavutil
+
+    limit_bytes = 60_000
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, source_component=190)
+    texts = []
+
+    def heard(what: str) -> bool:
+        while (m := gcs.recv_match(type="STATUSTEXT", blocking=False)) is not None:
+            texts.append(m.text)
+        return any(what in t for t in texts)
+
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=40.0, laps=3), fsize_limit_bytes=limit_bytes,
+                   config={"mavlink": {"endpoints": [f"udpout:127.0.0.1:{port}"]}})
+        try:
+            await d.start()
+            await d.wait(lambda: heard("log write failed"), 120.0, "the ground station told the log is failing")
+            n_cmds = len(d.rig.mbed.commands)
+            await d.clock.sleep(5.0)  # controlled on, without a log
+            assert len(d.rig.mbed.commands) >= n_cmds + 40 and d.proc.returncode is None
+            await d.steady_thrust(1.0)
+            t_sig = d.clock.now_s()
+            d.proc.send_signal(signal.SIGTERM)
+            dt_s = await d.time_to_stop(t_sig, 2 * PERIOD_S)
+            code = await d.finish(30.0)
+            err = (await d.proc.stderr.read()).decode()
+        finally:
+            await d.close()
+        return d, dt_s, code, err
+
+    try:
+        d, dt_s, code, err = asyncio.run(scenario())
+    finally:
+        gcs.close()
+    assert code == 0 and dt_s <= 2 * PERIOD_S + TRANSPORT_S
+    said = "".join(texts)  # STATUSTEXT carries 50 characters: a longer text comes in pieces
+    assert said.count("log write failed") == 1 and "log write failed: OSError: [Errno 27] File too large" in said, texts
+    last_cmd = d.rig.mbed.commands[-1]
+    assert last_cmd[2] == 0 and last_cmd[4] == 0
+    assert err.count("log write failed") == 1, err[-2000:]
+    assert "Traceback" not in err
+    import json
+
+    text = next((d.tmp / "logs").glob("*.jsonl")).read_text()
+    lines = text.split("\n")
+    assert len(text) <= limit_bytes and len(lines) > 20
+    assert all(json.loads(line) for line in lines[:-1])  # every complete line is one JSON object; the cut one is last
 
 
 @pytest.mark.slow

@@ -307,6 +307,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     except Exception as exc:  # noqa: BLE001 - logged, then the boat is stopped
         log.event("info", t_s=clock.now_s() - loop.t0_s, message="control loop error", error=repr(exc))
     finally:
+        loop.zero_now()
         if link is not None:  # before the stop line: it is the log's last
             await link.close()
         code = await loop.stop(reason)

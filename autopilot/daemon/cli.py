@@ -15,7 +15,7 @@ def register(subparsers) -> None:
         description=(
             "Run the fixed-rate autopilot loop on a mission. Configuration and mission are checked "
             "before any port is opened; thrust starts at zero and control begins once heading and "
-            "position are valid. SIGTERM/SIGINT stop the boat (zero thrust, acknowledged) and exit 0."
+            "position are valid. SIGTERM/SIGINT/SIGHUP stop the boat (zero thrust, acknowledged) and exit 0."
         ),
     )
     p.add_argument("--config", required=True, metavar="FILE", help="daemon configuration (config/autopilot.yaml)")

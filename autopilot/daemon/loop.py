@@ -11,7 +11,7 @@ exactly one :class:`~autopilot.devices.ThrustCommand` and writes exactly one
 ``cycle`` line (:mod:`autopilot.logschema`). Everything it remembers between cycles
 is in one :class:`LoopState`.
 
-SIGTERM/SIGINT end the loop at the next cycle: zero thrust is sent and its
+SIGTERM/SIGINT/SIGHUP end the loop at the next cycle: zero thrust is sent and its
 acknowledgement awaited (bounded), ``stop`` logged, the log closed, exit 0.
 """
 
@@ -106,7 +106,9 @@ class ControlLoop:
 
     def install_signal_handlers(self) -> None:
         loop = asyncio.get_running_loop()
-        for sig in (signal.SIGTERM, signal.SIGINT):
+        # SIGHUP too: an ssh session or terminal that hangs up would otherwise kill the daemon outright,
+        # leaving the last command on the Mbed until its firmware times out, with no stop line
+        for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
             loop.add_signal_handler(sig, self.request_stop, sig.name)
 
     # ---- one cycle ----------------------------------------------------------------------
@@ -359,6 +361,14 @@ class ControlLoop:
                 return "complete"
             if self.failsafe.action_of("max_mission_time") == "stop":
                 return "max_mission_time"
+
+    def zero_now(self) -> None:
+        """Zero thrust at once, no wait and no log: the first thing on any way out, before anything that
+        could fail (the link's last report, the log) stands between the boat and its stop."""
+        try:
+            self.thrusters.send(ZERO_THRUST)
+        except Exception:  # noqa: BLE001 - stop() tries again and says so
+            pass
 
     async def stop(self, reason: str) -> int:
         """Zero thrust, bounded wait for its ack, ``stop`` line, STOPPING=1. Returns the exit code."""

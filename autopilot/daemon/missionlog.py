@@ -11,6 +11,7 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
+import os
 import sys
 from pathlib import Path
 from typing import IO, Any
@@ -57,13 +58,50 @@ def log_path(log_dir: str | Path, mission_path: str | Path, now_utc: _dt.datetim
     return path
 
 
+class _LineFile:
+    """An append-only file written a whole line per ``os.write``, nothing kept in a buffer: a line a
+    failed write lost is lost (not written later, out of order, when the disk has room again), and
+    a line cut by it is ended before the next, so every other line stays one JSON object."""
+
+    def __init__(self, path: Path) -> None:
+        self._fd: int | None = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        self._cut = False  # the last write left part of a line in the file
+
+    @property
+    def closed(self) -> bool:
+        return self._fd is None
+
+    def write(self, text: str) -> None:
+        if self._fd is None:
+            raise ValueError("write to a closed mission log")
+        prefix = b"\n" if self._cut else b""
+        data = memoryview(prefix + text.encode("utf-8"))
+        written = 0
+        try:
+            while written < len(data):
+                written += os.write(self._fd, data[written:])
+        finally:
+            if written == len(data):
+                self._cut = False
+            elif written > 0:  # the cut line's end went out; part of this one did too, or none of it
+                self._cut = written > len(prefix)
+
+    def flush(self) -> None:  # structlog's WriteLogger flushes after each line: every write is already out
+        pass
+
+    def close(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+
 class MissionLog:
     """``log.event(name, t_s=..., **fields)`` writes one line; ``console`` gets non-cycle events too."""
 
     def __init__(self, path: str | Path, *, console: IO[str] | None = sys.stderr) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = open(self.path, "a", encoding="utf-8", buffering=1)  # noqa: SIM115 - closed in close()
+        self._file = _LineFile(self.path)
         processors = [structlog.processors.TimeStamper(fmt="iso", utc=True, key="timestamp"), _render]
         self._log = structlog.wrap_logger(
             structlog.WriteLogger(self._file), processors=processors, cache_logger_on_first_use=True
@@ -72,11 +110,18 @@ class MissionLog:
             structlog.wrap_logger(structlog.WriteLogger(console), processors=processors) if console is not None else None
         )
         self.lines = 0
+        self.lines_lost = 0  # lines a write failed on (disk full, card gone), over the whole mission
+        self._failing: str | None = None  # the error while writes fail; None when they succeed
+        self._lost_in_run = 0
         self.listeners: list = []  # callables (name, t_s, fields) told every event but cycle lines (the link)
 
     def event(self, name: str, /, *, t_s: float, **fields: Any) -> None:
-        self._log.msg(name, t_s=t_s, **fields)
-        self.lines += 1
+        """Write one line. A failed write (a full disk, a storage card gone) never raises: the boat must
+        keep being controlled and stopped without its log. The operator hears of it on the console and
+        the listeners once when writes start failing, and the log gets a line saying how many were lost
+        when they work again."""
+        if self._write(name, t_s, fields):
+            self.lines += 1
         if name != "cycle":
             for listener in self.listeners:
                 try:
@@ -89,7 +134,34 @@ class MissionLog:
             except (OSError, ValueError):  # a closed stderr must not stop the boat logic
                 pass
 
+    def _write(self, name: str, t_s: float, fields: dict) -> bool:
+        try:
+            if self._failing is not None and self._lost_in_run:  # retry: say first what the gap lost
+                self._log.msg("info", t_s=t_s, message="log writes resumed", lines_lost=self._lost_in_run,
+                              error=self._failing)
+            self._failing, self._lost_in_run = None, 0
+            self._log.msg(name, t_s=t_s, **fields)
+            return True
+        except (OSError, ValueError) as exc:  # ValueError: the file was closed under us
+            self.lines_lost += 1
+            self._lost_in_run += 1
+            if self._failing is None:
+                self._failing = f"{type(exc).__name__}: {exc}"
+                self._tell("info", t_s, {"message": "log write failed", "path": str(self.path), "error": self._failing})
+            return False
+
+    def _tell(self, name: str, t_s: float, fields: dict) -> None:
+        """The listeners and the console only (the file is failing)."""
+        for listener in self.listeners:
+            try:
+                listener(name, t_s, fields)
+            except Exception:  # noqa: BLE001
+                pass
+        if self._console is not None:
+            try:
+                self._console.msg(name, t_s=t_s, **fields)
+            except (OSError, ValueError):
+                pass
+
     def close(self) -> None:
-        if not self._file.closed:
-            self._file.flush()
-            self._file.close()
+        self._file.close()

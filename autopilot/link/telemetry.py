@@ -227,4 +227,6 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
         return mavlink.MAV_SEVERITY_INFO, f"{f.get('param')} = {f.get('new')}"
     if name == "mission_complete":
         return mavlink.MAV_SEVERITY_INFO, "mission complete"
+    if name == "info" and f.get("message") == "log write failed":  # the boat's own record is going: say so
+        return mavlink.MAV_SEVERITY_ERROR, f"log write failed: {f.get('error')}"
     return None
