@@ -62,3 +62,36 @@ def test_fix_is_new_once_then_held_and_dead_reckoned():
     assert not nav.new_fix and nav.est_north_m == pytest.approx(1.8) and nav.position_age_s == pytest.approx(0.9)
     nav, _ = assemble(s, 13.0, mem, rules, origin_lat_deg=52.0, origin_lon_deg=4.4)
     assert nav.est_north_m == pytest.approx(3.0)  # carried at most dead_reckon_max_s
+
+
+def test_a_speed_no_wamv_reaches_is_not_used():
+    """One checksum-valid RMC at 999 kn carried the steered position 570 m away (found by fault injection)."""
+    rules = NavRules(dead_reckon_max_s=1.5)
+    glitch = sample(fix=(52.0, 4.4, 10.0), sog_m_s=999.0 * 1852 / 3600, cog=(0.0, 10.0, True))
+    nav, _ = assemble(glitch, 10.9, NavMemory(), rules, origin_lat_deg=52.0, origin_lon_deg=4.4)
+    assert nav.est_north_m == pytest.approx(nav.north_m) and nav.sog_m_s is None and nav.cog_rad is None
+    fast = sample(fix=(52.0, 4.4, 10.0), sog_m_s=9.0, cog=(0.0, 10.0, True))  # fast, but a boat's
+    nav, _ = assemble(fast, 10.5, NavMemory(), rules, origin_lat_deg=52.0, origin_lon_deg=4.4)
+    assert nav.est_north_m == pytest.approx(4.5) and nav.sog_m_s == 9.0
+
+
+def test_an_old_or_invalid_speed_is_not_carried_forward():
+    rules = NavRules(position_stale_s=3.0)
+    old = sample(fix=(52.0, 4.4, 13.0), sog_m_s=2.0, cog=(0.0, 9.5, True))  # the RMCs stopped 4 s ago
+    nav, _ = assemble(old, 13.5, NavMemory(), rules, origin_lat_deg=52.0, origin_lon_deg=4.4)
+    assert nav.sog_m_s is None and nav.est_north_m == pytest.approx(nav.north_m)
+    s = sample(fix=(52.0, 4.4, 10.0))
+    invalid = NavSample(**{**s.__dict__, "sog_m_s": Stamped(2.0, 10.0, "VTG", False)})
+    nav, _ = assemble(invalid, 10.5, NavMemory(), rules, origin_lat_deg=52.0, origin_lon_deg=4.4)
+    assert nav.sog_m_s is None and nav.est_north_m == pytest.approx(nav.north_m)
+
+
+def test_a_turn_rate_no_wamv_reaches_is_not_used():
+    """One ROT at 9999 deg/min (166 deg/s) saturated the heading PID's derivative term: the heading differenced
+    over the cycle stands in, as when no ROT comes."""
+    rules = NavRules()
+    mem = NavMemory(heading_t_s=10.0, heading_rad=R(89.0))
+    nav, _ = assemble(sample(rot=(9999.0 / 60.0, 10.05)), 10.1, mem, rules, origin_lat_deg=52.0, origin_lon_deg=4.4)
+    assert nav.yaw_rate_rad_s == pytest.approx(R(1.0) / 0.1)
+    nav, _ = assemble(sample(rot=(-100.0, 10.05)), 10.1, mem, rules, origin_lat_deg=52.0, origin_lon_deg=4.4)
+    assert nav.yaw_rate_rad_s == pytest.approx(R(-100.0))  # a hard spin is believed (< 2 rad/s)

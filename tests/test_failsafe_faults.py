@@ -494,3 +494,34 @@ def test_sigkill_leaves_a_valid_log_and_restart_is_safe(tmp_path, resume):
         assert any("holding zero thrust" in r.get("message", "") for r in after)
         assert all(c[2] == 0 and c[4] == 0 for c in new_cmds)
     assert code == 0
+
+
+@pytest.mark.slow
+def test_one_sentence_with_a_speed_and_a_turn_rate_no_boat_reaches_does_not_steer_the_boat(tmp_path):
+    """A checksum-valid RMC at 999 kn for the current epoch and a ROT at 9999 deg/min, on the 4800-baud line
+    while the boat runs north to a waypoint 40 m away. Before: the steered position jumped ~570 m north,
+    the desired heading flipped and both thrusters went to full opposite power for ~0.6 s."""
+    import math
+
+    from autopilot.drivers.nmea import encode_position, encode_rot, make_sentence
+
+    async def scenario():
+        d = Daemon(tmp_path, {"name": "glitch", "frame": "local", "waypoints": [[40.0, 0.0], [40.0, 40.0]]})
+        try:
+            await d.start()
+            await d.steady_thrust(2.0)
+            ep = d.rig.sc30._epoch  # the epoch the SC-30 is reporting: the same fix, only its speed absurd
+            rmc = encode_position("RMC", t_of_day_s=ep["t_s"], lat_deg=ep["lat_deg"], lon_deg=ep["lon_deg"],
+                                  sog_m_s=999.0 * 1852 / 3600, cog_rad=0.0)
+            d.rig.sc30.inject((make_sentence(rmc) + make_sentence(encode_rot(math.radians(9999.0 / 60.0)))).encode())
+            await d.clock.sleep(3.0)
+        finally:
+            await d.close()
+        return d
+
+    d = asyncio.run(scenario())
+    cycles = d.events("cycle")[-30:]  # the 3 s after the injection
+    assert all(abs(c["est_north_m"] - c["north_m"]) < 5.0 for c in cycles), [(c["north_m"], c["est_north_m"]) for c in cycles]
+    assert all(c["sog_m_s"] is None or c["sog_m_s"] < 10.0 for c in cycles)
+    assert all(not (c["pwm_port_pct"] < 0 or c["pwm_stbd_pct"] < 0) for c in cycles)  # no full opposite thrust
+    assert not d.events("waypoint_reached")

@@ -9,12 +9,18 @@ simulated run sees the sensor's 1 Hz fixes and fallbacks exactly as the boat doe
   ``cog_fallback`` allows and the boat moves at least ``cog_fallback_min_sog_m_s``, the
   course over ground (source ``COG``); else the stale or invalid heading, for the
   failsafe to judge;
-- yaw rate: ROT while fresh and valid, else the heading differenced over the cycle;
+- yaw rate: ROT while fresh, valid and plausible, else the heading differenced over the cycle;
+- speed and course over ground: while valid, fresh (``position_stale_s``) and plausible;
 - position: the last fix in the local frame of the mission's origin, and that fix
   carried forward by the velocity over ground over its age (at most
   ``dead_reckon_max_s``: the SC-30 gives position at 1 Hz on a 4800-baud line, SPEC 10;
   held, it lags the boat by up to a second, 1.5 m at cruise); a fix that first appears
   this cycle is flagged ``new_fix`` (a held fix is not a new measurement).
+
+"Plausible": a checksum-valid sentence can still carry a value no WAM-V reaches (a glitch,
+another talker on the line). One RMC at 999 kn carried the steered position 570 m away and
+one ROT at 9999 deg/min saturated the heading PID; such values are not used (``max_sog_m_s``,
+``max_yaw_rate_rad_s``): the fix is not carried forward, the differenced heading gives the rate.
 """
 
 from __future__ import annotations
@@ -25,7 +31,8 @@ from dataclasses import dataclass
 from autopilot.devices import NavSample, age_s
 from autopilot.geo import latlon_to_local, wrap_pi
 
-__all__ = ["NavRules", "NavMemory", "Navigation", "assemble", "dead_reckon_ne", "MIN_SOG_FOR_COG_M_S"]
+__all__ = ["NavRules", "NavMemory", "Navigation", "assemble", "dead_reckon_ne", "velocity_over_ground",
+           "MIN_SOG_FOR_COG_M_S"]
 
 MIN_SOG_FOR_COG_M_S = 0.3  # below this the GNSS course is noise: carry along the heading instead
 
@@ -39,6 +46,10 @@ class NavRules:
     cog_fallback: bool = False
     cog_fallback_min_sog_m_s: float = 0.5
     dead_reckon_max_s: float = 1.5
+    max_sog_m_s: float = 10.0  # a WAM-V does ~2.5 m/s: above this, no speed over ground is believed
+    # full opposite thrust spins it at ~1.6 rad/s (the model's extrapolation); above 2 rad/s the differenced
+    # heading stands in, which serves as well if a real spin is faster
+    max_yaw_rate_rad_s: float = 2.0
 
 
 @dataclass(frozen=True)
@@ -83,17 +94,28 @@ def _value(s):
     return None if s is None else s.value
 
 
+def velocity_over_ground(sample: NavSample, now_s: float, rules: NavRules) -> tuple[float | None, float | None]:
+    """(sog_m_s, cog_rad) to use: each valid and at most ``position_stale_s`` old, the speed plausible; the
+    course only with the speed."""
+    sog, cog = sample.sog_m_s, sample.cog_rad
+    if (sog is None or sog.value is None or not sog.valid or age_s(sog, now_s) > rules.position_stale_s
+            or not 0.0 <= float(sog.value) <= rules.max_sog_m_s):
+        return None, None
+    if cog is None or cog.value is None or not cog.valid or age_s(cog, now_s) > rules.position_stale_s:
+        return float(sog.value), None
+    return float(sog.value), float(cog.value)
+
+
 def choose_heading(sample: NavSample, now_s: float, rules: NavRules):
     """(heading_rad, source, age_s, valid); see the module docstring."""
     h = sample.heading_rad
     age = age_s(h, now_s)
     if h is not None and age <= rules.heading_stale_s and h.valid:
         return float(h.value), h.source, age, True
-    cog, sog = sample.cog_rad, sample.sog_m_s
-    if rules.cog_fallback and cog is not None and sog is not None and cog.valid:
-        cog_age = age_s(cog, now_s)
-        if cog_age <= rules.position_stale_s and float(sog.value) >= rules.cog_fallback_min_sog_m_s:
-            return float(cog.value), "COG", cog_age, True
+    if rules.cog_fallback:
+        sog, cog = velocity_over_ground(sample, now_s, rules)
+        if cog is not None and sog >= rules.cog_fallback_min_sog_m_s:
+            return cog, "COG", age_s(sample.cog_rad, now_s), True
     if h is None or h.value is None:
         return None, None if h is None else h.source, age, False
     return float(h.value), h.source, age, bool(h.valid)
@@ -101,7 +123,8 @@ def choose_heading(sample: NavSample, now_s: float, rules: NavRules):
 
 def _yaw_rate(sample: NavSample, now_s: float, heading_rad, memory: NavMemory, rules: NavRules) -> float | None:
     rot = sample.yaw_rate_rad_s
-    if rot is not None and rot.valid and rot.value is not None and age_s(rot, now_s) <= rules.heading_stale_s:
+    if (rot is not None and rot.valid and rot.value is not None and age_s(rot, now_s) <= rules.heading_stale_s
+            and abs(float(rot.value)) <= rules.max_yaw_rate_rad_s):
         return float(rot.value)
     if heading_rad is not None and memory.heading_rad is not None and now_s > memory.heading_t_s:
         return wrap_pi(heading_rad - memory.heading_rad) / (now_s - memory.heading_t_s)
@@ -141,7 +164,7 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
     pos = sample.position
     latlon = _value(pos)
     lat = lon = north = east = est_n = est_e = None
-    sog, cog = _value(sample.sog_m_s), _value(sample.cog_rad)
+    sog, cog = velocity_over_ground(sample, now_s, rules)
     position_age = age_s(pos, now_s)
     if latlon is not None:
         lat, lon = latlon
