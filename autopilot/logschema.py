@@ -95,7 +95,7 @@ FAILSAFE_ACTIONS: tuple[str, ...] = ("stop", "hold", "rtl")
 COMMANDS: tuple[str, ...] = ("status", "hold", "pause", "resume", "rtl", "stop", "arm", "disarm")  # autopilot ctl's
 STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_time")
 INFO_MESSAGES: tuple[tuple[str, str], ...] = (
-    ("port_opened, port_lost, port_open_failed, nmea_garbage, mbed_garbage, nmea_old_epoch",
+    ("port_opened, port_lost, port_open_failed, nmea_garbage, mbed_garbage, nmea_old_epoch, mbed_echo_mismatch",
      "device events from the drivers, with `device` (`sc30` or `mbed`) and their context"),
     ("data valid: control starts", "first transition out of `waiting` (`valid_for_s`)"),
     ("ready: SC-30 and Mbed answer", "READY=1 sent to systemd"),

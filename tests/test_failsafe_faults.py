@@ -525,3 +525,40 @@ def test_one_sentence_with_a_speed_and_a_turn_rate_no_boat_reaches_does_not_stee
     assert all(c["sog_m_s"] is None or c["sog_m_s"] < 10.0 for c in cycles)
     assert all(not (c["pwm_port_pct"] < 0 or c["pwm_stbd_pct"] < 0) for c in cycles)  # no full opposite thrust
     assert not d.events("waypoint_reached")
+
+
+@pytest.mark.slow
+def test_a_board_that_answers_ok_but_does_not_obey_is_an_mbed_fault(tmp_path):
+    """The simulated firmware's PWM hangs: every command is answered OK with the duties it is stuck at.
+    The daemon never compared the echo, so it went on as if obeyed (found by fault injection). Each such OK
+    now counts as a missing acknowledgement: the 5th in a row is the mbed_ack_missing fault, the daemon
+    commands zero (all it can do: the operator must cut the power) and the mission resumes once the board
+    obeys again."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=40.0))
+        try:
+            await d.start()
+            await d.steady_thrust(1.0)
+            t_fault = d.clock.now_s()
+            d.rig.mbed.stuck = True
+            budget_s = FAILSAFE["ack_missing_n"] * PERIOD_S + 2 * PERIOD_S + TRANSPORT_S
+            t_zero = await d.wait(lambda: any(c[0] >= t_fault and c[2] == 0 and c[4] == 0 for c in d.rig.mbed.commands),
+                                  budget_s + 2.0, "zero commanded")
+            t_zero = min(c[0] for c in d.rig.mbed.commands if c[0] >= t_fault and c[2] == 0 and c[4] == 0)
+            await d.wait(lambda: any(r["cause"] == "mbed_ack_missing" for r in d.events("fault")), 2.0, "the fault")
+            await d.clock.sleep(1.0)
+            zero_after = all(c[2] == 0 and c[4] == 0 for c in d.rig.mbed.commands if c[0] >= t_zero)
+            assert d.rig.mbed.thrusting  # the stuck board keeps going: the log must say so
+            d.rig.mbed.stuck = False
+            t_resume = await d.wait(lambda: any(r["event"] == "resume" for r in d.log()), 10.0, "resume")
+        finally:
+            await d.close()
+        return d, t_zero - t_fault, budget_s, zero_after, t_resume
+
+    d, dt_s, budget_s, zero_after, _ = asyncio.run(scenario())
+    assert dt_s <= budget_s, (dt_s, budget_s)
+    assert zero_after
+    log = d.log()
+    mismatch = [r for r in log if r["event"] == "info" and r.get("message") == "mbed_echo_mismatch"]
+    assert len(mismatch) >= 1 and mismatch[0]["echoed_pct"] != mismatch[0]["sent_pct"]
+    assert [r["cause"] for r in log if r["event"] == "failsafe"] == ["mbed_ack_missing"]

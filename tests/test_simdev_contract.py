@@ -203,6 +203,30 @@ def test_silent_mbed_counts_missing_acks(params, tmp_path):
     assert n_commands == 6  # a silent firmware still obeys
 
 
+def test_an_ok_that_echoes_other_duties_than_sent_counts_as_not_obeyed(params, tmp_path):
+    """The OK echoes what the board set (docs/mbed-protocol.md); the driver never compared it, so a board
+    whose PWM hung at 80 % answered every zero command OK and no fault came (found by fault injection)."""
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            seq = b.mbed.send(cmd(80.0, False, 79.9, True))
+            assert await b.mbed.wait_ack(seq, 1.0)
+            b.rig.mbed.stuck = True
+            answers = []
+            for _ in range(5):
+                seq = b.mbed.send(cmd(0.0, False, 0.0, False))
+                answers.append(await b.mbed.wait_ack(seq, 1.0))
+            still = b.mbed.send(cmd(80.0, False, 79.9, True))  # what it is doing anyway: obeyed, as it echoes
+            still_ok = await b.mbed.wait_ack(still, 1.0)
+            return answers, still_ok, b.mbed, b.rig.mbed.outputs, list(b.events)
+
+    answers, still_ok, drv, outputs, events = asyncio.run(main())
+    assert outputs == (80.0, False, 79.9, True)  # the stuck board kept its duties
+    assert answers == [False] * 5 and still_ok
+    assert drv.stats["acks_mismatched"] == 5 and drv.ack_missing == 5 and drv.consecutive_missing == 0
+    mismatch = [f for n, f in events if n == "mbed_echo_mismatch"]
+    assert len(mismatch) == 1 and mismatch[0]["sent_pct"] == [0.0, 0.0] and mismatch[0]["echoed_pct"] == [80.0, -79.9]
+
+
 def test_unplug_replug_reconnects_both(params, tmp_path):
     async def main():
         async with Bench(params, tmp_path) as b:

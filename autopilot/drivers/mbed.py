@@ -24,6 +24,13 @@ __all__ = ["MbedDriver"]
 
 _MAX_PENDING = 256  # commands awaiting an ack; older ones are counted missing
 BATTERY_STALE_S = 2.0  # a battery voltage older than this is not reported
+_ECHO_TOLERANCE_PCT = 0.05  # half the line's 0.1 %: an echo of what was sent matches exactly
+
+
+def _signed_duty_pct(duty_pct: float, reverse: bool) -> float:
+    """A duty as the line carries it (0.1 %), negative in reverse; 0 % is 0 either way."""
+    d = round(float(duty_pct), 1)
+    return -d if reverse and d else d
 
 
 class MbedDriver(LineDevice):
@@ -50,7 +57,8 @@ class MbedDriver(LineDevice):
                          reconnect_max_s=reconnect_max_s, events=events, garbage_burst_lines=garbage_burst_lines,
                          garbage_burst_bytes=garbage_burst_bytes)
         self._seq = -1
-        self._pending: OrderedDict[int, float] = OrderedDict()  # seq -> send time (Clock s)
+        # seq -> (send time (Clock s), the signed duties sent (%), as the line carries them)
+        self._pending: OrderedDict[int, tuple[float, float, float]] = OrderedDict()
         self._waiters: dict[int, list[asyncio.Future[bool]]] = {}
         self._acked_recent: OrderedDict[int, bool] = OrderedDict()  # seq -> applied (OK)
         self._framer = LineFramer(MAX_LINE_CHARS)
@@ -66,6 +74,8 @@ class MbedDriver(LineDevice):
         self.acks_ok = 0
         self.acks_rejected = 0
         self.acks_late = 0
+        self.acks_mismatched = 0  # OK, but the duties echoed are not the ones sent
+        self._mismatching = False
 
     # ------------------------------------------------------------------ properties
     @property
@@ -88,6 +98,7 @@ class MbedDriver(LineDevice):
             acks_ok=self.acks_ok,
             acks_rejected=self.acks_rejected,
             acks_late=self.acks_late,
+            acks_mismatched=self.acks_mismatched,
             ack_missing=self.ack_missing,
             bad_lines=self.bad_lines,
             reconnects=self._link.losses,
@@ -120,7 +131,7 @@ class MbedDriver(LineDevice):
             return -1
         self.sent += 1
         self._pending.pop(seq, None)
-        self._pending[seq] = now_s
+        self._pending[seq] = (now_s, _signed_duty_pct(abs(port), port < 0), _signed_duty_pct(abs(stbd), stbd < 0))
         self._acked_recent.pop(seq, None)
         while len(self._pending) > _MAX_PENDING:
             self._pending.popitem(last=False)
@@ -155,7 +166,7 @@ class MbedDriver(LineDevice):
 
     def _expire(self, now_s: float) -> None:
         while self._pending:
-            seq, t_s = next(iter(self._pending.items()))
+            seq, (t_s, _, _) = next(iter(self._pending.items()))
             if now_s - t_s <= self.ack_timeout_s:
                 break
             self._pending.popitem(last=False)
@@ -184,23 +195,43 @@ class MbedDriver(LineDevice):
         self.last_ack, self.last_ack_rx_s = ack, now_s
         if ack.battery_v is not None:
             self._battery = (ack.battery_v, now_s)
+        applied = ack.ok
         if ack.seq not in self._pending:
             self.acks_late += 1  # already counted missing (or not ours): the count stands
+        elif ack.ok and not self._echo_matches(ack, *self._pending[ack.seq][1:]):
+            # the board says OK but set something else (a hung PWM, a firmware bug): not obeyed, so
+            # counted as missing, which the failsafe acts on as on silence
+            _, sent_port, sent_stbd = self._pending.pop(ack.seq)
+            self.acks_mismatched += 1
+            self._count_missing()
+            applied = False
+            if not self._mismatching:
+                self._link.emit("mbed_echo_mismatch", seq=ack.seq, sent_pct=[sent_port, sent_stbd],
+                                echoed_pct=[_signed_duty_pct(ack.duty_port_pct, ack.reverse_port),
+                                            _signed_duty_pct(ack.duty_stbd_pct, ack.reverse_stbd)])
+            self._mismatching = True
         elif ack.ok:
             del self._pending[ack.seq]
             self.acks_ok += 1
             self.last_ack_seq = ack.seq
             self._consecutive_missing = 0
+            self._mismatching = False
         else:
             del self._pending[ack.seq]
             self.acks_rejected += 1
             self._count_missing()
-        self._acked_recent[ack.seq] = ack.ok
+        self._acked_recent[ack.seq] = applied
         while len(self._acked_recent) > _MAX_PENDING:
             self._acked_recent.popitem(last=False)
         for fut in self._waiters.pop(ack.seq, []):
             if not fut.done():
-                fut.set_result(ack.ok)
+                fut.set_result(applied)
+
+    @staticmethod
+    def _echo_matches(ack: Ack, sent_port_pct: float, sent_stbd_pct: float) -> bool:
+        """The OK's echoed duties are the ones sent (both carried with 0.1 % on the line)."""
+        return (abs(_signed_duty_pct(ack.duty_port_pct, ack.reverse_port) - sent_port_pct) < _ECHO_TOLERANCE_PCT
+                and abs(_signed_duty_pct(ack.duty_stbd_pct, ack.reverse_stbd) - sent_stbd_pct) < _ECHO_TOLERANCE_PCT)
 
     @property
     def battery_v(self) -> float | None:

@@ -10,7 +10,8 @@ Records for tests: ``commands`` (every applied command:
 and ``thrust_log`` (every change of the outputs:
 ``(t_s, duty_port_pct, reverse_port, duty_stbd_pct, reverse_stbd, cause)``,
 cause "command" or "timeout"). Faults: ``silent`` (obeys, never acks),
-``ack_delay_s``, ``unplug()``, ``replug()``. The battery (:mod:`autopilot.sim.battery`)
+``ack_delay_s``, ``stuck`` (commands no longer change the outputs and every ``OK`` echoes
+the outputs as they are, as a firmware whose PWM hung would), ``unplug()``, ``replug()``. The battery (:mod:`autopilot.sim.battery`)
 drains with the duties applied and its voltage, sagging under load, is in every ``OK``
 acknowledgement; ``report_battery = False`` is old firmware without the field.
 """
@@ -51,6 +52,7 @@ class SimulatedMbed:
         self._endpoint = PtyEndpoint(directory, name)
         self.path = self._endpoint.path
         self.silent = False
+        self.stuck = False
         self.ack_delay_s = 0.0
         self.commands: list[tuple[float, int, float, bool, float, bool]] = []
         self.thrust_log: list[tuple[float, float, bool, float, bool, str]] = []
@@ -166,11 +168,13 @@ class SimulatedMbed:
             return
         self.last_valid_s = now_s
         self.commands.append((now_s, cmd.seq, cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct, cmd.reverse_stbd))
-        self._set((cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct, cmd.reverse_stbd), now_s, "command")
+        if not self.stuck:
+            self._set((cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct, cmd.reverse_stbd), now_s, "command")
         self._armed.set()
-        volts = self.battery.voltage_v(cmd.duty_port_pct, cmd.duty_stbd_pct) if self.report_battery else None
-        self._reply(encode_ack(cmd.seq, "OK", cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct,
-                               cmd.reverse_stbd, battery_v=None if volts is None else min(volts, 99.99)))
+        port, rev_port, stbd, rev_stbd = self.outputs  # what it set, echoed (docs/mbed-protocol.md)
+        volts = self.battery.voltage_v(port, stbd) if self.report_battery else None
+        self._reply(encode_ack(cmd.seq, "OK", port, rev_port, stbd, rev_stbd,
+                               battery_v=None if volts is None else min(volts, 99.99)))
 
     def _reply(self, line: bytes) -> None:
         if self.silent:
