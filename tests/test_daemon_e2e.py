@@ -95,7 +95,8 @@ def test_pond_mission_runs_to_completion_with_a_complete_log(mission, tmp_path):
                     if c["north_m"] is not None and c["position_age_s"] is not None})
     gpx = ET.parse(write_gpx(review_read_log(path), tmp_path / "track.gpx")).getroot()
     pts = gpx.findall(f".//{{{GPX_NS}}}trkpt")
-    assert len(pts) == len(fixes) and 0.8 * len(cycles) / 10 <= len(fixes) <= 1.2 * len(cycles) / 10
+    flown_s = cycles[-1]["t_s"] - cycles[0]["t_s"]  # not len(cycles) / 10: a loaded machine skips cycles
+    assert len(pts) == len(fixes) and 0.8 * flown_s <= len(fixes) <= 1.2 * flown_s + 1
     # what the person at the terminal is told at the end
     assert f"log: {path}" in err and f"{n_wp} of {n_wp} waypoint(s) reached" in err and "W0: reached" in err
     # steered cycles carry the GNC terms, and the fuzzy guidance's CDH
