@@ -373,3 +373,22 @@ def test_rot_round_trip():
     for r in (-1.6, -0.01, 0.0, 0.35):
         u = decode_line(make_sentence(encode_rot(r)))
         assert u.yaw_rate_rad_s == pytest.approx(r, abs=math.radians(0.05) / 60)
+
+
+@pytest.mark.parametrize("body, valid", [
+    ("GPGGA,130711,5012.790800,N,00806.879600,W,1,08,1.0,10.0,M,,M,,", True),
+    ("GPGGA,130711,5012.790800,N,00806.879600,W,5,08,1.0,10.0,M,,M,,", True),  # float RTK
+    ("GPGGA,130711,5012.790800,N,00806.879600,W,6,08,1.0,10.0,M,,M,,", False),  # the receiver's dead reckoning
+    ("GPGGA,130711,5012.790800,N,00806.879600,W,7,08,1.0,10.0,M,,M,,", False),  # typed in
+    ("GPGGA,130711,5012.790800,N,00806.879600,W,8,08,1.0,10.0,M,,M,,", False),  # its simulator
+    ("GPRMC,130711.00,A,5012.790800,N,00806.879600,W,0.5,3.0,010611,,,D", True),
+    ("GPRMC,130711.00,A,5012.790800,N,00806.879600,W,0.5,3.0,010611,,", True),  # NMEA 2.2: no mode
+    ("GPRMC,130711.00,A,5012.790800,N,00806.879600,W,0.5,3.0,010611,,,E", False),
+    ("GPRMC,130711.00,A,5012.790800,N,00806.879600,W,0.5,3.0,010611,,,S", False),
+    ("GPGLL,5012.790800,N,00806.879600,W,130711,A,M", False),
+    ("GPGLL,5012.790800,N,00806.879600,W,130711,A,A", True),
+])
+def test_only_a_measured_position_is_a_valid_fix(body, valid):
+    """A GGA of quality 6 (estimated) or a mode-E RMC was a valid fix: a receiver dead reckoning through an
+    outage, or left in its simulator mode, would have steered the boat as if it knew where it was."""
+    assert decode_line(make_sentence(body)).status_valid is valid

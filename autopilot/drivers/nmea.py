@@ -102,6 +102,14 @@ class NmeaUpdate:
     fix_time: _dt.time | None = None
 
 
+# A position the receiver measured. GGA quality 6 is its own dead reckoning (ArduPilot's NMEA
+# driver takes it as no fix), 7 a position typed in, 8 its simulator: none is where the boat is.
+# RMC/GLL mode (NMEA 2.3+; empty before): A autonomous, D differential, P precise, R RTK, F float
+# RTK; E estimated, M manual, S simulator and N not valid are refused alike.
+MEASURED_QUALITIES = frozenset({1, 2, 3, 4, 5})
+MEASURED_MODES = frozenset({"", "A", "D", "P", "R", "F"})
+
+
 # --------------------------------------------------------------------------- helpers
 
 
@@ -220,7 +228,8 @@ def _gga(t: str, f: list[str]) -> NmeaUpdate:
         quality = int(q)
     else:
         raise SentenceError(f"GGA fix quality: {q!r}")
-    return NmeaUpdate("GGA", t, lat_deg=lat, lon_deg=lon, fix_quality=quality, status_valid=quality > 0, fix_time=epoch)
+    return NmeaUpdate("GGA", t, lat_deg=lat, lon_deg=lon, fix_quality=quality, status_valid=quality in MEASURED_QUALITIES,
+                      fix_time=epoch)
 
 
 def _rmc(t: str, f: list[str]) -> NmeaUpdate:
@@ -239,7 +248,7 @@ def _rmc(t: str, f: list[str]) -> NmeaUpdate:
         if tm is not None:
             utc = _dt.datetime.combine(d, tm)
     mode = _field(f, 11)
-    valid = f[1] == "A" and mode != "N"
+    valid = f[1] == "A" and mode in MEASURED_MODES
     return NmeaUpdate("RMC", t, lat_deg=lat, lon_deg=lon, sog_m_s=_kn(sog), cog_rad=_rad(cog), utc=utc, status_valid=valid, fix_time=tm)
 
 
@@ -249,7 +258,8 @@ def _gll(t: str, f: list[str]) -> NmeaUpdate:
     epoch = _time(f[4])
     if f[5] not in ("A", "V"):
         raise SentenceError(f"GLL status: {f[5]!r}")
-    return NmeaUpdate("GLL", t, lat_deg=lat, lon_deg=lon, status_valid=f[5] == "A" and _field(f, 6) != "N", fix_time=epoch)
+    return NmeaUpdate("GLL", t, lat_deg=lat, lon_deg=lon, status_valid=f[5] == "A" and _field(f, 6) in MEASURED_MODES,
+                      fix_time=epoch)
 
 
 def _vtg(t: str, f: list[str]) -> NmeaUpdate:

@@ -175,7 +175,7 @@ class SC30Driver(LineDevice):
                 self._in_old_epochs = False
                 self._fix_time = u.fix_time
         if u.fix_quality is not None:
-            latest["fix_quality"] = Stamped(u.fix_quality, now_s, src, u.fix_quality > 0)
+            latest["fix_quality"] = Stamped(u.fix_quality, now_s, src, bool(u.status_valid))
         if u.yaw_rate_rad_s is not None or src == "ROT":
             latest["yaw_rate_rad_s"] = Stamped(u.yaw_rate_rad_s, now_s, src, bool(u.status_valid))
         if u.sog_m_s is not None:
