@@ -49,7 +49,7 @@ import yaml
 
 from autopilot.geo import latlon_to_local
 from autopilot.schema import ConfigError
-from autopilot.userfile import csv_rows, read_text
+from autopilot.userfile import csv_rows, parse_yaml, read_text
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
@@ -198,7 +198,7 @@ _WAYPOINT_OPTIONS = ("speed_m_s", "name", "hold_s", "hold")
 
 def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
     try:
-        data = yaml.safe_load(text)
+        data = parse_yaml(text)
     except yaml.YAMLError as exc:
         raise MissionError(f"{path}: not valid YAML ({exc})") from exc
     if not isinstance(data, dict):

@@ -139,12 +139,12 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "") -> Any:
 
 def load_yaml(cls: type, path: str | Path) -> Any:
     """Load ``cls`` from a YAML file; syntax errors become :class:`ConfigError` naming the file."""
-    from autopilot.userfile import read_text
+    from autopilot.userfile import parse_yaml, read_text
 
     path = Path(path)
     text = read_text(path, what="YAML file")
     try:
-        data = yaml.safe_load(text)
+        data = parse_yaml(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({exc})") from exc
     try:

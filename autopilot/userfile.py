@@ -16,7 +16,7 @@ from pathlib import Path
 
 from autopilot.schema import ConfigError
 
-__all__ = ["read_text", "check_file"]
+__all__ = ["read_text", "check_file", "parse_yaml"]
 
 _BINARY_SNIFF = 8192
 
@@ -75,3 +75,46 @@ def csv_rows(text: str) -> list[list[str]]:
     head = lines[0]
     delimiter = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
     return [[c.strip() for c in row] for row in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
+
+
+def parse_yaml(text: str):
+    """The YAML document in ``text``, a mapping's duplicate key refused (yaml.YAMLError naming it and both lines).
+
+    PyYAML keeps the last of two equal keys without a word: a configuration with ``rate_hz`` twice ran at
+    the second value, a mission with two ``waypoints`` blocks flew only the second."""
+    import yaml
+
+    return yaml.load(text, Loader=_unique_key_loader())  # noqa: S506 - a SafeLoader subclass
+
+
+_LOADER = None
+
+
+def _unique_key_loader():
+    global _LOADER
+    if _LOADER is None:
+        import yaml
+
+        class DuplicateKeyError(yaml.YAMLError):
+            pass
+
+        class UniqueKeyLoader(yaml.SafeLoader):
+            pass
+
+        def mapping(loader, node, deep=False):
+            loader.flatten_mapping(node)
+            first_line: dict = {}
+            for key_node, _ in node.value:
+                key = loader.construct_object(key_node, deep=True)
+                try:
+                    if key in first_line:
+                        raise DuplicateKeyError(f"{key}: duplicate key (lines {first_line[key] + 1} and "
+                                                f"{key_node.start_mark.line + 1})")
+                    first_line[key] = key_node.start_mark.line
+                except TypeError:  # an unhashable key: the constructor says so itself
+                    pass
+            return loader.construct_mapping(node, deep=deep)
+
+        UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
+        _LOADER = UniqueKeyLoader
+    return _LOADER

@@ -377,12 +377,12 @@ def load_spec(path: str | Path) -> CampaignSpec:
     """Read and check a spec file (ConfigError naming the file and the key otherwise)."""
     import yaml
 
-    from autopilot.userfile import read_text
+    from autopilot.userfile import parse_yaml, read_text
 
     path = Path(path)
     text = read_text(path, what="campaign spec")
     try:
-        data = yaml.safe_load(text)
+        data = parse_yaml(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({exc})") from exc
     try:
