@@ -215,3 +215,13 @@ def render() -> str:
 
 if __name__ == "__main__":
     sys.stdout.write(render())
+
+
+@pytest.mark.parametrize("heading", ["400", "-10", "inf", "nan"])
+def test_ctl_hold_heading_outside_0_360_is_refused_before_asking_the_daemon(tmp_path, heading):
+    """400 was taken modulo 360 and held 40 deg; inf reached the daemon as nan."""
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["ctl", "hold", "--heading", heading, "--runtime-dir", str(tmp_path)])
+    assert code == 2
+    assert err.getvalue().strip() == f"autopilot ctl: error: --heading: {float(heading):g} is outside the allowed range [0, 360) deg"

@@ -90,6 +90,7 @@ def _run(args: argparse.Namespace) -> int:
 def _ctl(args: argparse.Namespace) -> int:
     import errno
     import json
+    import math
     import sys
 
     from autopilot.daemon.control import request, socket_candidates
@@ -99,7 +100,11 @@ def _ctl(args: argparse.Namespace) -> int:
         if args.command != "hold":
             print("autopilot ctl: error: --heading is for hold only", file=sys.stderr)
             return 2
-        req["heading_deg"] = args.heading % 360.0
+        if not (math.isfinite(args.heading) and 0.0 <= args.heading < 360.0):  # 400 used to hold 40
+            print(f"autopilot ctl: error: --heading: {args.heading:g} is outside the allowed range [0, 360) deg",
+                  file=sys.stderr)
+            return 2
+        req["heading_deg"] = args.heading
     tried = socket_candidates(args.runtime_dir)
     reply, problems = None, []
     for path in tried:
