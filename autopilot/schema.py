@@ -103,11 +103,13 @@ def _convert(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
     raise ConfigError(f"{key}: unsupported parameter type {tp!r}")  # pragma: no cover - programming error
 
 
-def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "") -> Any:
+def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "", require_all: bool = False) -> Any:
     """Build the frozen dataclass ``cls`` from ``data``, checking every key.
 
     Missing keys take the field's default when it has one; a key without
-    a default must be present. ``where`` prefixes key names in messages.
+    a default must be present, and with ``require_all`` every key must (a
+    vessel file: a default there would be a thesis value passed off as the
+    user's boat). ``where`` prefixes key names in messages.
     """
     if data is None:
         data = {}
@@ -124,8 +126,11 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "") -> Any:
     for name, f in fields.items():
         key = f"{where}{name}"
         if name not in data:
-            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
-                raise ConfigError(f"{key}: missing required key ({f.metadata.get('doc', '')} {_range_text(f.metadata)})".replace("( ", "("))
+            if ((require_all and hints[name] is not str)  # a label (name, description) may be left out
+                    or (f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING)):
+                where_ok = _range_text(f.metadata) if f.metadata.get("lo") is not None or f.metadata.get("hi") is not None else ""
+                raise ConfigError(f"{key}: missing required key ({f.metadata.get('doc', '')} {where_ok})"
+                                  .replace("( ", "(").replace(" )", ")"))
             continue
         kwargs[name] = _convert(key, data[name], hints[name], f.metadata)
     try:
@@ -137,7 +142,7 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "") -> Any:
     return obj
 
 
-def load_yaml(cls: type, path: str | Path) -> Any:
+def load_yaml(cls: type, path: str | Path, *, require_all: bool = False) -> Any:
     """Load ``cls`` from a YAML file; syntax errors become :class:`ConfigError` naming the file."""
     from autopilot.userfile import parse_yaml, read_text
 
@@ -148,7 +153,7 @@ def load_yaml(cls: type, path: str | Path) -> Any:
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({exc})") from exc
     try:
-        return load(cls, data)
+        return load(cls, data, require_all=require_all)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
 

@@ -35,19 +35,17 @@ def test_bad_parameters_are_refused_naming_the_field_and_range(tmp_path, change,
         load_params(_write(tmp_path, data))
 
 
-def test_missing_key_is_refused(tmp_path):
-    # every key has a documented default except the ones a set must state; a set file without them
-    # still loads, so check the message of a required nested field through the schema itself
-    from dataclasses import dataclass
-
-    from autopilot.schema import load, param
-
-    @dataclass(frozen=True)
-    class Needs:
-        mass_kg: float = param(unit="kg", lo=1, hi=10)
-
-    with pytest.raises(ConfigError, match=r"mass_kg: missing required key"):
-        load(Needs, {})
+def test_a_missing_key_is_refused_not_filled_with_the_thesis_value(tmp_path):
+    """A vessel file without n_r_nd flew with the thesis's value in its place, and one holding only mass_kg as the
+    thesis's boat (found trying the commands as a new user)."""
+    data = to_dict(load_params(default_params_path()))
+    del data["n_r_nd"]
+    with pytest.raises(ConfigError, match=r"n_r_nd: missing required key \(.*\[-50, 0\]"):
+        load_params(_write(tmp_path, data))
+    with pytest.raises(ConfigError, match=r"missing required key"):
+        load_params(_write(tmp_path, {"mass_kg": 255.0}))
+    with pytest.raises(ConfigError, match=r"missing required key"):
+        load_params(_write(tmp_path, None))  # an empty file
 
 
 def test_both_sets_load_and_differ_where_calibrated():
