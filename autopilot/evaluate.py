@@ -193,10 +193,10 @@ def circled(wp_index, psi_rad, *, limit_rad: float = 2.0 * math.pi) -> bool:
     return mon.circled
 
 
-def time_limit_s(waypoints_ne_m, speed_m_s: float, holds_s=()) -> float:
-    """Generous limit: three times the polyline length at the wanted speed, plus two minutes, plus the holds."""
+def time_limit_s(waypoints_ne_m, speed_m_s: float, holds_s=(), start_ne_m=(0.0, 0.0)) -> float:
+    """Generous limit: three times the polyline from ``start_ne_m`` at the wanted speed, plus two minutes, plus the holds."""
     length = 0.0
-    prev = (0.0, 0.0)
+    prev = (float(start_ne_m[0]), float(start_ne_m[1]))
     for n, e in waypoints_ne_m:
         length += math.hypot(n - prev[0], e - prev[1])
         prev = (n, e)
@@ -248,7 +248,8 @@ def run_closed_loop(
     sensors = SensorModel(*origin, rates=sensor_rates, position_noise_m=position_noise_m,
                           heading_noise_deg=heading_noise_deg, rng=np.random.default_rng(seed))
     if t_max_s is None:
-        t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s, holds_s)
+        t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s, holds_s,
+                               start_ne_m=(0.0, 0.0) if x0 is None else (x0[0], x0[1]))
     flight = Flight(ap, sensors, dt_s=dt_s, rate_hz=rate_hz, t_max_s=t_max_s,
                     final_pass_s=config.guidance.final_pass_s, origin_lat_deg=origin[0],
                     origin_lon_deg=origin[1], record=record, traffic=traffic)
@@ -353,7 +354,7 @@ def evaluate(mission_paths, laws, condition_names, *, params=None, base_config=N
             for cond in condition_names:
                 yield run_closed_loop(
                     params, m.waypoints_ne_m, config=cfg, speeds_m_s=m.speeds_m_s, holds_s=m.holds_s, env=envs[cond],
-                    record=record, mission=m.name, condition=cond,
+                    record=record, mission=m.name, condition=cond, x0=(*m.home_ne_m, 0.0, 0.0, 0.0, 0.0),
                 )
 
 

@@ -78,6 +78,14 @@ class Mission:
     holds_s: tuple = ()  # one per waypoint: hold there this long (s) before going on; inf = until commanded; None = no hold
     rtl: bool = False  # the last item returns to the launch point (then holds there)
 
+    @property
+    def home_ne_m(self) -> tuple[float, float]:
+        """Home in the local frame (m): where a simulated boat starts (the origin when the file has no home)."""
+        if self.home_latlon is None or self.origin_lat_deg is None or self.origin_lon_deg is None:
+            return 0.0, 0.0
+        n, e = latlon_to_local(self.home_latlon[0], self.home_latlon[1], self.origin_lat_deg, self.origin_lon_deg)
+        return float(n), float(e)
+
     def hold_s(self, i: int) -> float | None:
         return self.holds_s[i] if i < len(self.holds_s) else None
 

@@ -50,7 +50,7 @@ def one_at_a_time(c, seed: int, indices) -> tuple[float, int]:
         m = s.mission
         r = run_closed_loop(s.params, m.waypoints_ne_m, config=cfg, speeds_m_s=m.speeds_m_s, holds_s=m.holds_s,
                             env=s.env, position_noise_m=s.position_noise_m, heading_noise_deg=s.heading_noise_deg,
-                            seed=i, t_max_s=s.t_max_s)
+                            seed=i, t_max_s=s.t_max_s, x0=(*m.home_ne_m, 0.0, 0.0, 0.0, 0.0))
         cycles += int(round(r.time_s * 10.0))
     return time.process_time() - t0, cycles
 

@@ -136,3 +136,33 @@ def test_heading_integral_works_at_full_speed_in_a_beam_current(params):
     assert i_n.mean() < -1.0  # the integral carries part of the moment (it was frozen at 0)
     assert abs(he_deg.mean()) < 1.5  # was 2.4 deg
     assert abs(xte.mean()) < 0.3 and r.xte_rms_m < 1.5
+
+
+HOME_NORTH_MISSION = ("name: d\nframe: local\norigin: {lat_deg: 52, lon_deg: 4.4}\nhome: {lat_deg: 52.001, lon_deg: 4.4}\n"
+                      "waypoints:\n  - {north_m: 10, east_m: 5}\n")
+
+
+def test_evaluate_starts_at_the_missions_home_as_the_daemon_does(tmp_path, params):
+    """A mission whose home is 111 m north of its origin: run --sim launched there, evaluate and the campaigns
+    at the origin, scoring a different (shorter) mission than the daemon flies (found as a new user)."""
+    path = tmp_path / "m.yaml"
+    path.write_text(HOME_NORTH_MISSION)
+    assert load_mission(path).home_ne_m[0] == pytest.approx(111.2, abs=0.5)
+    (r,) = evaluate([path], ["fuzzy"], ["calm"], params=params, record=True)
+    assert r.trace["north_m"][0] == pytest.approx(111.2, abs=0.5) and r.completed
+    assert r.time_s > 40.0  # ~100 m back south, not the 11 m from the origin
+
+
+def test_a_campaign_run_starts_at_the_missions_home(tmp_path):
+    from autopilot.campaign.lockstep import fly
+    from autopilot.campaign.spec import CampaignSpec, _load_spec, resolve
+
+    (tmp_path / "m.yaml").write_text(HOME_NORTH_MISSION)
+    c = resolve(_load_spec({"name": "home", "missions": ["m.yaml"], "laws": ["fuzzy"], "runs": 2, "seed": 1,
+                            "chunk_runs": 2, "conditions": {"calm": {}}}), base_dir=tmp_path)
+    assert isinstance(c.spec, CampaignSpec) and c.missions[0].home_ne_m[0] == pytest.approx(111.2, abs=0.5)
+    first = {}
+    fly(c, 1, [0], watch={0: lambda t_s, flight, cycle: first.setdefault("nav", cycle and cycle.nav)})
+    assert first["nav"].north_m == pytest.approx(111.2, abs=0.5)
+    back = type(c).from_data(json.loads(json.dumps(c.to_data())))  # what --replay reads from campaign.json
+    assert back.missions[0].home_ne_m == c.missions[0].home_ne_m

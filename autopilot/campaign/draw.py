@@ -78,7 +78,8 @@ def run_time_limit_s(campaign: Campaign, mission: MissionData) -> float:
     """evaluate's generous limit (three times the route at the wanted speed, plus two minutes, plus the holds)."""
     from autopilot.evaluate import time_limit_s
 
-    return time_limit_s(mission.waypoints_ne_m, campaign.spec.gnc.guidance.default_speed_m_s, mission.holds_s)
+    return time_limit_s(mission.waypoints_ne_m, campaign.spec.gnc.guidance.default_speed_m_s, mission.holds_s,
+                        start_ne_m=mission.home_ne_m)
 
 
 def _dropouts(rng, rate_per_min: float, length_s: float, t_max_s: float) -> tuple[tuple[float, float], ...]:

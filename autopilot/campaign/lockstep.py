@@ -102,6 +102,8 @@ class _Batch:
         self.lag_a, self.lag_g = _lag_coefficients([s.thrust_lag_s for s in sel])
         self.lag = bool(np.any(self.lag_g > 0.0))
         self.cols = tuple(np.zeros(len(sel)) for _ in range(6))
+        self.cols[0][:] = [s.mission.home_ne_m[0] for s in sel]  # at rest at the mission's home, heading north
+        self.cols[1][:] = [s.mission.home_ne_m[1] for s in sel]
         self.y_port = np.zeros(len(sel))  # the lagged thrusts (N)
         self.y_stbd = np.zeros(len(sel))
         self.alive = [True] * len(sel)
@@ -205,7 +207,8 @@ def fly(campaign: Campaign, seed: int, indices, *, watch: dict | None = None, mi
         return []
     watch = watch or {}
     members = list(range(n))
-    batch = _Batch(setups, members) if n >= min_batch else _Singles(setups, members, [[0.0] * 6] * n, [(0.0, 0.0)] * n)
+    batch = (_Batch(setups, members) if n >= min_batch else
+             _Singles(setups, members, [[*s.mission.home_ne_m, 0.0, 0.0, 0.0, 0.0] for s in setups], [(0.0, 0.0)] * n))
     substeps = flights[0][0].substeps
     t_s = 0.0
     ended_in_batch = 0

@@ -233,6 +233,7 @@ class MissionData:
     speeds_m_s: tuple
     holds_s: tuple
     rtl: bool = False
+    home_ne_m: tuple[float, float] = (0.0, 0.0)  # where the boat starts, at rest heading north (as --sim)
 
 
 @dataclass(frozen=True)
@@ -277,7 +278,8 @@ class Campaign:
             raise ConfigError("campaign.json: not a campaign written by autopilot campaign (format autopilot-campaign-1)")
         spec = _load_spec(data["spec"])
         missions = tuple(MissionData(m["name"], tuple((float(n), float(e)) for n, e in m["waypoints_ne_m"]),
-                                     tuple(m["speeds_m_s"]), tuple(m["holds_s"]), bool(m["rtl"]))
+                                     tuple(m["speeds_m_s"]), tuple(m["holds_s"]), bool(m["rtl"]),
+                                     tuple(float(x) for x in m.get("home_ne_m", (0.0, 0.0))))
                          for m in data["missions"])
         vessel = load(VesselParams, data["vessel"], where="vessel.")
         spreads = tuple(sorted((k, _vessel_spread(k, v, vessel)) for k, v in data["vessel_spreads"].items()))
@@ -404,7 +406,7 @@ def _mission(entry: str, base_dir: Path, i: int) -> MissionData:
     m = load_mission(path)
     return MissionData(m.name, tuple((float(n), float(e)) for n, e in m.waypoints_ne_m),
                        tuple(None if s is None else float(s) for s in m.speeds_m_s),
-                       tuple(None if h is None else float(h) for h in m.holds_s), bool(m.rtl))
+                       tuple(None if h is None else float(h) for h in m.holds_s), bool(m.rtl), m.home_ne_m)
 
 
 def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[str]]:

@@ -200,9 +200,7 @@ async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
     from autopilot.simdev import SimRig
 
     params = load_params(cfg.sim.vessel or default_params_path())
-    home_ne = (0.0, 0.0)
-    if mission.home_latlon is not None:
-        home_ne = latlon_to_local(mission.home_latlon[0], mission.home_latlon[1], mission.origin_lat_deg, mission.origin_lon_deg)
+    home_ne = mission.home_ne_m
     env = Environment(current_speed_m_s=cfg.sim.current_speed_m_s, current_towards_deg=cfg.sim.current_towards_deg,
                       wind_speed_m_s=cfg.sim.wind_speed_m_s, wind_from_deg=cfg.sim.wind_from_deg)
     rig = SimRig(params, clock, directory=directory, env=env, x0=(home_ne[0], home_ne[1], 0.0, 0.0, 0.0, 0.0),
