@@ -12,9 +12,6 @@ import importlib
 import os
 import sys
 
-from autopilot.resources import package_version
-from autopilot.schema import ConfigError
-
 # subcommand area modules, in the order they appear in --help
 AREAS = (
     "autopilot.sim.cli",
@@ -37,6 +34,8 @@ def _files(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from autopilot.resources import package_version
+
     parser = argparse.ArgumentParser(
         prog="autopilot",
         description="WAM-V autopilot: daemon, simulator, guidance evaluation, identification and review.",
@@ -61,8 +60,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    # The console script imports this module before main() runs: it imports nothing of ours at the top,
+    # so a Ctrl-C while the areas (numpy and all) load lands here, not in a traceback.
+    try:
+        from autopilot.schema import ConfigError
+
+        parser = build_parser()
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        print("autopilot: interrupted", file=sys.stderr)
+        return 130
     try:
         return int(args.func(args) or 0)
     except ConfigError as exc:

@@ -225,3 +225,17 @@ def test_ctl_hold_heading_outside_0_360_is_refused_before_asking_the_daemon(tmp_
         code = main(["ctl", "hold", "--heading", heading, "--runtime-dir", str(tmp_path)])
     assert code == 2
     assert err.getvalue().strip() == f"autopilot ctl: error: --heading: {float(heading):g} is outside the allowed range [0, 360) deg"
+
+
+def test_a_ctrl_c_while_the_commands_load_is_no_traceback(monkeypatch):
+    """Building the parser imports every area (~0.5 s): a Ctrl-C then escaped main() as a traceback."""
+    import autopilot.cli as cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_parser", interrupted)
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert cli.main(["files"]) == 130
+    assert err.getvalue() == "autopilot: interrupted\n"

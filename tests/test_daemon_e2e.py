@@ -239,3 +239,26 @@ def test_lockstep_runs_give_the_same_log_and_run_faster_than_real_time(tmp_path)
     assert len(logs[0]) == len(logs[1]) > 300
     for a, b in zip(*logs):
         assert a == b
+
+
+def test_a_ctrl_c_while_the_devices_open_is_a_clean_stop(tmp_path):
+    """SIGINT the moment the mission log exists, before the devices have opened: the signal handlers came
+    after the rig, the link and the ports, so the stop line said reason "error", signal null (found as a new
+    user). Interrupting as a terminal does: SIGINT to a process whose SIGINT is at its default."""
+    logs = tmp_path / "logs"
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--config", str(CONFIG), "--mission", str(MISSIONS[0]),
+                          "--sim", "--speedup", "10", "--log-dir", str(logs), "--state-dir", str(tmp_path / "state"),
+                          "--runtime-dir", str(tmp_path / "run")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 60.0
+        while not (logs.exists() and any(logs.glob("*.jsonl"))) and time.monotonic() < deadline:
+            time.sleep(0.002)
+        p.send_signal(signal.SIGINT)
+        _, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    last = json.loads(next(logs.glob("*.jsonl")).read_text().splitlines()[-1])
+    assert p.returncode == 0 and "Traceback" not in err, err[-2000:]
+    assert (last["event"], last["reason"], last["signal"]) == ("stop", "signal", "SIGINT")

@@ -285,6 +285,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
                        fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
                        t0_s=t0_s, ais=ais if (ais_driver is not None or cfg.ais.on_compass_line) else None)
     holder["loop"] = loop
+    loop.install_signal_handlers()  # from here a Ctrl-C or SIGTERM is a clean stop, even while the devices open
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
     link, reason, refused = None, "error", None
@@ -293,12 +294,14 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         tasks += [asyncio.create_task(compass.run(), name="sc30"), asyncio.create_task(thrusters.run(), name="mbed")]
         if ais_driver is not None:
             tasks.append(asyncio.create_task(ais_driver.run(), name="ais"))
-        loop.install_signal_handlers()
         for _ in range(20):  # the drivers' first chance to open the ports, so a normal start logs no port fault
             if compass.connected and thrusters.connected:
                 break
             await clock.sleep(cfg.period_s / 10.0)
         reason = await loop.run()
+    except asyncio.CancelledError:  # a SIGINT that asyncio's own handler turned into a cancel: a stop all the same
+        reason = "signal"
+        loop.state.stop_signal = loop.state.stop_signal or "SIGINT"
     except ConfigError as exc:  # an endpoint that cannot be opened: stop as a bad configuration does
         refused = exc
         log.event("info", t_s=clock.now_s() - loop.t0_s, message="start refused", error=str(exc))
