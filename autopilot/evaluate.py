@@ -395,7 +395,9 @@ def _cmd(args: argparse.Namespace) -> int:
     if args.traffic:
         return _traffic(args, params, base, args.condition or list(TRAFFIC_CONDITIONS))
     if args.plot:
-        Path(args.plot).mkdir(parents=True, exist_ok=True)
+        from autopilot.userfile import output_dir
+
+        output_dir(args.plot, what="--plot")
     if not args.json:
         print(HEADER)
     for r in evaluate(missions, laws, conds, params=params, base_config=base, record=bool(args.plot)):

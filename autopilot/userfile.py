@@ -16,7 +16,9 @@ from pathlib import Path
 
 from autopilot.schema import ConfigError
 
-__all__ = ["read_text", "check_file", "parse_yaml"]
+__all__ = ["read_text", "check_file", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES"]
+
+PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")  # what the figures can be saved as
 
 _BINARY_SNIFF = 8192
 
@@ -118,3 +120,32 @@ def _unique_key_loader():
         UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
         _LOADER = UniqueKeyLoader
     return _LOADER
+
+
+def output_dir(path: str | Path, *, what: str = "--out") -> Path:
+    """``path`` created if need be and writable, checked before any work; ConfigError naming it otherwise
+    (a file where the directory should be, no permission: the work would have been lost at the end)."""
+    import tempfile
+
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise ConfigError(f"{what} {p}: is a file, not a directory")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=p):
+            pass
+    except OSError as exc:
+        raise ConfigError(f"{what} {p}: cannot write there ({exc.strerror or exc})") from None
+    return p
+
+
+def output_file(path: str | Path, *, what: str, suffixes: tuple[str, ...] | None = None) -> Path:
+    """A file to be written at ``path``: its suffix one of ``suffixes`` (if given), its directory created and
+    writable; ConfigError naming it otherwise."""
+    p = Path(path)
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise ConfigError(f"{what} {p}: the name must end in {', '.join(suffixes)}")
+    if p.is_dir():
+        raise ConfigError(f"{what} {p}: is a directory; give a file name")
+    output_dir(p.parent if str(p.parent) else ".", what=f"{what} {p}: its directory")
+    return p

@@ -226,3 +226,45 @@ def test_internal_errors_reach_the_user_as_one_line(tmp_path, monkeypatch):
 
 def test_summary_json_of_model_check_is_json():
     json.loads(run_cli("model", "check", "--json").stdout)
+
+
+# (argv with {f} for a regular file standing where a directory should be, the message expected)
+OUTPUT_CASES = [
+    (["review", "{log}", "--out", "{f}/sub"], "--out {f}/sub: cannot write there (Not a directory)"),
+    (["review", "{log}", "--out", "{f}"], "--out {f}: is a file, not a directory"),
+    (["evaluate", "--mission", str(REPO / "config" / "missions" / "pond-9.4.yaml"), "--guidance", "fuzzy",
+      "--condition", "calm", "--plot", "{f}/plots"], "--plot {f}/plots: cannot write there (Not a directory)"),
+    (["model", "manoeuvre", "zigzag", "--plot", "{d}/z.txt"], "--plot {d}/z.txt: the name must end in .png, .pdf, .svg, .jpg, .jpeg"),
+    (["gnc", "surface", "--plot", "{f}/s.png"], "--plot {f}/s.png: its directory {f}: is a file, not a directory"),
+    (["model", "calibrate", "--out", "{f}/v.yaml"], "--out {f}/v.yaml: its directory {f}: is a file, not a directory"),
+    (["sysid", "--table", str(REPO / "autopilot" / "data" / "measured-table.csv"), "--out", "{f}/sys"],
+     "--out {f}/sys: cannot write there (Not a directory)"),
+    (["campaign", "--replay", "{d}", "5", "--log", "{f}/x.jsonl"], "--log {f}/x.jsonl: its directory {f}: is a file, not a directory"),
+]
+
+
+@pytest.mark.parametrize("argv, message", OUTPUT_CASES, ids=lambda v: v[0] if isinstance(v, list) else None)
+def test_an_output_path_that_cannot_be_written_is_refused_before_the_work(tmp_path, argv, message):
+    """Each was 'internal error: NotADirectoryError ... a bug: please report it' (exit 1), sysid's only after the
+    whole fit (found trying the commands as a new user)."""
+    import contextlib
+    import io
+
+    from autopilot.cli import main
+    from autopilot.review.synthetic import write_synthetic_log
+
+    f = tmp_path / "afile"
+    f.write_text("")
+    log = tmp_path / "m.jsonl"
+    write_synthetic_log(log)
+    subs = {"{f}": str(f), "{d}": str(tmp_path), "{log}": str(log)}
+
+    def fill(text):
+        for k, v in subs.items():
+            text = text.replace(k, v)
+        return text
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main([fill(a) for a in argv])
+    assert code == 2 and err.getvalue().strip() == f"autopilot {argv[0]}: error: {fill(message)}", err.getvalue()

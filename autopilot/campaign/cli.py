@@ -58,6 +58,10 @@ def _replay(args: argparse.Namespace) -> int:
         raise ConfigError(f"--replay {out_dir} {index_text}: INDEX is a run's index (an integer)") from None
     if args.spec is not None:
         raise ConfigError("--replay re-flies a run from DIR/campaign.json: give no spec file")
+    if args.log is not None:
+        from autopilot.userfile import output_file
+
+        output_file(args.log, what="--log", suffixes=(".jsonl",))
     row, path, table = replay(out_dir, index, log_path=args.log)
     print(scorecard_text(row))
     print(f"log: {path} (autopilot review {path} --out DIR)")

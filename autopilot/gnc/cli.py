@@ -13,7 +13,9 @@ def _surface(args: argparse.Namespace) -> int:
 
     cfg = (load_yaml(GncConfig, args.config) if args.config else GncConfig()).guidance.fuzzy
     if args.plot:
-        plot_surface(args.plot, cfg)
+        from autopilot.userfile import PLOT_SUFFIXES, output_file
+
+        plot_surface(output_file(args.plot, what="--plot", suffixes=PLOT_SUFFIXES), cfg)
         print(f"wrote {args.plot}")
     else:  # a coarse table of the surface on stdout
         import numpy as np

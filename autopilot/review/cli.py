@@ -31,7 +31,9 @@ def run(args: argparse.Namespace) -> int:
     formats = parse_formats(args.export)
     for path in args.logs:
         check_mission_log(path)
-    out = Path(args.out) if args.out else Path(f"review-{Path(args.logs[0]).stem}")
+    from autopilot.userfile import output_dir
+
+    out = output_dir(args.out if args.out else f"review-{Path(args.logs[0]).stem}")
     result = review(args.logs, out, formats=formats, with_plots=not args.no_plots)
     failed = False
     for one in result.logs:

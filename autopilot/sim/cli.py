@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
 from autopilot.schema import ConfigError
 
@@ -95,8 +94,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         thesis_params_path,
     )
     from autopilot.sim.steady import check_table
+    from autopilot.userfile import output_file
 
-    out = Path(args.out)
+    out = output_file(args.out, what="--out", suffixes=(".yaml", ".yml"))
     if out.exists() and not args.force:
         raise ConfigError(f"--out {out}: exists; give --force to overwrite it, or another --out")
     if out.resolve() == default_params_path().resolve():
@@ -114,6 +114,10 @@ def cmd_manoeuvre(args: argparse.Namespace) -> int:
     from autopilot.sim import manoeuvres
 
     params = _params(args.params)
+    if args.plot:
+        from autopilot.userfile import PLOT_SUFFIXES, output_file
+
+        output_file(args.plot, what="--plot", suffixes=PLOT_SUFFIXES)
     try:
         if not (0.0 < args.angle_deg < 90.0):
             raise ValueError(f"--angle-deg: {args.angle_deg} is outside the allowed range (0, 90) deg")

@@ -40,9 +40,11 @@ def register(subparsers) -> None:
 def run_cli(args: argparse.Namespace) -> int:
     from autopilot.sim import default_params_path, load_params
     from autopilot.sysid.effects import EFFECT_NAMES
+    from autopilot.userfile import output_dir
 
     params_path = Path(args.params) if args.params else default_params_path()
     vessel = load_params(params_path)
+    output_dir(args.out)  # before the fit, not after it
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     candidates = tuple(EFFECT_NAMES)
     if args.effects:
