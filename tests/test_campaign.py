@@ -22,6 +22,7 @@ from autopilot.campaign.spec import _load_spec, resolve
 from autopilot.cli import main
 
 RUNS = 50
+ROOT_SPEC = Path(__file__).resolve().parents[1] / "config" / "campaigns" / "pond-robustness.yaml"
 SPEC = {
     "name": "test", "missions": ["pond-9.1", "pond-9.2"], "laws": ["fuzzy", "los"], "runs": RUNS, "seed": 5,
     "chunk_runs": 10,
@@ -280,3 +281,28 @@ def test_the_campaigns_control_cycle_is_the_daemons(tmp_path):
         assert c.cmd.thrust_port_n == pytest.approx(cmd.thrust_port_n, abs=1e-9)
         assert c.cmd.thrust_stbd_n == pytest.approx(cmd.thrust_stbd_n, abs=1e-9)
     assert cc.failsafe_causes == st.failsafe_causes == ["heading_stale"]
+
+
+def test_ctrl_c_stops_a_pool_campaign_at_once_not_after_every_queued_chunk(tmp_path):
+    """With --jobs 2 a Ctrl-C waited for the pool to fly every chunk already queued (38-110 s for 480-1200 runs)
+    and only then said interrupted. 4000 runs are minutes of work: it must stop within seconds, its workers gone."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "campaign", str(ROOT_SPEC), "--runs", "4000", "--jobs", "2",
+                          "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: (signal.signal(signal.SIGINT, signal.SIG_DFL), os.setpgrp()))
+    try:
+        deadline = time.monotonic() + 60
+        while not (out / "campaign.json").exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(3.0)  # the pool's workers are flying
+        os.killpg(p.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole foreground group
+        _, err = p.communicate(timeout=45)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
+    assert p.returncode == 130 and err.strip().splitlines()[-1] == "autopilot campaign: interrupted", err[-2000:]
+    assert not (out / "runs.csv").exists()

@@ -116,7 +116,8 @@ def _pool(campaign, seed, runs, n_chunks, jobs, done, progress) -> None:
             attempts[k] += 1
             if attempts[k] > MAX_ATTEMPTS:
                 raise RuntimeError(f"chunk {k} failed {MAX_ATTEMPTS} times (its worker died each time)")
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context(method)) as pool:
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context(method))
+        try:
             futures = {pool.submit(fly_chunk, campaign, seed, runs, k): k for k in sorted(pending)}
             try:
                 for f in as_completed(futures):
@@ -129,6 +130,16 @@ def _pool(campaign, seed, runs, n_chunks, jobs, done, progress) -> None:
                         done(k, f.result())
                         pending.discard(k)
                 progress.retry(f"a worker process died; {len(pending)} chunk(s) not finished")
+        except BaseException:
+            # Ctrl-C (or an error): the pool's own exit would fly every queued chunk first (a minute or
+            # more); drop the queue and stop the workers flying now
+            workers = list((getattr(pool, "_processes", None) or {}).values())  # private, stable since 3.8
+            pool.shutdown(wait=False, cancel_futures=True)  # (this forgets the workers: taken first)
+            for proc in workers:
+                proc.terminate()
+            raise
+        finally:
+            pool.shutdown(wait=True)
 
 
 def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
