@@ -245,8 +245,11 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
             if "hold" in w and not isinstance(w["hold"], bool):
                 raise MissionError(f"{path}: waypoint {k}: hold: expected true or false, got {w['hold']!r}")
             points.append(_RawPoint(w[keys[0]], w[keys[1]], w.get("speed_m_s"), w.get("hold_s", w.get("hold"))))
-        elif isinstance(w, (list, tuple)) and len(w) in (2, 3):
+        elif isinstance(w, (list, tuple)) and len(w) == 2:
             points.append(_RawPoint(*w))
+        elif isinstance(w, (list, tuple)) and len(w) == 3:  # took the third as a speed, unsaid (an altitude?)
+            raise MissionError(f"{path}: waypoint {k}: {list(w)}: a bare waypoint is a [{keys[0]}, {keys[1]}] pair; "
+                               f"a speed goes in a mapping ({{{keys[0]}: ..., {keys[1]}: ..., speed_m_s: ...}})")
         else:
             raise MissionError(f"{path}: waypoint {k}: expected a mapping with {keys[0]}, {keys[1]} or a [{keys[0]}, {keys[1]}] pair")
 
@@ -291,6 +294,19 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
 
 # ------------------------------------------------------------------------- Mission Planner
 _SUPPORTED = "supported: waypoint 16, loiter unlimited 17, loiter time 19, return to launch 20, change speed 178"
+# MAV_FRAME_GLOBAL, _RELATIVE_ALT, their _INT forms and _TERRAIN_ALT(_INT): x, y are latitude, longitude in degrees
+MAVLINK_GLOBAL_FRAMES = (0, 3, 5, 6, 10, 11)
+
+
+def _global_frame(where: str, frame: Any) -> None:
+    """A waypoint's frame must give latitude/longitude: a local frame (1, LOCAL_NED: metres) was read as degrees."""
+    try:
+        ok = float(frame) in MAVLINK_GLOBAL_FRAMES
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise MissionError(f"{where}: frame {frame} not supported: a waypoint's frame must be global latitude/"
+                           f"longitude ({', '.join(map(str, MAVLINK_GLOBAL_FRAMES))}); 1 is MAV_FRAME_LOCAL_NED")
 
 
 def _loiter(cmd: int, param1: Any):
@@ -341,6 +357,7 @@ def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
         if rtl:
             raise MissionError(f"{path}: row {row_no}: nothing may follow return to launch (20)")
         if cmd in (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM):
+            _global_frame(f"{path}: row {row_no}", f[2])
             _add_item(points, f"{path}: row {row_no}", cmd, f[8], f[9], speed, f[4])
         elif cmd == DO_CHANGE_SPEED:
             speed = f[5]
@@ -378,6 +395,7 @@ def _parse_plan(path: Path, text: str, origin, max_range_m: float) -> Mission:
         if cmd in (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM):
             if len(params) < 6:
                 raise MissionError(f"{path}: item {k}: command {cmd} needs 7 params")
+            _global_frame(f"{path}: item {k}", item.get("frame", 3))  # absent: QGC's default, relative altitude
             _add_item(points, f"{path}: item {k}", cmd, params[4], params[5], speed, params[0])
         elif cmd == DO_CHANGE_SPEED:
             speed = params[1] if len(params) > 1 else None
@@ -411,7 +429,6 @@ def load_mission(
 
 
 # ------------------------------------------------------------------------- MAVLink items
-MAVLINK_GLOBAL_FRAMES = (0, 3, 5, 6)  # MAV_FRAME_GLOBAL, _RELATIVE_ALT and their _INT forms: lat/lon degrees
 MAVLINK_MISSION_FRAME = 2  # MAV_FRAME_MISSION: items without a position (RTL, change speed)
 
 

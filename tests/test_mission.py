@@ -65,6 +65,8 @@ def _yaml(tmp_path, body):
         ("frame: latlon\norigin: {lat_deg: 10, lon_deg: 10}\nwaypoints:\n  - {lat_deg: 10.001, lon_deg: 10}\n  - {lat_deg: 95, lon_deg: 10}\n", "waypoint 2: latitude 95 outside"),
         ("frame: latlon\nwaypoints:\n  - {lat_deg: 10, lon_deg: 10}\n", "no home or origin"),
         ("wayponts: []\n", "unknown key"),
+        # a third value was taken as the leg's speed, unsaid (found as a new user)
+        ("waypoints:\n  - [10, 5, 1.0]\n", r"waypoint 1: \[10, 5, 1.0\]: a bare waypoint is a \[north_m, east_m\] pair"),
     ],
 )
 def test_bad_yaml_missions_refused(tmp_path, body, match):
@@ -100,3 +102,20 @@ def test_csv_latlon_needs_origin(tmp_path):
         load_mission(p)
     m = load_mission(p, origin_lat_deg=10.0, origin_lon_deg=10.0)
     assert_allclose(m.waypoints_ne_m, np.zeros((1, 2)), atol=1e-9)
+
+
+def test_a_waypoint_in_a_local_frame_is_refused_not_read_as_degrees(tmp_path):
+    """Frame 1 (MAV_FRAME_LOCAL_NED: x, y in metres) was read as latitude/longitude (found as a new user)."""
+    p = tmp_path / "m.waypoints"
+    p.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t10\t10\t0\t1\n1\t0\t1\t16\t0\t0\t0\t0\t20.0\t5.0\t0\t1\n")
+    with pytest.raises(MissionError, match=r"row 1: frame 1 not supported: .* 1 is MAV_FRAME_LOCAL_NED"):
+        load_mission(p)
+    p = tmp_path / "m.plan"
+    item = {"type": "SimpleItem", "command": 16, "frame": 1, "params": [0, 0, 0, 0, 20.0, 5.0, 0]}
+    p.write_text(json.dumps({"mission": {"plannedHomePosition": [10, 10, 0], "items": [item]}}))
+    with pytest.raises(MissionError, match=r"item 1: frame 1 not supported"):
+        load_mission(p)
+    item["frame"] = 10  # terrain-relative altitude: still latitude/longitude
+    item["params"][4:6] = [10.0001, 10.0]
+    p.write_text(json.dumps({"mission": {"plannedHomePosition": [10, 10, 0], "items": [item]}}))
+    assert load_mission(p).waypoints_ne_m[0][0] == pytest.approx(11.1, abs=0.1)
