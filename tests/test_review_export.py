@@ -144,7 +144,7 @@ def test_sysid_accepts_the_trial_csv(mission, tmp_path):
 
     d, log, _ = mission
     csv_path = export(log, ("csv",), tmp_path)["csv"]
-    rc = main(["sysid", str(csv_path), str(csv_path), "--out", str(tmp_path / "sysid")])
+    rc = main(["sysid", str(csv_path), "--out", str(tmp_path / "sysid")])
     assert rc == 0
     summary = json.loads((tmp_path / "sysid" / "summary.json").read_text())
     assert "verdict" in summary and math.isfinite(summary["rmse_before"]["fitted"]["position_m"])

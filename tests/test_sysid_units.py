@@ -42,7 +42,7 @@ def test_csv_reader_pwm_latlon_gaps(tmp_path):
     lines = ["t_s,pwm_port_pct,pwm_stbd_pct,lat_deg,lon_deg,heading_deg,extra"]
     for k in range(50):
         hdg = "" if k == 7 else f"{30.0:.1f}"
-        pwm_p = "garbage" if k == 9 else "60"
+        pwm_p = "" if k == 9 else "60"
         lines.append(f"{t[k]:.1f},{pwm_p},-40,{lat[k]:.9f},{lon[k]:.9f},{hdg},x")
     lines.insert(20, "nan,60,60,,,,")  # a row without time is dropped
     path = tmp_path / "trial.csv"
@@ -53,7 +53,10 @@ def test_csv_reader_pwm_latlon_gaps(tmp_path):
     assert_allclose(tr.thrust_port_n[0], curve.thrust_from_signed_duty_n(60.0))
     assert_allclose(tr.thrust_stbd_n[0], curve.thrust_from_signed_duty_n(-40.0))
     assert tr.thrust_stbd_n[0] < 0
-    assert_allclose(tr.thrust_port_n[9], tr.thrust_port_n[8])  # unreadable cell: last command held
+    assert_allclose(tr.thrust_port_n[9], tr.thrust_port_n[8])  # an empty cell: last command held
+    path.write_text("\n".join(lines).replace(",,-40", ",garbage,-40", 1) + "\n")  # an unreadable one: refused
+    with pytest.raises(ConfigError, match=r"data row 10, pwm_port_pct: 'garbage' is not a number"):
+        read_trial(path)
     assert math.isnan(tr.heading_rad[7])
     assert_allclose(tr.north_m, north - north[0], atol=0.01)
     assert_allclose(tr.east_m, east - east[0], atol=0.01)

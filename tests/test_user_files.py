@@ -268,3 +268,46 @@ def test_an_output_path_that_cannot_be_written_is_refused_before_the_work(tmp_pa
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         code = main([fill(a) for a in argv])
     assert code == 2 and err.getvalue().strip() == f"autopilot {argv[0]}: error: {fill(message)}", err.getvalue()
+
+
+TRIAL_HEAD = "t_s,north_m,east_m,heading_deg,thrust_port_n,thrust_stbd_n\n"
+
+
+def _trial_rows(n=40, *, sep=",", dec="."):
+    rows = []
+    for k in range(n):
+        cells = [f"{0.1 * k:.1f}", f"{0.05 * k:.2f}", "0.0", "0.0", "10.0", "10.0"]
+        rows.append(sep.join(c.replace(".", dec) for c in cells))
+    return rows
+
+
+# (what, file text, the message after "PATH: ") -- each was read without a word before (found as a new user)
+TRIAL_CASES = [
+    ("inf thrust", TRIAL_HEAD + "\n".join(_trial_rows()).replace("10.0,10.0", "inf,10.0", 1) + "\n",
+     "data row 1, thrust_port_n: inf is not a finite number (leave the cell empty if it has no value)"),
+    ("Excel decimal commas", TRIAL_HEAD.replace(",", ";") + "\n".join(_trial_rows(sep=";", dec=",")) + "\n",
+     "data row 1, t_s: '0,0' is not a number (a decimal comma: save the CSV with a point as the decimal separator)"),
+    ("a word", TRIAL_HEAD + "\n".join(_trial_rows()).replace("0.0,0.0,10.0", "0.0,north,10.0", 1) + "\n",
+     "data row 1, heading_deg: 'north' is not a number"),
+    ("time going back", TRIAL_HEAD + "\n".join(_trial_rows()[:20] + _trial_rows()[5:]) + "\n",
+     "t_s goes back from 1.9 s (data row 20) to 0.5 s (data row 21): one trial's rows in time order (two trials in "
+     "one file? give each its own file)"),
+    ("last row cut mid-write", TRIAL_HEAD + "\n".join(_trial_rows()) + "\n4.0,2.0",
+     "data row 41 has 2 of 6 fields and the file does not end with a new line: cut off mid-write? delete that row"),
+]
+
+
+@pytest.mark.parametrize("what, text, message", TRIAL_CASES, ids=[c[0] for c in TRIAL_CASES])
+def test_a_trial_csv_cell_that_is_not_a_number_is_refused_naming_the_row(tmp_path, what, text, message):
+    path = tmp_path / "t.csv"
+    path.write_text(text)
+    proc = run_cli("sysid", str(path), "--out", str(tmp_path / "out"), "--no-report", check=False)
+    assert proc.returncode == 2 and proc.stderr.strip() == f"autopilot sysid: error: {path}: {message}", proc.stderr
+
+
+def test_the_same_trial_twice_is_refused(tmp_path):
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text(TRIAL_HEAD + "\n".join(_trial_rows()) + "\n")
+    b.write_bytes(a.read_bytes())
+    proc = run_cli("sysid", str(a), str(b), "--out", str(tmp_path / "out"), "--no-report", check=False)
+    assert proc.returncode == 2 and proc.stderr.strip() == f"autopilot sysid: error: {b}: the same data as {a}: give each trial once"

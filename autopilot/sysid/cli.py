@@ -64,6 +64,7 @@ def run_cli(args: argparse.Namespace) -> int:
     from autopilot.sysid.workflow import run
 
     bounds = _bounds(args)
+    _distinct_files(args.trials)
     trials = [read_trial(p) for p in args.trials]
     summary = run(trials, vessel, args.out, params_file=str(params_path), candidates=candidates,
                   top_k=args.top_k, report=not args.no_report, log=log, bounds=bounds)
@@ -88,6 +89,21 @@ def _bounds(args):
             raise ConfigError(f"{opt}: {value!r} is outside the allowed range [{meta['lo']:g}, {meta['hi']:g}] {meta['unit']}")
         changes[name] = value
     return dataclasses.replace(NoiseBounds(), **changes)
+
+
+def _distinct_files(paths) -> None:
+    """The same trial twice (by name or a copy) would be fitted twice and held out against itself."""
+    import hashlib
+
+    seen: dict[str, str] = {}
+    for p in paths:
+        try:
+            digest = hashlib.sha256(Path(p).read_bytes()).hexdigest()
+        except OSError:
+            continue  # read_trial says what is wrong with it
+        if digest in seen:
+            raise ConfigError(f"{p}: the same data as {seen[digest]}: give each trial once")
+        seen[digest] = str(p)
 
 
 def _table(args, vessel, params_path, candidates, log) -> int:

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -290,14 +291,6 @@ def _commands(name, tp, ts, dp, ds, curve: ThrustCurve):
     raise ConfigError(f"trial {name}: needs thrust_port_n/thrust_stbd_n or pwm_port_pct/pwm_stbd_pct")
 
 
-def _number(text: str) -> float:
-    try:
-        value = float(text)
-    except (TypeError, ValueError):
-        return math.nan
-    return value if math.isfinite(value) else math.nan
-
-
 def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = None) -> Trial:
     """A trial from the CSV's columns (name -> per-row values, NaN = empty cell); ConfigError names what is missing."""
     get = cols.get
@@ -322,23 +315,57 @@ def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = Non
     )
 
 
+TRIAL_COLUMNS = ("t_s", "north_m", "east_m", "lat_deg", "lon_deg", "heading_deg", "thrust_port_n", "thrust_stbd_n",
+                 "pwm_port_pct", "pwm_stbd_pct", "position_time_s", "heading_time_s", "sog_m_s", "cog_deg", "rot_deg_s")
+MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"
+
+
+def _cell(text: str, row: int, column: str) -> float:
+    """A trial cell: a finite number, or NaN for an empty or "no value" cell; anything else is refused (it was
+    read as empty, without a word: a thrust of inf, a decimal comma, a stray word)."""
+    if text in MISSING_CELLS:
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        hint = ""
+        if re.fullmatch(r"[-+]?\d*,\d+", text):
+            hint = " (a decimal comma: save the CSV with a point as the decimal separator)"
+        raise ConfigError(f"data row {row}, {column}: {text!r} is not a number{hint}") from None
+    if not math.isfinite(value):
+        raise ConfigError(f"data row {row}, {column}: {text} is not a finite number (leave the cell empty if it has no value)")
+    return value
+
+
 def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
-    """Read one trial CSV (columns in the module docstring)."""
+    """Read one trial CSV (columns in the module docstring); a cell that is not a number, a time going back
+    or a last row cut off mid-write is refused naming the row."""
     from autopilot.userfile import csv_rows, read_text
 
     path = Path(path)
-    table = csv_rows(read_text(path, what="trial CSV"))
+    text = read_text(path, what="trial CSV")
+    table = csv_rows(text)
     header = table[0] if table else []
-    rows = [[_number(c) for c in r] for r in table[1:]]
     if "t_s" not in header:
         raise ConfigError(f"{path}: no t_s column in the header ({', '.join(header) or 'empty file'})")
     width = len(header)
-    data = np.full((len(rows), width), np.nan)
-    for i, r in enumerate(rows):
-        r = r[:width]
-        data[i, : len(r)] = r
-    cols = {h: data[:, k] for k, h in enumerate(header)}
+    if len(table) > 1 and len(table[-1]) < width and not text.endswith(("\n", "\r")):
+        raise ConfigError(f"{path}: data row {len(table) - 1} has {len(table[-1])} of {width} fields and the file does "
+                          "not end with a new line: cut off mid-write? delete that row")
+    data = np.full((len(table) - 1, width), np.nan)
     try:
+        for i, r in enumerate(table[1:]):
+            for k, c in enumerate(r[:width]):
+                if header[k] in TRIAL_COLUMNS:  # other columns (a note, a label) are the user's own
+                    data[i, k] = _cell(c, i + 1, header[k])
+        t = data[:, header.index("t_s")]
+        finite = np.flatnonzero(np.isfinite(t))
+        back = np.flatnonzero(np.diff(t[finite]) < 0)
+        if back.size:
+            i, j = finite[back[0]], finite[back[0] + 1]
+            raise ConfigError(f"t_s goes back from {t[i]:g} s (data row {i + 1}) to {t[j]:g} s (data row {j + 1}): one "
+                              "trial's rows in time order (two trials in one file? give each its own file)")
+        cols = {h: data[:, k] for k, h in enumerate(header) if h in TRIAL_COLUMNS}
         return trial_from_columns(path.stem, cols, curve=curve)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
