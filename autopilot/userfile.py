@@ -16,7 +16,7 @@ from pathlib import Path
 
 from autopilot.schema import ConfigError
 
-__all__ = ["read_text", "check_file", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES"]
+__all__ = ["read_text", "check_file", "check_text_head", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES"]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")  # what the figures can be saved as
 
@@ -38,6 +38,15 @@ def check_file(path: str | Path, *, what: str = "file") -> Path:
     return p
 
 
+def check_text_head(p: Path, head: bytes, *, what: str = "file") -> None:
+    """ConfigError naming ``p`` when its first bytes are UTF-16 text or binary data (not a UTF-8 ``what``)."""
+    if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        excel = " (in Excel: 'CSV UTF-8')" if p.suffix.lower() == ".csv" else ""
+        raise ConfigError(f"{p}: UTF-16 text; save the {what} as UTF-8{excel}")
+    if b"\x00" in head[:_BINARY_SNIFF]:
+        raise ConfigError(f"{p}: binary data, not a text {what}")
+
+
 def read_text(path: str | Path, *, what: str = "file") -> str:
     """The UTF-8 text of a user's file, a leading BOM removed; ConfigError naming the file otherwise."""
     p = check_file(path, what=what)
@@ -45,13 +54,9 @@ def read_text(path: str | Path, *, what: str = "file") -> str:
         data = p.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
-    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
-        excel = " (in Excel: 'CSV UTF-8')" if p.suffix.lower() == ".csv" else ""
-        raise ConfigError(f"{p}: UTF-16 text; save the {what} as UTF-8{excel}")
+    check_text_head(p, data, what=what)
     if data.startswith(codecs.BOM_UTF8):
         data = data[len(codecs.BOM_UTF8):]
-    if b"\x00" in data[:_BINARY_SNIFF]:
-        raise ConfigError(f"{p}: binary data, not a text {what}")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:

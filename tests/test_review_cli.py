@@ -98,3 +98,39 @@ def test_bad_input_exits_2(logs, capsys, argv, message):
     argv = [str(d / "ok.jsonl") if a == "LOG" else a for a in argv]
     assert main(argv) == 2
     assert message in capsys.readouterr().err
+
+
+def _rewritten(src, dst, change):
+    """A copy of the log ``src`` with each cycle line's record changed by ``change`` (written as Python's json does,
+    NaN literals and all)."""
+    out = []
+    for line in src.read_text().splitlines():
+        rec = json.loads(line)
+        if rec.get("event") == "cycle":
+            change(rec)
+        out.append(json.dumps(rec))
+    dst.write_text("\n".join(out) + "\n")
+    return dst
+
+
+def test_nan_positions_huge_thrusts_and_a_utf16_log_are_said_so(tmp_path, capsys):
+    """Found as a new user: NaN positions printed 'nan m' and no note; a thrust of 1e308 N leaked numpy's overflow
+    warning and left the energy empty without a word; a UTF-16 log was called binary data."""
+    src = tmp_path / "ok.jsonl"
+    write_synthetic_log(src)
+    nan = _rewritten(src, tmp_path / "nan.jsonl", lambda r: r.update(north_m=float("nan"), east_m=float("nan")))
+    huge = _rewritten(src, tmp_path / "huge.jsonl", lambda r: r.update(thrust_port_n=1e308))
+    assert main(["review", str(nan), "--out", str(tmp_path / "r1"), "--no-plots"]) == 0
+    out = capsys.readouterr()
+    assert "no position" in out.out and "non-numeric or infinite value(s) of north_m: treated as gaps" in out.out
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's overflow warning reached the user's terminal
+        assert main(["review", str(huge), "--out", str(tmp_path / "r2"), "--no-plots"]) == 0
+    out = capsys.readouterr()
+    assert "thrust energy not computed: thrust values up to 1e+308 N overflow the sum" in out.out
+    utf16 = tmp_path / "u.jsonl"
+    utf16.write_bytes(src.read_text().encode("utf-16"))
+    assert main(["review", str(utf16), "--out", str(tmp_path / "r3")]) == 2
+    assert f"{utf16}: UTF-16 text; save the mission log as UTF-8" in capsys.readouterr().err

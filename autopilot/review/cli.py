@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 
@@ -42,8 +43,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"{card.path}: no cycle lines: nothing to review (report written with what was read)")
             failed = True
         else:
+            travelled = f"{card.distance_m:.1f} m" if math.isfinite(card.distance_m) else "no position"
             print(f"{card.path}: {card.cycles} cycles, {card.mission_time_s:.1f} s, "
-                  f"{card.distance_m:.1f} m, {len(card.failsafes)} failsafe(s)")
+                  f"{travelled}, {len(card.failsafes)} failsafe(s)")
         for note in card.read_notes[1:]:
             print(f"  {note}")
         for fmt, path in one.exports.items():

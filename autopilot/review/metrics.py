@@ -546,7 +546,13 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
 
     tp, ts = log.col("thrust_port_n"), log.col("thrust_stbd_n")
     known = np.isfinite(tp) & np.isfinite(ts)
-    energy = float(np.sum((np.abs(tp[known]) + np.abs(ts[known])) * hold[known])) if known.any() else math.nan
+    with np.errstate(over="ignore", invalid="ignore"):  # a corrupt 1e308 N overflows: said below, not warned
+        energy = float(np.sum((np.abs(tp[known]) + np.abs(ts[known])) * hold[known])) if known.any() else math.nan
+    read_notes = log.stats.describe()
+    if not math.isfinite(energy) and known.any():
+        read_notes.append(f"thrust energy not computed: thrust values up to {np.max(np.abs(np.r_[tp[known], ts[known]])):.3g} N "
+                          "overflow the sum (a corrupt log?)")
+        energy = math.nan
     thrust_unknown = float(np.sum(hold[~known]))
 
     in_auto = log.mode == MODES.index("auto")
@@ -596,7 +602,7 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
         lateness_ms=lateness, stop_reason=stop_reason if isinstance(stop_reason, str) else None,
         complete=bool(log.events_named("mission_complete")),
         waypoints=closest_approaches(log), skipped_lines=log.stats.skipped,
-        read_notes=log.stats.describe(),
+        read_notes=read_notes,
         mode_time_s=mode_times_s(log, hold), holds=hold_stats(log, hold),
         battery_v=_min_max(log.col("battery_v")), battery_rest_v=_min_max(log.col("battery_rest_v")),
         targets=target_reviews(log), manoeuvres=manoeuvres(log),

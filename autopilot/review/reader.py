@@ -432,15 +432,14 @@ def check_mission_log(path) -> Path:
     first 64 kB: a README, a CSV or a binary file given by mistake is refused, not reviewed as
     "0 cycles".
     """
-    from autopilot.userfile import check_file
+    from autopilot.userfile import check_file, check_text_head
 
     p = check_file(path, what="mission log")
     with p.open("rb") as f:
         head = f.read(_SNIFF_BYTES)
     if not head.strip():
         return p
-    if b"\x00" in head[:8192]:
-        raise ConfigError(f"{p}: binary data, not a mission log (JSON lines, docs/log-schema.md)")
+    check_text_head(p, head, what="mission log")
     lines = head.splitlines()
     if len(head) == _SNIFF_BYTES and len(lines) > 1:
         lines = lines[:-1]  # the last one may be cut by the sniff
@@ -478,7 +477,12 @@ def read_log(path) -> MissionLog:
     first_ts = last_ts = None
     fields = CYCLE_FIELDS
     take = operator.itemgetter(*fields)
-    loads = json.loads
+    # A NaN literal (not strict JSON: the daemon writes null) counts as a bad value, as an infinity does,
+    # not as a silent gap (a log of NaN positions gave "nan m" and no note)
+    decode = json.JSONDecoder(parse_constant=lambda _name: math.inf).decode
+
+    def loads(raw):  # bytes, as json.loads takes them (a bad byte: ValueError, a corrupt line)
+        return decode(raw.decode("utf-8") if isinstance(raw, bytes) else raw)
     mode_codes, source_codes, situation_codes = _MODE_CODES, _SOURCE_CODES, _SITUATION_CODES
 
     def flush() -> None:
