@@ -144,8 +144,17 @@ def test_malformed_and_oversized_requests_are_refused_and_logged(tmp_path):
             assert "unknown field 'speed'" in texts[3]
             assert texts[4] == "request too large (limit 1024 bytes)"
             assert texts[5] == "malformed request: not UTF-8 text"
+
+            def probe():  # what a second daemon (refused: this one answers) does: connect and go
+                import socket
+
+                with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+                    s.connect(str(path))
+
+            await loop.run_in_executor(None, probe)
+            await d.clock.sleep(0.5)
             refused = [r for r in d.events("command") if not r["accepted"]]
-            assert len(refused) == 6
+            assert len(refused) == 6  # the probe wrote 'command "" malformed request: empty' into this log
             assert _last_cycle(d)["mode"] == "auto" and d.rig.mbed.thrusting  # nothing changed
             mode = oct((path.stat().st_mode) & 0o777)
             assert mode == "0o660"

@@ -106,6 +106,8 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
     log_dir = Path(opts.log_dir or cfg.log_dir)
     state_dir = Path(opts.state_dir or cfg.state_dir)
     for name, d in (("log directory", log_dir), ("state directory", state_dir)):
+        if d.exists() and not d.is_dir():  # mkdir said "cannot create (File exists)"
+            raise ConfigError(f"{name} {d}: is a file, not a directory")
         try:
             d.mkdir(parents=True, exist_ok=True)
         except OSError as exc:

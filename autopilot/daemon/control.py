@@ -155,8 +155,9 @@ class ControlServer:
         self._clients += 1
         try:
             reply = await self._reply(reader)
-            writer.write((json.dumps(reply, allow_nan=False, default=str) + "\n").encode("utf-8"))
-            await asyncio.wait_for(writer.drain(), READ_TIMEOUT_S)
+            if reply is not None:
+                writer.write((json.dumps(reply, allow_nan=False, default=str) + "\n").encode("utf-8"))
+                await asyncio.wait_for(writer.drain(), READ_TIMEOUT_S)
         except (OSError, asyncio.TimeoutError, ValueError):
             pass  # the client went away: nothing to answer
         finally:
@@ -165,7 +166,7 @@ class ControlServer:
             with contextlib.suppress(Exception):
                 await writer.wait_closed()
 
-    async def _reply(self, reader: asyncio.StreamReader) -> dict:
+    async def _reply(self, reader: asyncio.StreamReader) -> dict | None:
         if self._clients > MAX_CLIENTS:
             return self._refuse("", f"busy: more than {MAX_CLIENTS} requests at once")
         try:
@@ -174,6 +175,8 @@ class ControlServer:
             return self._refuse("", f"request too large (limit {MAX_REQUEST_BYTES} bytes)")
         except asyncio.IncompleteReadError as exc:
             line = exc.partial  # no newline before the client closed its side: take what came
+            if not line:  # connected and went: a second daemon (or ctl) checking this one is alive, not a command
+                return None
             if len(line) > MAX_REQUEST_BYTES:
                 return self._refuse("", f"request too large (limit {MAX_REQUEST_BYTES} bytes)")
         except asyncio.TimeoutError:
