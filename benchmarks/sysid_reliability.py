@@ -7,16 +7,21 @@ model: 1 Hz fixes held on 10 Hz rows or empty cells, wandering GPS error, outlie
 quantised heading); closed-loop mission logs flown by `autopilot run --sim` over the pond missions,
 with a hidden 0.2 m/s current and with nothing hidden (4800 baud, the SC-30's speed and course over ground
 with a 0.03-0.1 m/s velocity error); the realistic trials again with speed and course over ground
-(``velocity``); and the original white-noise 10 Hz trials.
+(``velocity``); the original white-noise 10 Hz trials; and each listed effect again in the realistic
+trials but drawn below what the GPS wander lets one see (``small``, ranges in cases.SMALL).
 
 Per draw it records: the right verdict (the exact set of listed effects; `none` when nothing is
 hidden; `unexplained` or a model flagged not adequate for the unlisted effect), whether each hidden
 parameter's 95 % interval covers the truth, and the held-out error beyond the noise before and
-after (the cut is checked where the effect moved the track by more than twice the noise).
+after (the cut is checked where the effect moved the track by more than twice the noise). A small
+effect may rightly be missed: its draws are scored by outcome (exact, none, inconclusive, a wrong
+effect named, unexplained) and, beside none and inconclusive, whether the effect is among what the
+trials cannot rule out (its 95 % interval in ``not_excluded`` covering the truth).
 
     python benchmarks/sysid_reliability.py --seeds 20                      # every group, ~2 h on 1 core
     python benchmarks/sysid_reliability.py --seeds 10 --groups single,none --jobs 2
     python benchmarks/sysid_reliability.py --seeds 5 --groups closed_loop   # flies 5 pond logs per draw
+    python benchmarks/sysid_reliability.py --seeds 2 --groups small --jsonl small.jsonl
     python benchmarks/sysid_reliability.py --summarise draws.jsonl           # the tables of a run so far
 
 Every draw's record is appended to ``--jsonl`` as it completes, so a sweep that is stopped (or
@@ -39,7 +44,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white")
+GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small")  # new groups last: same seeds
 
 
 def cases_of(groups):
@@ -61,6 +66,8 @@ def cases_of(groups):
             out += [Case((e,), velocity=True) for e in DRAWS] + [Case((), velocity=True)]
         elif g == "white":
             out += [Case((e,), kind="white") for e in DRAWS] + [Case((), kind="white")]
+        elif g == "small":  # the single group's trials, each effect below its visible range
+            out += [Case((e,), small=True) for e in DRAWS]
     return out
 
 
@@ -106,7 +113,7 @@ def table(results: list[dict]) -> str:
 # issue 12's aims: (what, the draws it counts, the rate aimed at)
 AIMS = (
     ("a listed effect alone named exactly", lambda c: c.kind == "realistic" and len(c.effects) == 1 and not c.unlisted
-     and not c.velocity, 0.95),
+     and not c.velocity and not c.small, 0.95),
     ("a pair named exactly", lambda c: len(c.effects) == 2, 0.90),
     ("nothing hidden: none (realistic trials)", lambda c: c.kind == "realistic" and not c.effects, 0.95),
     ("nothing hidden: none (closed-loop logs)", lambda c: c.kind == "closed_loop" and not c.effects, 0.95),
@@ -114,6 +121,8 @@ AIMS = (
     ("an effect outside the list: unexplained or flagged not adequate", lambda c: c.unlisted, 0.80),
     ("with speed and course over ground: named exactly (or none)", lambda c: c.velocity, 0.95),
     ("white-noise 10 Hz trials: named exactly (or none)", lambda c: c.kind == "white", None),
+    # no aim in issue 12: the README asks only that a small effect is never a confident wrong name
+    ("a small effect: named exactly, none or inconclusive (no other effect, not unexplained)", lambda c: c.small, None),
 )
 
 
@@ -137,6 +146,33 @@ def aims(results: list[dict], cases: dict) -> str:
     return "\n".join(rows)
 
 
+def small_table(results: list[dict]) -> str:
+    """The small effects' outcomes per case (draws out of all); "interval misses": named exactly with a
+    95 % interval missing the truth; "not ruled out": none or inconclusive with the effect in
+    not_excluded, every interval covering the truth."""
+    mine = [r for r in results if r["case"].endswith("+small")]
+    if not mine:
+        return ""
+    kinds = ("exact", "none", "inconclusive", "wrong", "unexplained")
+    rows = ["| case | draws | " + " | ".join(kinds) + " | interval misses | not ruled out (of none + inconclusive) |",
+            "|---|---|" + "---|" * (len(kinds) + 2)]
+    for label in dict.fromkeys(r["case"] for r in mine):
+        rs = [r for r in mine if r["case"] == label]
+        count = {k: sum(r.get("outcome", "error") == k for r in rs) for k in kinds}
+        misses = sum(not all(r.get("covered95", {}).values()) for r in rs if r.get("outcome") == "exact")
+        quiet = [r for r in rs if r.get("outcome") in ("none", "inconclusive")]
+        kept = sum(_not_ruled_out(r) for r in quiet)
+        errors = len(rs) - sum(count.values())
+        rows.append(f"| {label} | {len(rs)}{f' ({errors} crashed)' if errors else ''} | "
+                    + " | ".join(str(count[k]) for k in kinds) + f" | {misses} | {kept}/{len(quiet)} |")
+    return "\n".join(rows)
+
+
+def _not_ruled_out(r: dict) -> bool:
+    ne = r.get("not_excluded") or {}
+    return bool(ne.get("listed")) and bool(ne.get("covers")) and all(ne["covers"].values())
+
+
 def summarise(path: Path) -> int:
     """The tables of the draws recorded in a --jsonl file (a sweep stopped early included)."""
     results = [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
@@ -151,6 +187,8 @@ def summarise(path: Path) -> int:
     print(f"{len(results)} draws from {path}")
     print("\n" + table(results))
     print("\n" + aims(results, cases))
+    if small_table(results):
+        print("\n" + small_table(results))
     return 0
 
 
@@ -186,7 +224,7 @@ def main(argv=None) -> int:
             results.append(r)
             flag = "ok " if r.get("right") else "MISS"
             print(f"  {flag} {r['case']:36s} seed {r['seed']:10d} {r['wall_s']:5.1f} s  {r.get('status', '')} "
-                  f"{r.get('verdict', '')} {r.get('error', '')}", flush=True)
+                  f"{r.get('verdict', '')} {r.get('outcome', '')} {r.get('error', '')}", flush=True)
             if jsonl:
                 jsonl.write(json.dumps(r, default=str) + "\n")
                 jsonl.flush()
@@ -194,6 +232,8 @@ def main(argv=None) -> int:
         jsonl.close()
     print("\n" + table(results))
     print("\n" + aims(results, {c.label: c for c in cases}))
+    if small_table(results):
+        print("\n" + small_table(results))
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1, default=str))
     return 0
