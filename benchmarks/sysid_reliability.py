@@ -8,7 +8,7 @@ quantised heading); closed-loop mission logs flown by `autopilot run --sim` over
 with a hidden 0.2 m/s current and with nothing hidden (4800 baud, the SC-30's speed and course over ground
 with a 0.03-0.1 m/s velocity error); the realistic trials again with speed and course over ground
 (``velocity``); the original white-noise 10 Hz trials; and each listed effect again in the realistic
-trials but drawn below what the GPS wander lets one see (``small``, ranges in cases.SMALL).
+trials but drawn below what the GPS wander lets one see (``small``, ranges in cases.SMALL_RANGES).
 
 Per draw it records: the right verdict (the exact set of listed effects; `none` when nothing is
 hidden; `unexplained` or a model flagged not adequate for the unlisted effect), whether each hidden

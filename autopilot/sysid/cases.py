@@ -25,67 +25,82 @@ def _sign(rng):
     return float(rng.choice([-1.0, 1.0]))
 
 
-def _polar(rng, lo, hi, kx, ky):
-    mag, ang = rng.uniform(lo, hi), rng.uniform(0.0, 2 * math.pi)
-    return {kx: mag * math.cos(ang), ky: mag * math.sin(ang)}
+def _values(rng, specs) -> dict:
+    """Hidden values from ``specs``: (kind, key or keys, lo, hi), drawn in order. ``polar``: a magnitude in
+    [lo, hi] in a uniform direction over a north and an east key; ``signed``: either sign; ``plain``: as
+    drawn; ``negative``: its negative. (The rng calls, in this order, are what the seeds of the README's
+    figures reproduce.)"""
+    out = {}
+    for kind, key, lo, hi in specs:
+        if kind == "polar":
+            mag, ang = rng.uniform(lo, hi), rng.uniform(0.0, 2 * math.pi)
+            out.update({key[0]: mag * math.cos(ang), key[1]: mag * math.sin(ang)})
+        elif kind == "signed":
+            out[key] = _sign(rng) * rng.uniform(lo, hi)
+        else:
+            out[key] = (-1.0 if kind == "negative" else 1.0) * rng.uniform(lo, hi)
+    return out
 
 
-# listed effect -> draw(rng) -> hidden values
-DRAWS = {
-    "current": lambda r: _polar(r, 0.15, 0.3, "current.north_m_s", "current.east_m_s"),
+CURRENT_KEYS, WIND_KEYS = ("current.north_m_s", "current.east_m_s"), ("wind_force.north_n", "wind_force.east_n")
+
+# listed effect -> what its hidden values are drawn from, where each is clearly visible
+VISIBLE = {
+    "current": [("polar", CURRENT_KEYS, 0.15, 0.3)],
     # a steady moment of a few N m against 14 N m s of linear yaw damping turns the boat by tens of
     # degrees (3.4 N m: 52 deg heading RMSE); 0.5-1.5 N m is plenty observable
-    "wind_force": lambda r: {**_polar(r, 4.0, 8.0, "wind_force.north_n", "wind_force.east_n"),
-                             "wind_force.moment_nm": _sign(r) * r.uniform(0.5, 1.5)},
+    "wind_force": [("polar", WIND_KEYS, 4.0, 8.0), ("signed", "wind_force.moment_nm", 0.5, 1.5)],
     # from 13 % the no-effect model is so far off that every local step from it diverges (seed
     # 1446339187 with 8-20 %); 3-7 % (a 6-14 % difference between the sides) turns the tracks by tens of degrees
-    "thrust_asymmetry": lambda r: {"thrust_asymmetry.asymmetry_nd": _sign(r) * r.uniform(0.03, 0.07)},
-    "thrust_lag": lambda r: {"thrust_lag.time_constant_s": r.uniform(0.8, 2.0)},
+    "thrust_asymmetry": [("signed", "thrust_asymmetry.asymmetry_nd", 0.03, 0.07)],
+    "thrust_lag": [("plain", "thrust_lag.time_constant_s", 0.8, 2.0)],
     # the manoeuvres hold duties of 0, 10, 20, 30 % ... (and ramps): a threshold in 22-28 % cuts the
     # 20 % segments; at 15-20 % only the 10 % segments and ramps tell
-    "thrust_deadband": lambda r: {"thrust_deadband.threshold_pct": r.uniform(22.0, 28.0)},
+    "thrust_deadband": [("plain", "thrust_deadband.threshold_pct", 22.0, 28.0)],
     # a heading bias shows only in the track (the compass offset itself is the initial heading's):
     # 5 deg at 1.5 m/s is 0.13 m/s of sideways drift, against metres of GPS wander
-    "heading_bias": lambda r: {"heading_bias.bias_deg": _sign(r) * r.uniform(12.0, 20.0)},
+    "heading_bias": [("signed", "heading_bias.bias_deg", 12.0, 20.0)],
     # a lever arm moves the antenna by at most its length: it must be long against the GPS wander
-    "antenna_offset": lambda r: {"antenna_offset.forward_m": _sign(r) * r.uniform(2.0, 3.0),
-                                 "antenna_offset.starboard_m": _sign(r) * r.uniform(1.0, 2.0)},
-    "sensor_delay": lambda r: {"sensor_delay.delay_s": r.uniform(0.6, 1.5)},
+    "antenna_offset": [("signed", "antenna_offset.forward_m", 2.0, 3.0), ("signed", "antenna_offset.starboard_m", 1.0, 2.0)],
+    "sensor_delay": [("plain", "sensor_delay.delay_s", 0.6, 1.5)],
     # added to the vessel's 9.9 N m s^2: +15-40 is 2.5-5 times it
-    "yaw_damping_quadratic": lambda r: {"yaw_damping_quadratic.n_rr_nm_s2": r.uniform(15.0, 40.0)},
-    "hydro_refit": lambda r: {"hydro_refit.resistance_linear_n_s_m": _sign(r) * r.uniform(2.5, 4.5),
-                              "hydro_refit.n_r_nd": -r.uniform(0.004, 0.01)},
+    "yaw_damping_quadratic": [("plain", "yaw_damping_quadratic.n_rr_nm_s2", 15.0, 40.0)],
+    "hydro_refit": [("signed", "hydro_refit.resistance_linear_n_s_m", 2.5, 4.5), ("negative", "hydro_refit.n_r_nd", 0.004, 0.01)],
 }
-# effects outside the candidate list (truth.py simulates them): the verdict must not be a confident name
-UNLISTED = {
-    "thrust_fade": lambda r: {"thrust_fade.fraction": r.uniform(0.2, 0.35)},  # a battery that sags
-}
-PAIRS = (("current", "thrust_lag"), ("heading_bias", "wind_force"), ("thrust_asymmetry", "thrust_deadband"))
-
 # each listed effect below its visible range (the README's "What is still missed": a 3 deg bias or a
 # 0.5 m lever arm moves the track by less than the GPS wander): the answer must be none or
 # inconclusive with the effect not ruled out, or the effect itself with an interval covering the
 # truth, never another effect. Current, heading bias and lever arm as the README names them; every
-# other parameter from a tenth to a third of the lower end of its range in DRAWS. Each draw makes the
-# same rng calls as its DRAWS entry, so a seed gives the same sensor and manoeuvres in both groups.
-SMALL = {
-    "current": lambda r: _polar(r, 0.03, 0.1, "current.north_m_s", "current.east_m_s"),
-    "wind_force": lambda r: {**_polar(r, 0.4, 1.3, "wind_force.north_n", "wind_force.east_n"),
-                             "wind_force.moment_nm": _sign(r) * r.uniform(0.05, 0.17)},
-    "thrust_asymmetry": lambda r: {"thrust_asymmetry.asymmetry_nd": _sign(r) * r.uniform(0.003, 0.01)},
-    "thrust_lag": lambda r: {"thrust_lag.time_constant_s": r.uniform(0.08, 0.27)},
-    # below the lowest held duty above 0 (10 %): only the ramps cross it
-    "thrust_deadband": lambda r: {"thrust_deadband.threshold_pct": r.uniform(2.2, 9.3)},
-    # 1-4 deg at 1.5 m/s is 0.03-0.1 m/s of sideways drift, against metres of GPS wander
-    "heading_bias": lambda r: {"heading_bias.bias_deg": _sign(r) * r.uniform(1.0, 4.0)},
-    # shorter than the 0.5-2 m wander; forward and to the side in the proportion of DRAWS' arm
-    "antenna_offset": lambda r: {"antenna_offset.forward_m": _sign(r) * r.uniform(0.2, 0.7),
-                                 "antenna_offset.starboard_m": _sign(r) * r.uniform(0.1, 0.35)},
-    "sensor_delay": lambda r: {"sensor_delay.delay_s": r.uniform(0.06, 0.2)},
-    "yaw_damping_quadratic": lambda r: {"yaw_damping_quadratic.n_rr_nm_s2": r.uniform(1.5, 5.0)},
-    "hydro_refit": lambda r: {"hydro_refit.resistance_linear_n_s_m": _sign(r) * r.uniform(0.25, 0.83),
-                              "hydro_refit.n_r_nd": -r.uniform(0.0004, 0.0013)},
+# other parameter from a tenth to a third of the lower end of its visible range. Same kinds, keys and
+# order as VISIBLE, so a seed gives the same sensor and manoeuvres in both groups.
+SMALL_RANGES = {
+    "current": [(0.03, 0.1)],
+    "wind_force": [(0.4, 1.3), (0.05, 0.17)],
+    "thrust_asymmetry": [(0.003, 0.01)],
+    "thrust_lag": [(0.08, 0.27)],
+    "thrust_deadband": [(2.2, 9.3)],  # below the lowest held duty above 0 (10 %): only the ramps cross it
+    "heading_bias": [(1.0, 4.0)],  # 1-4 deg at 1.5 m/s is 0.03-0.1 m/s of sideways drift, against metres of wander
+    "antenna_offset": [(0.2, 0.7), (0.1, 0.35)],  # shorter than the 0.5-2 m wander, in the visible arm's proportion
+    "sensor_delay": [(0.06, 0.2)],
+    "yaw_damping_quadratic": [(1.5, 5.0)],
+    "hydro_refit": [(0.25, 0.83), (0.0004, 0.0013)],
 }
+SMALL_SPECS = {name: [(kind, key, lo, hi) for (kind, key, _, _), (lo, hi) in zip(VISIBLE[name], SMALL_RANGES[name])]
+               for name in VISIBLE}
+
+
+def _drawer(specs):
+    return lambda rng: _values(rng, specs)
+
+
+# listed effect -> draw(rng) -> hidden values
+DRAWS = {name: _drawer(specs) for name, specs in VISIBLE.items()}
+SMALL = {name: _drawer(specs) for name, specs in SMALL_SPECS.items()}
+# effects outside the candidate list (truth.py simulates them): the verdict must not be a confident name
+UNLISTED = {
+    "thrust_fade": _drawer([("plain", "thrust_fade.fraction", 0.2, 0.35)]),  # a battery that sags
+}
+PAIRS = (("current", "thrust_lag"), ("heading_bias", "wind_force"), ("thrust_asymmetry", "thrust_deadband"))
 
 
 def draw(effects, rng, *, small: bool = False) -> dict:
