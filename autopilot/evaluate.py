@@ -339,16 +339,21 @@ def shipped_missions() -> list[Path]:
 
 
 def evaluate(mission_paths, laws, condition_names, *, params=None, base_config=None, record: bool = False):
-    """Every mission x law x condition; yields RunResult."""
+    """Every mission x law x condition: an iterator of RunResult. Every mission file is read and checked
+    here, before the first run (a bad file used to be refused after the table's header was out)."""
     from autopilot.gnc import GncConfig
     from autopilot.mission import load_mission
     from autopilot.sim import default_params_path, load_params
 
+    missions = [load_mission(path) for path in mission_paths]
     params = params or load_params(default_params_path())
     base_config = base_config or GncConfig()
+    return _runs(missions, laws, condition_names, params, base_config, record)
+
+
+def _runs(missions, laws, condition_names, params, base_config, record: bool):
     envs = conditions()
-    for path in mission_paths:
-        m = load_mission(path)
+    for m in missions:
         for law in laws:
             cfg = replace(base_config, guidance=replace(base_config.guidance, law=law))
             for cond in condition_names:
@@ -398,9 +403,10 @@ def _cmd(args: argparse.Namespace) -> int:
         from autopilot.userfile import output_dir
 
         output_dir(args.plot, what="--plot")
+    runs = evaluate(missions, laws, conds, params=params, base_config=base, record=bool(args.plot))
     if not args.json:
         print(HEADER)
-    for r in evaluate(missions, laws, conds, params=params, base_config=base, record=bool(args.plot)):
+    for r in runs:
         if args.json:
             print(json.dumps(r.as_json()))
         else:

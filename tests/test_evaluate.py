@@ -166,3 +166,13 @@ def test_a_campaign_run_starts_at_the_missions_home(tmp_path):
     assert first["nav"].north_m == pytest.approx(111.2, abs=0.5)
     back = type(c).from_data(json.loads(json.dumps(c.to_data())))  # what --replay reads from campaign.json
     assert back.missions[0].home_ne_m == c.missions[0].home_ne_m
+
+
+def test_a_bad_mission_file_is_refused_before_any_output(tmp_path, capsys):
+    """The table's header (and the good missions' rows) came out before a bad file was refused."""
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nwaypoints: [[1, 2], [1, 2]]\n")
+    good = shipped_missions()[0]
+    assert main(["evaluate", "--mission", str(good), "--mission", str(bad), "--guidance", "fuzzy", "--condition", "calm"]) == 2
+    out = capsys.readouterr()
+    assert out.out == "" and "waypoint 2: same position as waypoint 1" in out.err
