@@ -123,16 +123,7 @@ class MissionLog:
         if self._write(name, t_s, fields):
             self.lines += 1
         if name != "cycle":
-            for listener in self.listeners:
-                try:
-                    listener(name, t_s, fields)
-                except Exception:  # noqa: BLE001 - a listener must never stop the log or the loop
-                    pass
-        if self._console is not None and name != "cycle":
-            try:
-                self._console.msg(name, t_s=t_s, **{k: v for k, v in fields.items() if k != "config"})
-            except (OSError, ValueError):  # a closed stderr must not stop the boat logic
-                pass
+            self._tell(name, t_s, fields)
 
     def _write(self, name: str, t_s: float, fields: dict) -> bool:
         try:
@@ -151,16 +142,16 @@ class MissionLog:
             return False
 
     def _tell(self, name: str, t_s: float, fields: dict) -> None:
-        """The listeners and the console only (the file is failing)."""
+        """The listeners (the link) and the console: every event but cycle lines, and the log's own failure."""
         for listener in self.listeners:
             try:
                 listener(name, t_s, fields)
-            except Exception:  # noqa: BLE001
+            except Exception:  # noqa: BLE001 - a listener must never stop the log or the loop
                 pass
         if self._console is not None:
             try:
-                self._console.msg(name, t_s=t_s, **fields)
-            except (OSError, ValueError):
+                self._console.msg(name, t_s=t_s, **{k: v for k, v in fields.items() if k != "config"})
+            except (OSError, ValueError):  # a closed stderr must not stop the boat logic
                 pass
 
     def close(self) -> None:
