@@ -314,6 +314,13 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("length_m", "float", "m", "length from its static report (null when unknown)"),
         _f("age_s", "float", "s", "age of the report when logged"),
     )),
+    EventSpec("position_jump", "a new fix was too far from the last one used (`failsafe.position_jump_m`): refused, or re-anchored to when the next fix agreed with it", (
+        _f("lat_deg", "float", "deg", "the fix as the receiver gave it"),
+        _f("lon_deg", "float", "deg", "see `lat_deg`"),
+        _f("distance_m", "float", "m", "its distance from the last fix used"),
+        _f("gate_m", "float", "m", "the farthest it could have been: `position_jump_m` + 10 m/s x the time between the two fixes"),
+        _f("accepted", "bool", "-", "false: refused, the last fix is kept (and ages); true: a second fix agreed, the position moved there"),
+    )),
     EventSpec("launch", "the launch point was set: where the boat was when control first started (`rtl` returns there)", (
         _f("north_m", "float", "m", "local frame"),
         _f("east_m", "float", "m", "local frame"),

@@ -562,3 +562,42 @@ def test_a_board_that_answers_ok_but_does_not_obey_is_an_mbed_fault(tmp_path):
     mismatch = [r for r in log if r["event"] == "info" and r.get("message") == "mbed_echo_mismatch"]
     assert len(mismatch) >= 1 and mismatch[0]["echoed_pct"] != mismatch[0]["sent_pct"]
     assert [r["cause"] for r in log if r["event"] == "failsafe"] == ["mbed_ack_missing"]
+
+
+@pytest.mark.slow
+def test_a_gnss_glitch_is_refused_and_a_real_move_re_anchors_without_a_failsafe(tmp_path):
+    """One epoch's fix 300 m east (a receiver glitch), the distance limit 100 m: before, the daemon believed it,
+    latched max_distance and flew home. Now it is refused (a position_jump line, a STATUSTEXT-worthy event) and
+    the mission flies on. Then the receiver's solution moves 60 m for three epochs: the second agreeing fix is
+    believed (re-anchored), and when it comes back, the same again; no fault at any point."""
+    async def scenario():
+        d = Daemon(tmp_path, {"name": "glitch", "frame": "local", "waypoints": [[60.0, 0.0], [60.0, 20.0]]},
+                   config={"failsafe": {"max_distance_m": 100.0}})
+        try:
+            await d.start()
+            await d.steady_thrust(2.0)
+            d.rig.sc30.jump_next(0.0, 300.0)
+            await d.wait(lambda: len(d.events("position_jump")) >= 1, 3.0, "the glitch refused")
+            await d.clock.sleep(2.0)
+            d.rig.sc30.jump_next(-60.0, 0.0, epochs=3)
+            await d.wait(lambda: len(d.events("position_jump")) >= 5, 8.0, "the move and the move back")
+            await d.clock.sleep(1.0)
+        finally:
+            await d.close()
+        return d
+
+    d = asyncio.run(scenario())
+    jumps = d.events("position_jump")
+    assert [j["accepted"] for j in jumps] == [False, False, True, False, True], [(j["t_s"], j["accepted"], j["distance_m"], j["gate_m"]) for j in jumps]
+    assert jumps[0]["distance_m"] == pytest.approx(300.0, abs=10.0) and jumps[0]["gate_m"] < 40.0
+    assert not d.events("fault") and not d.events("failsafe"), d.events("fault")
+    cycles = d.events("cycle")
+    assert max(abs(c["east_m"]) for c in cycles if c["east_m"] is not None) < 10.0  # the glitch never steered
+    assert min(c["north_m"] for c in cycles if c["north_m"] is not None) < -30.0  # the move was taken
+    assert all(c["mode"] == "auto" for c in cycles[-20:])
+    from autopilot.review.metrics import score
+    from autopilot.review.reader import read_log
+
+    card = score(read_log(d._log._path))
+    assert (card.gps_jumps_refused, card.gps_jumps_reanchored) == (3, 2)
+    assert ("GPS jumps refused / re-anchored", "3 / 2") in card.table_rows()

@@ -125,6 +125,13 @@ def test_no_position_is_sent_before_the_first_fix_and_long_texts_are_chunked():
     assert len(chunks) == 3 and len({c.id for c in chunks}) == 1 and [c.chunk_seq for c in chunks] == [0, 1, 2]
 
 
+def test_a_position_jump_is_said_to_the_ground_station():
+    refused = T.event_text("position_jump", {"distance_m": 299.6, "gate_m": 35.0, "accepted": False})
+    moved = T.event_text("position_jump", {"distance_m": 61.4, "gate_m": 45.0, "accepted": True})
+    assert refused == (mavlink.MAV_SEVERITY_WARNING, "GPS jump of 300 m refused")
+    assert moved == (mavlink.MAV_SEVERITY_NOTICE, "GPS position moved 61 m (two fixes agree)")
+
+
 def test_signing_key_file_must_be_private_and_well_formed(tmp_path):
     f = tmp_path / "k"
     f.write_text("ab" * 32)

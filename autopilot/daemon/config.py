@@ -103,6 +103,9 @@ class FailsafeConfig:
 
     heading_stale_s: float = param(1.0, unit="s", lo=0.05, hi=10.0, doc="heading older than this is a fault (SC-30 sends it at 10 Hz)")
     position_stale_s: float = param(3.0, unit="s", lo=0.1, hi=30.0, doc="position older than this is a fault (GGA/RMC at 1 Hz)")
+    position_jump_m: float = param(25.0, unit="m", lo=1.0, hi=10000.0, source="ArduPilot EK3_GLITCH_RAD",
+                                   doc="a new fix farther than this (plus the most a WAM-V can travel: 10 m/s x the time since) "
+                                       "from the last fix used is refused, until a second fix agrees with it")
     ack_missing_n: int = param(5, unit="commands", lo=1, hi=100, doc="this many consecutive unacknowledged Mbed commands is a fault")
     garbage_hold_s: float = param(1.0, unit="s", lo=0.0, hi=30.0, doc="a garbage burst on either line counts as a fault for this long")
     nmea_garbage_lines: int = param(5, unit="lines", lo=1, hi=1000, doc="more rejected NMEA lines than this within 1 s is a garbage burst on the compass line")

@@ -11,7 +11,7 @@ simulated run sees the sensor's 1 Hz fixes and fallbacks exactly as the boat doe
   failsafe to judge;
 - yaw rate: ROT while fresh, valid and plausible, else the heading differenced over the cycle;
 - speed and course over ground: while valid, fresh (``position_stale_s``) and plausible;
-- position: the last fix in the local frame of the mission's origin, and that fix
+- position: the last fix in the local frame of the mission's origin (a jump refused, below), and that fix
   carried forward by the velocity over ground over its age (at most
   ``dead_reckon_max_s``: the SC-30 gives position at 1 Hz on a 4800-baud line, SPEC 10;
   held, it lags the boat by up to a second, 1.5 m at cruise); a fix that first appears
@@ -21,6 +21,15 @@ simulated run sees the sensor's 1 Hz fixes and fallbacks exactly as the boat doe
 another talker on the line). One RMC at 999 kn carried the steered position 570 m away and
 one ROT at 9999 deg/min saturated the heading PID; such values are not used (``max_sog_m_s``,
 ``max_yaw_rate_rad_s``): the fix is not carried forward, the differenced heading gives the rate.
+
+A position jump (multipath, a receiver glitch) is refused as ArduPilot's EKF refuses a GPS
+glitch (``EK3_GLITCH_RAD``): a new fix farther from the last one used than ``position_jump_m``
+plus ``max_sog_m_s`` times the time between them is not used, and the last fix goes on ageing
+(``position_stale`` fires if no good fix follows). One far fix once latched the geofence or the
+distance limit and ended the mission. A second new fix that agrees with the refused one (within
+the same gate of it) is believed: the boat or the receiver really moved, and the position is
+re-anchored there, about a second later. Each refusal and each re-anchoring is reported in
+``Navigation.jump`` for the log.
 """
 
 from __future__ import annotations
@@ -28,10 +37,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from autopilot.devices import NavSample, age_s
+from autopilot.devices import NavSample, Stamped, age_s
 from autopilot.geo import latlon_to_local, wrap_pi
 
-__all__ = ["NavRules", "NavMemory", "Navigation", "assemble", "dead_reckon_ne", "velocity_over_ground",
+__all__ = ["NavRules", "NavMemory", "Navigation", "PositionJump", "assemble", "gate_fix", "dead_reckon_ne", "velocity_over_ground",
            "MIN_SOG_FOR_COG_M_S"]
 
 MIN_SOG_FOR_COG_M_S = 0.3  # below this the GNSS course is noise: carry along the heading instead
@@ -50,6 +59,7 @@ class NavRules:
     # full opposite thrust spins it at ~1.6 rad/s (the model's extrapolation); above 2 rad/s the differenced
     # heading stands in, which serves as well if a real spin is faster
     max_yaw_rate_rad_s: float = 2.0
+    position_jump_m: float = 25.0  # ArduPilot's EK3_GLITCH_RAD default; plus max_sog_m_s per second between fixes
 
 
 @dataclass(frozen=True)
@@ -59,6 +69,19 @@ class NavMemory:
     heading_t_s: float | None = None  # when the heading last used was taken
     heading_rad: float | None = None
     fix_t_s: float | None = None  # receive time of the last fix seen
+    fix: Stamped | None = None  # the last valid fix used (a refused jump leaves it in place)
+    jump: Stamped | None = None  # a refused fix waiting to be confirmed by the next one
+
+
+@dataclass(frozen=True)
+class PositionJump:
+    """A new fix too far from the last one used: refused, or (confirmed by the next fix) re-anchored to."""
+
+    lat_deg: float
+    lon_deg: float
+    distance_m: float  # from the last fix used
+    gate_m: float  # what it may be: position_jump_m + max_sog_m_s x the time between the two
+    accepted: bool  # False: refused, the last fix is kept; True: the position re-anchored here
 
 
 @dataclass(frozen=True)
@@ -83,6 +106,7 @@ class Navigation:
     new_fix: bool  # the fix first appears this cycle
     sog_m_s: float | None
     cog_rad: float | None
+    jump: PositionJump | None = None  # a fix refused or re-anchored to this cycle
 
     @property
     def steerable(self) -> bool:
@@ -156,12 +180,42 @@ def dead_reckon_ne(
     return north_m + travel_m * math.cos(direction), east_m + travel_m * math.sin(direction)
 
 
+def _apart_m(a: Stamped, b: Stamped) -> float:
+    """Distance (m) between two fixes."""
+    north, east = latlon_to_local(*a.value, *b.value)
+    return math.hypot(north, east)
+
+
+def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules):
+    """(the fix to use, the memory's ``fix`` and ``jump`` for the next cycle, the :class:`PositionJump` to
+    report or None); see the module docstring. An invalid fix is not gated (the failsafe judges it)."""
+    if pos is None or pos.value is None or not pos.valid:
+        return pos, memory.fix, memory.jump, None
+    last, pending = memory.fix, memory.jump
+    if pos.t_s == memory.fix_t_s:  # the fix already judged: the judgement stands
+        refused = pending is not None and pending.t_s == pos.t_s
+        return (last if refused else pos), last, pending, None
+    if last is None:
+        return pos, pos, None, None
+    gate_m = rules.position_jump_m + rules.max_sog_m_s * max(pos.t_s - last.t_s, 0.0)
+    distance_m = _apart_m(pos, last)
+    if distance_m <= gate_m:
+        return pos, pos, None, None
+    lat, lon = pos.value
+    if pending is not None:
+        agree_m = rules.position_jump_m + rules.max_sog_m_s * max(pos.t_s - pending.t_s, 0.0)
+        if _apart_m(pos, pending) <= agree_m:  # two fixes agree: the position really moved
+            return pos, pos, None, PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=True)
+    return last, last, pos, PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=False)
+
+
 def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules, *,
              origin_lat_deg: float, origin_lon_deg: float) -> tuple[Navigation, NavMemory]:
     """This cycle's :class:`Navigation` and the memory for the next one."""
     heading_rad, source, heading_age, heading_valid = choose_heading(sample, now_s, rules)
     yaw_rate = _yaw_rate(sample, now_s, heading_rad, memory, rules)
-    pos = sample.position
+    seen = sample.position
+    pos, fix_kept, jump_pending, jump = gate_fix(seen, memory, rules)
     latlon = _value(pos)
     lat = lon = north = east = est_n = est_e = None
     sog, cog = velocity_over_ground(sample, now_s, rules)
@@ -174,15 +228,17 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
     fix_quality = int(fq) if fq is not None else 0
     if pos is not None and not pos.valid:
         fix_quality = 0
-    fix_t = None if pos is None else pos.t_s
+    seen_t = None if seen is None else seen.t_s
     nav = Navigation(
         t_s=now_s, heading_rad=heading_rad, heading_source=source, heading_age_s=heading_age,
         heading_valid=heading_valid, yaw_rate_rad_s=yaw_rate, lat_deg=lat, lon_deg=lon, north_m=north, east_m=east,
-        est_north_m=est_n, est_east_m=est_e, position_age_s=position_age, fix_quality=fix_quality, fix_t_s=fix_t,
-        new_fix=latlon is not None and fix_t != memory.fix_t_s, sog_m_s=sog, cog_rad=cog,
+        est_north_m=est_n, est_east_m=est_e, position_age_s=position_age, fix_quality=fix_quality,
+        fix_t_s=None if pos is None else pos.t_s,
+        new_fix=latlon is not None and pos is seen and seen_t != memory.fix_t_s, sog_m_s=sog, cog_rad=cog,
+        jump=jump,
     )
     if heading_rad is not None:
-        memory = NavMemory(heading_t_s=now_s, heading_rad=heading_rad, fix_t_s=fix_t)
+        heading_t, heading = now_s, heading_rad
     else:
-        memory = NavMemory(heading_t_s=memory.heading_t_s, heading_rad=memory.heading_rad, fix_t_s=fix_t)
-    return nav, memory
+        heading_t, heading = memory.heading_t_s, memory.heading_rad
+    return nav, NavMemory(heading_t_s=heading_t, heading_rad=heading, fix_t_s=seen_t, fix=fix_kept, jump=jump_pending)

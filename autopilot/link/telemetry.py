@@ -225,6 +225,10 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
         return mavlink.MAV_SEVERITY_INFO, f"mission: {len(f.get('waypoints') or [])} waypoint(s)"
     if name == "param":
         return mavlink.MAV_SEVERITY_INFO, f"{f.get('param')} = {f.get('new')}"
+    if name == "position_jump":
+        if f.get("accepted"):
+            return mavlink.MAV_SEVERITY_NOTICE, f"GPS position moved {f.get('distance_m', 0.0):.0f} m (two fixes agree)"
+        return mavlink.MAV_SEVERITY_WARNING, f"GPS jump of {f.get('distance_m', 0.0):.0f} m refused"
     if name == "mission_complete":
         return mavlink.MAV_SEVERITY_INFO, "mission complete"
     if name == "info" and f.get("message") == "log write failed":  # the boat's own record is going: say so

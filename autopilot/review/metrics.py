@@ -188,6 +188,8 @@ class Scorecard:
     targets: list = field(default_factory=list)  # [TargetReview]; empty when the log has no `target` lines
     manoeuvres: list = field(default_factory=list)  # [Manoeuvre]
     avoidance_s: float = math.nan  # time avoidance changed the course or speed (NaN: avoidance not logged)
+    gps_jumps_refused: int = 0  # position_jump lines: fixes refused as glitches
+    gps_jumps_reanchored: int = 0  # and re-anchorings (two far fixes agreed)
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -219,6 +221,7 @@ class Scorecard:
             ("faults", ", ".join(f"{c} x{v['count']} ({v['time_s']:.1f} s)" for c, v in sorted(self.faults.items())) or "none"),
             ("dropped NMEA lines", _fmt_count(self.nmea_dropped)),
             ("missing Mbed acks", _fmt_count(self.ack_missing)),
+            ("GPS jumps refused / re-anchored", f"{self.gps_jumps_refused} / {self.gps_jumps_reanchored}"),
             ("loop lateness p50 / p99 / max",
              f"{_fmt(lat.get('p50'), 'ms', 2)} / {_fmt(lat.get('p99'), 'ms', 2)} / {_fmt(lat.get('max'), 'ms', 2)}"),
             ("thrust unknown (not logged)", _fmt(self.thrust_unknown_s, "s", 1)),
@@ -607,6 +610,8 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
         battery_v=_min_max(log.col("battery_v")), battery_rest_v=_min_max(log.col("battery_rest_v")),
         targets=target_reviews(log), manoeuvres=manoeuvres(log),
         avoidance_s=float(np.sum(hold[log.col("avoid_active") > 0.5])) if avoidance_logged(log) else math.nan,
+        gps_jumps_refused=sum(ev.get("accepted") is False for ev in log.events_named("position_jump")),
+        gps_jumps_reanchored=sum(ev.get("accepted") is True for ev in log.events_named("position_jump")),
     )
 
 

@@ -634,6 +634,7 @@ _TIMELINE_ROWS = (
     ("mode", "mode change", "#455a64", "|"),
     ("command", "operator command", "#8e24aa", "v"),
     ("launch", "launch point set", LAUNCH_COLOR, "p"),
+    ("position_jump", "GPS jump (refused / re-anchored)", "#00838f", "h"),
     ("encounter", "encounter (AIS target)", AVOID_COLOR, "d"),
     ("stop", "stop", "#212121", "s"),
     ("info", "info", "#757575", "."),

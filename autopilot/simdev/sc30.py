@@ -27,6 +27,8 @@ repeating the last epoch: its UTC time, position, speed and course), ``drop_rate
 dropped), ``delay_s`` (extra latency of every sentence), ``split`` (write
 each sentence in 1-7 byte fragments paced at the character time),
 ``corrupt_next(n)`` (the next n sentences get a wrong checksum),
+``jump_next(north_m, east_m, epochs)`` (the next epochs' fixes displaced: a GNSS glitch,
+or with many epochs a position that really moved),
 ``inject(data)`` (raw bytes on the line at the baud rate, displacing the
 sentences), ``unplug()``, ``replug()``.
 """
@@ -105,6 +107,7 @@ class SimulatedSC30:
         self.delay_s = 0.0
         self.split = False
         self._corrupt = 0
+        self._jumps: deque[tuple[float, float]] = deque()  # (north_m, east_m) added to the coming epochs' fixes
         # bookkeeping
         self.sentences_sent = 0
         self.bytes_sent = 0
@@ -121,6 +124,9 @@ class SimulatedSC30:
     # ------------------------------------------------------------------ faults
     def corrupt_next(self, n: int = 1) -> None:
         self._corrupt += int(n)
+
+    def jump_next(self, north_m: float, east_m: float, epochs: int = 1) -> None:
+        self._jumps.extend([(float(north_m), float(east_m))] * int(epochs))
 
     def inject(self, data: bytes) -> None:
         """Raw bytes onto the line, paced at the baud rate like everything on it (10 kB at 4800
@@ -206,6 +212,9 @@ class SimulatedSC30:
             sog, cog = self._pos_error.velocity(sog * math.cos(cog), sog * math.sin(cog))
         else:
             n_m, e_m = (self._rng.normal(0.0, self.position_noise_m, 2) if self.position_noise_m else (0.0, 0.0))
+        if self._jumps:
+            jump_n_m, jump_e_m = self._jumps.popleft()
+            n_m, e_m = n_m + jump_n_m, e_m + jump_e_m
         lat, lon = b.latlon_deg(n_m, e_m)
         self._epoch = {"t_s": t_s, "lat_deg": lat, "lon_deg": lon, "sog_m_s": sog, "cog_rad": cog}
 
