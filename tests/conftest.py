@@ -39,3 +39,23 @@ def _shared_dir() -> Path:
 
 
 SHARED = _shared_dir()
+
+
+def _background_modules(session):
+    """Test modules that start work of their own when collection ends (``start_background(items)``)."""
+    seen = {}
+    for item in session.items:
+        mod = getattr(item, "module", None)
+        if mod is not None and hasattr(mod, "start_background"):
+            seen[mod.__name__] = mod
+    return list(seen.values())
+
+
+def pytest_collection_finish(session):
+    for mod in _background_modules(session):
+        mod.start_background(session.items)
+
+
+def pytest_sessionfinish(session):
+    for mod in _background_modules(session):
+        mod.stop_background()

@@ -19,9 +19,9 @@ every hidden parameter within 3.29 sigma of its estimate (99.9 %: about fifteen 
 checked per run); where the effect moved the track by more than twice the noise, the held-out
 error beyond the noise cut by 70 %. Each test is armed with a SIGALRM safety net (ALARM_S).
 
-The cases of CASES are independent and CPU-bound: the first of them to run starts every selected one
-in a pool of the machine's cores (at most two: the suite's budget was measured on two) and each test
-then checks its own result. What each computes is what it computed run one after another: the same
+The cases of CASES are independent and CPU-bound: every selected one is started when collection ends,
+in a pool of the machine's cores (at most two) at the lowest CPU priority (SCHED_IDLE), so that they use the time the
+rest of the suite leaves idle (see _Background); each test then checks its own result. What each computes is what it computed run one after another: the same
 case, seed and code, in a fresh interpreter.
 """
 
@@ -33,6 +33,7 @@ import multiprocessing
 import os
 import secrets
 import signal
+import sys
 import zlib
 from concurrent.futures import ProcessPoolExecutor
 
@@ -115,19 +116,66 @@ def _case_of(item):
     return case, (seed if seed is not None else _seed(case.label, quiet=True))
 
 
+def _lowest_priority() -> None:
+    """A worker's initializer: run only when no other process wants the CPU (Linux's SCHED_IDLE: a waking
+    daemon or simulator preempts it at once), else at nice 19."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    except (AttributeError, OSError):
+        os.nice(19)
+
+
+class _Background:
+    """The pooled cases, started when collection ends (tests/conftest.py), in worker processes at the lowest
+    CPU priority: they compute in the time the rest of the suite leaves idle (its daemons mostly wait on
+    simulated time) and yield the cores to anything else, so the timing of the daemon tests is not theirs
+    to disturb. When this module's tests run they find their results ready or wait for them at full speed."""
+
+    def __init__(self) -> None:
+        self.pool: ProcessPoolExecutor | None = None
+        self.jobs: dict = {}  # nodeid -> (case, seed, future)
+
+    def start(self, items) -> None:
+        if self.pool is not None:
+            return
+        mine = [it for it in items if getattr(it, "module", None) is sys.modules[__name__] and it.originalname in CASES]
+        if not mine:
+            return
+        workers = max(1, min(2, os.cpu_count() or 1, len(mine)))
+        # spawn: a forked copy of the suite's process would inherit the threads earlier tests left running
+        self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                        initializer=_lowest_priority)
+        for it in mine:
+            case, seed = _case_of(it)
+            self.jobs[it.nodeid] = (case, seed, self.pool.submit(_identify_case, case, seed))
+
+    def stop(self) -> None:
+        """At the session's end: cases not waited for (deselected by -x or a failure) are not run to the end."""
+        if self.pool is None:
+            return
+        for proc in list((self.pool._processes or {}).values()):  # noqa: SLF001 - shutdown(wait=False) leaves them
+            proc.terminate()
+        self.pool.shutdown(wait=True, cancel_futures=True)
+        self.pool = None
+
+
+BACKGROUND = _Background()
+
+
+def start_background(items) -> None:
+    """tests/conftest.py's hook at the end of collection."""
+    BACKGROUND.start(items)
+
+
+def stop_background() -> None:
+    BACKGROUND.stop()
+
+
 @pytest.fixture(scope="module")
 def identified(request):
-    """nodeid -> (case, seed, future) for every selected test of CASES, all submitted at once."""
-    items = [it for it in request.session.items if it.module is request.module and it.originalname in CASES]
-    workers = max(1, min(2, os.cpu_count() or 1, len(items)))
-    # spawn: a forked copy of the suite's process would inherit the threads earlier tests left running
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        jobs = {}
-        for it in items:
-            case, seed = _case_of(it)
-            jobs[it.nodeid] = (case, seed, pool.submit(_identify_case, case, seed))
-        yield jobs
-        pool.shutdown(wait=True, cancel_futures=True)
+    """nodeid -> (case, seed, future) for every selected test of CASES (started at collection's end)."""
+    BACKGROUND.start(request.session.items)
+    return BACKGROUND.jobs
 
 
 def _outcome(request, identified):
