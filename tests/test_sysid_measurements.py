@@ -132,6 +132,18 @@ def test_mission_log_never_in_auto_is_a_clear_error(tmp_path):
         read_trial(tmp_path / "w.jsonl")
 
 
+def test_two_mission_logs_joined_in_one_file_are_refused_not_read_as_one_trial(tmp_path):
+    """`cat a.jsonl b.jsonl > both.jsonl`: the second mission's clock starts at 0 again; it was read as one
+    trial (found trying the commands as a new user)."""
+    start = json.dumps({"event": "mission_start", "t_s": 0.0, "timestamp": "2026-01-01T00:00:00Z", "rate_hz": 10.0})
+    one = [start] + [_cycle(k, 0.1 * k) for k in range(120)]
+    (tmp_path / "a.jsonl").write_text("\n".join(one) + "\n")
+    assert read_trial(tmp_path / "a.jsonl").t_s.size == 120
+    (tmp_path / "both.jsonl").write_text("\n".join(one + one) + "\n")
+    with pytest.raises(ConfigError, match=r"both.jsonl: 2 missions in one file .*a file of its own"):
+        read_trial(tmp_path / "both.jsonl")
+
+
 @pytest.mark.parametrize("wander", [0.0, 1.3])
 def test_whitened_cost_is_the_generalised_least_squares_cost(wander):
     rng = np.random.default_rng(3)

@@ -70,6 +70,10 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
     from autopilot.review.reader import check_mission_log, read_log
 
     log = read_log(check_mission_log(path))
+    starts = log.events_named("mission_start")
+    if len(starts) > 1:  # logs joined with cat: each mission's clock starts again at 0
+        raise ConfigError(f"{path}: {len(starts)} missions in one file (a mission_start line each): "
+                          "give each mission's log as a file of its own, each is a trial")
     if log.n_cycles < MIN_SAMPLES:
         raise ConfigError(f"{path}: only {log.n_cycles} cycle lines (need {MIN_SAMPLES})")
     c = log.col
