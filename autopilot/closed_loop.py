@@ -102,6 +102,8 @@ class ControlCycle:
         ap, events = self.ap, []
         nav, self.memory = assemble(sample, now_s, self.memory, self.rules, origin_lat_deg=self.origin[0],
                                     origin_lon_deg=self.origin[1])
+        if nav.jump is not None:
+            events.append(("position_jump", nav.jump.log_fields()))
         active: tuple[str, ...] = ()
         rest_v = None
         if self.failsafe is None:

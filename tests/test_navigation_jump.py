@@ -136,3 +136,78 @@ def test_gps_noise_and_the_simulators_10_m_outliers_pass_the_gate():
         fixes[k] = (fixes[k][0] + 10.0 * math.cos(a), fixes[k][1] + 10.0 * math.sin(a))
     navs, _ = fly(fixes, cycles_per_fix=1)
     assert all(n.jump is None for n in navs)
+
+
+def _limits_failsafe():
+    return Failsafe(FailsafeConfig(max_distance_m=500.0, start_valid_s=0.0))
+
+
+def test_a_first_fix_that_is_a_glitch_latches_nothing_and_the_good_fixes_take_over():
+    """Found in review: the first fix is believed unjudged (nothing to judge it by); 600 m off it latched
+    max_distance on the first cycle. It is steered by but not confirmed until a fix agrees with it."""
+    fixes = [(0.0, 600.0)] + _track(6)[1:]
+    navs, active = fly(fixes, failsafe=_limits_failsafe())
+    assert not any("max_distance" in a for a in active)
+    assert [n.jump.accepted for n in navs if n.jump is not None] == [False, True]  # good fix refused, then agreed
+    assert [n.fix_confirmed for n in navs[::10]] == [False, False, False, True, True, True]
+    assert navs[-1].east_m == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_glitch_lasting_two_epochs_is_steered_by_for_a_while_but_latches_nothing():
+    fixes = _track(10)
+    fixes[4], fixes[5] = (fixes[4][0], 600.0), (fixes[5][0], 600.0)
+    navs, active = fly(fixes, failsafe=_limits_failsafe())
+    assert [n.jump.accepted for n in navs if n.jump is not None] == [False, True, False, True]
+    assert max(n.east_m for n in navs) == pytest.approx(600.0, abs=1e-6)  # the limit of a two-fix rule
+    assert not any("max_distance" in a for a in active)
+    assert navs[-1].fix_confirmed and navs[-1].east_m == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_valid_fix_with_the_stamp_of_an_invalid_one_is_still_judged():
+    """Found in review: the driver keeps an epoch's first stamp when its validity changes (GGA quality 0, then
+    the same epoch's RMC valid); the gate took the stamp as already judged and let a 600 m fix through."""
+    memory, navs, active = NavMemory(), [], []
+    fs = _limits_failsafe()
+    seq = [(0.0, 0.0, 0.0, True), (1.5, 0.0, 1.0, True), (3.0, 0.0, 2.0, True), (4.5, 0.0, 3.0, False),
+           (4.5, 600.0, 3.0, True), (6.0, 0.0, 4.0, True)]
+    for k, (n, e, t_fix, valid) in enumerate(seq):
+        now = 0.05 + 0.5 * k
+        nav, memory = assemble(_sample(n, e, t_fix, now, valid=valid), now, memory, RULES,
+                               origin_lat_deg=ORIGIN[0], origin_lon_deg=ORIGIN[1])
+        navs.append(nav)
+        active.append(fs.update(observe(nav, mission_time_s=now, compass_connected=True, thrusters_connected=True,
+                                        acks_missing_in_a_row=0, compass_garbage_s=None,
+                                        thruster_garbage_s=None)).active)
+    assert navs[4].jump is not None and not navs[4].jump.accepted and navs[4].east_m == pytest.approx(0.0, abs=1e-6)
+    assert not any("max_distance" in a for a in active)
+
+
+def test_an_invalid_fix_far_away_latches_no_limit():
+    """Found in review (older than the gate): an RMC 'V' or GGA quality 0 carrying a position 600 m off
+    latched max_distance though the fix is known to be bad."""
+    memory = NavMemory()
+    fs = _limits_failsafe()
+    active = []
+    for k, (n, valid) in enumerate([(0.0, True), (1.5, True), (600.0, False), (4.5, True)]):
+        now = k + 0.05
+        nav, memory = assemble(_sample(n, 0.0, float(k), now, valid=valid), now, memory, RULES,
+                               origin_lat_deg=ORIGIN[0], origin_lon_deg=ORIGIN[1])
+        active.append(fs.update(observe(nav, mission_time_s=now, compass_connected=True, thrusters_connected=True,
+                                        acks_missing_in_a_row=0, compass_garbage_s=None,
+                                        thruster_garbage_s=None)).active)
+    assert "no_fix" in active[2] and not any("max_distance" in a for a in active)
+
+
+def test_the_simulated_cycle_reports_the_jump_as_the_daemon_logs_it():
+    """Found in review: autopilot.closed_loop's cycle (evaluate, campaigns, --replay logs) left position_jump out
+    of the events the daemon would log."""
+    from autopilot.closed_loop import ControlCycle
+    from autopilot.gnc import Autopilot, GncConfig
+
+    cc = ControlCycle(Autopilot(GncConfig(), [(200.0, 0.0)]), period_s=0.1, origin_lat_deg=ORIGIN[0],
+                      origin_lon_deg=ORIGIN[1], failsafe=_limits_failsafe())
+    names = []
+    for k, (n, e) in enumerate([(0.0, 0.0), (1.5, 0.0), (3.0, 600.0), (4.5, 0.0)]):
+        cyc = cc.step(_sample(n, e, float(k), k + 0.05), k + 0.05)
+        names += [(name, f.get("accepted")) for name, f in cyc.events if name == "position_jump"]
+    assert names == [("position_jump", False)]

@@ -46,7 +46,7 @@ def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, 
         ack_consecutive_missing=int(acks_missing_in_a_row), compass_connected=bool(compass_connected),
         mbed_connected=bool(thrusters_connected), last_garbage_t_s=compass_garbage_s,
         last_mbed_garbage_t_s=thruster_garbage_s, north_m=nav.north_m, east_m=nav.east_m,
-        mission_time_s=mission_time_s, battery_v=battery_v,
+        mission_time_s=mission_time_s, battery_v=battery_v, position_confirmed=nav.fix_confirmed,
     )
 
 

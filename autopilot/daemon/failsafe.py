@@ -73,6 +73,9 @@ class Observation:
     east_m: float | None = None
     mission_time_s: float = 0.0
     battery_v: float | None = None  # resting voltage estimate (resting_voltage_v); None: the firmware does not report it
+    # the position agrees with the fix before it (Navigation.fix_confirmed): only such a position latches the
+    # geofence or the distance limit (a first fix, or a jump just re-anchored to, may be a glitch)
+    position_confirmed: bool = True
 
 
 @dataclass(frozen=True)
@@ -165,7 +168,7 @@ def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, 
         faults["mbed_port_lost"] = "Mbed port closed; reconnecting"
     if obs.ack_consecutive_missing >= cfg.ack_missing_n:
         faults["mbed_ack_missing"] = f"{obs.ack_consecutive_missing} consecutive commands unacknowledged (limit {cfg.ack_missing_n})"
-    if obs.north_m is not None and obs.east_m is not None:
+    if obs.north_m is not None and obs.east_m is not None and obs.fix_quality > 0 and obs.position_confirmed:
         if fence_ne_m is not None and not inside_polygon(obs.north_m, obs.east_m, fence_ne_m):
             faults["geofence"] = f"position ({obs.north_m:.1f}, {obs.east_m:.1f}) m is outside the geofence"
         dist_m = math.hypot(obs.north_m, obs.east_m)

@@ -118,9 +118,7 @@ class ControlLoop:
         nav, st.nav = assemble(sample, now_s, st.nav, self.rules,
                                origin_lat_deg=self.mission.origin_lat_deg, origin_lon_deg=self.mission.origin_lon_deg)
         if nav.jump is not None:
-            j = nav.jump
-            self.log.event("position_jump", t_s=t_s, lat_deg=j.lat_deg, lon_deg=j.lon_deg, distance_m=j.distance_m,
-                           gate_m=j.gate_m, accepted=j.accepted)
+            self.log.event("position_jump", t_s=t_s, **nav.jump.log_fields())
         battery_v = self.thrusters.battery_v  # under the last command's load
         battery_rest_v = resting_voltage_v(battery_v, st.last_cmd.duty_port_pct, st.last_cmd.duty_stbd_pct,
                                            self.cfg.failsafe.battery_sag_v)

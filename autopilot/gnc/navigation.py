@@ -29,7 +29,9 @@ plus ``max_sog_m_s`` times the time between them is not used, and the last fix g
 distance limit and ended the mission. A second new fix that agrees with the refused one (within
 the same gate of it) is believed: the boat or the receiver really moved, and the position is
 re-anchored there, about a second later. Each refusal and each re-anchoring is reported in
-``Navigation.jump`` for the log.
+``Navigation.jump`` for the log. A fix that has not yet passed the gate from a fix before it (the
+first one, or one just re-anchored to: a glitch can last two epochs) is steered by but not
+``fix_confirmed``: the failsafe latches no geofence or distance limit on it.
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ from dataclasses import dataclass
 from autopilot.devices import NavSample, Stamped, age_s
 from autopilot.geo import latlon_to_local, wrap_pi
 
-__all__ = ["NavRules", "NavMemory", "Navigation", "PositionJump", "assemble", "gate_fix", "dead_reckon_ne", "velocity_over_ground",
+__all__ = ["NavRules", "NavMemory", "Navigation", "PositionJump", "Gated", "assemble", "gate_fix", "dead_reckon_ne", "velocity_over_ground",
            "MIN_SOG_FOR_COG_M_S"]
 
 MIN_SOG_FOR_COG_M_S = 0.3  # below this the GNSS course is noise: carry along the heading instead
@@ -71,6 +73,8 @@ class NavMemory:
     fix_t_s: float | None = None  # receive time of the last fix seen
     fix: Stamped | None = None  # the last valid fix used (a refused jump leaves it in place)
     jump: Stamped | None = None  # a refused fix waiting to be confirmed by the next one
+    judged_t_s: float | None = None  # receive time of the last valid fix the gate judged
+    confirmed: bool = False  # ``fix`` agrees with a fix before it (see Navigation.fix_confirmed)
 
 
 @dataclass(frozen=True)
@@ -82,6 +86,11 @@ class PositionJump:
     distance_m: float  # from the last fix used
     gate_m: float  # what it may be: position_jump_m + max_sog_m_s x the time between the two
     accepted: bool  # False: refused, the last fix is kept; True: the position re-anchored here
+
+    def log_fields(self) -> dict:
+        """The ``position_jump`` line's fields (autopilot.logschema)."""
+        return {"lat_deg": self.lat_deg, "lon_deg": self.lon_deg, "distance_m": self.distance_m,
+                "gate_m": self.gate_m, "accepted": self.accepted}
 
 
 @dataclass(frozen=True)
@@ -107,6 +116,9 @@ class Navigation:
     sog_m_s: float | None
     cog_rad: float | None
     jump: PositionJump | None = None  # a fix refused or re-anchored to this cycle
+    # the fix used passed the gate from the fix before it: not the first fix, nor one just re-anchored to
+    # (two fixes agreeing may still be a glitch that lasted two epochs); what may latch a position limit
+    fix_confirmed: bool = True
 
     @property
     def steerable(self) -> bool:
@@ -186,27 +198,45 @@ def _apart_m(a: Stamped, b: Stamped) -> float:
     return math.hypot(north, east)
 
 
-def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules):
-    """(the fix to use, the memory's ``fix`` and ``jump`` for the next cycle, the :class:`PositionJump` to
-    report or None); see the module docstring. An invalid fix is not gated (the failsafe judges it)."""
+@dataclass(frozen=True)
+class Gated:
+    """What :func:`gate_fix` decides: the fix to use this cycle, and the memory it leaves."""
+
+    used: Stamped | None  # the fix to use (the sample's, or the last one kept)
+    fix: Stamped | None  # NavMemory.fix
+    pending: Stamped | None  # NavMemory.jump
+    judged_t_s: float | None  # NavMemory.judged_t_s
+    confirmed: bool  # NavMemory.confirmed
+    jump: PositionJump | None = None  # to report this cycle
+
+    @property
+    def used_confirmed(self) -> bool:
+        return self.confirmed and self.used == self.fix  # equal, not the same object: a sample is rebuilt
+
+
+def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules) -> Gated:
+    """Judge the sample's fix once (see the module docstring). An invalid fix is used as it is (the failsafe
+    judges it: no_fix) and leaves the gate's memory as it was."""
+    last, pending, judged, confirmed = memory.fix, memory.jump, memory.judged_t_s, memory.confirmed
     if pos is None or pos.value is None or not pos.valid:
-        return pos, memory.fix, memory.jump, None
-    last, pending = memory.fix, memory.jump
-    if pos.t_s == memory.fix_t_s:  # the fix already judged: the judgement stands
+        return Gated(pos, last, pending, judged, confirmed)
+    if pos.t_s == judged:  # the fix already judged: the judgement stands
         refused = pending is not None and pending.t_s == pos.t_s
-        return (last if refused else pos), last, pending, None
-    if last is None:
-        return pos, pos, None, None
+        return Gated(last if refused else pos, last, pending, judged, confirmed)
+    if last is None:  # the first fix: nothing to judge it by yet
+        return Gated(pos, pos, None, pos.t_s, False)
     gate_m = rules.position_jump_m + rules.max_sog_m_s * max(pos.t_s - last.t_s, 0.0)
     distance_m = _apart_m(pos, last)
     if distance_m <= gate_m:
-        return pos, pos, None, None
+        return Gated(pos, pos, None, pos.t_s, True)
     lat, lon = pos.value
     if pending is not None:
         agree_m = rules.position_jump_m + rules.max_sog_m_s * max(pos.t_s - pending.t_s, 0.0)
-        if _apart_m(pos, pending) <= agree_m:  # two fixes agree: the position really moved
-            return pos, pos, None, PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=True)
-    return last, last, pos, PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=False)
+        if _apart_m(pos, pending) <= agree_m:  # two fixes agree: the position really moved (or a long glitch)
+            return Gated(pos, pos, None, pos.t_s, False,
+                         PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=True))
+    return Gated(last, last, pos, pos.t_s, confirmed,
+                 PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=False))
 
 
 def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules, *,
@@ -215,7 +245,8 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
     heading_rad, source, heading_age, heading_valid = choose_heading(sample, now_s, rules)
     yaw_rate = _yaw_rate(sample, now_s, heading_rad, memory, rules)
     seen = sample.position
-    pos, fix_kept, jump_pending, jump = gate_fix(seen, memory, rules)
+    gated = gate_fix(seen, memory, rules)
+    pos = gated.used
     latlon = _value(pos)
     lat = lon = north = east = est_n = est_e = None
     sog, cog = velocity_over_ground(sample, now_s, rules)
@@ -235,10 +266,11 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
         est_north_m=est_n, est_east_m=est_e, position_age_s=position_age, fix_quality=fix_quality,
         fix_t_s=None if pos is None else pos.t_s,
         new_fix=latlon is not None and pos is seen and seen_t != memory.fix_t_s, sog_m_s=sog, cog_rad=cog,
-        jump=jump,
+        jump=gated.jump, fix_confirmed=bool(pos is not None and pos.valid and gated.used_confirmed),
     )
     if heading_rad is not None:
         heading_t, heading = now_s, heading_rad
     else:
         heading_t, heading = memory.heading_t_s, memory.heading_rad
-    return nav, NavMemory(heading_t_s=heading_t, heading_rad=heading, fix_t_s=seen_t, fix=fix_kept, jump=jump_pending)
+    return nav, NavMemory(heading_t_s=heading_t, heading_rad=heading, fix_t_s=seen_t, fix=gated.fix,
+                          jump=gated.pending, judged_t_s=gated.judged_t_s, confirmed=gated.confirmed)
