@@ -211,3 +211,25 @@ def test_the_simulated_cycle_reports_the_jump_as_the_daemon_logs_it():
         cyc = cc.step(_sample(n, e, float(k), k + 0.05), k + 0.05)
         names += [(name, f.get("accepted")) for name, f in cyc.events if name == "position_jump"]
     assert names == [("position_jump", False)]
+
+
+def test_control_starts_on_a_confirmed_position_so_a_first_glitch_is_never_the_launch_point():
+    """Found in review: with a first fix 300 m off, control started (start_valid_s 1 s) before the good fixes
+    re-anchored, and the launch point, rtl's home, was set 300 m away."""
+    def start_position(fixes):
+        memory, fs = NavMemory(), Failsafe(FailsafeConfig(start_valid_s=1.0))
+        for k, (n, e) in enumerate(fixes):
+            for c in range(10):
+                now = k + 0.05 + 0.1 * c
+                nav, memory = assemble(_sample(n, e, float(k), now), now, memory, RULES,
+                                       origin_lat_deg=ORIGIN[0], origin_lon_deg=ORIGIN[1])
+                if fs.update(observe(nav, mission_time_s=now, compass_connected=True, thrusters_connected=True,
+                                     acks_missing_in_a_row=0, compass_garbage_s=None,
+                                     thruster_garbage_s=None)).mode == "auto":
+                    return now, (nav.north_m, nav.east_m)
+        return None
+
+    t_good, (n, e) = start_position(_track(6))
+    assert t_good == pytest.approx(1.05) and (n, e) == (pytest.approx(1.5), pytest.approx(0.0, abs=1e-6))
+    t_glitch, (n, e) = start_position([(0.0, 300.0)] + _track(6)[1:])
+    assert t_glitch == pytest.approx(3.05) and e == pytest.approx(0.0, abs=1e-6)  # refused, re-anchored, confirmed

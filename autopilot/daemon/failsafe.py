@@ -267,7 +267,9 @@ class Failsafe:
             if self._valid_since_s is None:
                 self._valid_since_s = obs.t_s
             valid_for_s = obs.t_s - self._valid_since_s
-            if self.mode == "waiting" and valid_for_s >= self.cfg.start_valid_s:
+            # control starts on a confirmed position: the launch point (rtl's home) is set from it, and a first
+            # fix may be a glitch (autopilot.gnc.navigation); a good first fix is confirmed by the next, 1 s on
+            if self.mode == "waiting" and valid_for_s >= self.cfg.start_valid_s and obs.position_confirmed:
                 self.mode = "auto"
                 events.append(Event("info", {"message": "data valid: control starts", "valid_for_s": valid_for_s}))
             elif self.mode == "failsafe" and valid_for_s >= self.cfg.resume_valid_s:
