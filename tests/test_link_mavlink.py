@@ -284,6 +284,48 @@ def test_parameters_read_set_and_a_bad_one_refused(tmp_path):
     assert any("HDG_KP" in r["answer"] and "[0, 10]" in r["answer"] for r in refused)
 
 
+def test_malformed_commands_are_denied_naming_the_parameter_and_other_boats_sticks_are_ignored(tmp_path):
+    """Found by fault injection through the link: DO_PAUSE_CONTINUE with param1 NaN or 7 resumed the mission;
+    NaN in DO_SET_MISSION_CURRENT or REQUEST_MESSAGE got no answer and (after the first) no trace; a
+    MANUAL_CONTROL to system 2 drove this boat (its addressee field is `target`, not `target_system`);
+    FS_MAX_TIME set below the time already run ended the daemon, link and all."""
+    nan = float("nan")
+    boat = Boat(tmp_path)
+    try:
+        boat.mode_is("auto")
+        assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("paused")
+        for bad in (nan, 7.0, 0.5):
+            assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, bad).result == mavlink.MAV_RESULT_DENIED
+        text = boat.recv("STATUSTEXT", pred=lambda m: "DO_PAUSE_CONTINUE" in m.text)
+        assert text.text.startswith("DO_PAUSE_CONTINUE refused: param1 nan")  # the first 50-character chunk
+        for cmd, params in ((mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (0.5,)), (mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, (nan,)),
+                            (mavlink.MAV_CMD_REQUEST_MESSAGE, (nan,)), (mavlink.MAV_CMD_DO_SET_MODE, (1, 4.7)),
+                            (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, (33, nan))):
+            assert boat.command(cmd, *params).result == mavlink.MAV_RESULT_DENIED, cmd
+        t_end = time.monotonic() + 1.5
+        while time.monotonic() < t_end:  # another boat's joystick, full ahead
+            boat.gcs.mav.manual_control_send(2, 1000, 0, 0, 0, 0)
+            boat.beat()
+            time.sleep(0.05)
+        boat.gcs.mav.param_set_send(1, 1, b"FS_MAX_TIME", 1.0, mavlink.MAV_PARAM_TYPE_REAL32)
+        text = boat.recv("STATUSTEXT", pred=lambda m: "FS_MAX_TIME" in m.text)
+        assert "refused: 1 s is not more than the" in text.text
+        time.sleep(0.5)
+        assert boat.proc.poll() is None  # still running
+    finally:
+        assert boat.stop() == 0
+    cycles = boat.cycles()
+    assert not any(r["mode"] == "manual" for r in cycles) and cycles[-1]["mode"] == "paused"
+    refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
+    assert sum("DO_PAUSE_CONTINUE refused" in a for a in refused) == 3
+    assert "DO_PAUSE_CONTINUE refused: param1 7 is not 0 (pause) or 1 (continue)" in refused
+    for what in ("COMPONENT_ARM_DISARM", "DO_SET_MISSION_CURRENT", "REQUEST_MESSAGE", "DO_SET_MODE",
+                 "SET_MESSAGE_INTERVAL", "FS_MAX_TIME"):
+        assert any(what in a for a in refused), (what, refused)
+    assert not [r for r in boat.log() if r["event"] == "info" and r.get("message") == "mavlink message not handled"]
+
+
 def test_link_loss_takes_its_action(tmp_path):
     boat = Boat(tmp_path, config={"mavlink": {"gcs_timeout_s": 1.5, "gcs_lost_action": "hold"}})
     try:

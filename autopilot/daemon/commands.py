@@ -119,6 +119,10 @@ def _param_set(loop, request, helm_nav, unavailable, cause):
 
     key, value = request["key"], request["value"]
     old = get_key(loop.cfg, key)
+    ran_s = loop.clock.now_s() - loop.t0_s
+    if key == "failsafe.max_mission_time_s" and value <= ran_s:  # it would end the run at once, link and all
+        return False, (f"{request.get('name', key)} refused: {value:g} s is not more than the {ran_s:.0f} s "
+                       "the mission has already run")
     try:
         new_cfg = replace_key(loop.cfg, key, value)  # the dataclasses' own checks run again
     except (ConfigError, ValueError, TypeError) as exc:

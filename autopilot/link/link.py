@@ -249,7 +249,9 @@ class MavlinkLink:
             await asyncio.sleep(0)  # the control loop's turn between slices
 
     def _for_us(self, msg) -> bool:
-        target = getattr(msg, "target_system", 0)
+        # MANUAL_CONTROL names its addressee `target`, the others `target_system`: reading only the latter let
+        # a joystick meant for another boat on the same radio drive this one
+        target = getattr(msg, "target_system", getattr(msg, "target", 0))
         return target in (0, self.cfg.system_id)
 
     def _handle(self, port: _Port, msg) -> None:
@@ -295,6 +297,21 @@ class MavlinkLink:
 
         self.submit({**request, "source": "mavlink"}, answer)
 
+    def _whole(self, port: _Port, msg, value, field: str, allowed: str, ok=lambda k: True) -> int | None:
+        """A command's parameter as an int when it is a finite whole number ``ok`` accepts; else the command is
+        denied with a text naming the parameter and what it may be (a NaN once went unanswered and unlogged,
+        a DO_PAUSE_CONTINUE with param1 7 resumed the mission)."""
+        if isinstance(value, (int, float)) and math.isfinite(value) and value == int(value) and ok(int(value)):
+            return int(value)
+        known = mavlink.enums["MAV_CMD"]
+        name = known[msg.command].name.removeprefix("MAV_CMD_") if msg.command in known else f"command {msg.command}"
+        why = f"{name} refused: {field} {value:g} is not {allowed}" if isinstance(value, (int, float)) else \
+            f"{name} refused: {field} is not {allowed}"
+        self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
+        self.refused(name, why)
+        self.text(mavlink.MAV_SEVERITY_WARNING, why)
+        return None
+
     def _command(self, port: _Port, msg) -> None:
         c, p1 = msg.command, msg.param1
         if msg.get_type() == "COMMAND_INT":
@@ -302,17 +319,23 @@ class MavlinkLink:
         else:
             lat, lon = msg.param5, msg.param6
         if c == mavlink.MAV_CMD_DO_SET_MODE:
-            self._set_mode(port, msg, int(msg.param2), ack_command=msg)
+            mode = self._whole(port, msg, msg.param2, "param2 (custom mode)", "a whole number >= 0", lambda k: k >= 0)
+            if mode is not None:
+                self._set_mode(port, msg, mode, ack_command=msg)
         elif c == mavlink.MAV_CMD_NAV_LOITER_UNLIM:
             self._ask_loop(port, msg, {"command": "hold"})
         elif c == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             self._ask_loop(port, msg, {"command": "rtl"})
         elif c == mavlink.MAV_CMD_DO_PAUSE_CONTINUE:
-            self._ask_loop(port, msg, {"command": "pause" if p1 == 0 else "resume"})
+            k = self._whole(port, msg, p1, "param1", "0 (pause) or 1 (continue)", lambda k: k in (0, 1))
+            if k is not None:
+                self._ask_loop(port, msg, {"command": "pause" if k == 0 else "resume"})
         elif c == mavlink.MAV_CMD_MISSION_START:
             self._ask_loop(port, msg, {"command": "resume"})
         elif c == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
-            self._ask_loop(port, msg, {"command": "arm" if p1 == 1 else "disarm"})
+            k = self._whole(port, msg, p1, "param1", "0 (disarm) or 1 (arm)", lambda k: k in (0, 1))
+            if k is not None:
+                self._ask_loop(port, msg, {"command": "arm" if k == 1 else "disarm"})
         elif c == mavlink.MAV_CMD_DO_REPOSITION:
             if not (isinstance(lat, (int, float)) and math.isfinite(lat) and math.isfinite(lon)
                     and abs(lat) <= 90 and abs(lon) <= 180 and (lat, lon) != (0, 0)):
@@ -327,9 +350,16 @@ class MavlinkLink:
                 return
             self._ask_loop(port, msg, {"command": "hold", "north_m": n, "east_m": e})
         elif c == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT:
-            self._ask_loop(port, msg, {"command": "set_current", "index": int(p1) - 1})
+            seq = self._whole(port, msg, p1, "param1 (mission item)", "a whole number >= 1", lambda k: k >= 1)
+            if seq is not None:
+                self._ask_loop(port, msg, {"command": "set_current", "index": seq - 1})
         elif c == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
-            mid, interval_us = int(p1), msg.param2
+            mid, interval_us = self._whole(port, msg, p1, "param1 (message id)", "a whole number"), msg.param2
+            if mid is None:
+                return
+            if not math.isfinite(interval_us):
+                self._whole(port, msg, interval_us, "param2 (interval, us)", "a number", lambda k: False)
+                return
             if mid not in self.rates:
                 self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
                 return
@@ -339,7 +369,11 @@ class MavlinkLink:
         elif c in (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
                    mavlink.MAV_CMD_GET_HOME_POSITION):
             wanted = {mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
-                      mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION}.get(c, int(p1))
+                      mavlink.MAV_CMD_GET_HOME_POSITION: mavlink.MAVLINK_MSG_ID_HOME_POSITION}.get(c)
+            if wanted is None:
+                wanted = self._whole(port, msg, p1, "param1 (message id)", "a whole number")
+                if wanted is None:
+                    return
             built = self._build(wanted)
             reply = None if built is None else built(port.mav)
             if reply is None:
