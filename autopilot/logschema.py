@@ -110,6 +110,7 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("state not saved", "the progress file could not be written (`error`)"),
     ("log write failed", "not in the file: on the console (journal) and to the ground station, once, when the log's writes start failing (a full disk; `path`, `error`); the boat goes on being controlled"),
     ("log writes resumed", "the first line after writes failed: how many lines were lost (`lines_lost`) and why (`error`)"),
+    ("commands refused: queue full", "operator commands arrived faster than the loop carries them out (5 a cycle) and 100 were waiting: the next are refused at once (`queued`, `source`), once per flood"),
     ("zero-thrust on stop failed", "the final command could not be sent (`error`)"),
 )
 

@@ -20,6 +20,8 @@ duration, stops it with SIGTERM, and reports from its own log and from the kerne
 process floods it with valid traffic: heartbeats, parameter lists (each answered with every
 parameter), mission downloads and message requests, ~1000 messages a second, reading every reply.
 --link compare runs the same duration without the link and with the flood, one after the other.
+--link commands floods it with ~5000 valid state-changing commands a second instead (MISSION_SET_CURRENT,
+PARAM_SET, DO_SET_MISSION_CURRENT), which the loop carries out 5 a cycle and refuses past 100 waiting.
 """
 
 from __future__ import annotations
@@ -53,20 +55,28 @@ def looping_mission(duration_s: float, speed_m_s: float = 1.0) -> dict:
     return {"name": "timing-square", "frame": "local", "waypoints": wps}
 
 
-def flood(port: int, stop: threading.Event, counts: dict) -> None:
-    """A ground station that never rests: ~1000 valid requests a second, every reply read."""
+def flood(port: int, stop: threading.Event, counts: dict, kind: str = "flood") -> None:
+    """A ground station that never rests, every reply read: ``flood``, ~1000 valid requests a second (reads);
+    ``commands``, ~5000 valid state-changing commands a second (set the current item, set a parameter),
+    each of which the loop must carry out inside a cycle."""
     from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
     mav = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.setblocking(False)
-    requests = [mav.heartbeat_encode(6, 8, 0, 0, 0), mav.param_request_list_encode(1, 1),
-                mav.mission_request_list_encode(1, 1), mav.param_request_read_encode(1, 1, b"HDG_KP", -1),
-                mav.command_long_encode(1, 1, 512, 0, 148, 0, 0, 0, 0, 0, 0)]
+    if kind == "commands":
+        requests = [mav.heartbeat_encode(6, 8, 0, 0, 0), mav.mission_set_current_encode(1, 1, 2),
+                    mav.param_set_encode(1, 1, b"HDG_KP", 1.0, 9), mav.param_set_encode(1, 1, b"HDG_KP", 1.5, 9),
+                    mav.command_long_encode(1, 1, 224, 0, 2, 0, 0, 0, 0, 0, 0)]
+    else:
+        requests = [mav.heartbeat_encode(6, 8, 0, 0, 0), mav.param_request_list_encode(1, 1),
+                    mav.mission_request_list_encode(1, 1), mav.param_request_read_encode(1, 1, b"HDG_KP", -1),
+                    mav.command_long_encode(1, 1, 512, 0, 148, 0, 0, 0, 0, 0, 0)]
     frames = [m.pack(mav) for m in requests]
     k = 0
+    burst = 50 if kind == "commands" else 10
     while not stop.is_set():
-        for _ in range(10):
+        for _ in range(burst):
             sock.sendto(frames[k % len(frames)], ("127.0.0.1", port))
             k += 1
         counts["sent"] = k
@@ -92,7 +102,7 @@ def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800, link: str = "n
                "--mission", str(tmp_path / "mission.yaml"), "--sim", "--log-dir", str(tmp_path / "logs"),
                "--state-dir", str(tmp_path / "state"), "--runtime-dir", str(tmp_path / "run")]
         stop_flood, counts = threading.Event(), {}
-        if link == "flood":
+        if link in ("flood", "commands"):
             with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
                 s.bind(("127.0.0.1", 0))
                 port = s.getsockname()[1]
@@ -101,9 +111,9 @@ def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800, link: str = "n
         err = open(tmp_path / "stderr.txt", "w+")  # noqa: SIM115 - read below
         proc = subprocess.Popen(cmd, cwd=tmp, stdout=subprocess.DEVNULL, stderr=err)
         flooder = None
-        if link == "flood":
+        if link in ("flood", "commands"):
             time.sleep(2.0)
-            flooder = threading.Thread(target=flood, args=(port, stop_flood, counts), daemon=True)
+            flooder = threading.Thread(target=flood, args=(port, stop_flood, counts, link), daemon=True)
             flooder.start()
             time.sleep(duration_s - 2.0)
         else:
@@ -169,7 +179,7 @@ def main() -> int:
     ap.add_argument("--duration-s", type=float, default=None, help="one run of this length (default: 300 s at 10 Hz and 60 s at 50 Hz)")
     ap.add_argument("--rate-hz", type=float, default=10.0)
     ap.add_argument("--sc30-baud", type=int, default=4800, help="SC-30 line speed (4800 or 38400): sets how late headings arrive")
-    ap.add_argument("--link", choices=("none", "flood", "compare"), default="none")
+    ap.add_argument("--link", choices=("none", "flood", "commands", "compare"), default="none")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     plan = [(args.duration_s, args.rate_hz)] if args.duration_s else [(300.0, 10.0), (60.0, 50.0)]
@@ -182,7 +192,7 @@ def main() -> int:
             print(f"--sim, real time, {res['rate_hz']:g} Hz, SC-30 at {res['sc30_baud']} baud, {res['duration_s']:g} s, {res['cycles']} cycles "
                   f"({res['skipped_cycles']} skipped), exit {res['exit_code']}, link {res['link']}"
                   + (f" ({res['flood_sent']} messages sent, {res['flood_received_mb']} MB of replies)"
-                     if res["link"] == "flood" else ""))
+                     if res["link"] in ("flood", "commands") else ""))
             print(f"  lateness p50 {res['lateness_p50_ms']:.3f} ms, p99 {res['lateness_p99_ms']:.3f} ms, max {res['lateness_max_ms']:.3f} ms")
             print(f"  heading arrival -> first command using it p99 {res['heading_to_command_p99_ms']} ms "
                   f"({res['headings_used']} headings); age of the heading a command used p99 {res['heading_age_at_command_p99_ms']} ms")

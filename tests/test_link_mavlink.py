@@ -326,6 +326,35 @@ def test_malformed_commands_are_denied_naming_the_parameter_and_other_boats_stic
     assert not [r for r in boat.log() if r["event"] == "info" and r.get("message") == "mavlink message not handled"]
 
 
+def test_a_flood_of_valid_commands_waits_or_is_refused_and_the_loop_carries_out_five_a_cycle(tmp_path):
+    """Found by fault injection: 5000 valid DO_SET_MISSION_CURRENT a second were all carried out inside the
+    cycles (each saving the progress file): cycles ran 80-100 ms late, deadlines were skipped and the log grew
+    0.5 MB/s."""
+    from autopilot.daemon.loop import COMMANDS_PER_CYCLE
+
+    boat = Boat(tmp_path)
+    try:
+        boat.mode_is("auto")
+        for _ in range(1500):  # a burst, faster than 5 a cycle can carry out
+            boat.gcs.mav.command_long_send(1, 1, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 0, 1, 0, 0, 0, 0, 0, 0)
+        boat.wait_log(lambda r: r["event"] == "info" and r.get("message") == "commands refused: queue full",
+                      what="the flood refused")
+        denied = boat.recv("COMMAND_ACK", pred=lambda m: m.result == mavlink.MAV_RESULT_DENIED)
+        assert denied.command == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT
+        time.sleep(3.0)  # the queue drains at 5 a cycle
+        assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("paused")
+    finally:
+        assert boat.stop() == 0
+    log = boat.log()
+    per_cycle: dict = {}
+    for r in log:
+        if r["event"] == "command" and r["command"] == "set_current":
+            per_cycle[r["t_s"]] = per_cycle.get(r["t_s"], 0) + 1
+    assert max(per_cycle.values()) == COMMANDS_PER_CYCLE and sum(per_cycle.values()) < 1500
+    assert sum(1 for r in log if r["event"] == "info" and r.get("message") == "commands refused: queue full") == 1
+
+
 def test_link_loss_takes_its_action(tmp_path):
     boat = Boat(tmp_path, config={"mavlink": {"gcs_timeout_s": 1.5, "gcs_lost_action": "hold"}})
     try:

@@ -36,7 +36,13 @@ from autopilot.gnc.navigation import NavMemory, assemble
 from autopilot.gnc.passes import PassTracker
 from autopilot.logschema import Mode
 
-__all__ = ["LoopState", "ControlLoop", "watchdog_due"]
+__all__ = ["LoopState", "ControlLoop", "watchdog_due", "COMMANDS_PER_CYCLE", "COMMANDS_QUEUED_MAX"]
+
+# Operator commands carried out per cycle, and waiting at most: a ground station flooding valid commands
+# (5000 MISSION_SET_CURRENT a second, each saving the progress file) once made cycles 80-100 ms late and
+# skipped deadlines, with a log growing 0.5 MB/s; the loop's timing comes first, a command waits or is refused.
+COMMANDS_PER_CYCLE = 5
+COMMANDS_QUEUED_MAX = 100
 
 
 def watchdog_due(*, ready: bool, lateness_s: float, period_s: float, since_last_s: float, interval_s: float) -> bool:
@@ -95,6 +101,7 @@ class ControlLoop:
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
         self.state = LoopState()
         self.commands: collections.deque = collections.deque()  # (request, answer callback), from the socket
+        self._flooded = False  # commands were refused since the queue was last empty
         if hold_zero is not None:
             self.ap.request("stop", None, cause=f"start: {hold_zero}")
         self.t0_s = clock.now_s() if t0_s is None else t0_s  # mission time 0
@@ -131,9 +138,10 @@ class ControlLoop:
         helm_nav, unavailable = steps.helm_nav(nav, decision)
         for req in decision.requests:
             commands.failsafe_action(self, req, helm_nav, unavailable, t_s)
-        while self.commands:
+        for _ in range(min(len(self.commands), COMMANDS_PER_CYCLE)):
             request, answer = self.commands.popleft()
             answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
+        self._flooded = self._flooded and bool(self.commands)
         self._manual_timeout(helm_nav, unavailable, t_s)
         mode, drive = steps.arbitrate(decision, steerable=nav.steerable, manual=self.ap.mode is Mode.MANUAL)
         st.driving = st.driving and drive
@@ -192,7 +200,22 @@ class ControlLoop:
     def submit(self, request: dict, answer) -> None:
         """Queue a command (``{"command": ..., "source": ..., ...}``, see :mod:`autopilot.daemon.commands`);
         ``answer(reply dict)`` is called from the next cycle, between its steps: the caller never runs inside
-        the loop's timing."""
+        the loop's timing. The joystick's stream keeps only its latest input; beyond COMMANDS_QUEUED_MAX
+        waiting, a command is refused at once (answered here, not in a cycle)."""
+        if request.get("command") == "manual" and self.commands and self.commands[-1][0].get("command") == "manual" \
+                and self.commands[-1][0].get("source") == request.get("source"):
+            _, superseded = self.commands[-1]
+            self.commands[-1] = (request, answer)  # the newer stick position replaces the one not yet applied
+            superseded({"ok": True, "answer": "manual (superseded by a newer input)", "mode": self.ap.mode.value})
+            return
+        if len(self.commands) >= COMMANDS_QUEUED_MAX:
+            if not self._flooded:  # once per flood: until the queue has drained
+                self._flooded = True
+                self.log_event("info", message="commands refused: queue full", queued=len(self.commands),
+                               source=str(request.get("source")))
+            answer({"ok": False, "answer": f"{request.get('command')} refused: {len(self.commands)} commands "
+                                           "already waiting (a flood?)", "mode": self.ap.mode.value})
+            return
         self.commands.append((request, answer))
 
     def replace_mission(self, mission, *, source: str, cause: str) -> None:
