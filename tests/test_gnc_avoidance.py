@@ -88,6 +88,29 @@ def test_give_way_crossing_turns_to_starboard_and_passes_astern():
     assert te[np.searchsorted(ts, t_min)] < own_e[np.searchsorted(ts, t_min)] + 1.0  # it is west of us: passed ahead of us
 
 
+def test_a_busy_port_is_assessed_in_part_and_the_threat_among_it_still_acted_on():
+    """Found by fault injection: 1500 AIS targets (a busy port) were each assessed every cycle, ~70 ms; the late
+    cycles stopped the boat every few seconds. Now the far and the moored are left out and at most
+    MAX_ASSESSED assessed, the ones at risk first: the crossing target among 1500 moored vessels within
+    400 m is acted on as when it is alone (turning farther, clear of the nearest moored ones as well)."""
+    rng = np.random.default_rng(7)
+    ring = rng.uniform(40.0, 400.0, 1500)
+    bearing = rng.uniform(0.0, 2 * math.pi, 1500)
+    moored = [tgt(r * math.cos(b), r * math.sin(b), 0.0, 0.0, tid=1000 + k) for k, (r, b) in enumerate(zip(ring, bearing))]
+    far = [tgt(5000.0 + 10 * k, -3000.0, 90.0, 5.0, tid=5000 + k) for k in range(300)]
+    threat = tgt(60, 90, 270, 1.5)  # from starboard, on a collision course (CPA at 60 s)
+    alone = Avoidance().step(OWN, [threat], 0.0, 1.0, 0.0)
+    av = Avoidance()
+    chosen = av.relevant(OWN, OWN, moored + far + [threat])
+    assert threat in chosen and len(chosen) == avoidance_module.MAX_ASSESSED
+    assert not any(t.target_id >= 5000 for t in chosen)  # kilometres away: cannot come near within the horizon
+    busy = av.step(OWN, moored + far + [threat], 0.0, 1.0, 0.0)
+    assert alone.active and busy.active and busy.psi_d_share_rad >= alone.psi_d_share_rad  # to starboard, clear of the moored too
+    row = next(r for r in busy.targets if r.target_id == 1)
+    assert row.situation is Situation.CROSSING_GIVE_WAY and row.acting
+    assert len(busy.targets) == avoidance_module.MAX_ASSESSED
+
+
 def test_head_on_alters_to_starboard_only():
     for offset in (-3.0, 3.0):  # slightly to port or to starboard: still to starboard (rule 14)
         out = Avoidance().step(OWN, [tgt(100, offset, 180, 1.5)], 0.0, 1.0, 0.0)
