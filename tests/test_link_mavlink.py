@@ -392,6 +392,43 @@ def _upload(boat: Boat, items: list[tuple]) -> int:
                                            round(lon * 1e7), 0)
 
 
+def test_a_second_ground_station_cannot_upload_into_another_ones_upload(tmp_path):
+    """Found by fault injection: station A began an upload, station B sent MISSION_COUNT, A's items then
+    filled B's upload and B got MISSION_ACK ACCEPTED for a mission it never sent (uploads were keyed by
+    endpoint and items never checked their sender). Now B is refused while A uploads, and items from a
+    station that is not uploading are ignored."""
+    from pymavlink.dialects.v20 import ardupilotmega as dialect
+
+    a_items = [local_to_latlon(n, e, *ORIGIN) for n, e in ((0.0, 0.0), (-15.0, 10.0), (-25.0, 0.0))]
+    boat = Boat(tmp_path)
+    b = dialect.MAVLink(boat.gcs, srcSystem=254, srcComponent=190)  # another planner on the same radio link
+    try:
+        boat.mode_is("auto")
+
+        def a_item(seq):
+            lat, lon = a_items[seq]
+            boat.gcs.mav.mission_item_int_send(1, 1, seq, 3 if seq else 0, 16, 0, 1, 0, 0, 0, 0, round(lat * 1e7),
+                                               round(lon * 1e7), 0)
+
+        boat.gcs.mav.mission_count_send(1, 1, 3)
+        for seq in range(2):
+            boat.recv(["MISSION_REQUEST_INT", "MISSION_REQUEST"], pred=lambda m, s=seq: m.seq == s and m.target_system == 255)
+            a_item(seq)
+        b.mission_count_send(1, 1, 3)
+        ack_b = boat.recv("MISSION_ACK", pred=lambda m: m.target_system == 254)
+        assert ack_b.type == mavlink.MAV_MISSION_DENIED
+        lat, lon = local_to_latlon(80.0, 80.0, *ORIGIN)
+        b.mission_item_int_send(1, 1, 2, 3, 16, 0, 1, 0, 0, 0, 0, round(lat * 1e7), round(lon * 1e7), 0)  # ignored
+        boat.recv(["MISSION_REQUEST_INT", "MISSION_REQUEST"], pred=lambda m: m.seq == 2 and m.target_system == 255)
+        a_item(2)
+        ack_a = boat.recv("MISSION_ACK", pred=lambda m: m.target_system == 255)
+        assert ack_a.type == mavlink.MAV_MISSION_ACCEPTED
+        replaced = boat.wait_log(lambda r: r["event"] == "mission_replaced", what="mission replaced")
+    finally:
+        assert boat.stop() == 0
+    assert [[round(x, 1) for x in w] for w in replaced["waypoints"]] == [[-15.0, 10.0], [-25.0, 0.0]]
+
+
 def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart(tmp_path):
     new_ne = [(-15.0, 10.0), (-25.0, 0.0)]
     new = [local_to_latlon(n, e, *ORIGIN) for n, e in new_ne]

@@ -73,12 +73,17 @@ class MissionProtocol:
                 self.link.text(mavlink.MAV_SEVERITY_WARNING, f"mission refused: {msg.count} items (1..{MAX_ITEMS})")
                 self._ack(ep, peer, mavlink.MAV_MISSION_NO_SPACE)
                 return
+            busy = [u.peer for e, u in self.uploads.items() if u.peer != peer]
+            if busy:  # one upload at a time: two stations' items once filled one mission, acked to the other
+                self.link.text(mavlink.MAV_SEVERITY_WARNING, f"mission refused: system {busy[0][0]} is uploading one")
+                self._ack(ep, peer, mavlink.MAV_MISSION_DENIED)
+                return
             self.uploads[ep] = _Upload(peer, msg.count)
             self._ask(ep)
         elif t in ("MISSION_ITEM_INT", "MISSION_ITEM"):
             up = self.uploads.get(ep)
-            if up is None or msg.seq != len(up.items):
-                return  # not asked for (a duplicate): the next request follows on its own
+            if up is None or up.peer != peer or msg.seq != len(up.items):
+                return  # not asked for (a duplicate, or not from the station uploading): the next request follows
             up.items.append(item_of(msg))
             up.retries = 0
             if len(up.items) < up.count:
