@@ -429,6 +429,30 @@ def test_a_second_ground_station_cannot_upload_into_another_ones_upload(tmp_path
     assert [[round(x, 1) for x in w] for w in replaced["waypoints"]] == [[-15.0, 10.0], [-25.0, 0.0]]
 
 
+def test_a_mission_or_a_reposition_beyond_a_failsafe_limit_is_refused_up_front(tmp_path):
+    """Found by fault injection: a 'go here' 300 m out with max_distance_m 100 was accepted; the boat set off
+    and its own failsafe turned it back at 101 m (latched: the mission lost). Now refused, saying why."""
+    boat = Boat(tmp_path, config={"failsafe": {"max_distance_m": 100.0}})
+    try:
+        boat.mode_is("auto")
+        far = local_to_latlon(300.0, 0.0, *ORIGIN)
+        ack = boat.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, 0, use_int=True, x=round(far[0] * 1e7),
+                           y=round(far[1] * 1e7))
+        assert ack.result == mavlink.MAV_RESULT_DENIED
+        near = local_to_latlon(20.0, 0.0, *ORIGIN)
+        items = [(16, 0, 0, *ORIGIN), (16, 3, 0, *near), (16, 3, 0, *far)]
+        assert _upload(boat, items) == mavlink.MAV_MISSION_DENIED
+        text = boat.recv("STATUSTEXT", pred=lambda m: m.text.startswith("mission refused"))
+        assert "waypoint 2" in text.text
+        boat.mode_is("auto")
+    finally:
+        assert boat.stop() == 0
+    refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
+    assert any(a.startswith("hold refused: the point is beyond the max_distance failsafe: 300.0 m") for a in refused)
+    assert any(a.startswith("mission refused: waypoint 2 is beyond the max_distance failsafe") for a in refused)
+    assert not [r for r in boat.log() if r["event"] == "fault"]
+
+
 def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart(tmp_path):
     new_ne = [(-15.0, 10.0), (-25.0, 0.0)]
     new = [local_to_latlon(n, e, *ORIGIN) for n, e in new_ne]

@@ -63,6 +63,9 @@ def _helm(loop, request, helm_nav, unavailable, cause):
                        "hold, rtl and stop are allowed)")
     heading = request.get("heading_deg")
     target = (request["north_m"], request["east_m"]) if "north_m" in request else None
+    beyond = None if target is None else _beyond_limits(loop, [target], lambda k: "the point")
+    if beyond:
+        return False, f"{command} refused: {beyond}"
     return loop.ap.request(command, helm_nav, cause=cause, unavailable=unavailable, target_ne_m=target,
                            heading_rad=None if heading is None else math.radians(float(heading)))
 
@@ -87,7 +90,22 @@ def _set_current(loop, request, helm_nav, unavailable, cause):
     return ok, answer
 
 
+def _beyond_limits(loop, points_ne_m, what) -> str | None:
+    """Why a point the boat is sent to would trip a latched failsafe (the geofence, max_distance), or None."""
+    from autopilot.daemon.failsafe import position_limits
+
+    for k, (north_m, east_m) in enumerate(points_ne_m):
+        beyond = position_limits(north_m, east_m, loop.cfg.failsafe, loop.failsafe.fence_ne_m)
+        if beyond:
+            cause, detail = next(iter(beyond.items()))
+            return f"{what(k)} is beyond the {cause} failsafe: {detail}"
+    return None
+
+
 def _mission(loop, request, helm_nav, unavailable, cause):
+    beyond = _beyond_limits(loop, request["mission"].waypoints_ne_m, lambda k: f"waypoint {k + 1}")
+    if beyond:
+        return False, f"mission refused: {beyond}"
     loop.replace_mission(request["mission"], source=str(request.get("source", "mavlink")), cause=cause)
     return True, f"mission of {len(request['mission'].waypoints_ne_m)} waypoint(s)"
 

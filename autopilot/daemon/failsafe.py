@@ -36,7 +36,7 @@ from autopilot.daemon.config import FailsafeConfig
 from autopilot.logschema import FAULT_CAUSES, LATCHED_CAUSES
 
 __all__ = ["CAUSES", "LATCHED", "WAITING_QUIET", "resting_voltage_v", "FAULT_CLASS", "NAV_CLASSES", "Observation", "Event", "Request",
-           "Decision", "Failsafe", "detect", "inside_polygon", "guarded_action"]
+           "Decision", "Failsafe", "detect", "inside_polygon", "position_limits", "guarded_action"]
 
 CAUSES = FAULT_CAUSES  # the log schema owns the causes' names and order
 LATCHED = LATCHED_CAUSES
@@ -145,6 +145,19 @@ def inside_polygon(north_m: float, east_m: float, polygon_ne_m) -> bool:
     return inside
 
 
+def position_limits(north_m: float, east_m: float, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, str]:
+    """The latched position limits a point (local frame, m) is beyond: cause -> human detail. The failsafe
+    judges the boat's position with it, the commands a point the boat is sent to (a point beyond a limit
+    is refused up front, not flown to until the failsafe turns the boat back)."""
+    out: dict[str, str] = {}
+    if fence_ne_m is not None and not inside_polygon(north_m, east_m, fence_ne_m):
+        out["geofence"] = f"position ({north_m:.1f}, {east_m:.1f}) m is outside the geofence"
+    dist_m = math.hypot(north_m, east_m)
+    if dist_m > cfg.max_distance_m:
+        out["max_distance"] = f"{dist_m:.1f} m from the origin (limit {cfg.max_distance_m:g} m)"
+    return out
+
+
 def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, str]:
     """Every fault present in ``obs``: cause -> human detail."""
     faults: dict[str, str] = {}
@@ -169,11 +182,7 @@ def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, 
     if obs.ack_consecutive_missing >= cfg.ack_missing_n:
         faults["mbed_ack_missing"] = f"{obs.ack_consecutive_missing} consecutive commands unacknowledged (limit {cfg.ack_missing_n})"
     if obs.north_m is not None and obs.east_m is not None and obs.fix_quality > 0 and obs.position_confirmed:
-        if fence_ne_m is not None and not inside_polygon(obs.north_m, obs.east_m, fence_ne_m):
-            faults["geofence"] = f"position ({obs.north_m:.1f}, {obs.east_m:.1f}) m is outside the geofence"
-        dist_m = math.hypot(obs.north_m, obs.east_m)
-        if dist_m > cfg.max_distance_m:
-            faults["max_distance"] = f"{dist_m:.1f} m from the origin (limit {cfg.max_distance_m:g} m)"
+        faults.update(position_limits(obs.north_m, obs.east_m, cfg, fence_ne_m))
     if obs.mission_time_s >= cfg.max_mission_time_s:
         faults["max_mission_time"] = f"mission time {obs.mission_time_s:.1f} s (limit {cfg.max_mission_time_s:g} s)"
     return faults

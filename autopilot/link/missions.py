@@ -152,5 +152,7 @@ class MissionProtocol:
 
         def answer(reply: dict) -> None:
             self._ack(ep, up.peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"] else mavlink.MAV_MISSION_DENIED)
+            if not reply["ok"]:
+                self.link.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"])
 
         self.link.submit({"command": "mission", "mission": mission, "source": "mavlink"}, answer)
