@@ -303,6 +303,13 @@ def test_malformed_commands_are_denied_naming_the_parameter_and_other_boats_stic
                             (mavlink.MAV_CMD_REQUEST_MESSAGE, (nan,)), (mavlink.MAV_CMD_DO_SET_MODE, (1, 4.7)),
                             (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, (33, nan))):
             assert boat.command(cmd, *params).result == mavlink.MAV_RESULT_DENIED, cmd
+        boat.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 2.5)  # refused, and said once (each refusal was said twice)
+        said, t_end = [], time.monotonic() + 1.5
+        while time.monotonic() < t_end:
+            m = boat.gcs.recv_match(type="STATUSTEXT", blocking=True, timeout=0.1)
+            if m is not None and m.text.startswith("SET_MESSAGE_INTERVAL refused: param1 (message id)"):
+                said.append(m)
+        assert len(said) == 1  # its first 50-character chunk
         t_end = time.monotonic() + 1.5
         while time.monotonic() < t_end:  # another boat's joystick, full ahead
             boat.gcs.mav.manual_control_send(2, 1000, 0, 0, 0, 0)

@@ -272,7 +272,7 @@ class MavlinkLink:
         elif t == "MANUAL_CONTROL":
             x, r = (0 if v == 32767 else max(-1000, min(1000, v)) for v in (msg.x, msg.r))  # 32767: axis unused
             self.submit({"command": "manual", "forward_nd": x / 1000.0, "turn_nd": r / 1000.0, "source": "mavlink"},
-                        lambda reply: None if reply["ok"] else self.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"]))
+                        lambda reply: None)  # a refusal is logged, and the log's listener shows it
         elif t.startswith("MISSION_"):
             self.missions.handle(port, msg)
         elif t in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
@@ -292,8 +292,6 @@ class MavlinkLink:
     def _ask_loop(self, port: _Port, msg, request: dict) -> None:
         def answer(reply: dict) -> None:
             self._ack(port, msg, mavlink.MAV_RESULT_ACCEPTED if reply["ok"] else mavlink.MAV_RESULT_DENIED)
-            if not reply["ok"]:
-                self.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"])
 
         self.submit({**request, "source": "mavlink"}, answer)
 
@@ -309,7 +307,6 @@ class MavlinkLink:
             f"{name} refused: {field} is not {allowed}"
         self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
         self.refused(name, why)
-        self.text(mavlink.MAV_SEVERITY_WARNING, why)
         return None
 
     def _command(self, port: _Port, msg) -> None:
@@ -340,12 +337,12 @@ class MavlinkLink:
             if not (isinstance(lat, (int, float)) and math.isfinite(lat) and math.isfinite(lon)
                     and abs(lat) <= 90 and abs(lon) <= 180 and (lat, lon) != (0, 0)):
                 self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
-                self.text(mavlink.MAV_SEVERITY_WARNING, f"reposition refused: position {lat}, {lon} is not valid")
+                self.refused("reposition", f"reposition refused: position {lat}, {lon} is not valid")
                 return
             n, e = latlon_to_local(lat, lon, *self.origin())
             if math.hypot(n, e) > self.max_range_m():
                 self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
-                self.text(mavlink.MAV_SEVERITY_WARNING, f"reposition refused: {math.hypot(n, e):.0f} m from the "
+                self.refused("reposition", f"reposition refused: {math.hypot(n, e):.0f} m from the "
                           f"origin (max_mission_range_m {self.max_range_m():g} m)")
                 return
             self._ask_loop(port, msg, {"command": "hold", "north_m": n, "east_m": e})
@@ -390,7 +387,6 @@ class MavlinkLink:
             name = ROVER_MODES.get(int(custom_mode), "unknown")
             why = f"mode {int(custom_mode)} ({name}) not supported (MANUAL, HOLD, LOITER, AUTO, RTL, GUIDED)"
             self.refused("set_mode", why)
-            self.text(mavlink.MAV_SEVERITY_WARNING, why)
             if ack_command is not None:
                 self._ack(port, ack_command, mavlink.MAV_RESULT_DENIED)
             return
@@ -427,14 +423,12 @@ class MavlinkLink:
         p = P.by_name(name)
         if p is None:
             self.refused("param_set", f"parameter {name!r} unknown")
-            self.text(mavlink.MAV_SEVERITY_WARNING, f"parameter {name!r} unknown")
             return
         index = P.PARAMS.index(p)
         try:
             value = P.check_set(self.loop.cfg, p, float(msg.param_value))
         except ConfigError as exc:
             self.refused("param_set", f"{exc}")
-            self.text(mavlink.MAV_SEVERITY_WARNING, str(exc))
             self._param_value(port, p, index)  # the value stays: the ground station sees it unchanged
             return
 
@@ -444,9 +438,7 @@ class MavlinkLink:
         # (ArduPilot sends a changed parameter to all its links).
         self._param_queue = collections.deque(q for q in self._param_queue if q[1] != index)
 
-        def answer(reply: dict) -> None:
-            if not reply["ok"]:
-                self.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"])
+        def answer(reply: dict) -> None:  # a refusal is logged, and the log's listener shows it
             for each in self.ports:
                 self._param_value(each, p, index)
 

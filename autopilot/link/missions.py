@@ -53,7 +53,7 @@ def item_of(msg) -> dict:
 
 
 class MissionProtocol:
-    """One per link. ``link.send(endpoint, message)``, ``link.submit(request, answer)``, ``link.text(severity, s)``."""
+    """One per link. ``link.send(endpoint, message)``, ``link.submit(request, answer)``, ``link.refused(what, why)`` (logged; the log's listener shows it)."""
 
     def __init__(self, link) -> None:
         self.link = link
@@ -70,12 +70,12 @@ class MissionProtocol:
                 self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
                 return
             if not 1 <= msg.count <= MAX_ITEMS:
-                self.link.text(mavlink.MAV_SEVERITY_WARNING, f"mission refused: {msg.count} items (1..{MAX_ITEMS})")
+                self.link.refused("mission", f"mission refused: {msg.count} items (1..{MAX_ITEMS})")
                 self._ack(ep, peer, mavlink.MAV_MISSION_NO_SPACE)
                 return
             busy = [u.peer for e, u in self.uploads.items() if u.peer != peer]
             if busy:  # one upload at a time: two stations' items once filled one mission, acked to the other
-                self.link.text(mavlink.MAV_SEVERITY_WARNING, f"mission refused: system {busy[0][0]} is uploading one")
+                self.link.refused("mission", f"mission refused: system {busy[0][0]} is uploading one")
                 self._ack(ep, peer, mavlink.MAV_MISSION_DENIED)
                 return
             self.uploads[ep] = _Upload(peer, msg.count)
@@ -125,8 +125,7 @@ class MissionProtocol:
                 continue
             if up.retries >= ITEM_RETRIES:
                 del self.uploads[ep]
-                self.link.text(mavlink.MAV_SEVERITY_WARNING,
-                               f"mission upload abandoned: item {len(up.items)} never came")
+                self.link.refused("mission", f"mission upload abandoned: item {len(up.items)} never came")
                 self._ack(ep, up.peer, mavlink.MAV_MISSION_OPERATION_CANCELLED)
                 continue
             up.retries += 1
@@ -152,7 +151,5 @@ class MissionProtocol:
 
         def answer(reply: dict) -> None:
             self._ack(ep, up.peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"] else mavlink.MAV_MISSION_DENIED)
-            if not reply["ok"]:
-                self.link.text(mavlink.MAV_SEVERITY_WARNING, reply["answer"])
 
         self.link.submit({"command": "mission", "mission": mission, "source": "mavlink"}, answer)
