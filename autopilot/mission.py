@@ -58,6 +58,12 @@ NAV_LOITER_UNLIM = 17  # hold at the point until commanded
 NAV_LOITER_TIME = 19  # hold at the point for param1 seconds
 NAV_RETURN_TO_LAUNCH = 20
 DO_CHANGE_SPEED = 178
+NO_SPEED_CHANGE = -1.0  # DO_CHANGE_SPEED param2 -1: "no change" (MAVLink common.xml)
+
+
+def _speed_change(speed, value):
+    """The leg speed after a DO_CHANGE_SPEED with ``value`` (its param2): unchanged for -1."""
+    return speed if value == NO_SPEED_CHANGE else value
 MAX_HOLD_S = 86400.0
 
 
@@ -360,7 +366,7 @@ def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
             _global_frame(f"{path}: row {row_no}", f[2])
             _add_item(points, f"{path}: row {row_no}", cmd, f[8], f[9], speed, f[4])
         elif cmd == DO_CHANGE_SPEED:
-            speed = f[5]
+            speed = _speed_change(speed, f[5])
         elif cmd == NAV_RETURN_TO_LAUNCH:
             rtl = True
         else:
@@ -398,7 +404,7 @@ def _parse_plan(path: Path, text: str, origin, max_range_m: float) -> Mission:
             _global_frame(f"{path}: item {k}", item.get("frame", 3))  # absent: QGC's default, relative altitude
             _add_item(points, f"{path}: item {k}", cmd, params[4], params[5], speed, params[0])
         elif cmd == DO_CHANGE_SPEED:
-            speed = params[1] if len(params) > 1 else None
+            speed = _speed_change(speed, params[1]) if len(params) > 1 else None
         elif cmd == NAV_RETURN_TO_LAUNCH:
             rtl = True
         else:
@@ -477,7 +483,7 @@ def mission_from_items(items, *, origin_lat_deg: float, origin_lon_deg: float, m
             except MissionError as exc:
                 raise MissionItemError(str(exc), seq=k, field="mission") from None
         elif cmd == DO_CHANGE_SPEED:
-            speed = it.get("param2")
+            speed = _speed_change(speed, it.get("param2"))
         elif cmd == NAV_RETURN_TO_LAUNCH:
             rtl = True
         else:

@@ -499,9 +499,11 @@ def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart
         assert start["mission"] == str(saved) and len(start["waypoints"]) == 2
         assert "continuing the mission uploaded over MAVLink" in again.stderr()
         again.recv("HEARTBEAT")  # the ground station learns where the boat is
-        again.gcs.mav.mission_clear_all_send(1, 1)
+        again.gcs.mav.mission_count_send(1, 1, 0)  # an empty mission: MAVLink's other way to clear it (was "no space")
         assert again.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
         again.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
+        again.gcs.mav.mission_clear_all_send(1, 1)
+        assert again.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
     finally:
         assert again.stop() == 0
 

@@ -96,6 +96,14 @@ def test_mission_items_round_trip_and_refusals_name_the_item():
         assert exc.value.field == field and words in str(exc.value), str(exc.value)
 
 
+def test_change_speed_minus_one_means_no_change():
+    """MAVLink's DO_CHANGE_SPEED param2 -1 is "no change"; it was refused as a negative speed."""
+    items = [_item(0, 16, 52.0, 4.4, frame=0), dict(_item(1, 178, 0, 0, frame=2), param2=1.5),
+             _item(2, 16, 52.0002, 4.4), dict(_item(3, 178, 0, 0, frame=2), param2=-1.0), _item(4, 16, 52.0003, 4.4)]
+    m = mission_from_items(items, origin_lat_deg=52.0, origin_lon_deg=4.4)
+    assert m.speeds_m_s == (1.5, 1.5)
+
+
 def test_heartbeat_says_mode_arming_and_state():
     hb = T.heartbeat(MAV, {"mode": "auto", "armed": True})
     assert (hb.type, hb.autopilot, hb.custom_mode, hb.system_status) == (11, 3, 10, mavlink.MAV_STATE_ACTIVE)

@@ -69,6 +69,9 @@ class MissionProtocol:
             if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
                 self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
                 return
+            if msg.count == 0:  # an empty mission: MAVLink's way to clear it, as MISSION_CLEAR_ALL
+                self._clear(ep, peer)
+                return
             if not 1 <= msg.count <= MAX_ITEMS:
                 self.link.refused("mission", f"mission refused: {msg.count} items (1..{MAX_ITEMS})")
                 self._ack(ep, peer, mavlink.MAV_MISSION_NO_SPACE)
@@ -111,12 +114,15 @@ class MissionProtocol:
             if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
                 self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
                 return
-            self.link.submit({"command": "mission_clear", "source": "mavlink"},
-                             lambda reply: self._ack(ep, peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"]
-                                                     else mavlink.MAV_MISSION_DENIED))
+            self._clear(ep, peer)
         elif t == "MISSION_SET_CURRENT":
             self.link.submit({"command": "set_current", "index": int(msg.seq) - 1, "source": "mavlink"},
                              lambda reply: self.link.send_mission_current())
+
+    def _clear(self, ep, peer) -> None:
+        self.link.submit({"command": "mission_clear", "source": "mavlink"},
+                         lambda reply: self._ack(ep, peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"]
+                                                 else mavlink.MAV_MISSION_DENIED))
 
     def tick(self, now_s: float) -> None:
         """Re-ask a missing item; give up after ITEM_RETRIES (the running mission stays)."""
