@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -44,6 +45,11 @@ def test_parameters_are_configuration_keys_with_their_ranges():
     with pytest.raises(ConfigError, match="is not one of 0 = stop, 1 = hold, 2 = rtl"):
         P.check_set(cfg, act, 3.0)
     assert P.check_set(cfg, P.by_name("FS_ACK_MISS"), 7.0) == 7 and isinstance(P.check_set(cfg, P.by_name("FS_ACK_MISS"), 7.0), int)
+    # the wire's float32: 1.2 arrives as 1.2000000476837158; the value set (and logged) is the 1.2 typed
+    f32 = float(np.float32(1.2))
+    assert f32 != 1.2 and P.check_set(cfg, kp, f32) == 1.2
+    with pytest.raises(ConfigError, match=r"HDG_KP \(gnc.pid.kp_n_per_deg: 10.1 is outside"):
+        P.check_set(cfg, kp, float(np.float32(10.1)))
 
 
 @pytest.mark.parametrize("url, kind", [("udpout:127.0.0.1:14550", "udpout"), ("udpin:0.0.0.0:14550", "udpin"),

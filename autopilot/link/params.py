@@ -105,6 +105,9 @@ def check_set(cfg, p: Param, wire_value: float):
         if wire_value not in (0.0, 1.0):
             raise ConfigError(f"{p.name} ({p.key}): {wire_value:g} is not 0 or 1")
         return bool(wire_value)
+    # PARAM_SET carries a float32: 0.06 arrives as 0.05999999865889549. The shortest decimal that is the same
+    # float32 (7 significant digits) is what the operator typed, and what the log and the answers show.
+    wire_value = float(f"{wire_value:.7g}")
     value = int(wire_value) if tp is int and float(wire_value).is_integer() else wire_value
     try:
         return _convert(p.key, value, tp, meta)
