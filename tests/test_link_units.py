@@ -144,6 +144,7 @@ def test_a_position_jump_is_said_to_the_ground_station():
     moved = T.event_text("position_jump", {"distance_m": 61.4, "gate_m": 45.0, "accepted": True})
     assert refused == (mavlink.MAV_SEVERITY_WARNING, "GPS jump of 300 m refused")
     assert moved == (mavlink.MAV_SEVERITY_NOTICE, "GPS position moved 61 m (two fixes agree)")
+    assert T.event_text("position_jump", {"distance_m": 420.0, "accepted": False, "repeated": True}) is None
 
 
 def test_signing_key_file_must_be_private_and_well_formed(tmp_path):

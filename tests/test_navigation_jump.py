@@ -103,6 +103,7 @@ def test_far_fixes_that_disagree_are_all_refused_until_the_position_is_stale():
     fixes = _track(3) + [(300.0, 0.0), (0.0, 300.0), (-300.0, 0.0), (0.0, -300.0)]
     navs, active = fly(fixes, failsafe=Failsafe(FailsafeConfig(start_valid_s=0.0)))
     assert [n.jump.accepted for n in navs if n.jump is not None] == [False] * 4
+    assert [n.jump.repeated for n in navs if n.jump is not None] == [False, True, True, True]  # said once
     assert all(n.north_m == pytest.approx(3.0) for n in navs[20:])
     assert any("position_stale" in a for a in active)  # the failsafe is told: no position to trust
 

@@ -86,11 +86,12 @@ class PositionJump:
     distance_m: float  # from the last fix used
     gate_m: float  # what it may be: position_jump_m + max_sog_m_s x the time between the two
     accepted: bool  # False: refused, the last fix is kept; True: the position re-anchored here
+    repeated: bool = False  # refused while another refused fix was waiting (far fixes that do not agree)
 
     def log_fields(self) -> dict:
         """The ``position_jump`` line's fields (autopilot.logschema)."""
         return {"lat_deg": self.lat_deg, "lon_deg": self.lon_deg, "distance_m": self.distance_m,
-                "gate_m": self.gate_m, "accepted": self.accepted}
+                "gate_m": self.gate_m, "accepted": self.accepted, "repeated": self.repeated}
 
 
 @dataclass(frozen=True)
@@ -236,7 +237,7 @@ def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules) -> Gated:
             return Gated(pos, pos, None, pos.t_s, False,
                          PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=True))
     return Gated(last, last, pos, pos.t_s, confirmed,
-                 PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=False))
+                 PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=False, repeated=pending is not None))
 
 
 def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules, *,

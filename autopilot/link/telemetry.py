@@ -228,6 +228,8 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
     if name == "position_jump":
         if f.get("accepted"):
             return mavlink.MAV_SEVERITY_NOTICE, f"GPS position moved {f.get('distance_m', 0.0):.0f} m (two fixes agree)"
+        if f.get("repeated"):  # once a second while the fixes disagree: the first said it, position_stale follows
+            return None
         return mavlink.MAV_SEVERITY_WARNING, f"GPS jump of {f.get('distance_m', 0.0):.0f} m refused"
     if name == "mission_complete":
         return mavlink.MAV_SEVERITY_INFO, "mission complete"
