@@ -243,3 +243,15 @@ def test_resume_does_not_count_a_waypoint_passed_because_the_pause_turned_the_bo
     ap.request("resume", away, cause="ctl resume")
     out = ap.step(away, 0.1)
     assert out.reached_index is None and ap.wp_index == 0
+
+
+def test_set_current_after_the_mission_was_cleared_says_so():
+    """Found by fault injection: after MISSION_CLEAR_ALL a set-current was refused as 'waypoint 0 is not in the
+    mission (0..1)', which reads as if the mission were still there."""
+    from autopilot.gnc import Autopilot, GncConfig
+
+    ap = Autopilot(GncConfig(), [(30.0, 0.0), (30.0, 30.0)])
+    assert ap.set_current(1, cause="test")[0]
+    ap.clear_mission(None, cause="test", unavailable="no position")
+    ok, answer = ap.set_current(0, cause="test")
+    assert not ok and answer == "set current refused: the mission was cleared (upload one first)"

@@ -304,7 +304,9 @@ class Autopilot:
     def set_current(self, index: int, *, cause: str) -> tuple[bool, str]:
         """Fly the mission from waypoint ``index`` (MAVLink set current)."""
         n = len(self.guidance.waypoints)
-        if self.mission_cleared or not 0 <= index < n:
+        if self.mission_cleared:
+            return False, "set current refused: the mission was cleared (upload one first)"
+        if not 0 <= index < n:
             return False, f"set current refused: waypoint {index} is not in the mission (0..{n - 1})"
         g = self.guidance
         g.index, g.complete = int(index), False
