@@ -31,3 +31,37 @@ def test_replace_keeps_the_old_version_when_the_new_one_is_not_complete(tmp_path
     # a crash between write and rename leaves only a stray tmp file, never a torn state file
     (tmp_path / ".mission-progress.json.999.tmp").write_text('{"mission": "m", "wp')
     assert StateStore(tmp_path).load() == Progress("m", "abc", 1, "running")
+
+
+def test_an_interrupted_run_that_cannot_be_continued_holds_zero_not_starts_afresh(tmp_path):
+    """Found by fault injection (real daemon, restarts): progress saying 'running' for an uploaded mission
+    since deleted or edited, or for the mission file since edited, started the configured mission at
+    waypoint 0 unasked; a saved waypoint out of range (999, -1) or Infinity crashed the start (exit 1: a
+    systemd restart loop)."""
+    st = StateStore(tmp_path)
+    assert st.interrupted("abc", 4) == (None, None)  # no file: nothing was interrupted
+    st.save(Progress("m", "abc", 2, "running"))
+    assert st.interrupted("abc", 4) == (2, None)
+    index, why = st.interrupted("edited", 4)
+    assert index is None and "interrupted run of another mission (m" in why
+    for bad_index in (999, -1):
+        st.path.write_text(json.dumps({"mission": "m", "mission_sha256": "abc", "wp_index": bad_index,
+                                       "status": "running"}))
+        index, why = st.interrupted("abc", 4)
+        assert index is None and f"waypoint {bad_index} is not in this mission (0..3)" in why
+    for text in ('{"mission": "m", "mission_sha256": "abc", "wp_index": Infinity, "status": "running"}',
+                 '{"mission": "m", "mission_sha256": "abc", "wp_index": "3", "status": "running"}',
+                 '{"mission": "m", "wp_index": ', "[]"):
+        st.path.write_text(text)
+        index, why = st.interrupted("abc", 4)
+        assert index is None and why.startswith(f"the saved progress {st.path} cannot be read"), (text, why)
+    st.save(Progress("m", "abc", 3, "complete"))
+    assert st.interrupted("other", 4) == (None, None)  # a finished run: start as configured
+
+
+def test_an_uploaded_mission_that_is_a_directory_is_not_continued(tmp_path):
+    st = StateStore(tmp_path)
+    (tmp_path / "uploaded-mission.waypoints").mkdir()
+    st.save(Progress(str(tmp_path / "uploaded-mission.waypoints"), "abc", 1, "running"))
+    assert st.uploaded_to_continue() is None  # was IsADirectoryError: internal error, exit 1
+    assert st.interrupted("configured-sha", 4)[1].startswith("an interrupted run of another mission")

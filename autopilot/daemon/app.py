@@ -185,9 +185,13 @@ class DeviceEvents:
         self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message=name, device=device, **fields)
 
 
-def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, mission_path: str, sha: str):
-    """(waypoint to start at, reason to hold zero thrust or None) from the saved progress."""
-    saved = None if opts.fresh else store.resume_index(mission_path, sha)
+def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: str, n_waypoints: int):
+    """(waypoint to start at, reason to hold zero thrust or None) from the saved progress (StateStore.interrupted)."""
+    if opts.fresh:
+        return 0, None
+    saved, hold = store.interrupted(sha, n_waypoints)
+    if hold is not None:
+        return 0, hold + " (--fresh starts afresh)"
     if saved is None:
         return 0, None
     if cfg.failsafe.resume_after_restart:
@@ -264,7 +268,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     if opts.sim:
         _console(f"control socket {control.path}: autopilot ctl --runtime-dir {control.path.parent} status")
     log = MissionLog(log_path(log_dir, opts.mission_path))
-    start_index, hold_zero = _resume_index(cfg, opts, store, mission_path, sha)
+    start_index, hold_zero = _resume_index(cfg, opts, store, sha, len(mission.waypoints_ne_m))
     t0_s = clock.now_s()
     events = DeviceEvents(log, clock, t0_s, cfg)
     tasks, rig, tmpdir = [], None, None

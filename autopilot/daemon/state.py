@@ -43,16 +43,22 @@ class StateStore:
 
     def load(self) -> Progress | None:
         """The saved progress, or None when absent or unreadable (never trusted half-way)."""
+        return self.read()[0]
+
+    def read(self) -> tuple[Progress | None, str | None]:
+        """(the saved progress or None, why a file that is there cannot be read, or None). A progress file
+        that cannot be read may be that of an interrupted run: the caller must not take it as none."""
+        if not self.path.exists():
+            return None, None
         try:
             data = json.loads(self.path.read_text(encoding="utf-8"))
-            return Progress(
-                mission=str(data["mission"]),
-                mission_sha256=str(data["mission_sha256"]),
-                wp_index=int(data["wp_index"]),
-                status=str(data["status"]),
-            )
-        except (OSError, ValueError, KeyError, TypeError):
-            return None
+            index = data["wp_index"]
+            if type(index) is not int:  # not "3", 3.0, true, Infinity: a file no daemon wrote
+                raise ValueError(f"wp_index {index!r} is not a whole number")
+            return Progress(mission=str(data["mission"]), mission_sha256=str(data["mission_sha256"]),
+                            wp_index=index, status=str(data["status"])), None
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, OverflowError) as exc:
+            return None, f"{type(exc).__name__}: {exc}"
 
     def save(self, progress: Progress) -> None:
         """Replace the file atomically; skip when nothing changed."""
@@ -67,9 +73,12 @@ class StateStore:
         replaced the configured mission, and a restart (a crash, or systemctl restart) keeps it."""
         saved = self.load()
         path = self.dir / UPLOADED_MISSION
-        if saved is None or saved.status in ("complete", "cleared") or Path(saved.mission) != path or not path.exists():
+        if saved is None or saved.status in ("complete", "cleared") or Path(saved.mission) != path or not path.is_file():
             return None
-        return path if file_sha256(path) == saved.mission_sha256 else None
+        try:
+            return path if file_sha256(path) == saved.mission_sha256 else None
+        except OSError:  # unreadable: the caller holds zero (an interrupted run of a mission it cannot load)
+            return None
 
     def resume_index(self, mission: str, mission_sha256: str) -> int | None:
         """Waypoint to resume from if the saved mission is this one and was still running."""
@@ -77,6 +86,24 @@ class StateStore:
         if saved is None or saved.mission_sha256 != mission_sha256 or saved.status != "running":
             return None
         return saved.wp_index
+
+    def interrupted(self, mission_sha256: str, n_waypoints: int) -> tuple[int | None, str | None]:
+        """After a start without --fresh: (the waypoint an interrupted run of this mission was at, None), or
+        (None, why the boat must hold zero thrust: a run was, or may have been, interrupted and cannot be
+        continued as it was), or (None, None) when no run was interrupted. A run of another mission (an
+        uploaded one since deleted or edited, or the mission file edited since) is not the one to continue,
+        nor a reason to start this one from its first waypoint unasked."""
+        saved, problem = self.read()
+        if problem is not None:
+            return None, f"the saved progress {self.path} cannot be read ({problem}): a run may have been interrupted"
+        if saved is None or saved.status != "running":
+            return None, None
+        if saved.mission_sha256 != mission_sha256:
+            return None, (f"an interrupted run of another mission ({saved.mission}, or this file since edited) "
+                          "is in the state directory")
+        if not 0 <= saved.wp_index < n_waypoints:
+            return None, f"the saved progress's waypoint {saved.wp_index} is not in this mission (0..{n_waypoints - 1})"
+        return saved.wp_index, None
 
 
 def write_atomically(path: Path, data: bytes) -> None:
