@@ -298,3 +298,45 @@ def test_ctl_without_a_daemon_says_so(tmp_path):
     assert r.returncode == 3
     assert r.stderr.strip() == f"autopilot ctl: no running daemon answered (no socket at {tmp_path}/control.sock)"
     assert "Traceback" not in r.stderr
+
+
+def test_idle_connections_never_lock_out_ctl_stop_and_a_huge_heading_is_refused(tmp_path):
+    """Found by fault injection: 8 connections held open without a word made every `ctl stop` answer 'busy'
+    (a hung status poller could keep the operator from stopping the boat); a 400-digit heading_deg raised
+    OverflowError in the socket's handler: a traceback on stderr, no answer, no log line."""
+    import socket
+
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=25.0, laps=2))
+        idle = []
+        try:
+            await d.start()
+            await d.steady_thrust(1.0)
+            path = d.runtime_dir / "control.sock"
+            with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+                s.connect(str(path))
+                s.sendall(b'{"command": "hold", "heading_deg": 1' + b"0" * 400 + b"}\n")
+                s.settimeout(5.0)
+                huge = s.recv(4096).decode()
+            for _ in range(12):
+                c = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+                c.connect(str(path))
+                idle.append(c)
+            await d.clock.sleep(0.5)
+            busy = await d.ctl("pause")
+            stopped = await d.ctl("stop")
+            await _wait_mode(d, "stop")
+        finally:
+            for c in idle:
+                c.close()
+            await d.close()
+        err = (await d.proc.stderr.read()).decode()
+        return d, huge, busy, stopped, err
+
+    d, huge, busy, stopped, err = asyncio.run(scenario())
+    assert "malformed request: heading_deg 1000000000" in huge and "0 outside [0, 360) deg" in huge
+    assert busy[0] == 1 and "busy" in busy[1]
+    assert stopped == (0, "stop")
+    assert "Traceback" not in err and "OverflowError" not in err, err[-2000:]
+    refused = [r["answer"] for r in d.log() if r["event"] == "command" and not r["accepted"]]
+    assert any("heading_deg 1000" in a for a in refused)

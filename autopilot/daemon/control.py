@@ -38,6 +38,7 @@ MAX_REQUEST_BYTES = 1024
 READ_TIMEOUT_S = 2.0
 ANSWER_TIMEOUT_S = 5.0  # the loop answers within a cycle; this only bounds a stalled daemon
 MAX_CLIENTS = 8
+ALWAYS_SERVED = frozenset({"stop", "disarm"})  # served however many connections are open
 SYSTEMD_RUNTIME_DIR = Path("/run/wamv-autopilot")  # RuntimeDirectory=wamv-autopilot in the unit
 FIELDS = {"command": "one of " + ", ".join(COMMANDS), "heading_deg": "hold: the heading to keep, [0, 360) deg"}
 
@@ -77,8 +78,9 @@ def check_request(req) -> str | None:
     if h is not None:
         if cmd != "hold":
             return f"malformed request: heading_deg is for hold only, not {cmd}"
-        if isinstance(h, bool) or not isinstance(h, (int, float)) or not math.isfinite(h) or not 0.0 <= h < 360.0:
-            return f"malformed request: heading_deg {h!r} outside [0, 360) deg"
+        # the range alone: NaN and infinities fail it, and math.isfinite raised OverflowError on a 400-digit integer
+        if isinstance(h, bool) or not isinstance(h, (int, float)) or not 0.0 <= h < 360.0:
+            return f"malformed request: heading_deg {repr(h)[:32]} outside [0, 360) deg"
     return None
 
 
@@ -167,8 +169,6 @@ class ControlServer:
                 await writer.wait_closed()
 
     async def _reply(self, reader: asyncio.StreamReader) -> dict | None:
-        if self._clients > MAX_CLIENTS:
-            return self._refuse("", f"busy: more than {MAX_CLIENTS} requests at once")
         try:
             line = await asyncio.wait_for(reader.readuntil(b"\n"), READ_TIMEOUT_S)
         except asyncio.LimitOverrunError:
@@ -184,6 +184,10 @@ class ControlServer:
         req, problem = parse_request(line)
         if problem:
             return self._refuse(line[:32].decode("utf-8", "replace").strip(), problem)
+        # the limit is judged on the request read, and never on stopping the boat: 8 idle connections held
+        # open once refused every `ctl stop`
+        if self._clients > MAX_CLIENTS and req["command"] not in ALWAYS_SERVED:
+            return self._refuse(req["command"], f"busy: more than {MAX_CLIENTS} requests at once")
         if req["command"] == "status":
             return {"ok": True, "answer": "status", "status": _finite(self._status())}
         done = asyncio.get_running_loop().create_future()
