@@ -7,13 +7,13 @@ from autopilot.daemon.state import Progress, StateStore
 
 def test_save_load_roundtrip_and_resume_rules(tmp_path):
     st = StateStore(tmp_path / "state")
-    assert st.load() is None and st.resume_index("m", "abc") is None
+    assert st.load() is None and st.interrupted("abc", 4) == (None, None)
     st.save(Progress("m", "abc", 2, "running"))
     assert st.load() == Progress("m", "abc", 2, "running")
-    assert st.resume_index("m", "abc") == 2
-    assert st.resume_index("m", "other-content") is None  # mission file changed
+    assert st.interrupted("abc", 4) == (2, None)
+    assert st.interrupted("other-content", 4)[0] is None  # mission file changed: not resumed (held, see below)
     st.save(Progress("m", "abc", 3, "complete"))
-    assert st.resume_index("m", "abc") is None
+    assert st.interrupted("abc", 4) == (None, None)
     assert sorted(p.name for p in (tmp_path / "state").iterdir()) == ["mission-progress.json"]  # no tmp left
 
 

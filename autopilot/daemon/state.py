@@ -80,13 +80,6 @@ class StateStore:
         except OSError:  # unreadable: the caller holds zero (an interrupted run of a mission it cannot load)
             return None
 
-    def resume_index(self, mission: str, mission_sha256: str) -> int | None:
-        """Waypoint to resume from if the saved mission is this one and was still running."""
-        saved = self.load()
-        if saved is None or saved.mission_sha256 != mission_sha256 or saved.status != "running":
-            return None
-        return saved.wp_index
-
     def interrupted(self, mission_sha256: str, n_waypoints: int) -> tuple[int | None, str | None]:
         """After a start without --fresh: (the waypoint an interrupted run of this mission was at, None), or
         (None, why the boat must hold zero thrust: a run was, or may have been, interrupted and cannot be
