@@ -42,7 +42,8 @@ from dataclasses import dataclass
 from autopilot.devices import NavSample, Stamped, age_s
 from autopilot.geo import latlon_to_local, wrap_pi
 
-__all__ = ["NavRules", "NavMemory", "Navigation", "PositionJump", "Gated", "assemble", "gate_fix", "dead_reckon_ne", "velocity_over_ground",
+__all__ = ["NavRules", "NavMemory", "Navigation", "PositionJump", "Gated", "assemble", "gate_fix", "dead_reckon_ne",
+           "velocity_over_ground",
            "MIN_SOG_FOR_COG_M_S"]
 
 MIN_SOG_FOR_COG_M_S = 0.3  # below this the GNSS course is noise: carry along the heading instead
