@@ -65,3 +65,4 @@ def test_an_uploaded_mission_that_is_a_directory_is_not_continued(tmp_path):
     st.save(Progress(str(tmp_path / "uploaded-mission.waypoints"), "abc", 1, "running"))
     assert st.uploaded_to_continue() is None  # was IsADirectoryError: internal error, exit 1
     assert st.interrupted("configured-sha", 4)[1].startswith("an interrupted run of another mission")
+

@@ -84,6 +84,21 @@ def check_request(req) -> str | None:
     return None
 
 
+class _DuplicateKey(Exception):
+    pass
+
+
+def _no_duplicate_keys(pairs) -> dict:
+    """A JSON object whose keys are each given once: {"command": "status", "command": "pause"} once did pause,
+    logged as such, while the operator's screen showed status (as the YAML files refuse a key given twice)."""
+    out: dict = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKey(key)
+        out[key] = value
+    return out
+
+
 def parse_request(line: bytes) -> tuple[dict | None, str | None]:
     """(request, refusal): a JSON object, or a bare command word."""
     try:
@@ -94,7 +109,9 @@ def parse_request(line: bytes) -> tuple[dict | None, str | None]:
         return None, "malformed request: empty"
     if text.startswith("{"):
         try:
-            req = json.loads(text)
+            req = json.loads(text, object_pairs_hook=_no_duplicate_keys)
+        except _DuplicateKey as exc:
+            return None, f"malformed request: field {str(exc)[:32]!r} given twice"
         except ValueError as exc:
             return None, f"malformed request: not JSON ({exc.msg} at character {exc.pos})"
     else:
