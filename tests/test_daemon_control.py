@@ -8,3 +8,61 @@ def test_a_ctl_request_with_a_field_given_twice_is_refused():
     assert parse_request(b'{"command": "status", "command": "pause"}') == (
         None, "malformed request: field 'command' given twice")
     assert parse_request(b'{"command": "hold", "heading_deg": 90}') == ({"command": "hold", "heading_deg": 90}, None)
+
+
+def _server_exchange(tmp_path, payload: bytes, *, close_write: bool = True) -> tuple[list[dict], list[dict], list]:
+    """``payload`` sent on one connection to a real ControlServer on a Unix socket; the answers read, the
+    requests the loop was given, and the events logged."""
+    import asyncio
+    import json
+    import socket
+
+    from autopilot.daemon.control import ControlServer
+
+    submitted, logged = [], []
+
+    def submit(req, answer):
+        submitted.append(req)
+        answer({"ok": True, "answer": req["command"], "mode": req["command"]})
+
+    async def scenario():
+        server = ControlServer(tmp_path / "control.sock", submit=submit, status=lambda: {"mode": "auto"},
+                               log=lambda name, **f: logged.append((name, f)))
+        await server.start()
+        try:
+            def client():
+                with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+                    s.settimeout(10.0)
+                    s.connect(str(tmp_path / "control.sock"))
+                    s.sendall(payload)
+                    if close_write:
+                        s.shutdown(socket.SHUT_WR)
+                    data = b""
+                    while chunk := s.recv(65536):
+                        data += chunk
+                return data
+
+            data = await asyncio.get_running_loop().run_in_executor(None, client)
+        finally:
+            await server.close()
+        return [json.loads(x) for x in data.decode().splitlines()]
+
+    return asyncio.run(scenario()), submitted, logged
+
+
+def test_every_request_on_one_connection_is_served_in_order(tmp_path):
+    """Found by fault injection: `printf 'status\\nstop\\n' | socat - UNIX:control.sock` answered the status and
+    dropped the stop without a word (one request per connection): the boat went on."""
+    answers, submitted, logged = _server_exchange(tmp_path, b'status\n{"command": "stop"}\n\npause')
+    assert [a["answer"] for a in answers] == ["status", "stop", "pause"]
+    assert answers[0]["status"] == {"mode": "auto"}
+    assert [r["command"] for r in submitted] == ["stop", "pause"]
+    assert logged == []  # the blank line between requests and the closed connection are not refusals
+
+
+def test_a_bad_line_is_refused_and_the_next_still_served_and_a_quiet_connection_ends_without_a_refusal(tmp_path):
+    answers, submitted, logged = _server_exchange(tmp_path, b'launch\nstop\n', close_write=False)
+    assert answers[0]["ok"] is False and "command 'launch' is not one of" in answers[0]["answer"]
+    assert answers[1] == {"ok": True, "answer": "stop", "mode": "stop"}
+    assert [r["command"] for r in submitted] == ["stop"]
+    assert [f["command"] for _, f in logged] == ["launch"]  # the silence after the stop is not an incomplete request

@@ -2,7 +2,8 @@
 
 One Unix stream socket, ``<runtime dir>/control.sock`` (systemd ``RuntimeDirectory=``:
 ``/run/wamv-autopilot``), mode 0660: the service's user and group may command the boat,
-nobody else. One request per connection, one JSON line each way::
+nobody else. One JSON line each way per request; a connection may carry several, answered in
+order (``printf 'status\nstop\n' | socat - UNIX:.../control.sock`` stops the boat)::
 
     -> {"command": "hold", "heading_deg": 90}        (or the bare word: hold)
     <- {"ok": true, "answer": "hold", "mode": "hold"}
@@ -173,10 +174,17 @@ class ControlServer:
     async def _handle(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self._clients += 1
         try:
-            reply = await self._reply(reader)
-            if reply is not None:
-                writer.write((json.dumps(reply, allow_nan=False, default=str) + "\n").encode("utf-8"))
-                await asyncio.wait_for(writer.drain(), READ_TIMEOUT_S)
+            first = True
+            while True:
+                # after the first request a connection that goes quiet or closes simply ends: only the first
+                # line's absence or lateness is the client's mistake
+                reply, more = await self._reply(reader, first=first)
+                first = False
+                if reply is not None:
+                    writer.write((json.dumps(reply, allow_nan=False, default=str) + "\n").encode("utf-8"))
+                    await asyncio.wait_for(writer.drain(), READ_TIMEOUT_S)
+                if not more:
+                    break
         except (OSError, asyncio.TimeoutError, ValueError):
             pass  # the client went away: nothing to answer
         finally:
@@ -185,19 +193,29 @@ class ControlServer:
             with contextlib.suppress(Exception):
                 await writer.wait_closed()
 
-    async def _reply(self, reader: asyncio.StreamReader) -> dict | None:
+    async def _reply(self, reader: asyncio.StreamReader, *, first: bool = True) -> tuple[dict | None, bool]:
+        """The answer to the connection's next request (None: nothing to answer), and whether another
+        request may follow on the connection (a line was served whole: the client may have sent more)."""
         try:
             line = await asyncio.wait_for(reader.readuntil(b"\n"), READ_TIMEOUT_S)
-        except asyncio.LimitOverrunError:
-            return self._refuse("", f"request too large (limit {MAX_REQUEST_BYTES} bytes)")
+            more = True
+        except asyncio.LimitOverrunError:  # the rest of the oversized line is still unread: no resync
+            return self._refuse("", f"request too large (limit {MAX_REQUEST_BYTES} bytes)"), False
         except asyncio.IncompleteReadError as exc:
-            line = exc.partial  # no newline before the client closed its side: take what came
-            if not line:  # connected and went: a second daemon (or ctl) checking this one is alive, not a command
-                return None
+            line, more = exc.partial, False  # no newline before the client closed its side: take what came
+            if not line or (not first and not line.strip()):  # connected and went (a daemon probing), or done
+                return None, False
             if len(line) > MAX_REQUEST_BYTES:
-                return self._refuse("", f"request too large (limit {MAX_REQUEST_BYTES} bytes)")
+                return self._refuse("", f"request too large (limit {MAX_REQUEST_BYTES} bytes)"), False
         except asyncio.TimeoutError:
-            return self._refuse("", f"incomplete request: no line within {READ_TIMEOUT_S:g} s")
+            if not first:
+                return None, False
+            return self._refuse("", f"incomplete request: no line within {READ_TIMEOUT_S:g} s"), False
+        if not first and not line.strip():
+            return None, more  # a blank line between requests (a trailing newline from a script)
+        return await self._serve(line), more
+
+    async def _serve(self, line: bytes) -> dict:
         req, problem = parse_request(line)
         if problem:
             return self._refuse(line[:32].decode("utf-8", "replace").strip(), problem)
