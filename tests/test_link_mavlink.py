@@ -301,7 +301,8 @@ def test_malformed_commands_are_denied_naming_the_parameter_and_other_boats_stic
         assert text.text.startswith("DO_PAUSE_CONTINUE refused: param1 nan")  # the first 50-character chunk
         for cmd, params in ((mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (0.5,)), (mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, (nan,)),
                             (mavlink.MAV_CMD_REQUEST_MESSAGE, (nan,)), (mavlink.MAV_CMD_DO_SET_MODE, (1, 4.7)),
-                            (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, (33, nan))):
+                            (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, (33, nan)),
+                            (mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, (mavlink.MAVLINK_MSG_ID_HEARTBEAT, -1))):
             assert boat.command(cmd, *params).result == mavlink.MAV_RESULT_DENIED, cmd
         boat.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 2.5)  # refused, and said once (each refusal was said twice)
         said, t_end = [], time.monotonic() + 1.5
@@ -327,6 +328,7 @@ def test_malformed_commands_are_denied_naming_the_parameter_and_other_boats_stic
     refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
     assert sum("DO_PAUSE_CONTINUE refused" in a for a in refused) == 3
     assert "DO_PAUSE_CONTINUE refused: param1 7 is not 0 (pause) or 1 (continue)" in refused
+    assert "SET_MESSAGE_INTERVAL refused: HEARTBEAT off (-1) is below rates.heartbeat_hz's minimum 0.2 Hz" in refused
     for what in ("COMPONENT_ARM_DISARM", "DO_SET_MISSION_CURRENT", "REQUEST_MESSAGE", "DO_SET_MODE",
                  "SET_MESSAGE_INTERVAL", "FS_MAX_TIME"):
         assert any(what in a for a in refused), (what, refused)
@@ -363,7 +365,12 @@ def test_a_flood_of_valid_commands_waits_or_is_refused_and_the_loop_carries_out_
 
 
 def test_link_loss_takes_its_action(tmp_path):
+    """Found by review: any heartbeat of type GCS counted, so a second planner on the same network (system id
+    254 here) kept the link alive after the operator's station (gcs_system_id 255) went quiet."""
+    from pymavlink.dialects.v20 import ardupilotmega as dialect
+
     boat = Boat(tmp_path, config={"mavlink": {"gcs_timeout_s": 1.5, "gcs_lost_action": "hold"}})
+    other = dialect.MAVLink(boat.gcs, srcSystem=254, srcComponent=190)
     try:
         boat.mode_is("auto", 20.0)
         boat.recv("HEARTBEAT")  # the ground station now knows the boat's address (UDP: it learns it from what it receives)
@@ -374,8 +381,13 @@ def test_link_loss_takes_its_action(tmp_path):
             boat.beat()
             boat.gcs.recv_match(blocking=True, timeout=0.05)
         t_silent = time.monotonic()
-        boat.last_hb = math.inf  # the ground station goes quiet
-        lost = boat.wait_log(lambda r: r["event"] == "gcs" and r["state"] == "lost", what="link lost")
+        boat.last_hb = math.inf  # the ground station goes quiet; the other planner beats on
+        lost = None
+        while lost is None and time.monotonic() - t_silent < 20.0:
+            other.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            boat.gcs.recv_match(blocking=True, timeout=0.2)
+            lost = next((r for r in boat.log() if r["event"] == "gcs" and r["state"] == "lost"), None)
+        assert lost is not None, "link never lost"
         assert lost["action"] == "hold" and lost["silent_s"] >= 1.5
         assert time.monotonic() - t_silent < 4.0
         boat.mode_is("hold")

@@ -161,3 +161,20 @@ def test_signing_key_file_must_be_private_and_well_formed(tmp_path):
         load_signing_key(str(f))
     with pytest.raises(ConfigError, match="cannot read"):
         load_signing_key(str(tmp_path / "missing"))
+
+
+def test_message_interval_keeps_each_rate_in_its_configured_range():
+    """Found by review: SET_MESSAGE_INTERVAL with -1 turned the HEARTBEAT off (heartbeat_hz's range is
+    [0.2, 10] Hz in the configuration), and the ground station then counted the boat lost."""
+    from autopilot.link.config import MavlinkRates
+    from autopilot.link.link import rate_for_interval
+
+    rates = MavlinkRates()
+    hb, att = mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_ATTITUDE
+    assert rate_for_interval(rates, hb, -1) == (None, "SET_MESSAGE_INTERVAL refused: HEARTBEAT off (-1) is below "
+                                                      "rates.heartbeat_hz's minimum 0.2 Hz")
+    assert rate_for_interval(rates, hb, 1e9)[0] is None and "0.001 Hz (1e+09 us)" in rate_for_interval(rates, hb, 1e9)[1]
+    assert rate_for_interval(rates, hb, 0) == (1.0, "") and rate_for_interval(rates, hb, 2e5) == (5.0, "")
+    assert rate_for_interval(rates, hb, 10.0) == (10.0, "")  # faster than allowed: the fastest allowed
+    assert rate_for_interval(rates, att, -1) == (0.0, "")  # telemetry may be turned off
+    assert rate_for_interval(rates, att, 1e5) == (10.0, "") and rate_for_interval(rates, att, 1.0) == (50.0, "")

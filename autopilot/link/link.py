@@ -21,6 +21,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
+import dataclasses
 import math
 import os
 import stat
@@ -32,13 +33,13 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from autopilot.geo import latlon_to_local
 from autopilot.link import params as P
 from autopilot.link import telemetry as T
-from autopilot.link.config import MavlinkConfig
+from autopilot.link.config import MavlinkConfig, MavlinkRates
 from autopilot.link.endpoint import Endpoint, open_endpoint, parse_endpoint
 from autopilot.link.missions import MissionProtocol
 from autopilot.link.modes import ROVER_MODES, command_for_rover_mode
 from autopilot.schema import ConfigError
 
-__all__ = ["MavlinkLink", "load_signing_key", "READ_ONLY_MESSAGES"]
+__all__ = ["MavlinkLink", "load_signing_key", "rate_for_interval", "READ_ONLY_MESSAGES"]
 
 TICK_S = 0.02
 RX_SLICE_BYTES = 1024
@@ -62,6 +63,23 @@ _RATE_MESSAGES = {  # message id -> (rates field, builder)
     mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: "nav_controller_output_hz",
     mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: "mission_current_hz",
 }
+
+
+def rate_for_interval(rates: MavlinkRates, message_id: int, interval_us: float) -> tuple[float | None, str]:
+    """MAV_CMD_SET_MESSAGE_INTERVAL: the new rate (Hz) of message ``message_id`` for ``interval_us`` (0: the
+    configured default, -1: off), or None and why not. The configuration's range of that rate holds here too:
+    a ground station once turned the HEARTBEAT off (-1), and then itself counted the boat lost."""
+    field = _RATE_MESSAGES[message_id]
+    meta = {f.name: f.metadata for f in dataclasses.fields(rates)}[field]
+    if interval_us == 0:
+        return getattr(rates, field), ""
+    hz = 0.0 if interval_us < 0 else 1e6 / interval_us
+    lo, hi = meta["lo"], meta["hi"]
+    if hz >= lo:
+        return min(hz, hi), ""  # faster than the link's limit: as fast as allowed (as before)
+    name = mavlink.mavlink_map[message_id].msgname
+    asked = "off (-1)" if interval_us < 0 else f"{hz:.6g} Hz ({interval_us:g} us)"
+    return None, f"SET_MESSAGE_INTERVAL refused: {name} {asked} is below rates.{field}'s minimum {lo:g} Hz"
 
 
 def load_signing_key(spec: str) -> bytes:
@@ -260,7 +278,9 @@ class MavlinkLink:
         if t == "BAD_DATA":
             return
         if t == "HEARTBEAT":
-            if msg.get_srcSystem() == self.cfg.gcs_system_id or msg.type == mavlink.MAV_TYPE_GCS:
+            # only the configured station's (ArduPilot's SYSID_MYGCS): a second planner or a tablet's QGC on the
+            # same network went on beating while the operator's station was gone, and the link never counted lost
+            if msg.get_srcSystem() == self.cfg.gcs_system_id:
                 self._gcs_seen()
             return
         if not self._for_us(msg):
@@ -360,8 +380,12 @@ class MavlinkLink:
             if mid not in self.rates:
                 self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
                 return
-            default = getattr(self.cfg.rates, _RATE_MESSAGES[mid])
-            self.rates[mid] = default if interval_us == 0 else 0.0 if interval_us < 0 else min(50.0, 1e6 / interval_us)
+            hz, why = rate_for_interval(self.cfg.rates, mid, interval_us)
+            if hz is None:
+                self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
+                self.refused("SET_MESSAGE_INTERVAL", why)
+                return
+            self.rates[mid] = hz
             self._ack(port, msg, mavlink.MAV_RESULT_ACCEPTED)
         elif c in (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
                    mavlink.MAV_CMD_GET_HOME_POSITION):
