@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -381,3 +382,16 @@ def test_a_pair_grown_from_the_runner_up_must_beat_the_leader(monkeypatch):
     bic[AY] = -4980.0  # a runner-up's pair that beats the leader too is still taken
     fits = {k: k for k in (W, A, H, ())}
     assert ident.choose(Prep(), VESSEL, fits, Scores(), (), None, None, ident.Settings(), lambda m: None)[0] == AY
+
+
+@pytest.mark.parametrize("field, value", [("thrust_port_n", 1e9), ("speed_m_s", -0.5), ("yaw_rate_rad_s", float("nan")),
+                                          ("thrust_stbd_n", float("inf"))])
+def test_a_table_row_outside_its_range_is_refused_naming_row_and_column(tmp_path, field, value):
+    """Found by review: a row typed 1e9 N went into the fit; its residual alone made thrust_asymmetry the
+    verdict (SSE 1.3e15 -> 200)."""
+    import dataclasses
+
+    bad = dataclasses.replace(MEASURED_TABLE[3], **{field: value})
+    write_table_csv([*MEASURED_TABLE[:3], bad, *MEASURED_TABLE[4:]], tmp_path / "t.csv")
+    with pytest.raises(ConfigError, match=re.escape(f"t.csv:5: {field} {value:g} is outside [")):
+        read_table_csv(tmp_path / "t.csv")

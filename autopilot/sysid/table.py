@@ -37,6 +37,13 @@ TABLE_CANDIDATES = ("thrust_asymmetry", "yaw_damping_quadratic", "hydro_refit")
 # quadratic yaw damping, which is its own candidate), with calibrate's bounds; fitted as changes
 HYDRO_FIELDS = tuple(f for f in CALIBRATE_FREE if f[0] != "yaw_damping_quadratic_nm_s2")
 COLUMNS = ("name", "thrust_port_n", "thrust_stbd_n", "yaw_rate_rad_s", "speed_m_s")
+_MAX_THRUST_N = next(f.metadata["hi"] for f in dataclasses.fields(VesselParams) if f.name == "max_thrust_n")
+# what a steady row of a boat the model covers can hold: a typo (1e9 N) otherwise went into the fit
+# and its residual alone chose the verdict
+COLUMN_RANGES = {"thrust_port_n": (-_MAX_THRUST_N, _MAX_THRUST_N, "N, the vessel schema's max_thrust_n"),
+                 "thrust_stbd_n": (-_MAX_THRUST_N, _MAX_THRUST_N, "N, the vessel schema's max_thrust_n"),
+                 "yaw_rate_rad_s": (-math.pi, math.pi, "rad/s, half a turn a second"),
+                 "speed_m_s": (0.0, 20.0, "m/s, a magnitude")}
 YAW_RATE_FLOOR_RAD_S = 0.1
 FAILED_RESIDUAL = 10.0  # a row whose steady state cannot be found (as autopilot.sim.calibrate)
 BIC_MARGIN = 10.0
@@ -61,8 +68,10 @@ def read_table_csv(path) -> tuple[SteadyRow, ...]:
             vals = [float(r[col[c]]) for c in COLUMNS[1:]]
         except (IndexError, ValueError) as exc:
             raise ConfigError(f"{path}:{k}: not a number ({exc})") from exc
-        if not all(math.isfinite(v) for v in vals) or vals[3] < 0:
-            raise ConfigError(f"{path}:{k}: values must be finite and speed_m_s >= 0")
+        for c, v in zip(COLUMNS[1:], vals):
+            lo, hi, what = COLUMN_RANGES[c]
+            if not lo <= v <= hi:  # NaN fails too
+                raise ConfigError(f"{path}:{k}: {c} {v:g} is outside [{lo:g}, {hi:g}] ({what})")
         rows.append(SteadyRow(r[col["name"]], *vals))
     if len(rows) < 3:
         raise ConfigError(f"{path}: need at least 3 rows, got {len(rows)}")
