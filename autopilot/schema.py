@@ -142,8 +142,9 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "", require_
     return obj
 
 
-def load_yaml(cls: type, path: str | Path, *, require_all: bool = False) -> Any:
-    """Load ``cls`` from a YAML file; syntax errors become :class:`ConfigError` naming the file."""
+def load_yaml(cls: type, path: str | Path, *, require_all: bool = False, empty: str | None = None) -> Any:
+    """Load ``cls`` from a YAML file; syntax errors become :class:`ConfigError` naming the file. ``empty``:
+    an empty file (or comments only) is refused with this text, rather than read as every default."""
     from autopilot.userfile import parse_yaml, read_text
 
     path = Path(path)
@@ -152,6 +153,8 @@ def load_yaml(cls: type, path: str | Path, *, require_all: bool = False) -> Any:
         data = parse_yaml(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({exc})") from exc
+    if data is None and empty is not None:
+        raise ConfigError(f"{path}: {empty}")
     try:
         return load(cls, data, require_all=require_all)
     except ConfigError as exc:

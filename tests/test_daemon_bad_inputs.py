@@ -45,6 +45,8 @@ CLI_CASES = [
      "autopilot run: error: {dir}/c.yaml: cannot read (No such file or directory)"),
     ("configuration", "not YAML", "rate_hz: [10,\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: not valid YAML (while parsing a flow ...)"),
+    ("configuration", "empty file (a copy cut short)", "\n", GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: the configuration is empty (no setting at all); to run on every default say so with {} in the file, or start from config/autopilot.yaml"),
     ("configuration", "a key twice", GOOD_CONFIG + "rate_hz: 10\nrate_hz: 20\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: not valid YAML (rate_hz: duplicate key (lines 4 and 5))"),
     ("configuration", "unknown key (typo)", "rate_hx: 10\n", GOOD_MISSION, [],

@@ -83,3 +83,14 @@ def test_cli_reports_invalid_yaml(tmp_path):
     cfg.write_text("rate_hz: [1,\n")
     r = _run("run", "--config", str(cfg), "--mission", "m.yaml", cwd=tmp_path)
     assert r.returncode == 2 and "not valid YAML" in r.stderr
+
+
+@pytest.mark.parametrize("text", ["", "\n\n", "# every key commented out\n#rate_hz: 10\n"])
+def test_an_empty_config_is_refused_and_an_explicit_empty_mapping_means_the_defaults(tmp_path, text):
+    """Found by review: an empty file (a copy cut short) flew on every shipped default without a word."""
+    (tmp_path / "c.yaml").write_text(text)
+    with pytest.raises(ConfigError, match=r"c.yaml: the configuration is empty \(no setting at all\); to run on "
+                                          r"every default say so with \{\} in the file"):
+        load_config(tmp_path / "c.yaml")
+    (tmp_path / "d.yaml").write_text("{}\n")
+    assert load_config(tmp_path / "d.yaml") == DaemonConfig()

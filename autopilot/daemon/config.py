@@ -248,7 +248,10 @@ class DaemonConfig:
 
 def load_config(path: str | Path) -> DaemonConfig:
     """Read and check the whole configuration file (raises ConfigError naming file and key)."""
-    cfg = load_yaml(DaemonConfig, path)
+    # an empty file (a copy cut short, a config management template never filled) flew on every default
+    # without a word: the boat's own failsafe limits and origin silently replaced by the shipped ones
+    cfg = load_yaml(DaemonConfig, path, empty="the configuration is empty (no setting at all); to run on every "
+                    "default say so with {} in the file, or start from config/autopilot.yaml")
     if not math.isfinite(cfg.period_s):  # pragma: no cover - rate_hz is range-checked
         raise ConfigError("rate_hz: not finite")
     return cfg
