@@ -111,6 +111,7 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("log write failed", "not in the file: on the console (journal) and to the ground station, once, when the log's writes start failing (a full disk; `path`, `error`); the boat goes on being controlled"),
     ("log writes resumed", "the first line after writes failed: how many lines were lost (`lines_lost`) and why (`error`)"),
     ("commands refused: queue full", "operator commands arrived faster than the loop carries them out (5 a cycle) and 100 were waiting: the next are refused at once (`queued`, `source`), once per flood"),
+    ("ctl refusals not logged", "more than 10 refused control-socket requests in a second (a looping client): the rest were answered but not logged one by one; how many (`count`), said once the second is over"),
     ("zero-thrust on stop failed", "the final command could not be sent (`error`)"),
 )
 

@@ -22,6 +22,8 @@ parameter), mission downloads and message requests, ~1000 messages a second, rea
 --link compare runs the same duration without the link and with the flood, one after the other.
 --link commands floods it with ~5000 valid state-changing commands a second instead (MISSION_SET_CURRENT,
 PARAM_SET, DO_SET_MISSION_CURRENT), which the loop carries out 5 a cycle and refuses past 100 waiting.
+--link ctl floods the control socket instead (autopilot ctl's Unix socket, no MAVLink): a local client in
+bursts of 50 connections (environment CTL_FLOOD_BURST), half asking status, half sending a line that is no request.
 """
 
 from __future__ import annotations
@@ -89,6 +91,36 @@ def flood(port: int, stop: threading.Event, counts: dict, kind: str = "flood") -
         time.sleep(0.01)
 
 
+def ctl_flood(path: Path, stop: threading.Event, counts: dict) -> None:
+    """A local client that never rests on the control socket: bursts of 50 connections, half asking
+    status, half sending a line that is not a request (each refused and logged), every answer read."""
+    burst = int(os.environ.get("CTL_FLOOD_BURST", "50"))
+    k = 0
+    while not stop.is_set():
+        socks = []
+        for i in range(burst):
+            s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            s.settimeout(2.0)
+            try:
+                s.connect(str(path))
+                s.sendall(b"status\n" if i % 2 else b"launch the boat\n")
+                s.shutdown(socket.SHUT_WR)
+                socks.append(s)
+            except OSError:
+                s.close()
+                counts["connect_failed"] = counts.get("connect_failed", 0) + 1
+        for s in socks:
+            try:
+                while chunk := s.recv(65536):
+                    counts["received_bytes"] = counts.get("received_bytes", 0) + len(chunk)
+            except OSError:
+                pass
+            s.close()
+        k += len(socks)
+        counts["sent"] = k
+        time.sleep(0.01)
+
+
 def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800, link: str = "none") -> dict:
     with tempfile.TemporaryDirectory(prefix="loop-timing-") as tmp:
         tmp_path = Path(tmp)
@@ -111,9 +143,11 @@ def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800, link: str = "n
         err = open(tmp_path / "stderr.txt", "w+")  # noqa: SIM115 - read below
         proc = subprocess.Popen(cmd, cwd=tmp, stdout=subprocess.DEVNULL, stderr=err)
         flooder = None
-        if link in ("flood", "commands"):
+        if link in ("flood", "commands", "ctl"):
             time.sleep(2.0)
-            flooder = threading.Thread(target=flood, args=(port, stop_flood, counts, link), daemon=True)
+            flooder = (threading.Thread(target=ctl_flood, args=(tmp_path / "run" / "control.sock", stop_flood, counts),
+                                        daemon=True) if link == "ctl" else
+                       threading.Thread(target=flood, args=(port, stop_flood, counts, link), daemon=True))
             flooder.start()
             time.sleep(duration_s - 2.0)
         else:
@@ -171,6 +205,8 @@ def run(duration_s: float, rate_hz: float, sc30_baud: int = 4800, link: str = "n
         "peak_rss_mb": round(usage.ru_maxrss / 1024.0, 1),
         "stop_ack_received": stop.get("ack_received"),
         "waypoints_reached": sum(r["event"] == "waypoint_reached" for r in recs),
+        "log_lines": len(recs),
+        "refusals_logged": sum(r["event"] == "command" and r.get("accepted") is False for r in recs),
     }
 
 
@@ -179,7 +215,7 @@ def main() -> int:
     ap.add_argument("--duration-s", type=float, default=None, help="one run of this length (default: 300 s at 10 Hz and 60 s at 50 Hz)")
     ap.add_argument("--rate-hz", type=float, default=10.0)
     ap.add_argument("--sc30-baud", type=int, default=4800, help="SC-30 line speed (4800 or 38400): sets how late headings arrive")
-    ap.add_argument("--link", choices=("none", "flood", "commands", "compare"), default="none")
+    ap.add_argument("--link", choices=("none", "flood", "commands", "compare", "ctl"), default="none")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     plan = [(args.duration_s, args.rate_hz)] if args.duration_s else [(300.0, 10.0), (60.0, 50.0)]
@@ -192,12 +228,14 @@ def main() -> int:
             print(f"--sim, real time, {res['rate_hz']:g} Hz, SC-30 at {res['sc30_baud']} baud, {res['duration_s']:g} s, {res['cycles']} cycles "
                   f"({res['skipped_cycles']} skipped), exit {res['exit_code']}, link {res['link']}"
                   + (f" ({res['flood_sent']} messages sent, {res['flood_received_mb']} MB of replies)"
-                     if res["link"] in ("flood", "commands") else ""))
+                     if res["link"] in ("flood", "commands") else
+                     f" ({res['flood_sent']} connections, {res['flood_received_mb']} MB of answers)" if res["link"] == "ctl"
+                     else ""))
             print(f"  lateness p50 {res['lateness_p50_ms']:.3f} ms, p99 {res['lateness_p99_ms']:.3f} ms, max {res['lateness_max_ms']:.3f} ms")
             print(f"  heading arrival -> first command using it p99 {res['heading_to_command_p99_ms']} ms "
                   f"({res['headings_used']} headings); age of the heading a command used p99 {res['heading_age_at_command_p99_ms']} ms")
             print(f"  CPU {res['cpu_s_per_wall_s'] * 100:.2f} % of one core, peak RSS {res['peak_rss_mb']:.1f} MB "
-                  f"(daemon + in-process simulator)")
+                  f"(daemon + in-process simulator); log {res['log_lines']} lines, {res['refusals_logged']} refusals")
     return 0
 
 

@@ -10,7 +10,8 @@ def test_a_ctl_request_with_a_field_given_twice_is_refused():
     assert parse_request(b'{"command": "hold", "heading_deg": 90}') == ({"command": "hold", "heading_deg": 90}, None)
 
 
-def _server_exchange(tmp_path, payload: bytes, *, close_write: bool = True) -> tuple[list[dict], list[dict], list]:
+def _server_exchange(tmp_path, payload: bytes, *, close_write: bool = True,
+                     linger_s: float = 0.0) -> tuple[list[dict], list[dict], list]:
     """``payload`` sent on one connection to a real ControlServer on a Unix socket; the answers read, the
     requests the loop was given, and the events logged."""
     import asyncio
@@ -43,6 +44,8 @@ def _server_exchange(tmp_path, payload: bytes, *, close_write: bool = True) -> t
                 return data
 
             data = await asyncio.get_running_loop().run_in_executor(None, client)
+            await asyncio.sleep(linger_s)
+            logged.append(("closing", {}))
         finally:
             await server.close()
         return [json.loads(x) for x in data.decode().splitlines()]
@@ -57,7 +60,7 @@ def test_every_request_on_one_connection_is_served_in_order(tmp_path):
     assert [a["answer"] for a in answers] == ["status", "stop", "pause"]
     assert answers[0]["status"] == {"mode": "auto"}
     assert [r["command"] for r in submitted] == ["stop", "pause"]
-    assert logged == []  # the blank line between requests and the closed connection are not refusals
+    assert logged == [("closing", {})]  # the blank line between requests and the closed connection are not refusals
 
 
 def test_a_bad_line_is_refused_and_the_next_still_served_and_a_quiet_connection_ends_without_a_refusal(tmp_path):
@@ -65,4 +68,20 @@ def test_a_bad_line_is_refused_and_the_next_still_served_and_a_quiet_connection_
     assert answers[0]["ok"] is False and "command 'launch' is not one of" in answers[0]["answer"]
     assert answers[1] == {"ok": True, "answer": "stop", "mode": "stop"}
     assert [r["command"] for r in submitted] == ["stop"]
-    assert [f["command"] for _, f in logged] == ["launch"]  # the silence after the stop is not an incomplete request
+    assert logged == [("command", {"command": "launch", "source": "ctl", "accepted": False, "answer": answers[0]["answer"]}),
+                      ("closing", {})]  # the silence after the stop is not an incomplete request
+
+
+def test_a_flood_of_refusals_is_answered_in_full_but_logged_five_a_second_and_counted(tmp_path):
+    """Found by benchmarks/loop_timing.py --link ctl: a client looping on a bad request wrote every refusal into
+    the mission log, 30 400 lines in 40 s (~750 a second: a disk filled in hours)."""
+    from autopilot.daemon.control import REFUSALS_LOGGED_PER_S
+
+    answers, submitted, logged = _server_exchange(tmp_path, b"launch\n" * 40 + b"stop\n", linger_s=1.2)
+    assert len(answers) == 41 and all(not a["ok"] for a in answers[:40]) and answers[40]["ok"]
+    refusals = [f for name, f in logged if name == "command"]
+    assert len(refusals) == REFUSALS_LOGGED_PER_S and all(f["command"] == "launch" for f in refusals)
+    said = [f for name, f in logged if name == "info"]
+    assert said == [{"message": "ctl refusals not logged", "count": 40 - REFUSALS_LOGGED_PER_S,
+                     "limit_per_s": REFUSALS_LOGGED_PER_S}]
+    assert logged[-1] == ("closing", {})  # said when the second was over, not only when the server closed

@@ -317,6 +317,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         loop.zero_now()
         if link is not None:  # before the stop line: it is the log's last
             await link.close()
+        control.end_log()
         code = await loop.stop(reason)
         await control.close()
         if sim_traffic is not None:

@@ -39,6 +39,7 @@ MAX_REQUEST_BYTES = 1024
 READ_TIMEOUT_S = 2.0
 ANSWER_TIMEOUT_S = 5.0  # the loop answers within a cycle; this only bounds a stalled daemon
 MAX_CLIENTS = 8
+REFUSALS_LOGGED_PER_S = 10  # beyond: counted, and said in one line a second (a looping client filled the disk)
 ALWAYS_SERVED = frozenset({"stop", "disarm"})  # served however many connections are open
 SYSTEMD_RUNTIME_DIR = Path("/run/wamv-autopilot")  # RuntimeDirectory=wamv-autopilot in the unit
 FIELDS = {"command": "one of " + ", ".join(COMMANDS), "heading_deg": "hold: the heading to keep, [0, 360) deg"}
@@ -130,6 +131,9 @@ class ControlServer:
         self._submit, self._status, self._log = submit, status, log
         self._server: asyncio.AbstractServer | None = None
         self._clients = 0
+        self._refusal_window_s = -math.inf  # start of the current second of refusals (event-loop time)
+        self._refusals_in_window = 0
+        self._refusals_unlogged = 0
 
     async def start(self) -> None:
         """Bind the socket (0660). Refuses to start when another daemon answers on it (two daemons
@@ -158,7 +162,13 @@ class ControlServer:
         except OSError as exc:
             raise ConfigError(f"control socket {self.path}: cannot create ({exc.strerror})") from exc
 
+    def end_log(self) -> None:
+        """Say what is not said yet, and log nothing more: the daemon's stop line is the log's last."""
+        self._say_unlogged()
+        self._log = lambda name, **fields: None
+
     async def close(self) -> None:
+        self.end_log()
         if self._server is not None:
             self._server.close()
             with contextlib.suppress(Exception):
@@ -168,8 +178,24 @@ class ControlServer:
             self.path.unlink()
 
     def _refuse(self, what: str, why: str) -> dict:
-        self._log("command", command=what[:32], source="ctl", accepted=False, answer=why)
+        now_s = asyncio.get_running_loop().time()
+        if now_s - self._refusal_window_s >= 1.0:
+            self._say_unlogged()
+            self._refusal_window_s, self._refusals_in_window = now_s, 0
+        self._refusals_in_window += 1
+        if self._refusals_in_window <= REFUSALS_LOGGED_PER_S:
+            self._log("command", command=what[:32], source="ctl", accepted=False, answer=why)
+        else:
+            if not self._refusals_unlogged:  # said when the second is over, not at the next flood
+                asyncio.get_running_loop().call_at(self._refusal_window_s + 1.0, self._say_unlogged)
+            self._refusals_unlogged += 1
         return {"ok": False, "answer": why}
+
+    def _say_unlogged(self) -> None:
+        if self._refusals_unlogged:
+            self._log("info", message="ctl refusals not logged", count=self._refusals_unlogged,
+                      limit_per_s=REFUSALS_LOGGED_PER_S)
+            self._refusals_unlogged = 0
 
     async def _handle(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self._clients += 1
