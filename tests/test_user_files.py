@@ -311,3 +311,25 @@ def test_the_same_trial_twice_is_refused(tmp_path):
     b.write_bytes(a.read_bytes())
     proc = run_cli("sysid", str(a), str(b), "--out", str(tmp_path / "out"), "--no-report", check=False)
     assert proc.returncode == 2 and proc.stderr.strip() == f"autopilot sysid: error: {b}: the same data as {a}: give each trial once"
+
+
+def test_no_help_text_shows_a_formatting_escape():
+    """Found by review: `autopilot campaign --help` said "Wilson 95 %% interval" (argparse does not
+    %-format a description; only an argument's help)."""
+    import argparse
+
+    from autopilot.cli import build_parser
+
+    def parsers(p):
+        yield p
+        for action in p._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub in action.choices.values():
+                    yield from parsers(sub)
+
+    seen = 0
+    for p in parsers(build_parser()):
+        text = p.format_help()
+        seen += 1
+        assert "%%" not in text and "%(" not in text, (p.prog, text)
+    assert seen > 15

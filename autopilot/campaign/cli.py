@@ -86,7 +86,7 @@ def register(subparsers) -> None:
             "noise, dropouts and faults, drawn from (seed, index); every run goes through the daemon's own cycle "
             "(navigation assembly, failsafe, helm, allocation). Runs are flown in lockstep, chunk by chunk, in a "
             "local process pool (--jobs) or on a Dask cluster (--scheduler). Writes DIR/runs.csv, "
-            "DIR/summary.json (success rate with its Wilson 95 %% interval, distributions, failsafes, worst runs, "
+            "DIR/summary.json (success rate with its Wilson 95 % interval, distributions, failsafes, worst runs, "
             "sensitivity) and DIR/report.html. --replay DIR INDEX re-flies one run and writes its mission log "
             "(autopilot review reads it)."
         ),
