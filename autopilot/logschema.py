@@ -107,7 +107,7 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("mavlink message not handled", "a message that broke its handler (`kind`, `error`), once per kind: a bug to report"),
     ("mavlink link closed", "at the end: what the link received (`stats`: messages by type, bad frames, dropped datagrams, refusals)"),
     ("start refused", "an endpoint could not be opened (`error`); the run stops, exit 2"),
-    ("state not saved", "the progress file could not be written (`error`)"),
+    ("state not saved", "the progress file could not be written (`error`; a full disk, a read-only state directory): a restart after a crash would not know this run was interrupted; also said to the ground station"),
     ("log write failed", "not in the file: on the console (journal) and to the ground station, once, when the log's writes start failing (a full disk; `path`, `error`); the boat goes on being controlled"),
     ("log writes resumed", "the first line after writes failed: how many lines were lost (`lines_lost`) and why (`error`)"),
     ("commands refused: queue full", "operator commands arrived faster than the loop carries them out (5 a cycle) and 100 were waiting: the next are refused at once (`queued`, `source`), once per flood"),

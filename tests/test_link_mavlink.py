@@ -552,3 +552,19 @@ def test_with_signing_unsigned_and_wrongly_signed_commands_are_refused_telemetry
         assert boat.stop() == 0
     assert not [r for r in boat.log() if r["event"] == "param"]
     assert os.stat(key_file).st_mode & 0o777 == 0o600
+
+
+def test_a_state_that_cannot_be_saved_is_told_to_the_ground_station(tmp_path):
+    """Found by review: a progress file that could not be written (here a directory in its place; on the boat a
+    full disk) was only a line in the log, which nobody reads on the water: a crash and restart then would not
+    know the run had been interrupted."""
+    (tmp_path / "state" / "mission-progress.json").mkdir(parents=True)
+    boat = Boat(tmp_path)
+    try:
+        text = boat.recv("STATUSTEXT", timeout_s=20.0, pred=lambda m: m.text.startswith("state not saved"))
+        boat.mode_is("auto")  # the mission goes on
+    finally:
+        assert boat.stop() == 0
+    assert text.severity == mavlink.MAV_SEVERITY_ERROR
+    info = [r for r in boat.log() if r["event"] == "info" and r["message"] == "state not saved"]
+    assert info and "Is a directory" in info[0]["error"]

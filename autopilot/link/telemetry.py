@@ -235,4 +235,6 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
         return mavlink.MAV_SEVERITY_INFO, "mission complete"
     if name == "info" and f.get("message") == "log write failed":  # the boat's own record is going: say so
         return mavlink.MAV_SEVERITY_ERROR, f"log write failed: {f.get('error')}"
+    if name == "info" and f.get("message") == "state not saved":  # a restart after a crash would not know the run
+        return mavlink.MAV_SEVERITY_ERROR, f"state not saved (restart would not resume safely): {f.get('error')}"
     return None
