@@ -262,3 +262,24 @@ def test_target_state_from_ais_dead_reckons_its_age():
                                            position_t_s=0.0), origin_lat_deg=lat0, origin_lon_deg=lon0, now_s=9.0)
     assert blind.speed_m_s == 0.0 and not blind.motion_known
     assert_allclose((blind.north_m, blind.east_m), (100.0, -50.0), atol=0.01)
+
+
+def test_a_target_alongside_inside_the_safe_distance_is_a_risk_not_past():
+    """Found by review: a boat 2 m abeam on our course and speed (a chase boat), or one first reported already
+    beside us and opening, was 'no risk: CPA past, range 2 m opening' for as long as it stayed there. The
+    module's own rule says past targets are safe only opening beyond clear_range_m."""
+    cfg = EncounterConfig()
+    tr = EncounterTracker(cfg)
+    (beside,) = tr.assess(OWN, [tgt(0.0, 2.0, 0.0, 1.0, tid=3)], 0.0)  # no relative motion: TCPA 0
+    assert beside.risk_exists and beside.situation is not Situation.SAFE
+    (opening,) = EncounterTracker(cfg).assess(OWN, [tgt(-3.0, 4.0, 180.0, 1.0, tid=4)], 0.0)  # past, 5 m away
+    assert opening.risk_exists and opening.situation is not Situation.SAFE
+    (clear,) = EncounterTracker(cfg).assess(OWN, [tgt(-30.0, 4.0, 180.0, 1.0, tid=5)], 0.0)  # past, beyond 4 L
+    assert not clear.risk_exists and clear.situation is Situation.SAFE and "CPA past" in clear.reason
+    # it ends as any encounter does: past and clear
+    t_s, sits = 0.0, []
+    while t_s < 30.0:
+        (e,) = tr.assess(OWN, [tgt(-2.0 * t_s, 2.0, 180.0, 1.0, tid=3)], t_s)  # the chase boat turns back
+        sits.append(e.situation)
+        t_s += 1.0
+    assert sits[-1] is Situation.SAFE and sits[0] is not Situation.SAFE

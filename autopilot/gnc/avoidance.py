@@ -317,7 +317,7 @@ class Avoidance:
             if soonest_s > horizon_s:
                 continue
             vtn, vte = tgt.speed_m_s * math.cos(tgt.course_rad), tgt.speed_m_s * math.sin(tgt.course_rad)
-            at_risk = False
+            at_risk = math.hypot(dn, de) < enc.clear_range_m  # close quarters whatever the motion (encounter._risk)
             for von, voe in motions:
                 dcpa_m, tcpa_s = cpa(dn, de, vtn - von, vte - voe)
                 at_risk = at_risk or (0.0 < tcpa_s <= horizon_s and dcpa_m < near_m)

@@ -59,7 +59,10 @@ Hysteresis, so a situation does not flicker with AIS noise (MOOS-IvP's
 BHV_AvdColregs names its mode and keeps it):
 
 - an encounter begins when risk exists (DCPA < ``risk_dcpa_m`` and
-  0 < TCPA <= ``risk_tcpa_s``) and ends only when the range is at least
+  0 < TCPA <= ``risk_tcpa_s``; or the target is inside ``clear_range_m`` with
+  its CPA past or no relative motion: close quarters, where rule 7(a) deems
+  risk to exist, as ArduPilot's AP_Avoidance counts the present distance as
+  a closest approach) and ends only when the range is at least
   ``clear_range_m`` and the risk has clearly gone: TCPA <= 0 (past and
   clear), DCPA >= ``exit_factor`` x ``risk_dcpa_m`` or TCPA > ``exit_factor``
   x ``risk_tcpa_s``, judged both on own ship's actual motion and on the
@@ -474,8 +477,11 @@ class EncounterTracker:
         return out
 
     def _risk(self, g: Geometry) -> bool:
-        """Rule 7's test, crisp: the CPA is ahead, within the horizon, and close."""
-        return g.dcpa_m < self.config.risk_dcpa_m and 0.0 < g.tcpa_s <= self.config.risk_tcpa_s
+        """Rule 7's test, crisp: the CPA is ahead, within the horizon, and close; or the target is already
+        inside the safe distance (a boat alongside at 2 m, on our course and speed, was 'CPA past')."""
+        c = self.config
+        return (g.dcpa_m < c.risk_dcpa_m and 0.0 < g.tcpa_s <= c.risk_tcpa_s) or \
+            (g.tcpa_s <= 0.0 and g.range_m < c.clear_range_m)
 
     def _no_risk(self, g: Geometry) -> bool:
         """... and clearly not (the exit side of the hysteresis)."""
