@@ -76,6 +76,7 @@ HEADING_SOURCES: tuple[str, ...] = ("THS", "HDT", "PFEC_GPatt", "COG")  # the dr
 FAULT_CAUSES: tuple[str, ...] = (
     "heading_stale",
     "heading_invalid",
+    "heading_frozen",
     "position_stale",
     "no_fix",
     "mbed_ack_missing",

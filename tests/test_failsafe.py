@@ -45,6 +45,7 @@ TRANSIENT = [
     ("heading_stale", dict(heading_age_s=1.2)),
     ("heading_stale", dict(heading_age_s=math.inf, heading_valid=False)),
     ("heading_invalid", dict(heading_valid=False)),
+    ("heading_frozen", dict(heading_still_turn_rad=math.radians(-20.0))),  # CFG's heading_frozen_deg: 20 deg
     ("position_stale", dict(position_age_s=3.5)),
     ("no_fix", dict(fix_quality=0)),
     ("mbed_ack_missing", dict(ack_consecutive_missing=5)),
@@ -154,6 +155,7 @@ def test_resting_voltage_takes_out_the_sag_of_the_duties():
 def test_thresholds_are_not_faults():
     assert detect(good(0.0, heading_age_s=1.0, position_age_s=3.0, ack_consecutive_missing=4), CFG) == {}
     assert detect(good(5.0, last_garbage_t_s=4.0), CFG) == {}  # exactly garbage_hold_s ago
+    assert detect(good(5.0, heading_still_turn_rad=math.radians(19.9)), CFG) == {}
 
 
 def test_zero_thrust_is_kept_while_the_fault_lasts_and_resumes_after_resume_valid_s():

@@ -601,3 +601,43 @@ def test_a_gnss_glitch_is_refused_and_a_real_move_re_anchors_without_a_failsafe(
     card = score(read_log(d._log._path))
     assert (card.gps_jumps_refused, card.gps_jumps_reanchored) == (3, 2)
     assert ("GPS jumps refused / re-anchored", "3 / 2") in card.table_rows()
+
+
+@pytest.mark.slow
+def test_a_frozen_compass_is_a_heading_fault_that_holds_until_the_heading_moves(tmp_path):
+    """Found by fault injection: the SC-30's heading stuck at one value (checksum valid, ROT still live) while the
+    boat turned at a corner; the PID chased a heading that never moved and spun the boat at ~50 deg/s at full
+    power for 30 s with nothing in the log. Now the rate of turn's sum while the heading stands still is judged
+    (failsafe.heading_frozen_deg): heading_frozen, zero thrust, and no resume while the heading stays frozen."""
+    import math
+
+    async def scenario():
+        d = Daemon(tmp_path, {"name": "corner", "frame": "local", "waypoints": [[12.0, 0.0], [12.0, 25.0]]},
+                   position_noise_m=0.0)
+        try:
+            await d.start()
+            await d.wait(lambda: bool(d.events("waypoint_reached")), 60.0, "the corner")
+            psi0 = d.rig.boat.state[2]
+            d.rig.sc30.heading_frozen = True
+            t_frozen = d.clock.now_s()
+            await d.wait(lambda: any(r["cause"] == "heading_frozen" for r in d.events("fault")), 10.0, "heading_frozen")
+            t_fault = d.clock.now_s()
+            await d.wait(lambda: not d.rig.mbed.thrusting, 1.0, "zero thrust")
+            turned_rad = abs(d.rig.boat.state[2] - psi0)
+            await d.clock.sleep(6.0)  # still frozen: no resume
+            idle = not d.rig.mbed.thrusting
+            d.rig.sc30.heading_frozen = False
+            await d.wait(lambda: bool(d.events("resume")), 15.0, "resume once the heading moves")
+        finally:
+            await d.close()
+        return d, t_fault - t_frozen, turned_rad, idle
+
+    d, detect_s, turned_rad, idle = asyncio.run(scenario())
+    fault = next(r for r in d.events("fault") if r["cause"] == "heading_frozen")
+    assert "compass heading unchanged while its rate of turn says the boat turned" in fault["detail"]
+    assert detect_s < 5.0
+    assert turned_rad < math.radians(120.0)  # a fraction of a turn, where it spun ~4 times in 30 s
+    assert idle
+    frozen_cycles = [c for c in d.events("cycle") if "heading_frozen" in (c["active_faults"] or [])]
+    assert len(frozen_cycles) > 50 and all(c["pwm_port_pct"] == 0 and c["pwm_stbd_pct"] == 0 for c in frozen_cycles)
+    assert [r["cause"] for r in d.events("resume")][-1] == "heading_frozen"

@@ -27,3 +27,26 @@ def test_unknown_velocity_keeps_the_fix_or_uses_heading(sog, cog):
 def test_slow_boat_moves_along_its_heading_not_the_noisy_course():
     north, east = dead_reckon_ne(0.0, 0.0, 1.0, 0.1, math.radians(180), math.radians(90), max_age_s=1.5)
     assert_allclose((north, east), (0.0, 0.1), atol=1e-12)
+
+
+def test_a_heading_that_stands_still_while_the_rate_of_turn_says_turning_sums_the_turn():
+    """The frozen-compass evidence (autopilot.gnc.navigation.still_turn): new heading samples within 0.5 deg of
+    where the sum began, the ROT beside each one summed over the time between samples."""
+    from autopilot.gnc.navigation import HEADING_STILL_RAD, NavMemory, still_turn
+
+    rot = math.radians(30.0)
+    mem = NavMemory()
+    anchor, t, turned = still_turn(1.0, 0.0, rot, mem)
+    assert (anchor, t, turned) == (1.0, 0.0, 0.0)  # the first sample only anchors
+    for k in range(1, 11):  # the same heading, 10 Hz, for 1 s, ROT 30 deg/s
+        anchor, t, turned = still_turn(1.0 + 0.4 * HEADING_STILL_RAD, 0.1 * k, rot,
+                                       NavMemory(still_heading_rad=anchor, still_t_s=t, still_turn_rad=turned))
+    assert_allclose(math.degrees(turned), 30.0, rtol=1e-9)
+    mem = NavMemory(still_heading_rad=anchor, still_t_s=t, still_turn_rad=turned)
+    assert still_turn(1.0, t, rot, mem) == (anchor, t, turned)  # a held sample (no new sentence) adds nothing
+    assert still_turn(1.0, t + 0.1, math.radians(1.5), mem)[2] == turned  # ROT noise at rest is not turning
+    assert still_turn(1.0, t + 0.1, None, mem)[2] == turned  # no ROT: no evidence
+    assert still_turn(1.0 + 2 * HEADING_STILL_RAD, t + 0.1, rot, mem) == (1.0 + 2 * HEADING_STILL_RAD, t + 0.1, 0.0)
+    # across north: 359.9 deg and 0.1 deg are 0.2 deg apart
+    north = NavMemory(still_heading_rad=math.radians(359.9), still_t_s=0.0, still_turn_rad=0.2)
+    assert still_turn(math.radians(0.1), 0.1, rot, north)[2] == pytest.approx(0.2 + rot * 0.1)

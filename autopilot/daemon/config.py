@@ -106,6 +106,10 @@ class FailsafeConfig:
     position_jump_m: float = param(25.0, unit="m", lo=1.0, hi=10000.0, source="ArduPilot EK3_GLITCH_RAD",
                                    doc="a new fix farther than this (plus the most a WAM-V can travel: 10 m/s x the time since) "
                                        "from the last fix used is refused, until a second fix agrees with it")
+    heading_frozen_deg: float = param(
+        20.0, unit="deg", lo=5.0, hi=360.0, source="chosen: 4 x the heading PID's typical error; a stuck SC-30 spun the "
+        "boat at 50 deg/s unnoticed", doc="the rate of turn (ROT) says the boat turned this much while the compass heading "
+        "stayed within 0.5 deg: the heading is frozen (heading_frozen, until it moves)")
     ack_missing_n: int = param(5, unit="commands", lo=1, hi=100, doc="this many consecutive unacknowledged Mbed commands is a fault")
     garbage_hold_s: float = param(1.0, unit="s", lo=0.0, hi=30.0, doc="a garbage burst on either line counts as a fault for this long")
     nmea_garbage_lines: int = param(5, unit="lines", lo=1, hi=1000, doc="more rejected NMEA lines than this within 1 s is a garbage burst on the compass line")

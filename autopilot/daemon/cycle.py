@@ -47,6 +47,7 @@ def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, 
         mbed_connected=bool(thrusters_connected), last_garbage_t_s=compass_garbage_s,
         last_mbed_garbage_t_s=thruster_garbage_s, north_m=nav.north_m, east_m=nav.east_m,
         mission_time_s=mission_time_s, battery_v=battery_v, position_confirmed=nav.fix_confirmed,
+        heading_still_turn_rad=nav.still_turn_rad,
     )
 
 

@@ -45,7 +45,7 @@ LATCHED = LATCHED_CAUSES
 WAITING_QUIET = frozenset({"heading_stale", "heading_invalid", "position_stale", "no_fix"})
 # the class of each cause: its action is failsafe.actions.<class>; "mbed" and "battery_critical" always stop
 FAULT_CLASS: dict[str, str] = {
-    "heading_stale": "heading", "heading_invalid": "heading", "compass_port_lost": "heading",
+    "heading_stale": "heading", "heading_invalid": "heading", "heading_frozen": "heading", "compass_port_lost": "heading",
     "nmea_garbage": "heading", "position_stale": "position", "no_fix": "position",
     "mbed_ack_missing": "mbed", "mbed_port_lost": "mbed", "mbed_garbage": "mbed",
     "geofence": "geofence", "max_distance": "max_distance", "max_mission_time": "max_mission_time",
@@ -76,6 +76,8 @@ class Observation:
     # the position agrees with the fix before it (Navigation.fix_confirmed): only such a position latches the
     # geofence or the distance limit (a first fix, or a jump just re-anchored to, may be a glitch)
     position_confirmed: bool = True
+    # the turn (rad) the rate of turn reported while the compass heading stayed still (Navigation.still_turn_rad)
+    heading_still_turn_rad: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -168,6 +170,9 @@ def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, 
         faults["heading_stale"] = f"heading {age} (limit {cfg.heading_stale_s:g} s)"
     elif not obs.heading_valid:
         faults["heading_invalid"] = "compass reports its heading invalid"
+    elif abs(obs.heading_still_turn_rad) >= math.radians(cfg.heading_frozen_deg):
+        faults["heading_frozen"] = (f"compass heading unchanged while its rate of turn says the boat turned "
+                                    f"{math.degrees(obs.heading_still_turn_rad):+.0f} deg (limit {cfg.heading_frozen_deg:g} deg)")
     if obs.position_age_s > cfg.position_stale_s:
         age = "never received" if math.isinf(obs.position_age_s) else f"{obs.position_age_s:.2f} s old"
         faults["position_stale"] = f"position {age} (limit {cfg.position_stale_s:g} s)"

@@ -10,6 +10,12 @@ simulated run sees the sensor's 1 Hz fixes and fallbacks exactly as the boat doe
   course over ground (source ``COG``); else the stale or invalid heading, for the
   failsafe to judge;
 - yaw rate: ROT while fresh, valid and plausible, else the heading differenced over the cycle;
+- a frozen compass: while the compass heading stays within ``HEADING_STILL_RAD`` of where it
+  was, the turn the ROT reports (rates below ``ROT_NOISE_RAD_S`` left out) is summed
+  (``Navigation.still_turn_rad``); the failsafe calls a sum of ``heading_frozen_deg`` a frozen
+  heading. A stuck SC-30 (checksum-valid sentences repeating one heading) once spun the boat
+  at 50 deg/s for 30 s with nothing in the log: the PID chased a heading that never moved.
+  The sum restarts only when the heading moves, so a frozen compass keeps its fault;
 - speed and course over ground: while valid, fresh (``position_stale_s``) and plausible;
 - position: the last fix in the local frame of the mission's origin (a jump refused, below), and that fix
   carried forward by the velocity over ground over its age (at most
@@ -43,10 +49,12 @@ from autopilot.devices import NavSample, Stamped, age_s
 from autopilot.geo import latlon_to_local, wrap_pi
 
 __all__ = ["NavRules", "NavMemory", "Navigation", "PositionJump", "Gated", "assemble", "gate_fix", "dead_reckon_ne",
-           "velocity_over_ground",
-           "MIN_SOG_FOR_COG_M_S"]
+           "velocity_over_ground", "still_turn",
+           "MIN_SOG_FOR_COG_M_S", "HEADING_STILL_RAD", "ROT_NOISE_RAD_S"]
 
 MIN_SOG_FOR_COG_M_S = 0.3  # below this the GNSS course is noise: carry along the heading instead
+HEADING_STILL_RAD = math.radians(0.5)  # 5 x the 0.1 deg an HDT carries: a heading that moves less is still
+ROT_NOISE_RAD_S = math.radians(2.0)  # a rate of turn below this is not counted as turning (bias, noise at rest)
 
 
 @dataclass(frozen=True)
@@ -76,6 +84,9 @@ class NavMemory:
     jump: Stamped | None = None  # a refused fix waiting to be confirmed by the next one
     judged_t_s: float | None = None  # receive time of the last valid fix the gate judged
     confirmed: bool = False  # ``fix`` agrees with a fix before it (see Navigation.fix_confirmed)
+    still_heading_rad: float | None = None  # the compass heading the still_turn_rad sum started at
+    still_turn_rad: float = 0.0  # the turn ROT reported since (Navigation.still_turn_rad)
+    still_t_s: float | None = None  # the time of the compass heading sample last judged
 
 
 @dataclass(frozen=True)
@@ -121,6 +132,8 @@ class Navigation:
     # the fix used passed the gate from the fix before it: not the first fix, nor one just re-anchored to
     # (two fixes agreeing may still be a glitch that lasted two epochs); what may latch a position limit
     fix_confirmed: bool = True
+    # the turn (rad, signed) the rate of turn reported while the compass heading stayed still (a frozen compass)
+    still_turn_rad: float = 0.0
 
     @property
     def steerable(self) -> bool:
@@ -159,11 +172,36 @@ def choose_heading(sample: NavSample, now_s: float, rules: NavRules):
     return float(h.value), h.source, age, bool(h.valid)
 
 
-def _yaw_rate(sample: NavSample, now_s: float, heading_rad, memory: NavMemory, rules: NavRules) -> float | None:
+def _rot(sample: NavSample, now_s: float, rules: NavRules) -> float | None:
+    """The compass's rate of turn (rad/s) while fresh, valid and plausible, else None."""
     rot = sample.yaw_rate_rad_s
     if (rot is not None and rot.valid and rot.value is not None and age_s(rot, now_s) <= rules.heading_stale_s
             and abs(float(rot.value)) <= rules.max_yaw_rate_rad_s):
         return float(rot.value)
+    return None
+
+
+def still_turn(heading_rad: float | None, heading_t_s: float | None, rot_rad_s: float | None,
+               memory: NavMemory) -> tuple[float | None, float | None, float]:
+    """(the heading the sum is anchored at, the time of the heading sample last judged, the turn ROT reported
+    since the heading was last seen to move); see the module docstring. Only a new compass heading sample is
+    judged (one held while the sentences stop is no evidence: heading_stale judges that), over the time since
+    the sample before it, at the rate of turn beside it; without a ROT nothing is added."""
+    anchor, judged_t_s, turned = memory.still_heading_rad, memory.still_t_s, memory.still_turn_rad
+    if heading_rad is None or heading_t_s is None or heading_t_s == judged_t_s:
+        return anchor, judged_t_s, turned
+    dt_s = 0.0 if judged_t_s is None else min(max(heading_t_s - judged_t_s, 0.0), 1.0)
+    if anchor is None or abs(wrap_pi(heading_rad - anchor)) > HEADING_STILL_RAD:
+        return heading_rad, heading_t_s, 0.0  # it moved: start again from here
+    if rot_rad_s is not None and abs(rot_rad_s) >= ROT_NOISE_RAD_S:
+        turned += rot_rad_s * dt_s
+    return anchor, heading_t_s, turned
+
+
+def _yaw_rate(sample: NavSample, now_s: float, heading_rad, memory: NavMemory, rules: NavRules) -> float | None:
+    rot = _rot(sample, now_s, rules)
+    if rot is not None:
+        return rot
     if heading_rad is not None and memory.heading_rad is not None and now_s > memory.heading_t_s:
         return wrap_pi(heading_rad - memory.heading_rad) / (now_s - memory.heading_t_s)
     return None
@@ -246,6 +284,10 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
     """This cycle's :class:`Navigation` and the memory for the next one."""
     heading_rad, source, heading_age, heading_valid = choose_heading(sample, now_s, rules)
     yaw_rate = _yaw_rate(sample, now_s, heading_rad, memory, rules)
+    h = sample.heading_rad
+    compass = h is not None and h.valid and h.value is not None and age_s(h, now_s) <= rules.heading_stale_s
+    still_anchor, still_t, still_turned = still_turn(float(h.value) if compass else None, h.t_s if compass else None,
+                                                     _rot(sample, now_s, rules), memory)
     seen = sample.position
     gated = gate_fix(seen, memory, rules)
     pos = gated.used
@@ -269,10 +311,12 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
         fix_t_s=None if pos is None else pos.t_s,
         new_fix=latlon is not None and pos is seen and seen_t != memory.fix_t_s, sog_m_s=sog, cog_rad=cog,
         jump=gated.jump, fix_confirmed=bool(pos is not None and pos.valid and gated.used_confirmed),
+        still_turn_rad=still_turned,
     )
     if heading_rad is not None:
         heading_t, heading = now_s, heading_rad
     else:
         heading_t, heading = memory.heading_t_s, memory.heading_rad
     return nav, NavMemory(heading_t_s=heading_t, heading_rad=heading, fix_t_s=seen_t, fix=gated.fix,
-                          jump=gated.pending, judged_t_s=gated.judged_t_s, confirmed=gated.confirmed)
+                          jump=gated.pending, judged_t_s=gated.judged_t_s, confirmed=gated.confirmed,
+                          still_heading_rad=still_anchor, still_turn_rad=still_turned, still_t_s=still_t)

@@ -20,7 +20,9 @@ realistic ones instead: each epoch's fix with wandering error and single-fix
 outliers, and a wandering, quantised heading with lost sentences.
 
 Fault controls (set at any time): ``heading_dropout`` (no heading
-sentences), ``heading_invalid`` (empty HDT, THS mode V, empty GPatt),
+sentences), ``heading_invalid`` (empty HDT, THS mode V, empty GPatt), ``heading_frozen``
+(a stuck compass: every heading sentence repeats the heading of the moment it froze, checksum
+valid, while ROT goes on reporting the boat's turn),
 ``position_dropout`` (no GGA/RMC/GLL/VTG), ``fix_lost`` (GGA quality 0 and
 RMC status V with empty fields), ``fix_held`` (the position sentences keep
 repeating the last epoch: its UTC time, position, speed and course), ``drop_rate`` (probability a sentence is
@@ -100,6 +102,8 @@ class SimulatedSC30:
         # fault controls
         self.heading_dropout = False
         self.heading_invalid = False
+        self.heading_frozen = False
+        self._frozen_rad: float | None = None
         self.position_dropout = False
         self.fix_lost = False
         self.fix_held = False
@@ -176,12 +180,18 @@ class SimulatedSC30:
         """What the compass measures now: the true heading plus its noise (None: reported invalid)."""
         if self.heading_invalid:
             return None
+        if not self.heading_frozen:
+            self._frozen_rad = None
+        elif self._frozen_rad is not None:
+            return self._frozen_rad
         if self._hdg_error is not None:
             noise_rad = math.radians(self._hdg[1])
         else:
             noise_rad = math.radians(self._rng.normal(0.0, self.heading_noise_deg)) if self.heading_noise_deg else 0.0
         h = self.boat.psi_rad + noise_rad
         self.last_heading_sent_deg = round(math.degrees(h) % 360.0, 1) % 360.0  # the 0.1 deg the sentence carries
+        if self.heading_frozen:
+            self._frozen_rad = h
         return h
 
     def _body(self, kind: str, t_s: float) -> str | None:
