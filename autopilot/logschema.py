@@ -98,6 +98,8 @@ STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_tim
 INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("port_opened, port_lost, port_open_failed, nmea_garbage, mbed_garbage, nmea_old_epoch, mbed_echo_mismatch",
      "device events from the drivers, with `device` (`sc30` or `mbed`) and their context"),
+    ("mbed_ack_late", "an acknowledgement came after `serial.ack_timeout_s` (its command was already counted missing): the board answers, late (`seq`, `late_ms`); once until an answer comes in time"),
+    ("mbed_unexpected_ack", "an acknowledgement for no command sent recently (a stray line, another program on the port): ignored, its battery voltage too (`seq`, `battery_v`); once until an answer comes in time"),
     ("data valid: control starts", "first transition out of `waiting` (`valid_for_s`)"),
     ("ready: SC-30 and Mbed answer", "READY=1 sent to systemd"),
     ("devices not answering", "after `ready_timeout_s` (`sc30_heard`, `mbed_heard`)"),

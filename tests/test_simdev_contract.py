@@ -227,6 +227,37 @@ def test_an_ok_that_echoes_other_duties_than_sent_counts_as_not_obeyed(params, t
     assert len(mismatch) == 1 and mismatch[0]["sent_pct"] == [0.0, 0.0] and mismatch[0]["echoed_pct"] == [80.0, -79.9]
 
 
+def test_an_ack_for_no_command_waiting_is_not_believed_and_a_late_one_is_told_as_late(params, tmp_path):
+    """Found by fault injection: OKs for sequence numbers never sent (a stray line, another program on the port)
+    set the battery voltage: 12.6 V claimed hid a battery at 10.5 V, 9 V claimed stopped a mission at 12.7 V;
+    nothing was logged. Late acknowledgements were counted only as missing (the log said the board was silent)."""
+    from autopilot.drivers.mbed_protocol import encode_ack
+
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            seq = b.mbed.send(cmd(20.0, False, 20.0, False))
+            assert await b.mbed.wait_ack(seq, 1.0)
+            real_v = b.mbed.battery_v
+            for k in range(3):  # OKs for commands never sent, claiming 9 V
+                b.rig.mbed._endpoint.write(encode_ack(seq + 40 + k, "OK", 20.0, False, 20.0, False, battery_v=9.0))
+            await until(lambda: b.mbed.stats["acks_unexpected"] == 3)
+            stray_v = b.mbed.battery_v
+            b.rig.mbed.ack_delay_s = 0.5  # past ack_timeout_s (0.3 s)
+            late = [b.mbed.send(cmd(20.0, False, 20.0, False))]
+            await b.clock.sleep(0.1)
+            late.append(b.mbed.send(cmd(20.0, False, 20.0, False)))
+            await b.clock.sleep(0.8)
+            return real_v, stray_v, b.mbed.stats, list(b.events)
+
+    real_v, stray_v, stats, events = asyncio.run(main())
+    assert real_v is not None and real_v > 12.0 and stray_v == real_v
+    unexpected = [f for n, f in events if n == "mbed_unexpected_ack"]
+    assert len(unexpected) == 1 and unexpected[0]["battery_v"] == 9.0  # said once for the run of them
+    assert stats["acks_late"] == 2 and stats["ack_missing"] == 2
+    late = [f for n, f in events if n == "mbed_ack_late"]
+    assert len(late) == 1 and 450.0 <= late[0]["late_ms"] <= 700.0
+
+
 def test_unplug_replug_reconnects_both(params, tmp_path):
     async def main():
         async with Bench(params, tmp_path) as b:

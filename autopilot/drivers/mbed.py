@@ -22,6 +22,7 @@ from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, Ack, ProtocolError, 
 
 __all__ = ["MbedDriver"]
 
+_SENT_RECENT = 1024  # sequence numbers remembered as ours (~100 s at 10 Hz)
 _MAX_PENDING = 256  # commands awaiting an ack; older ones are counted missing
 BATTERY_STALE_S = 2.0  # a battery voltage older than this is not reported
 _ECHO_TOLERANCE_PCT = 0.05  # half the line's 0.1 %: an echo of what was sent matches exactly
@@ -73,9 +74,13 @@ class MbedDriver(LineDevice):
         self.send_failures = 0
         self.acks_ok = 0
         self.acks_rejected = 0
-        self.acks_late = 0
+        self.acks_late = 0  # for a command of ours, after ack_timeout_s (already counted missing)
+        self.acks_unexpected = 0  # for no command sent recently (a stray line, another program on the port)
         self.acks_mismatched = 0  # OK, but the duties echoed are not the ones sent
         self._mismatching = False
+        self._sent_recent: OrderedDict[int, float] = OrderedDict()  # seq -> send time, the last _SENT_RECENT sent
+        self._late_run = False  # a late ack was told since the last one in time
+        self._unexpected_run = False
 
     # ------------------------------------------------------------------ properties
     @property
@@ -98,6 +103,7 @@ class MbedDriver(LineDevice):
             acks_ok=self.acks_ok,
             acks_rejected=self.acks_rejected,
             acks_late=self.acks_late,
+            acks_unexpected=self.acks_unexpected,
             acks_mismatched=self.acks_mismatched,
             ack_missing=self.ack_missing,
             bad_lines=self.bad_lines,
@@ -132,6 +138,10 @@ class MbedDriver(LineDevice):
         self.sent += 1
         self._pending.pop(seq, None)
         self._pending[seq] = (now_s, _signed_duty_pct(abs(port), port < 0), _signed_duty_pct(abs(stbd), stbd < 0))
+        self._sent_recent.pop(seq, None)
+        self._sent_recent[seq] = now_s
+        while len(self._sent_recent) > _SENT_RECENT:
+            self._sent_recent.popitem(last=False)
         self._acked_recent.pop(seq, None)
         while len(self._pending) > _MAX_PENDING:
             self._pending.popitem(last=False)
@@ -192,13 +202,17 @@ class MbedDriver(LineDevice):
         if ack is None:
             return
         self._expire(now_s)
+        if ack.seq not in self._pending:
+            self._not_pending(ack, now_s)
+            return
+        # only an answer to a command waiting for one is believed, its battery voltage included: stray OKs
+        # claiming 12.6 V once hid a battery at 10.5 V (and ones claiming 9 V stopped a mission)
         self.last_ack, self.last_ack_rx_s = ack, now_s
         if ack.battery_v is not None:
             self._battery = (ack.battery_v, now_s)
+        self._late_run = self._unexpected_run = False
         applied = ack.ok
-        if ack.seq not in self._pending:
-            self.acks_late += 1  # already counted missing (or not ours): the count stands
-        elif ack.ok and not self._echo_matches(ack, *self._pending[ack.seq][1:]):
+        if ack.ok and not self._echo_matches(ack, *self._pending[ack.seq][1:]):
             # the board says OK but set something else (a hung PWM, a firmware bug): not obeyed, so
             # counted as missing, which the failsafe acts on as on silence
             _, sent_port, sent_stbd = self._pending.pop(ack.seq)
@@ -226,6 +240,29 @@ class MbedDriver(LineDevice):
         for fut in self._waiters.pop(ack.seq, []):
             if not fut.done():
                 fut.set_result(applied)
+
+    def _not_pending(self, ack: Ack, now_s: float) -> None:
+        """An acknowledgement for no command waiting: ours but late (already counted missing: the count stands,
+        the log says the board answers late, not that it is silent), or for nothing sent recently. Neither's
+        content is used; each kind is told once until an answer comes in time."""
+        sent_s = self._sent_recent.get(ack.seq)
+        if sent_s is not None:
+            self.acks_late += 1
+            if not self._late_run:
+                self._late_run = True
+                self._link.emit("mbed_ack_late", seq=ack.seq, late_ms=round((now_s - sent_s) * 1e3, 1),
+                                ack_timeout_ms=round(self.ack_timeout_s * 1e3, 1))
+            self._acked_recent[ack.seq] = ack.ok  # a stop waiting longer than ack_timeout_s takes it (as before)
+            while len(self._acked_recent) > _MAX_PENDING:
+                self._acked_recent.popitem(last=False)
+            for fut in self._waiters.pop(ack.seq, []):
+                if not fut.done():
+                    fut.set_result(ack.ok)
+            return
+        self.acks_unexpected += 1
+        if not self._unexpected_run:
+            self._unexpected_run = True
+            self._link.emit("mbed_unexpected_ack", seq=ack.seq, battery_v=ack.battery_v)
 
     @staticmethod
     def _echo_matches(ack: Ack, sent_port_pct: float, sent_stbd_pct: float) -> bool:
