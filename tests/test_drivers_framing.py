@@ -132,6 +132,23 @@ def test_a_held_fix_repeated_every_second_ages_instead_of_looking_fresh():
     assert drv.sample().position.t_s == pytest.approx(16.0 - len(_gga("120001.00")) * 10 / 4800)
 
 
+def test_a_held_fix_without_a_utc_time_ages_too():
+    """Found by fault injection: a receiver repeating its last solution with the GGA time field empty looked fresh
+    for as long as it repeated it (10 s at full thrust, the real boat 9 m on): without a time every sentence was a
+    new epoch. Now the very position of the last fix, without a time to tell, is the same fix."""
+    clock = _Clock()
+    drv = SC30Driver("/dev/null", clock=clock)
+    timeless = make_sentence("GPGGA,,5200.00000,N,00424.00000,E,1,10,0.9,1.0,M,30.0,M,,").encode()
+    for k in range(6):
+        clock.t = 10.0 + k
+        drv._on_bytes(timeless)
+    assert drv.sample().position.t_s == pytest.approx(10.0 - len(timeless) * 10 / 4800)
+    clock.t = 16.0
+    moved = make_sentence("GPGGA,,5200.00100,N,00424.00000,E,1,10,0.9,1.0,M,30.0,M,,").encode()
+    drv._on_bytes(moved)  # a different position: a new fix (nothing else to go by)
+    assert drv.sample().position.t_s == pytest.approx(16.0 - len(moved) * 10 / 4800)
+
+
 def test_an_epoch_before_the_last_is_refused_once_noted_and_a_receiver_reset_is_accepted():
     clock = _Clock()
     events = _Events()

@@ -157,6 +157,10 @@ class SC30Driver(LineDevice):
             valid = bool(u.status_valid) and pos is not None
             old = latest.get("position")
             order = epoch_order(u.fix_time, self._fix_time) if old is not None else "new"
+            if order == "new" and u.fix_time is None and old is not None and old.value == pos:
+                # no UTC time to tell epochs apart, and the very position of the last fix: a receiver repeating
+                # its last solution (a time-less held fix looked fresh for as long as it was repeated)
+                order = "same"
             if order == "same":
                 # GGA, RMC and GLL of one epoch (same UTC time) are one measurement, dated by its first
                 # sentence, however late a repeat of it comes (a held fix must age, not look fresh)
