@@ -494,3 +494,16 @@ def test_mutated_real_lines_never_raise_and_decode_in_range(seed, n):
         pos += step
     s = d.stats
     assert s.lines_ok + s.dropped + s.unknown >= 0
+
+
+def test_the_receiver_loads_its_decoder_when_made_not_at_the_first_message():
+    """Found by fault injection: the first AIS sentence on the compass line imported pyais inside the control
+    loop (~0.25 s here) and the loop stalled 340 ms, two deadlines skipped."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom autopilot.drivers.ais import AisReceiver\nassert 'pyais.messages' not in sys.modules\n"
+            "AisReceiver()\nprint('pyais.messages' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "True"

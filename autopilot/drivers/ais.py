@@ -713,6 +713,11 @@ class AisReceiver:
 
     def __init__(self, config: AisConfig = AisConfig(), *, on_message: Callable[[AisMessage], None] | None = None,
                  clock_s: Callable[[], float] | None = None) -> None:
+        # pyais is imported now, when the daemon starts, not at the first message: that import (~0.25 s)
+        # once ran inside the control loop and stalled it 340 ms (two deadlines skipped, 0.5 s is the
+        # Mbed's own stop)
+        import pyais.messages  # noqa: F401
+
         self.config = config
         self.decoder = AisStreamDecoder(assembly_timeout_s=config.assembly_timeout_s)
         self.table = TargetTable(config)
