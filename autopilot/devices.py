@@ -106,6 +106,9 @@ class ThrusterLink(Protocol):
     def consecutive_missing(self) -> int: ...  # acknowledgements missing since the last one in time
 
     @property
+    def disobeying(self) -> bool: ...  # those include OKs echoing other duties than sent
+
+    @property
     def ack_missing(self) -> int: ...  # acknowledgements missing so far
 
     @property

@@ -124,7 +124,7 @@ class FakeCompass:
 class FakeThrusters:
     def __init__(self):
         self.connected, self.last_garbage_s, self.consecutive_missing, self.ack_missing = True, None, 0, 0
-        self.answered, self.commands, self.battery_v = True, [], 12.6
+        self.answered, self.commands, self.battery_v, self.disobeying = True, [], 12.6, False
 
     def send(self, command):
         self.commands.append(command)

@@ -641,3 +641,33 @@ def test_a_frozen_compass_is_a_heading_fault_that_holds_until_the_heading_moves(
     frozen_cycles = [c for c in d.events("cycle") if "heading_frozen" in (c["active_faults"] or [])]
     assert len(frozen_cycles) > 50 and all(c["pwm_port_pct"] == 0 and c["pwm_stbd_pct"] == 0 for c in frozen_cycles)
     assert [r["cause"] for r in d.events("resume")][-1] == "heading_frozen"
+
+
+@pytest.mark.slow
+def test_a_miswired_board_is_not_trusted_again_on_zero_commands(tmp_path):
+    """Found by fault injection: a board with its channels swapped echoes every zero command right, so after its
+    mbed_ack_missing the failsafe judged it healthy, resumed, steered the boat wrong for half a second and tripped
+    again, every ~3 s for as long as it lasted; the fault said 'unacknowledged' of commands answered OK. Now the
+    detail says they were not obeyed, and from the second time on zero commands clear nothing: zero thrust stays."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=40.0))
+        try:
+            await d.start()
+            await d.steady_thrust(1.0)
+            d.rig.mbed.swapped = True
+            t0 = d.clock.now_s()
+            await d.wait(lambda: sum(r["cause"] == "mbed_ack_missing" for r in d.events("fault")) >= 2, 30.0,
+                         "the second trip")
+            t_second = d.clock.now_s()
+            await d.clock.sleep(8.0)
+        finally:
+            await d.close()
+        return d, t0, t_second
+
+    d, t0, t_second = asyncio.run(scenario())
+    faults = [r for r in d.events("fault") if r["cause"] == "mbed_ack_missing"]
+    assert len(faults) == 2  # not a third: it holds after the second
+    assert "consecutive commands not obeyed (the board echoed other duties than sent)" in faults[0]["detail"]
+    assert len([r for r in d.events("resume") if r["cause"] == "mbed_ack_missing"]) == 1
+    late = [c for c in d.rig.mbed.commands if c[0] >= t_second + 1.0]
+    assert late and all(c[2] == 0 and c[4] == 0 for c in late)

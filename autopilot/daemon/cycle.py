@@ -38,12 +38,13 @@ def nav_rules(cfg: DaemonConfig) -> NavRules:
 
 def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, thrusters_connected: bool,
             acks_missing_in_a_row: int, compass_garbage_s: float | None, thruster_garbage_s: float | None,
-            battery_v: float | None = None) -> Observation:
+            battery_v: float | None = None, thrusters_disobeying: bool = False) -> Observation:
     """What the failsafe judges (times on the daemon's clock)."""
     return Observation(
         t_s=nav.t_s, heading_age_s=nav.heading_age_s, heading_valid=nav.heading_valid,
         position_age_s=nav.position_age_s, fix_quality=nav.fix_quality,
-        ack_consecutive_missing=int(acks_missing_in_a_row), compass_connected=bool(compass_connected),
+        ack_consecutive_missing=int(acks_missing_in_a_row), ack_disobeyed=bool(thrusters_disobeying),
+        compass_connected=bool(compass_connected),
         mbed_connected=bool(thrusters_connected), last_garbage_t_s=compass_garbage_s,
         last_mbed_garbage_t_s=thruster_garbage_s, north_m=nav.north_m, east_m=nav.east_m,
         mission_time_s=mission_time_s, battery_v=battery_v, position_confirmed=nav.fix_confirmed,

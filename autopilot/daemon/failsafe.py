@@ -65,6 +65,7 @@ class Observation:
     position_age_s: float = math.inf
     fix_quality: int = 0
     ack_consecutive_missing: int = 0
+    ack_disobeyed: bool = False  # those include OKs whose echoed duties were not the ones sent
     compass_connected: bool = True
     mbed_connected: bool = True
     last_garbage_t_s: float | None = None
@@ -185,7 +186,8 @@ def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, 
     if not obs.mbed_connected:
         faults["mbed_port_lost"] = "Mbed port closed; reconnecting"
     if obs.ack_consecutive_missing >= cfg.ack_missing_n:
-        faults["mbed_ack_missing"] = f"{obs.ack_consecutive_missing} consecutive commands unacknowledged (limit {cfg.ack_missing_n})"
+        how = "not obeyed (the board echoed other duties than sent)" if obs.ack_disobeyed else "unacknowledged"
+        faults["mbed_ack_missing"] = f"{obs.ack_consecutive_missing} consecutive commands {how} (limit {cfg.ack_missing_n})"
     if obs.north_m is not None and obs.east_m is not None and obs.fix_quality > 0 and obs.position_confirmed:
         faults.update(position_limits(obs.north_m, obs.east_m, cfg, fence_ne_m))
     if obs.mission_time_s >= cfg.max_mission_time_s:

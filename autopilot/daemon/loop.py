@@ -133,7 +133,7 @@ class ControlLoop:
             nav, mission_time_s=t_s, compass_connected=self.compass.connected,
             thrusters_connected=self.thrusters.connected, acks_missing_in_a_row=self.thrusters.consecutive_missing,
             compass_garbage_s=self.compass.last_garbage_s, thruster_garbage_s=self.thrusters.last_garbage_s,
-            battery_v=battery_rest_v))
+            battery_v=battery_rest_v, thrusters_disobeying=self.thrusters.disobeying))
         self._log_events(decision.events, t_s)
         helm_nav, unavailable = steps.helm_nav(nav, decision)
         for req in decision.requests:

@@ -22,6 +22,7 @@ from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, Ack, ProtocolError, 
 
 __all__ = ["MbedDriver"]
 
+ECHO_RUNS_DISTRUSTED = 2  # from the second run of disobeyed commands on, zero commands clear nothing
 _SENT_RECENT = 1024  # sequence numbers remembered as ours (~100 s at 10 Hz)
 _MAX_PENDING = 256  # commands awaiting an ack; older ones are counted missing
 BATTERY_STALE_S = 2.0  # a battery voltage older than this is not reported
@@ -77,7 +78,8 @@ class MbedDriver(LineDevice):
         self.acks_late = 0  # for a command of ours, after ack_timeout_s (already counted missing)
         self.acks_unexpected = 0  # for no command sent recently (a stray line, another program on the port)
         self.acks_mismatched = 0  # OK, but the duties echoed are not the ones sent
-        self._mismatching = False
+        self._mismatching = False  # the current run of missing acknowledgements includes such an OK
+        self._echo_runs = 0  # runs of them this session
         self._sent_recent: OrderedDict[int, float] = OrderedDict()  # seq -> send time, the last _SENT_RECENT sent
         self._late_run = False  # a late ack was told since the last one in time
         self._unexpected_run = False
@@ -220,16 +222,21 @@ class MbedDriver(LineDevice):
             self._count_missing()
             applied = False
             if not self._mismatching:
+                self._echo_runs += 1
                 self._link.emit("mbed_echo_mismatch", seq=ack.seq, sent_pct=[sent_port, sent_stbd],
                                 echoed_pct=[_signed_duty_pct(ack.duty_port_pct, ack.reverse_port),
                                             _signed_duty_pct(ack.duty_stbd_pct, ack.reverse_stbd)])
             self._mismatching = True
         elif ack.ok:
-            del self._pending[ack.seq]
+            _, sent_port, sent_stbd = self._pending.pop(ack.seq)
             self.acks_ok += 1
             self.last_ack_seq = ack.seq
-            self._consecutive_missing = 0
-            self._mismatching = False
+            if not (self._mismatching and self._echo_runs >= ECHO_RUNS_DISTRUSTED and sent_port == sent_stbd == 0.0):
+                self._consecutive_missing = 0
+                self._mismatching = False
+            # else: a board that has disobeyed twice is not cleared by zero commands, which echo right even from a
+            # board with its channels swapped: it was judged healthy on zeros, resumed, drove the boat wrong for
+            # half a second and tripped again, every ~3 s for as long as it lasted
         else:
             del self._pending[ack.seq]
             self.acks_rejected += 1
@@ -277,6 +284,11 @@ class MbedDriver(LineDevice):
         if self._battery is None or self._clock.now_s() - self._battery[1] > BATTERY_STALE_S:
             return None
         return self._battery[0]
+
+    @property
+    def disobeying(self) -> bool:
+        """The acknowledgements missing now include OKs that echoed other duties than sent."""
+        return self._mismatching and self._consecutive_missing > 0
 
     @property
     def answered(self) -> bool:

@@ -11,7 +11,9 @@ and ``thrust_log`` (every change of the outputs:
 ``(t_s, duty_port_pct, reverse_port, duty_stbd_pct, reverse_stbd, cause)``,
 cause "command" or "timeout"). Faults: ``silent`` (obeys, never acks),
 ``ack_delay_s``, ``stuck`` (commands no longer change the outputs and every ``OK`` echoes
-the outputs as they are, as a firmware whose PWM hung would), ``unplug()``, ``replug()``. The battery (:mod:`autopilot.sim.battery`)
+the outputs as they are, as a firmware whose PWM hung would), ``swapped`` (miswired: the port
+command drives the starboard motor and the other way round; the ``OK`` echoes the outputs as
+set), ``unplug()``, ``replug()``. The battery (:mod:`autopilot.sim.battery`)
 drains with the duties applied and its voltage, sagging under load, is in every ``OK``
 acknowledgement; ``report_battery = False`` is old firmware without the field.
 """
@@ -53,6 +55,7 @@ class SimulatedMbed:
         self.path = self._endpoint.path
         self.silent = False
         self.stuck = False
+        self.swapped = False
         self.ack_delay_s = 0.0
         self.commands: list[tuple[float, int, float, bool, float, bool]] = []
         self.thrust_log: list[tuple[float, float, bool, float, bool, str]] = []
@@ -168,7 +171,9 @@ class SimulatedMbed:
             return
         self.last_valid_s = now_s
         self.commands.append((now_s, cmd.seq, cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct, cmd.reverse_stbd))
-        if not self.stuck:
+        if self.swapped:
+            self._set((cmd.duty_stbd_pct, cmd.reverse_stbd, cmd.duty_port_pct, cmd.reverse_port), now_s, "command")
+        elif not self.stuck:
             self._set((cmd.duty_port_pct, cmd.reverse_port, cmd.duty_stbd_pct, cmd.reverse_stbd), now_s, "command")
         self._armed.set()
         port, rev_port, stbd, rev_stbd = self.outputs  # what it set, echoed (docs/mbed-protocol.md)
