@@ -444,6 +444,18 @@ def test_nmea_hook_failure_does_not_stop_the_compass_line():
     assert [u.sentence for u in out] == ["HDT"] and d.encapsulated_lines == 1
 
 
+def test_an_ais_line_that_lost_its_line_end_does_not_swallow_the_compass_sentence_after_it():
+    """Found by fault injection: '!AIVDM...*hh$GPGGA...*hh' (the AIS line's CR LF lost) went whole to the AIS
+    receiver: every GGA behind such a line vanished, counted nowhere (position_stale with no cause in the log)."""
+    rx = AisReceiver(clock_s=lambda: 0.0)
+    d = NmeaStreamDecoder(encapsulated=rx.feed_line)
+    hdt = make_sentence("GPHDT,12.3,T")
+    out = d.feed((TYPE1 + hdt + "\r\n" + TYPE1 + "\r\n").encode())
+    assert [u.sentence for u in out] == ["HDT"] and out[0].heading_rad == pytest.approx(math.radians(12.3))
+    assert d.encapsulated_lines == 2 and rx.stats.lines_ok == 2  # the AIS part was not lost either
+    assert d.stats.garbage == 0 and d.stats.checksum_errors == 0
+
+
 # --------------------------------------------------------------------------- never raises
 
 _GOOD = [ln for name in MIN_COMPARISONS for ln in (SHARED / name).read_bytes().split(b"\n") if ln.startswith(b"!")]

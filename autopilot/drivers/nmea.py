@@ -558,10 +558,14 @@ class NmeaStreamDecoder:
             if bang >= 0 and (dollar < 0 or bang < dollar):
                 self.encapsulated_lines += 1
                 try:
-                    self.encapsulated(raw[bang:])
+                    self.encapsulated(raw[bang:dollar] if dollar > bang else raw[bang:])
                 except Exception:
                     pass  # the hook's failure is its own: the compass line goes on
-                return None
+                if dollar < 0:
+                    return None
+                # an AIS sentence that lost its line end, with the compass's sentence after it: each checksum
+                # judges its own part (the whole line went to AIS, and every GGA behind such a line was lost
+                # without a count)
         if dollar < 0:
             self.stats.garbage += 1
             return None
