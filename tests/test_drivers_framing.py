@@ -149,6 +149,29 @@ def test_a_held_fix_without_a_utc_time_ages_too():
     assert drv.sample().position.t_s == pytest.approx(16.0 - len(moved) * 10 / 4800)
 
 
+def test_a_receiver_whose_rmc_says_not_valid_beside_a_valid_gga_keeps_the_fix_not_valid():
+    """Found by fault injection: RMC status V with a position, beside GGA quality 1, made the fix valid (GGA) and
+    not valid (RMC) by turns: a no_fix fault and its clearing twice a second for as long as it lasted."""
+    clock = _Clock()
+    drv = SC30Driver("/dev/null", clock=clock)
+    validity = []
+    for k in range(5):
+        hms = f"1200{k:02d}.00"
+        clock.t = 10.0 + k
+        drv._on_bytes(_gga(hms))
+        validity.append(drv.sample().position.valid)
+        clock.t += 0.1
+        drv._on_bytes(make_sentence(f"GPRMC,{hms},V,5200.00000,N,00424.00000,E,0.0,0.0,010624,,,N").encode())
+        validity.append(drv.sample().position.valid)
+    assert validity == [True] + [False] * 9  # the first GGA, before any RMC had spoken; then never valid
+    clock.t = 15.0
+    drv._on_bytes(_gga("120005.00"))
+    drv._on_bytes(make_sentence("GPRMC,120005.00,A,5200.00000,N,00424.00000,E,0.0,0.0,010624,,,A").encode())
+    clock.t = 16.0
+    drv._on_bytes(_gga("120006.00"))
+    assert drv.sample().position.valid  # both agree again
+
+
 def test_an_epoch_before_the_last_is_refused_once_noted_and_a_receiver_reset_is_accepted():
     clock = _Clock()
     events = _Events()

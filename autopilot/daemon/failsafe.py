@@ -178,7 +178,7 @@ def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, 
         age = "never received" if math.isinf(obs.position_age_s) else f"{obs.position_age_s:.2f} s old"
         faults["position_stale"] = f"position {age} (limit {cfg.position_stale_s:g} s)"
     elif obs.fix_quality <= 0:
-        faults["no_fix"] = "GNSS fix quality 0"
+        faults["no_fix"] = "GNSS fix not valid (GGA quality 0, or RMC/GLL status V)"
     if obs.last_garbage_t_s is not None and obs.t_s - obs.last_garbage_t_s < cfg.garbage_hold_s:
         faults["nmea_garbage"] = "burst of rejected NMEA lines"
     if obs.last_mbed_garbage_t_s is not None and obs.t_s - obs.last_mbed_garbage_t_s < cfg.garbage_hold_s:

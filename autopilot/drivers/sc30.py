@@ -25,6 +25,10 @@ HEADING_PRIORITY = ("THS", "HDT", "PFEC_GPatt")
 POSITION_SENTENCES = ("GGA", "RMC", "GLL")
 
 
+# a position sentence's "not valid" (GGA quality 0, RMC/GLL status V) stands this long against the other kinds'
+# "valid": a receiver whose RMC said V beside a GGA of quality 1 made the fix valid and invalid by turns, a
+# no_fix fault and its clearing twice a second
+VERDICT_WINDOW_S = 1.5
 OLD_EPOCH_WINDOW_S = 600.0  # an epoch at most this far before the last is a replay; farther, a receiver reset
 _DAY_S = 86400.0
 
@@ -92,6 +96,7 @@ class SC30Driver(LineDevice):
                          garbage_burst_bytes=garbage_burst_bytes)
         self._latest: dict[str, Stamped | None] = {}  # NavSample field -> value
         self.attitude: Stamped | None = None  # (pitch_rad, roll_rad), logged by nothing yet
+        self._verdicts: dict[str, tuple[bool, float]] = {}  # position sentence kind -> (said valid, when)
         self.utc: Stamped | None = None
         self.updates = 0
         self._heading_window_s = float(heading_window_s)
@@ -154,7 +159,9 @@ class SC30Driver(LineDevice):
             latest["heading_rad"] = self._best_heading(now_s)
         if u.lat_deg is not None or (src in POSITION_SENTENCES and u.status_valid is False):
             pos = None if u.lat_deg is None else (u.lat_deg, u.lon_deg)
-            valid = bool(u.status_valid) and pos is not None
+            self._verdicts[src] = (bool(u.status_valid), now_s)
+            valid = bool(u.status_valid) and pos is not None and all(
+                ok for ok, t_s in self._verdicts.values() if now_s - t_s <= VERDICT_WINDOW_S)
             old = latest.get("position")
             order = epoch_order(u.fix_time, self._fix_time) if old is not None else "new"
             if order == "new" and u.fix_time is None and old is not None and old.value == pos:
