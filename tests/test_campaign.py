@@ -229,6 +229,16 @@ def test_wilson_interval(k, n, lo, hi):
     assert math.isnan(wilson(0, 0)[0])
 
 
+def test_every_wilson_interval_contains_its_rate_and_ends_exactly_at_0_and_1():
+    """Found by a new-user audit: wilson(10, 10) ended at 0.9999999999999999, an interval that did not contain its
+    own rate of 1 (969 of the 3998 cases k = 0 or k = n below n = 2000)."""
+    for n in range(1, 2000):
+        for k in range(n + 1):
+            lo, hi = wilson(k, n)
+            assert 0.0 <= lo <= k / n <= hi <= 1.0, (k, n, lo, hi)
+    assert wilson(10, 10)[1] == 1.0 and wilson(0, 3)[0] == 0.0
+
+
 def test_geo_float_path_gives_the_array_paths_bits():
     """The per-cycle conversions take plain floats without numpy: the same operations, the same bits."""
     import numpy as np
@@ -306,3 +316,159 @@ def test_ctrl_c_stops_a_pool_campaign_at_once_not_after_every_queued_chunk(tmp_p
             p.wait()
     assert p.returncode == 130 and err.strip().splitlines()[-1] == "autopilot campaign: interrupted", err[-2000:]
     assert not (out / "runs.csv").exists()
+
+
+def _live_in_group(pgid: int) -> list[int]:
+    """Processes of process group ``pgid`` that are not zombies (a container's init may not reap them)."""
+    live = []
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            stat = (d / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()
+        if int(fields[2]) == pgid and fields[0] != "Z":
+            live.append(int(d.name))
+    return live
+
+
+def test_sigterm_to_the_campaign_alone_stops_its_workers_too(tmp_path):
+    """Found by a new-user audit: `kill PID` (SIGTERM to the main process only, as a service manager may send it)
+    left the pool's workers, the forkserver and the resource tracker flying for a minute, orphaned."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "campaign", str(ROOT_SPEC), "--runs", "4000", "--jobs", "2",
+                          "--out", str(out), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=os.setpgrp)
+    try:
+        deadline = time.monotonic() + 60
+        while not (out / "campaign.json").exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(3.0)  # the pool's workers are flying
+        assert len(_live_in_group(p.pid)) >= 3  # this process, the forkserver, workers
+        os.kill(p.pid, signal.SIGTERM)
+        _, err = p.communicate(timeout=45)
+        deadline = time.monotonic() + 10
+        while _live_in_group(p.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        left = _live_in_group(p.pid)
+    finally:
+        if p.poll() is None or _live_in_group(p.pid):
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
+    assert p.returncode == 128 + signal.SIGTERM and "Traceback" not in err, err[-2000:]
+    assert left == []
+    assert not (out / "runs.csv").exists()
+
+
+def test_an_earlier_campaigns_directory_is_refused_or_replaced_whole_and_command_line_limits_hold(tmp_path, capsys):
+    """Found by a new-user audit: a new campaign into a directory holding an old one rewrote campaign.json beside
+    the old summary.json and report.html (complete-looking, of other runs) and --replay then compared with the
+    old runs.csv; --replay ignored --out; --runs on the command line skipped the spec's limit; --jobs 1000
+    started 40 processes on 2 cores and the report said 'a pool of 1000'."""
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps({**SPEC, "runs": 12, "chunk_runs": 12}), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--out", str(out), "--jobs", "1", "--quiet", "--no-report"]) == 0
+    assert main(["campaign", "--replay", str(out), "3"]) == 0
+    assert main(["campaign", "--replay", str(out), "3", "--out", str(tmp_path / "x")]) == 2
+    assert "--out is for a new campaign" in capsys.readouterr().err
+    (out / "mine.txt").write_text("the user's own file")
+    before = (out / "runs.csv").read_bytes()
+    assert main(["campaign", str(spec), "--out", str(out), "--seed", "9", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "holds a campaign's results already (campaign.json, runs.csv, summary.json, replay-3.jsonl)" in err
+    assert "--overwrite" in err and (out / "runs.csv").read_bytes() == before
+    assert main(["campaign", str(spec), "--out", str(out), "--seed", "9", "--quiet", "--overwrite", "--no-report",
+                 "--jobs", "1000"]) == 0
+    err = capsys.readouterr().err
+    assert "--jobs 1000: this machine gives this process" in err
+    assert not (out / "replay-3.jsonl").exists() and (out / "mine.txt").exists()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["seed"] == 9 and "1000" not in summary["run"]["backend"]
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "big"), "--runs", "20000000"]) == 2
+    assert "--runs: 20000000 is outside [1, 10,000,000] runs" in capsys.readouterr().err
+    # fewer runs than cells (2 missions x 2 laws x 3 conditions): said, not left for the reader to find
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "few"), "--runs", "5", "--jobs", "1", "--quiet"]) == 0
+    assert "note: 7 of 12 cells (mission x law x condition) not flown with 5 runs" in capsys.readouterr().out
+    summary = json.loads((tmp_path / "few" / "summary.json").read_text())
+    assert summary["cells"] == 12 and len(summary["cells_not_flown"]) == 7
+    report = (tmp_path / "few" / "report.html").read_text()
+    assert "7 of 12 cells (mission x law x condition) were not flown" in report
+    assert "&quot;seed&quot;: 5,\n &quot;runs&quot;: 5\n}" in report  # the campaign.json shown is the one flown
+
+
+def test_a_fault_due_after_the_run_ended_is_not_counted_for_that_fault(tmp_path):
+    """Found by a new-user audit: by_fault counted every run drawn with a fault, also those that ended before it
+    was due (11 of 60 in a 400-run campaign); faults at 5000 s reported gnss_lost at 100 % with no failsafe."""
+    spec = tmp_path / "spec.yaml"
+    conditions = {"late": {"faults": {"kinds": ["gnss_lost"], "at_s": {"uniform": [4000.0, 5000.0]}}},
+                  "soon": {"faults": {"kinds": ["gnss_lost"], "at_s": {"uniform": [3.0, 5.0]}}}}
+    spec.write_text(json.dumps({**SPEC, "runs": 16, "chunk_runs": 16, "conditions": conditions}), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--out", str(out), "--jobs", "1", "--quiet", "--no-report"]) == 0
+    rows = read_runs_csv(out / "runs.csv")
+    assert {r["fault_kind"] for r in rows if r["condition"] == "late"} == {"not reached"}
+    assert {r["fault_kind"] for r in rows if r["condition"] == "soon"} == {"gnss_lost"}
+    by_fault = json.loads((out / "summary.json").read_text())["by_fault"]
+    assert by_fault["gnss_lost"]["runs"] == 8 and by_fault["not reached"]["runs"] == 8
+
+
+def test_a_scheduler_address_that_is_not_one_is_refused_at_once_and_a_silent_port_in_time(tmp_path):
+    """Found by a new-user audit: 'nonsense', 'http://x' or an SSH port as --scheduler gave 'internal error:
+    MemoryError: Unable to allocate 2.82 EiB', a 40 s wait and a traceback; a port that accepted and stayed
+    silent hung the campaign with no output for as long as one waited."""
+    import socket
+    import subprocess
+    import sys
+    import threading
+
+    from autopilot.campaign.backends import check_scheduler_address, probe_scheduler
+    from autopilot.schema import ConfigError
+
+    assert check_scheduler_address("127.0.0.1:8786") == "tcp://127.0.0.1:8786"
+    for bad in ("nonsense", "http://x", "tcp://host:99999"):
+        with pytest.raises(ConfigError, match="not a Dask scheduler address"):
+            check_scheduler_address(bad)
+
+    def listener(banner: bytes | None):
+        s = socket.socket()
+        s.bind(("127.0.0.1", 0))
+        s.listen(4)
+        held = []
+
+        def run():
+            while True:
+                try:
+                    c, _ = s.accept()
+                except OSError:
+                    return
+                held.append(c)
+                if banner:
+                    c.sendall(banner)
+        threading.Thread(target=run, daemon=True).start()
+        return s, held
+
+    ssh, held_a = listener(b"SSH-2.0-OpenSSH_9.6\r\n")
+    silent, held_b = listener(None)
+    try:
+        with pytest.raises(ConfigError, match="does not speak Dask's protocol"):
+            probe_scheduler(f"tcp://127.0.0.1:{ssh.getsockname()[1]}", 5.0)
+        t0 = time.monotonic()
+        with pytest.raises(ConfigError, match="no Dask scheduler answered within 2 s"):
+            probe_scheduler(f"tcp://127.0.0.1:{silent.getsockname()[1]}", 2.0)
+        assert time.monotonic() - t0 < 10.0
+        spec = tmp_path / "spec.yaml"
+        spec.write_text(json.dumps({**SPEC, "runs": 12, "chunk_runs": 12}), encoding="utf-8")
+        r = subprocess.run([sys.executable, "-m", "autopilot", "campaign", str(spec), "--out", str(tmp_path / "o"),
+                            "--scheduler", f"tcp://127.0.0.1:{ssh.getsockname()[1]}"],
+                           capture_output=True, text=True, timeout=120)
+    finally:
+        for c in (*held_a, *held_b, ssh, silent):
+            c.close()
+    assert r.returncode == 2 and "Traceback" not in r.stderr and "internal error" not in r.stderr, r.stderr
+    assert "does not speak Dask's protocol" in r.stderr

@@ -25,9 +25,56 @@ import time
 from autopilot.campaign.lockstep import chunk_indices, chunks, fly_chunk
 from autopilot.schema import ConfigError
 
-__all__ = ["run_chunks", "Progress", "MAX_ATTEMPTS", "default_jobs"]
+__all__ = ["run_chunks", "Progress", "MAX_ATTEMPTS", "default_jobs", "check_scheduler_address", "probe_scheduler"]
 
 MAX_ATTEMPTS = 3
+SCHEDULER_TIMEOUT_S = 20.0  # to reach a scheduler and hear it say it is one
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+def check_scheduler_address(address: str) -> str:
+    """``address`` as Dask takes it (SCHEME://HOST:PORT), or ConfigError saying what is wrong with it: 'nonsense'
+    and 'http://x' went into Dask and came back as an internal error, a 40 s wait and a traceback."""
+    from urllib.parse import urlsplit
+
+    text = str(address).strip()
+    parts = urlsplit(text if "://" in text else "tcp://" + text)
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if parts.scheme not in SCHEDULER_SCHEMES or not parts.hostname or port is None or parts.path not in ("", "/"):
+        raise ConfigError(f"--scheduler {address}: not a Dask scheduler address (tcp://HOST:PORT, the scheduler's "
+                          "port, 8786 by default; or 'local')")
+    return f"{parts.scheme}://{parts.netloc}"
+
+
+def probe_scheduler(address: str, timeout_s: float = SCHEDULER_TIMEOUT_S) -> None:
+    """Ask ``address`` who it is, within ``timeout_s``; ConfigError unless a Dask scheduler answers. A port that
+    accepted and stayed silent hung the campaign with no output (Dask's own timeout covers only the connect),
+    and one that answered with something else (an SSH banner) raised from deep inside Dask."""
+    import asyncio
+
+    from distributed.core import rpc
+
+    async def ask():
+        r = rpc(address, timeout=timeout_s)
+        try:
+            return await r.identity()
+        finally:
+            await r.close_rpc()
+
+    try:
+        info = asyncio.run(asyncio.wait_for(ask(), timeout_s))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise ConfigError(f"--scheduler {address}: no Dask scheduler answered within {timeout_s:g} s (is it the "
+                          "scheduler's port, 8786 by default, not its dashboard's?)") from None
+    except Exception as exc:  # noqa: BLE001 - whatever the other end made Dask raise: not a scheduler
+        raise ConfigError(f"--scheduler {address}: what answers there does not speak Dask's protocol "
+                          f"({type(exc).__name__}; is it the scheduler's port, 8786 by default?)") from None
+    if not isinstance(info, dict) or info.get("type") != "Scheduler":
+        raise ConfigError(f"--scheduler {address}: the server there is not a Dask scheduler "
+                          f"({type(info).__name__} {str(info)[:80]})")
 
 
 def default_jobs() -> int:
@@ -156,10 +203,11 @@ def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
             cluster = LocalCluster(n_workers=default_jobs(), threads_per_worker=1, processes=True, dashboard_address=None)
             address = cluster.scheduler_address
         else:
-            address = str(scheduler)
+            address = check_scheduler_address(scheduler)
+            probe_scheduler(address)
         try:
-            client = own = Client(address, set_as_default=False, timeout="20s")
-        except OSError as exc:
+            client = own = Client(address, set_as_default=False, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
+        except (OSError, TimeoutError) as exc:
             raise ConfigError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({exc})") from None
     digest = campaign.digest()
     attempts: dict[int, int] = {}

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
 from pathlib import Path
 
@@ -18,6 +20,24 @@ def load_campaign(spec_path):
         return resolve(spec, base_dir=Path(spec_path).resolve().parent)
     except ConfigError as exc:
         raise ConfigError(f"{spec_path}: {exc}") from None
+
+
+@contextlib.contextmanager
+def _terminate_as_exit():
+    """SIGTERM (``kill PID``, a service manager) unwinds as Ctrl-C does, through the backends' clean-up: the
+    default action killed this process alone and left its pool's workers flying for a minute, orphaned."""
+    def handler(signum, frame):
+        raise SystemExit(128 + signum)
+
+    try:
+        old = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread (a test calling in): nothing to install
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
 
 
 def _cmd(args: argparse.Namespace) -> int:
@@ -37,13 +57,24 @@ def _cmd(args: argparse.Namespace) -> int:
     from autopilot.campaign.run import run_campaign
 
     campaign = load_campaign(args.spec)
-    summary = run_campaign(campaign, args.out, seed=args.seed, runs=args.runs, jobs=args.jobs,
-                           scheduler=args.scheduler, progress=not args.quiet, report=not args.no_report)
+    if args.jobs is not None:
+        from autopilot.campaign.backends import default_jobs
+
+        if args.jobs > default_jobs():
+            print(f"autopilot campaign: --jobs {args.jobs}: this machine gives this process {default_jobs()} "
+                  f"core(s); using {default_jobs()} (more processes than cores only slow the runs)", file=sys.stderr)
+    with _terminate_as_exit():
+        summary = run_campaign(campaign, args.out, seed=args.seed, runs=args.runs, jobs=args.jobs,
+                               scheduler=args.scheduler, progress=not args.quiet, report=not args.no_report,
+                               overwrite=args.overwrite)
     o = summary["overall"]
     print(f"{summary['campaign']}: {o['successes']}/{o['runs']} runs succeeded "
           f"({100 * o['rate']:.1f} %, Wilson 95 % [{100 * o['ci95'][0]:.1f}, {100 * o['ci95'][1]:.1f}] %); "
           f"{summary['run']['elapsed_s']:.1f} s on {summary['run']['backend']}")
     print(success_table_markdown(summary))
+    if summary["cells_not_flown"]:
+        print(f"note: {len(summary['cells_not_flown'])} of {summary['cells']} cells (mission x law x condition) "
+              f"not flown with {o['runs']} runs: give --runs {summary['cells']} or more to fly each at least once")
     print(f"written: {Path(args.out) / 'runs.csv'}, summary.json" + ("" if args.no_report else ", report.html"))
     return 0
 
@@ -58,6 +89,9 @@ def _replay(args: argparse.Namespace) -> int:
         raise ConfigError(f"--replay {out_dir} {index_text}: INDEX is a run's index (an integer)") from None
     if args.spec is not None:
         raise ConfigError("--replay re-flies a run from DIR/campaign.json: give no spec file")
+    if args.out is not None:
+        raise ConfigError("--replay writes the run's log to DIR/replay-INDEX.jsonl, or to --log FILE: --out is "
+                          "for a new campaign")
     if args.log is not None:
         from autopilot.userfile import output_file
 
@@ -102,6 +136,8 @@ def register(subparsers) -> None:
     p.add_argument("--replay", nargs=2, metavar=("DIR", "INDEX"), help="re-fly run INDEX of the campaign in DIR and "
                    "write its mission log (DIR/replay-INDEX.jsonl)")
     p.add_argument("--log", metavar="FILE", help="with --replay: write the log here instead")
+    p.add_argument("--overwrite", action="store_true", help="replace the results of an earlier campaign in DIR "
+                   "(without it such a DIR is refused)")
     p.add_argument("--no-report", action="store_true", help="skip report.html")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=_cmd)

@@ -44,7 +44,11 @@ class _LogWriter:
     """The mission-log lines of one run, written as it flies."""
 
     def __init__(self, path: Path, campaign, setup, seed: int) -> None:
-        self.f = open(path, "w", encoding="utf-8")  # noqa: SIM115 - closed at the run's end
+        try:
+            self.f = open(path, "w", encoding="utf-8")  # noqa: SIM115 - closed at the run's end
+        except OSError as exc:  # before anything is flown
+            raise ConfigError(f"cannot write the run's log {path} ({exc.strerror or exc}): give --log FILE in a "
+                              "directory you can write") from None
         self.setup, self.n_passes, self.cycle_no = setup, 0, 0
         m = setup.mission
         spec = campaign.spec

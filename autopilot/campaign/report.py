@@ -141,7 +141,8 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
         f"<title>campaign {esc(summary['campaign'])}</title>",
         "<style>body{font-family:sans-serif;max-width:1200px;margin:1em auto}table{border-collapse:collapse;"
         "font-size:13px;margin:.5em 0}td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}"
-        "th{background:#eee}td:first-child{text-align:left}pre{font-size:11px;background:#f6f6f6;padding:6px}</style>",
+        "th{background:#eee}td:first-child{text-align:left}pre{font-size:11px;background:#f6f6f6;padding:6px}"
+        "img{max-width:100%;height:auto}</style>",
         "</head><body>",
         f"<h1>Robustness campaign {esc(summary['campaign'])}</h1>",
         f"<p>{esc(summary.get('description') or '')}</p>",
@@ -150,6 +151,11 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
         f"({summary['success_radius_m']:g} m). {esc(run_info.get('text', ''))}</p>",
         "<h2>Success rate (Wilson 95 % interval)</h2>",
     ]
+    if summary.get("cells_not_flown"):
+        missing = summary["cells_not_flown"]
+        parts.insert(-1, f"<p><b>{len(missing)} of {summary['cells']} cells (mission x law x condition) were not "
+                         f"flown</b>: {summary['rows']} runs; give at least {summary['cells']} to fly each once "
+                         f"({esc(', '.join(missing[:6]))}{', ...' if len(missing) > 6 else ''}).</p>")
     header = ["law"] + conds + ["all"]
     table_rows = []
     for law in laws:
@@ -196,6 +202,7 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
     if sens:
         parts.append(f"<img src='data:image/png;base64,{_png(_sensitivity_figure(sens))}'>")
     parts.append("<h2>Sources</h2><ul>" + "".join(f"<li>{esc(s)}</li>" for s in summary["sources"]) + "</ul>")
-    parts.append("<h2>campaign.json</h2><pre>" + esc(json.dumps(campaign_data, indent=1)) + "</pre></body></html>")
+    parts.append("<h2>campaign.json</h2><pre>" + esc(json.dumps(
+        {"campaign": campaign_data, "seed": summary["seed"], "runs": summary["runs"]}, indent=1)) + "</pre></body></html>")
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(parts))

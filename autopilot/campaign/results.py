@@ -42,6 +42,17 @@ def success_of(completed: bool, circled: bool, closest_max_m: float, radius_m: f
     return bool(completed and not circled and closest_max_m <= radius_m)
 
 
+NOT_REACHED = "not reached"  # a run's fault was due after the run had ended
+
+
+def _fault_kind(faults, time_s: float) -> str:
+    """The run's fault as the by-fault rates count it: only one that came while the run flew (a fault due after
+    the end counted as a success for that fault: a spec with every fault at 5000 s reported 100 %)."""
+    if not faults:
+        return ""
+    return faults[0].kind if faults[0].at_s < time_s else NOT_REACHED
+
+
 def run_row(campaign: Campaign, setup, flight, result) -> dict:
     """The table row of one run (see the module docstring)."""
     closest = [float(c) for c in result.closest_approach_m]
@@ -57,7 +68,7 @@ def run_row(campaign: Campaign, setup, flight, result) -> dict:
         "energy_ns": float(result.energy_ns), "saturation_pct": float(result.saturation_pct),
         "failsafes": len(flight.cycle.failsafe_causes), "failsafe_causes": ";".join(flight.cycle.failsafe_causes),
         "faults": ";".join(f.describe() for f in setup.faults),
-        "fault_kind": setup.faults[0].kind if setup.faults else "",
+        "fault_kind": _fault_kind(setup.faults, float(result.time_s)),
         "position_dropouts": len(setup.position_dropouts), "heading_dropouts": len(setup.heading_dropouts),
         "hold_time_s": math.nan if hold is None else hold.time_s,
         "hold_position_error_rms_m": math.nan if hold is None else hold.position_error_rms_m,
@@ -125,7 +136,11 @@ def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
     den = 1.0 + z * z / n
     centre = (p + z * z / (2 * n)) / den
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return max(0.0, centre - half), min(1.0, centre + half)
+    # at k = 0 and k = n the interval ends exactly at the rate (rounding left 0.9999999999999999 above a
+    # rate of 1, an interval that did not contain its own rate)
+    lo = 0.0 if k <= 0 else min(p, max(0.0, centre - half))
+    hi = 1.0 if k >= n else max(p, min(1.0, centre + half))
+    return lo, hi
 
 
 def _rate(rows) -> dict:
@@ -223,12 +238,16 @@ def summarise(campaign: Campaign, rows, *, seed: int, runs: int, cols, worst: in
     ranked = sorted(rows, key=lambda r: (r["success"], -r["closest_max_m"] if not math.isnan(r["closest_max_m"])
                                          else -math.inf, -r["xte_rms_m"], r["index"]))
     inputs = [c for c in cols if c not in dict(RUN_COLUMNS)]
+    flown = {(r["mission"], r["law"], r["condition"]) for r in rows}
     return {
         "campaign": spec.name, "description": spec.description, "digest": campaign.digest(), "seed": int(seed),
         "runs": int(runs), "rows": len(rows), "chunk_runs": spec.chunk_runs, "success_radius_m": spec.success_radius_m,
         "success": "completed, no circling, every waypoint's closest approach <= success_radius_m",
         "missions": [m.name for m in campaign.missions], "laws": laws, "conditions": conds,
         "sources": list(campaign.sources),
+        "cells": len(campaign.missions) * len(laws) * len(conds),
+        "cells_not_flown": [f"{m.name}/{law}/{c}" for c in conds for law in laws for m in campaign.missions
+                            if (m.name, law, c) not in flown],
         "overall": _rate(rows),
         "by_law": {law: _rate([r for r in rows if r["law"] == law]) for law in laws},
         "by_condition": {c: _rate([r for r in rows if r["condition"] == c]) for c in conds},

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import json
 import time
@@ -19,12 +20,54 @@ from autopilot.campaign.results import columns, summarise, write_runs_csv, write
 from autopilot.campaign.spec import Campaign
 from autopilot.schema import ConfigError
 
-__all__ = ["run_campaign", "write_outputs", "load_run_dir"]
+__all__ = ["run_campaign", "write_outputs", "load_run_dir", "OUTPUTS", "check_out_dir", "pool_size"]
+
+OUTPUTS = ("campaign.json", "runs.csv", "runs.parquet", "summary.json", "report.html")  # and replay-*.jsonl
+
+
+def _previous(out: Path) -> list[Path]:
+    """A campaign's outputs already in ``out``."""
+    return [p for p in (*(out / n for n in OUTPUTS), *sorted(out.glob("replay-*.jsonl"))) if p.exists()]
+
+
+def check_out_dir(out_dir, *, overwrite: bool = False) -> Path:
+    """Make ``out_dir`` ready before anything is flown: created, writable, no earlier campaign's results in it
+    (a new campaign beside an old summary.json and report.html looked complete, and --replay compared runs
+    with the old runs.csv), or with ``overwrite`` those removed first. ConfigError naming what is wrong."""
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {out}: cannot create the directory ({exc.strerror or exc})") from None
+    old = _previous(out)
+    if old and not overwrite:
+        raise ConfigError(f"--out {out}: holds a campaign's results already ({', '.join(p.name for p in old[:4])}"
+                          f"{', ...' if len(old) > 4 else ''}): give a new directory, or --overwrite to replace them")
+    for p in old:
+        if p.is_dir():
+            raise ConfigError(f"--out {out}: {p.name} is a directory; the campaign writes a file there")
+        try:
+            p.unlink()
+        except OSError as exc:
+            raise ConfigError(f"--out {out}: cannot remove the old {p.name} ({exc.strerror or exc})") from None
+    probe = out / ".autopilot-write-test"
+    try:
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise ConfigError(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
+    return out
+
+
+def pool_size(jobs: int | None, n_chunks: int) -> int:
+    """The local processes a campaign uses: ``jobs`` (default: the cores), at most one per chunk and per core
+    (``--jobs 1000`` started 40 processes on 2 cores and took 1.7 times as long)."""
+    return max(1, min(jobs or default_jobs(), default_jobs(), n_chunks))
 
 
 def _backend_text(jobs, scheduler) -> str:
     if scheduler is None:
-        n = jobs or default_jobs()
+        n = jobs
         return "this process" if n <= 1 else f"a pool of {n} local processes"
     if scheduler == "local":
         return f"a Dask LocalCluster of {default_jobs()} workers"
@@ -32,23 +75,24 @@ def _backend_text(jobs, scheduler) -> str:
 
 
 def run_campaign(campaign: Campaign, out_dir, *, seed: int | None = None, runs: int | None = None,
-                 jobs: int | None = None, scheduler=None, progress: bool = False, report: bool = True) -> dict:
+                 jobs: int | None = None, scheduler=None, progress: bool = False, report: bool = True,
+                 overwrite: bool = False) -> dict:
     """Fly the campaign and write DIR; returns the summary."""
     seed = campaign.spec.seed if seed is None else int(seed)
     runs = campaign.spec.runs if runs is None else int(runs)
-    if runs < 1:
-        raise ConfigError(f"--runs: {runs} is not a positive number of runs")
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"--out {out}: cannot create the directory ({exc.strerror or exc})") from None
+    max_runs = next(f.metadata["hi"] for f in dataclasses.fields(campaign.spec) if f.name == "runs")
+    if not 1 <= runs <= max_runs:
+        raise ConfigError(f"--runs: {runs} is outside [1, {max_runs:,}] runs (the spec's limit)")
+    out = check_out_dir(out_dir, overwrite=overwrite)
+    n_chunks = chunks(campaign, runs)
+    if scheduler is None:
+        jobs = pool_size(jobs, n_chunks)
     data = {"campaign": campaign.to_data(), "seed": seed, "runs": runs}
     (out / "campaign.json").write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
     started = _dt.datetime.now(_dt.timezone.utc)
     t0 = time.perf_counter()
     rows = run_chunks(campaign, seed, runs, jobs=jobs, scheduler=scheduler,
-                      progress=Progress(runs, chunks(campaign, runs), enabled=progress))
+                      progress=Progress(runs, n_chunks, enabled=progress))
     elapsed = time.perf_counter() - t0
     info = {"started_utc": started.strftime("%Y-%m-%dT%H:%M:%SZ"), "elapsed_s": elapsed,
             "backend": _backend_text(jobs, scheduler), "runs_per_s": runs / elapsed if elapsed > 0 else None}
