@@ -188,6 +188,14 @@ def test_replay_reproduces_a_runs_scorecard_and_review_reads_its_log(tmp_path, c
     ({"conditions": {"c": {"faults": {"kinds": ["meteor"]}}}}, ["conditions.c.faults.kinds[0]", "meteor"]),
     ({"laws": ["fuzzy", "pure_pursuit"]}, ["laws[1]", "pure_pursuit"]),
     ({"missions": ["pond-9.9"]}, ["missions[0]", "pond-9.9"]),
+    # found by a new-user audit: accepted, and the tables misled
+    ({"laws": ["fuzzy", "fuzzy"]}, ["laws[1]: fuzzy is given twice"]),
+    ({"missions": ["pond-9.1", "pond-9.1"]}, ["missions[1]: pond-9.1 is named pond-9.1, as missions[0]"]),
+    ({"conditions": {"all": {}}}, ["conditions.all: 'all' names the results' column"]),
+    ({"conditions": {"c": {"position_noise_m": {"scale": [0.5, 2.0]}}}}, ["conditions.c.position_noise_m.scale",
+                                                                          "no nominal value to scale"]),
+    ({"conditions": {"c": {"faults": {"kinds": ["gnss_lost"], "at_s": {"scale": [1, 2]}}}}},
+     ["conditions.c.faults.at_s.scale"]),
 ])
 def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change, named):
     spec = tmp_path / "bad.yaml"

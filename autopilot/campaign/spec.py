@@ -331,14 +331,21 @@ def _condition(name: str, data: Any) -> Condition:
         data["faults"] = {k: _as_spread_mapping(v) if k in ("at_s", "duration_s", "battery_rest_v") else v
                           for k, v in data["faults"].items()}
     cond = load(Condition, data, where=where)
+
+    def check(key: str, spread: Spread, meta) -> None:
+        if spread.scale is not None:  # {scale} multiplied a nominal of 0: 0.3 m of noise became 0 m, unsaid
+            raise ConfigError(f"{key}.scale: a condition's quantity has no nominal value to scale; give a value, "
+                              "{uniform: [lo, hi]} or {normal: [mean, sd]} (scale is for vessel.fields)")
+        _check_support(key, spread, meta)
+
     for f in dataclasses.fields(Condition):
         v = getattr(cond, f.name)
         if isinstance(v, Spread):
-            _check_support(where + f.name, v, f.metadata)
+            check(where + f.name, v, f.metadata)
         elif isinstance(v, FaultSpread):
             for g in ("at_s", "duration_s", "battery_rest_v"):
                 meta = next(x for x in dataclasses.fields(FaultSpread) if x.name == g).metadata
-                _check_support(f"{where}faults.{g}", getattr(v, g), meta)
+                check(f"{where}faults.{g}", getattr(v, g), meta)
     return cond
 
 
@@ -349,6 +356,8 @@ def _conditions(data: Any) -> tuple[tuple[str, Condition], ...]:
     for name, value in data.items():
         if not isinstance(name, str) or not _NAME.match(name):
             raise ConfigError(f"conditions.{name}: a condition name is letters, digits, '_', '-', '.' (up to 64)")
+        if name == "all":
+            raise ConfigError("conditions.all: 'all' names the results' column over every condition; choose another name")
         out.append((name, _condition(name, value)))
     return tuple(out)
 
@@ -371,6 +380,9 @@ def _load_spec(data: Any) -> CampaignSpec:
         raise ConfigError("missions: name at least one mission (a file, or a shipped name such as pond-9.1)")
     if not spec.laws:
         raise ConfigError(f"laws: name at least one guidance law ({', '.join(LAWS)})")
+    for i, law in enumerate(spec.laws):  # a law twice printed two rows of half the runs each
+        if law in spec.laws[:i]:
+            raise ConfigError(f"laws[{i}]: {law} is given twice")
     _conditions(spec.conditions)  # checked here, so a bad condition fails at load
     return spec
 
@@ -463,6 +475,11 @@ def resolve(spec: CampaignSpec, *, base_dir: str | Path = ".") -> Campaign:
 
     base_dir = Path(base_dir)
     missions = tuple(_mission(m, base_dir, i) for i, m in enumerate(spec.missions))
+    for i, m in enumerate(missions):  # two files of one mission name were merged into one row of results
+        first = next(j for j, o in enumerate(missions) if o.name == m.name)
+        if first != i:
+            raise ConfigError(f"missions[{i}]: {spec.missions[i]} is named {m.name}, as missions[{first}] "
+                              f"({spec.missions[first]}): the results are kept by mission name")
     vessel_path = (base_dir / spec.vessel.file) if spec.vessel.file else default_params_path()
     vessel = load_params(vessel_path)
     sources = [f"vessel: {vessel_path}"]
