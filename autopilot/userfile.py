@@ -12,6 +12,7 @@ says what it is instead; the CLI turns that into one line and exit code 2.
 from __future__ import annotations
 
 import codecs
+import re
 from pathlib import Path
 
 from autopilot.schema import ConfigError
@@ -123,6 +124,12 @@ def _unique_key_loader():
             return loader.construct_mapping(node, deep=deep)
 
         UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
+        # YAML 1.1 wants a dot in a float: PyYAML reads ``1e9`` or ``5E-3`` as a string, so a spec's
+        # ``runs: 1e4`` was refused as "not a number" while the user sees a number.  YAML 1.2 reads them as
+        # floats; so do we (plain scalars only: a quoted "1e9" stays a string).
+        UniqueKeyLoader.add_implicit_resolver(
+            "tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+            list("-+0123456789"))
         _LOADER = UniqueKeyLoader
     return _LOADER
 

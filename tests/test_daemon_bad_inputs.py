@@ -57,6 +57,9 @@ CLI_CASES = [
      "autopilot run: error: {dir}/c.yaml: failsafe.heading_stale_s: expected a number in [0.05, 10] s, got 'one'"),
     ("configuration", "NaN", "failsafe: {max_distance_m: .nan}\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: failsafe.max_distance_m: nan is not a finite number; allowed range [1, 20000] m"),
+    # YAML 1.1 read 1e9 as the string '1e9' and the message said "got '1e9'", not a number
+    ("configuration", "exponent without a dot", "failsafe: {max_distance_m: 1e9}\n", GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: failsafe.max_distance_m: 1000000000.0 is outside the allowed range [1, 20000] m"),
     ("configuration", "baud rate the SC-30 cannot do", "serial: {sc30_baud: 5000}\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: serial.sc30_baud: 5000 is not one of 4800, 9600, 19200, 38400"),
     ("configuration", "unknown guidance law", "gnc: {guidance: {law: pure_pursuit}}\n", GOOD_MISSION, [],
