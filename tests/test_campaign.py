@@ -247,6 +247,35 @@ def test_every_wilson_interval_contains_its_rate_and_ends_exactly_at_0_and_1():
     assert wilson(10, 10)[1] == 1.0 and wilson(0, 3)[0] == 0.0
 
 
+def test_a_direction_that_hurts_across_north_is_found_on_the_circle_not_the_line():
+    """Found by a new-user audit: the wind's direction went through Spearman's rho on 0..360, where a wind that
+    fails the mission from the north (350..10 deg) is at both ends and correlates with nothing."""
+    import numpy as np
+
+    from autopilot.campaign.results import sensitivity
+
+    rng = np.random.default_rng(3)
+    rows = []
+    for i in range(600):
+        wind_from = float(rng.uniform(0.0, 360.0))
+        gusty = float(rng.uniform(0.0, 1.0))  # a linear quantity with no effect
+        off_north = abs((wind_from + 180.0) % 360.0 - 180.0)
+        fails = off_north < 40.0 or rng.uniform() < 0.05
+        rows.append({"condition": "weather" if i % 2 else "wind", "success": not fails,
+                     "closest_max_m": (4.0 if fails else 1.0) + float(rng.uniform(0, 0.5)), "xte_rms_m": 1.0,
+                     "wind_from_deg": wind_from, "gust_nd": gusty})
+    by_input = {s["input"]: s for s in sensitivity(rows, ["wind_from_deg", "gust_nd"])}
+    wind = by_input["wind_from_deg"]
+    assert wind["circular"] and wind["rho_success"] > 0.4 and wind["rho_closest_max"] > 0.4
+    assert min(wind["worst_direction"], 360.0 - wind["worst_direction"]) < 15.0
+    assert wind["success_low_quartile"] < 0.6 and wind["success_high_quartile"] > 0.9
+    assert abs(by_input["gust_nd"]["rho_success"]) < 0.15
+    assert list(by_input) == ["wind_from_deg", "gust_nd"]  # strongest first
+    # the line would have missed it: the same rows, the direction taken as a plain number
+    line = sensitivity([{**r, "wind_linear": r["wind_from_deg"]} for r in rows], ["wind_linear"])[0]
+    assert abs(line["rho_success"]) < 0.15
+
+
 def test_geo_float_path_gives_the_array_paths_bits():
     """The per-cycle conversions take plain floats without numpy: the same operations, the same bits."""
     import numpy as np

@@ -118,10 +118,10 @@ def _sensitivity_figure(sens):
     y = np.arange(len(shown))
     ax.barh(y - 0.2, [np.nan_to_num(s["rho_success"]) for s in shown], 0.4, label="with success")
     ax.barh(y + 0.2, [np.nan_to_num(s["rho_closest_max"]) for s in shown], 0.4, label="with worst closest approach")
-    ax.set_yticks(y, [s["input"] for s in shown], fontsize=8)
+    ax.set_yticks(y, [s["input"] + (" (circular, unsigned)" if s.get("circular") else "") for s in shown], fontsize=8)
     ax.invert_yaxis()
     ax.axvline(0, color="0.3", lw=0.8)
-    ax.set_xlabel("Spearman rank correlation")
+    ax.set_xlabel("Spearman rank correlation (a direction: circular-linear, 0..1)")
     ax.legend(fontsize=8)
     return fig
 
@@ -192,13 +192,22 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
     parts.append("<h2>What moves the outcome</h2><p>Spearman's rank correlation of each drawn quantity with success "
                  "(1/0), the worst closest approach and the cross-track RMS, within the conditions where it varies "
                  "(ranks centred per condition, then pooled: a harder condition does not count for what it "
-                 "draws); and the success rate in its lowest and highest quartile there.</p>")
+                 "draws); and the success rate in its lowest and highest quartile there. A direction has no low "
+                 "and high end (359&deg; and 1&deg; are neighbours): its correlation is the circular-linear one "
+                 "(0..1, unsigned), with the direction the outcome is worst from, and the success rate within a "
+                 "quarter turn of that direction and of its opposite.</p>")
+
+    def low_high(s):
+        if s.get("circular"):
+            return (f"{_pct(s['success_low_quartile'])} (within a quarter turn centred on {_num(s['worst_direction'], 1)}, the worst)",
+                    f"{_pct(s['success_high_quartile'])} (the opposite quarter)")
+        return _pct(s["success_low_quartile"]), _pct(s["success_high_quartile"])
+
     parts.append(_table(["quantity", "conditions", "runs", "rho success", "rho worst closest", "rho xte RMS",
                          "success, low quartile", "success, high quartile"],
-                        [[s["input"], ", ".join(s["conditions"]), s["runs"], _num(s["rho_success"]),
-                          _num(s["rho_closest_max"]),
-                          _num(s["rho_xte_rms"]), _pct(s["success_low_quartile"]), _pct(s["success_high_quartile"])]
-                         for s in sens]))
+                        [[s["input"] + (" (circular)" if s.get("circular") else ""), ", ".join(s["conditions"]),
+                          s["runs"], _num(s["rho_success"]), _num(s["rho_closest_max"]), _num(s["rho_xte_rms"]),
+                          *low_high(s)] for s in sens]))
     if sens:
         parts.append(f"<img src='data:image/png;base64,{_png(_sensitivity_figure(sens))}'>")
     parts.append("<h2>Sources</h2><ul>" + "".join(f"<li>{esc(s)}</li>" for s in summary["sources"]) + "</ul>")

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from autopilot.campaign.spec import SPREAD_KEYS, Campaign
+from autopilot.campaign.spec import DIRECTION_TURN, SPREAD_KEYS, Campaign
 
 __all__ = ["RUN_COLUMNS", "OUTCOMES", "run_row", "columns", "write_runs_csv", "read_runs_csv", "wilson",
            "summarise", "success_of"]
@@ -168,11 +168,47 @@ def _centred_ranks(v: np.ndarray) -> np.ndarray:
     return r - r.mean()
 
 
+def _circular_entry(x, success, sxx, sxy, syy, turn) -> dict:
+    """The circular half of :func:`sensitivity` from its pooled sums (regressors: centred cos and sin)."""
+    entry: dict = {"circular": True}
+    try:
+        inv = np.linalg.inv(sxx)
+    except np.linalg.LinAlgError:  # every run drew one direction or its opposite: no circle to speak of
+        inv = None
+    beta = {}
+    for o in sxy:
+        if inv is None or syy[o] <= 0:
+            entry[f"rho_{o}"] = math.nan
+            continue
+        beta[o] = inv @ sxy[o]
+        entry[f"rho_{o}"] = math.sqrt(max(0.0, min(1.0, float(sxy[o] @ beta[o]) / syy[o])))
+    # the success fit's lowest point; with every run a success (or none), the worst closest approach's highest
+    if "success" in beta and np.any(beta["success"]):
+        worst = math.atan2(-beta["success"][1], -beta["success"][0])
+    elif "closest_max" in beta and np.any(beta["closest_max"]):
+        worst = math.atan2(beta["closest_max"][1], beta["closest_max"][0])
+    else:
+        entry.update(worst_direction=math.nan, success_low_quartile=math.nan, success_high_quartile=math.nan)
+        return entry
+    entry["worst_direction"] = (worst % (2.0 * math.pi)) * turn / (2.0 * math.pi)
+    off = np.abs((x * (2.0 * math.pi / turn) - worst + math.pi) % (2.0 * math.pi) - math.pi)
+    near, far = off <= math.pi / 4.0, off >= 3.0 * math.pi / 4.0
+    entry["success_low_quartile"] = float(success[near].mean()) if near.any() else math.nan
+    entry["success_high_quartile"] = float(success[far].mean()) if far.any() else math.nan
+    return entry
+
+
 def sensitivity(rows, inputs, *, min_runs: int = 10) -> list[dict]:
     """Per drawn quantity: Spearman's rank correlation with success, worst closest approach and cross-track RMS,
     stratified by condition (ranks centred within each condition where the quantity varies, then pooled, so a
     condition that is simply harder does not count for the quantities it happens to draw), and the success rate
-    in the quantity's lowest and highest quartile within those conditions."""
+    in the quantity's lowest and highest quartile within those conditions.
+
+    A direction (:data:`DIRECTION_TURN`) has no low and high end: 359 deg and 1 deg are neighbours, and a wind that
+    hurts from the west shows no rank correlation at all on 0..360.  Its ``rho_*`` is the circular-linear
+    correlation instead (Mardia 1976: the multiple correlation of the outcome's ranks with the direction's cosine
+    and sine, in [0, 1], unsigned), ``worst_direction`` the direction the outcome is worst from (in the quantity's
+    unit) and the success rates are those within a quarter turn centred on it and on its opposite."""
     outcomes = {
         "success": np.array([1.0 if r["success"] else 0.0 for r in rows]),
         "closest_max": np.nan_to_num(np.array([r["closest_max_m"] for r in rows], dtype=float), nan=np.inf),
@@ -182,32 +218,46 @@ def sensitivity(rows, inputs, *, min_runs: int = 10) -> list[dict]:
     out = []
     for name in inputs:
         x = np.array([r.get(name, math.nan) for r in rows], dtype=float)
-        num = dict.fromkeys(outcomes, 0.0)
-        den_y = dict.fromkeys(outcomes, 0.0)
-        den_x, used, low, high = 0.0, [], [], []
+        turn = DIRECTION_TURN.get(name)
+        k = 1 if turn is None else 2
+        sxx = np.zeros((k, k))
+        sxy = {o: np.zeros(k) for o in outcomes}
+        syy = dict.fromkeys(outcomes, 0.0)
+        used, chosen = [], np.zeros(len(rows), dtype=bool)
+        low, high = [], []
         for c in sorted(set(conds)):
             sel = (conds == c) & np.isfinite(x)
             if sel.sum() < min_runs or np.ptp(x[sel]) == 0:
                 continue
             used.append(str(c))
-            rx = _centred_ranks(x[sel])
-            den_x += float(rx @ rx)
-            for k, y in outcomes.items():
+            chosen |= sel
+            if turn is None:
+                regressors = _centred_ranks(x[sel])[:, None]
+            else:
+                a = x[sel] * (2.0 * math.pi / turn)
+                regressors = np.column_stack([np.cos(a), np.sin(a)])
+                regressors -= regressors.mean(axis=0)
+            sxx += regressors.T @ regressors
+            for o, y in outcomes.items():
                 ry = _centred_ranks(y[sel])
-                num[k] += float(rx @ ry)
-                den_y[k] += float(ry @ ry)
-            q1, q3 = np.percentile(x[sel], [25, 75])
-            low += list(outcomes["success"][sel][x[sel] <= q1])
-            high += list(outcomes["success"][sel][x[sel] >= q3])
+                sxy[o] += regressors.T @ ry
+                syy[o] += float(ry @ ry)
+            if turn is None:
+                q1, q3 = np.percentile(x[sel], [25, 75])
+                low += list(outcomes["success"][sel][x[sel] <= q1])
+                high += list(outcomes["success"][sel][x[sel] >= q3])
         if not used:
             continue
-        rho = {k: num[k] / math.sqrt(den_x * den_y[k]) if den_x > 0 and den_y[k] > 0 else math.nan for k in outcomes}
-        out.append({
-            "input": name, "conditions": used, "runs": int(sum(((conds == c) & np.isfinite(x)).sum() for c in used)),
-            "rho_success": rho["success"], "rho_closest_max": rho["closest_max"], "rho_xte_rms": rho["xte_rms"],
-            "success_low_quartile": float(np.mean(low)) if low else math.nan,
-            "success_high_quartile": float(np.mean(high)) if high else math.nan,
-        })
+        entry = {"input": name, "conditions": used, "runs": int(chosen.sum())}
+        if turn is None:
+            for o in outcomes:
+                den = float(sxx[0, 0]) * syy[o]
+                entry[f"rho_{o}"] = float(sxy[o][0]) / math.sqrt(den) if den > 0 else math.nan
+            entry["success_low_quartile"] = float(np.mean(low)) if low else math.nan
+            entry["success_high_quartile"] = float(np.mean(high)) if high else math.nan
+        else:
+            entry.update(_circular_entry(x[chosen], outcomes["success"][chosen], sxx, sxy, syy, turn))
+        out.append(entry)
 
     def strength(d):
         a = 0.0 if math.isnan(d["rho_success"]) else abs(d["rho_success"])

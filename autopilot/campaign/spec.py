@@ -190,6 +190,9 @@ class Condition:
 
 
 SPREAD_KEYS = tuple(f.name for f in dataclasses.fields(Condition) if f.name != "faults")
+# The spread quantities that are directions, with their unit's full turn: 359 deg and 1 deg are neighbours, so
+# what they do to the outcome is measured on the circle, not on the line (results.sensitivity).
+DIRECTION_TURN = {"current_towards_deg": 360.0, "wind_from_deg": 360.0, "sinusoidal_angle_rad": 2.0 * math.pi}
 
 
 @dataclass(frozen=True)
