@@ -44,21 +44,29 @@ def param(
     return dataclasses.field(default=default, metadata=meta)
 
 
+def _bound_text(x: float | int) -> str:
+    # an integer bound exactly (a seed's 2**63 - 1 read 9.22337e+18); a float one short
+    return str(x) if isinstance(x, int) else f"{x:g}"
+
+
 def _range_text(meta: Mapping[str, Any]) -> str:
     lo, hi = meta.get("lo"), meta.get("hi")
     unit = meta.get("unit", "-")
-    lo_s = "-inf" if lo is None else f"{lo:g}"
-    hi_s = "inf" if hi is None else f"{hi:g}"
-    return f"[{lo_s}, {hi_s}] {unit}".rstrip()
+    lo_s = "-inf" if lo is None else _bound_text(lo)
+    hi_s = "inf" if hi is None else _bound_text(hi)
+    return f"[{lo_s}, {hi_s}] {'' if unit == '-' else unit}".rstrip()
 
 
 def _check_number(key: str, value: Any, want: type, meta: Mapping[str, Any]) -> float | int:
+    bounded = meta.get("lo") is not None or meta.get("hi") is not None
+    within = f" in {_range_text(meta)}" if bounded else ""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(f"{key}: expected a number in {_range_text(meta)}, got {value!r}")
+        raise ConfigError(f"{key}: expected a{'n integer' if want is int else ' number'}{within}, got {value!r}")
     if want is int and not float(value).is_integer():
-        raise ConfigError(f"{key}: expected an integer in {_range_text(meta)}, got {value!r}")
+        raise ConfigError(f"{key}: expected an integer{within}, got {value!r}")
     if not math.isfinite(value):
-        raise ConfigError(f"{key}: {value!r} is not a finite number; allowed range {_range_text(meta)}")
+        raise ConfigError(f"{key}: {value!r} is not a finite number" + (f"; allowed range {_range_text(meta)}"
+                                                                          if bounded else ""))
     lo, hi = meta.get("lo"), meta.get("hi")
     if (lo is not None and value < lo) or (hi is not None and value > hi):
         raise ConfigError(f"{key}: {value!r} is outside the allowed range {_range_text(meta)}")

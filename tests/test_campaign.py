@@ -196,6 +196,7 @@ def test_replay_reproduces_a_runs_scorecard_and_review_reads_its_log(tmp_path, c
                                                                           "no nominal value to scale"]),
     ({"conditions": {"c": {"faults": {"kinds": ["gnss_lost"], "at_s": {"scale": [1, 2]}}}}},
      ["conditions.c.faults.at_s.scale"]),
+    ({"seed": -1}, ["seed: -1 is outside the allowed range [0, 9223372036854775807]\n"]),  # was [0, 9.22337e+18] -
 ])
 def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change, named):
     spec = tmp_path / "bad.yaml"
@@ -206,6 +207,17 @@ def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change
     for text in named:
         assert text in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_nan_spread_is_refused_without_a_made_up_range(tmp_path, capsys):
+    """A spread's own numbers have no range (the quantity's is checked after): the message said
+    'allowed range [-inf, inf] -', a range that is not one."""
+    spec = tmp_path / "bad.yaml"
+    spec.write_text(json.dumps({k: v for k, v in SPEC.items() if k != "conditions"})[:-1]
+                    + ', "conditions": {"c": {"wind_speed_m_s": {"uniform": [.nan, 3]}}}}', encoding="utf-8")
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.endswith("conditions.c.wind_speed_m_s.uniform[0]: nan is not a finite number\n"), err
 
 
 def test_sysid_intervals_become_spreads_and_are_range_checked(tmp_path):
