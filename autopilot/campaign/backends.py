@@ -17,9 +17,13 @@ naming it. Progress goes to stderr (a bar on a terminal, a line every 10 % other
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 import os
+import signal
 import sys
+import threading
 import time
 
 from autopilot.campaign.lockstep import chunk_indices, chunks, fly_chunk
@@ -189,6 +193,25 @@ def _pool(campaign, seed, runs, n_chunks, jobs, done, progress) -> None:
             pool.shutdown(wait=True)
 
 
+@contextlib.contextmanager
+def _sigint_held():
+    """Hold SIGINT back while the local cluster spawns its worker processes.
+
+    A terminal's Ctrl-C goes to the whole foreground group: each worker took it as a KeyboardInterrupt and
+    printed a traceback. A child inherits its parent's signal mask, so workers started while SIGINT is
+    blocked never see it; this process stops them itself when it is interrupted. A Ctrl-C pressed meanwhile
+    stays pending and arrives here when the mask is restored.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
     try:
         from distributed import Client, LocalCluster, as_completed
@@ -200,7 +223,9 @@ def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
         client = scheduler
     else:
         if scheduler == "local":
-            cluster = LocalCluster(n_workers=default_jobs(), threads_per_worker=1, processes=True, dashboard_address=None)
+            with _sigint_held():
+                cluster = LocalCluster(n_workers=default_jobs(), threads_per_worker=1, processes=True,
+                                       dashboard_address=None, silence_logs=logging.ERROR)
             address = cluster.scheduler_address
         else:
             address = check_scheduler_address(scheduler)
