@@ -241,6 +241,50 @@ def test_sysid_intervals_become_spreads_and_are_range_checked(tmp_path):
         resolve(_load_spec({**SPEC, "vessel": {"sysid": "summary.json"}}), base_dir=tmp_path)
 
 
+@pytest.mark.slow
+def test_a_campaign_spreads_what_autopilot_sysid_wrote(tmp_path):
+    """The test above writes summary.json by hand, so it shares the reader's idea of the file. Here the file is
+    the real one: pond-like trials (1 Hz held fixes, wandering GPS error) of a boat whose linear resistance is
+    6 N s/m above the calibrated set and whose port thruster pushes 6 % more, identified by `autopilot sysid`;
+    the campaign must fly each run with the identified values (hydro_refit reports new values, not changes)."""
+    import numpy as np
+
+    from autopilot.sim import default_params_path, load_params
+    from autopilot.sysid.realistic import Measurement, draw_models, measure, write_columns_csv
+    from autopilot.sysid.truth import simulate_truth
+
+    vessel = load_params(default_params_path())
+    rng = np.random.default_rng(5)
+    gps, heading = draw_models(rng)
+    hidden = {"hydro_refit.resistance_linear_n_s_m": 6.0, "thrust_asymmetry.asymmetry_nd": 0.06}
+    trials = []
+    for i in range(2):
+        trials.append(str(tmp_path / f"trial{i}.csv"))
+        write_columns_csv(measure(simulate_truth(vessel, hidden, rng, duration_s=60.0),
+                                  Measurement(gps=gps, heading=heading, cells="held"), rng), trials[-1])
+    assert main(["sysid", *trials, "--effects", "thrust_asymmetry,hydro_refit", "--out", str(tmp_path / "sid"),
+                 "--quiet"]) == 0
+    identified = {f"{e}.{p['name']}": p["ci95"]
+                  for e, body in json.loads((tmp_path / "sid" / "summary.json").read_text())["effects"].items()
+                  for p in body["params"]}
+    r1_lo, r1_hi = identified["hydro_refit.resistance_linear_n_s_m"]
+    assert r1_lo - 1.0 < vessel.resistance_linear_n_s_m + 6.0 < r1_hi + 1.0  # the identification itself worked
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps({**SPEC, "missions": ["pond-9.1"], "runs": 12, "chunk_runs": 12,
+                                "vessel": {"sysid": "sid/summary.json"},
+                                "conditions": {"calm": {"position_noise_m": 0.3}}}), encoding="utf-8")
+    out = tmp_path / "out"
+    assert main(["campaign", str(spec), "--out", str(out), "--jobs", "1", "--quiet"]) == 0
+    table = read_runs_csv(out / "runs.csv")
+    assert len(table) == 12
+    a_lo, a_hi = identified["thrust_asymmetry.asymmetry_nd"]
+    for row in table:
+        assert r1_lo <= row["vessel.resistance_linear_n_s_m"] <= r1_hi, row
+        assert a_lo <= row["thrust_asymmetry_nd"] <= a_hi, row
+    assert len({row["vessel.resistance_linear_n_s_m"] for row in table}) == 12  # drawn, not one value
+
+
 @pytest.mark.parametrize("k, n, lo, hi", [(0, 10, 0.0, 0.2775), (5, 10, 0.2366, 0.7634), (10, 10, 0.7225, 1.0),
                                           (95, 100, 0.8882, 0.9785)])
 def test_wilson_interval(k, n, lo, hi):
@@ -373,6 +417,26 @@ def test_ctrl_c_stops_a_campaign_at_once_quietly_its_workers_gone(tmp_path, back
     assert p.returncode == 130 and err.strip() == "autopilot campaign: interrupted", err[-3000:]
     assert not left, f"worker processes outlived the campaign: {left}"
     assert not (out / "runs.csv").exists()
+
+
+def test_a_local_cluster_says_nothing_of_its_own_when_another_dask_holds_the_port(tmp_path):
+    """--scheduler local started the scheduler's HTTP routes on 8787: with another Dask (or a second campaign)
+    on the machine, every campaign began with a 'Port 8787 is already in use' warning from inside Dask."""
+    import socket
+    import subprocess
+    import sys
+
+    with socket.socket() as other:
+        try:
+            other.bind(("127.0.0.1", 8787))
+            other.listen()
+        except OSError:
+            pass  # someone holds it already: the same condition
+        p = subprocess.run([sys.executable, "-m", "autopilot", "campaign", str(ROOT_SPEC), "--runs", "24",
+                            "--scheduler", "local", "--out", str(tmp_path / "out"), "--quiet"],
+                           capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and p.stderr == "", p.stderr[-2000:]
+    assert len(read_runs_csv(tmp_path / "out" / "runs.csv")) == 24
 
 
 def _live_in_group(pgid: int) -> list[int]:

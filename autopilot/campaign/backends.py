@@ -224,8 +224,11 @@ def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
     else:
         if scheduler == "local":
             with _sigint_held():
+                # no dashboard, and the scheduler's own HTTP routes on a free loopback port: by default they
+                # took 8787, and a second campaign (or any Dask) on the machine printed a port-in-use warning
                 cluster = LocalCluster(n_workers=default_jobs(), threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+                                       dashboard_address=None, silence_logs=logging.ERROR,
+                                       scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"})
             address = cluster.scheduler_address
         else:
             address = check_scheduler_address(scheduler)
