@@ -244,31 +244,35 @@ def test_sysid_intervals_become_spreads_and_are_range_checked(tmp_path):
 @pytest.mark.slow
 def test_a_campaign_spreads_what_autopilot_sysid_wrote(tmp_path):
     """The test above writes summary.json by hand, so it shares the reader's idea of the file. Here the file is
-    the real one: pond-like trials (1 Hz held fixes, wandering GPS error) of a boat whose linear resistance is
-    6 N s/m above the calibrated set and whose port thruster pushes 6 % more, identified by `autopilot sysid`;
-    the campaign must fly each run with the identified values (hydro_refit reports new values, not changes)."""
+    the real one: a pond-like trial (1 Hz held fixes, wandering GPS error) of a boat whose linear resistance is
+    6 N s/m above the calibrated set, identified by `autopilot sysid`; the campaign must fly each run inside
+    the identified interval (hydro_refit reports the new value, not the change). The other parameters the
+    reader takes must be ones sysid has, under those names."""
+    import dataclasses
+
     import numpy as np
 
     from autopilot.sim import default_params_path, load_params
+    from autopilot.sysid.effects import EFFECTS
     from autopilot.sysid.realistic import Measurement, draw_models, measure, write_columns_csv
     from autopilot.sysid.truth import simulate_truth
 
+    names = {e.name: {p.name for p in e.params} for e in EFFECTS}
+    assert {"asymmetry_nd"} <= names["thrust_asymmetry"] and {"time_constant_s"} <= names["thrust_lag"]
+    assert {"n_rr_nm_s2"} <= names["yaw_damping_quadratic"]
     vessel = load_params(default_params_path())
+    assert names["hydro_refit"] <= {f.name for f in dataclasses.fields(vessel)}
     rng = np.random.default_rng(5)
     gps, heading = draw_models(rng)
-    hidden = {"hydro_refit.resistance_linear_n_s_m": 6.0, "thrust_asymmetry.asymmetry_nd": 0.06}
-    trials = []
-    for i in range(2):
-        trials.append(str(tmp_path / f"trial{i}.csv"))
-        write_columns_csv(measure(simulate_truth(vessel, hidden, rng, duration_s=60.0),
-                                  Measurement(gps=gps, heading=heading, cells="held"), rng), trials[-1])
-    assert main(["sysid", *trials, "--effects", "thrust_asymmetry,hydro_refit", "--out", str(tmp_path / "sid"),
-                 "--quiet"]) == 0
+    trial = tmp_path / "trial.csv"
+    write_columns_csv(measure(simulate_truth(vessel, {"hydro_refit.resistance_linear_n_s_m": 6.0}, rng, duration_s=60.0),
+                              Measurement(gps=gps, heading=heading, cells="held"), rng), trial)
+    assert main(["sysid", str(trial), "--effects", "hydro_refit", "--out", str(tmp_path / "sid"), "--quiet"]) == 0
     identified = {f"{e}.{p['name']}": p["ci95"]
                   for e, body in json.loads((tmp_path / "sid" / "summary.json").read_text())["effects"].items()
                   for p in body["params"]}
     r1_lo, r1_hi = identified["hydro_refit.resistance_linear_n_s_m"]
-    assert r1_lo - 1.0 < vessel.resistance_linear_n_s_m + 6.0 < r1_hi + 1.0  # the identification itself worked
+    assert r1_lo < vessel.resistance_linear_n_s_m + 6.0 < r1_hi  # the identification itself worked
 
     spec = tmp_path / "spec.yaml"
     spec.write_text(json.dumps({**SPEC, "missions": ["pond-9.1"], "runs": 12, "chunk_runs": 12,
@@ -278,10 +282,8 @@ def test_a_campaign_spreads_what_autopilot_sysid_wrote(tmp_path):
     assert main(["campaign", str(spec), "--out", str(out), "--jobs", "1", "--quiet"]) == 0
     table = read_runs_csv(out / "runs.csv")
     assert len(table) == 12
-    a_lo, a_hi = identified["thrust_asymmetry.asymmetry_nd"]
     for row in table:
         assert r1_lo <= row["vessel.resistance_linear_n_s_m"] <= r1_hi, row
-        assert a_lo <= row["thrust_asymmetry_nd"] <= a_hi, row
     assert len({row["vessel.resistance_linear_n_s_m"] for row in table}) == 12  # drawn, not one value
 
 
