@@ -91,3 +91,22 @@ def test_model_check_evaluate_and_sysid_table_run_from_the_install(installed, tm
     table = shipped(bin_dir, work)["measured-table.csv"]
     r = run(bin_dir, work, "sysid", "--table", str(table), "--out", str(tmp_path / "sysid"), "--no-report")
     assert r.returncode == 0 and r.stdout.startswith("verdict:"), r.stderr
+
+
+@pytest.mark.slow
+def test_a_campaign_flies_and_replays_from_the_install_and_says_what_dask_needs(installed, tmp_path):
+    """The shipped campaign spec, as a user copies it, flown on a process pool by the installed package (the
+    workers import it too), a run re-flown, and --scheduler without the [campaign] extra refused in words."""
+    bin_dir, work = installed
+    spec = work / "my-campaign.yaml"
+    spec.write_text(shipped(bin_dir, work)["pond-robustness.yaml"].read_text(encoding="utf-8"), encoding="utf-8")
+    out = tmp_path / "campaign"
+    r = run(bin_dir, work, "campaign", str(spec), "--runs", "24", "--jobs", "2", "--out", str(out), "--quiet")
+    assert r.returncode == 0 and "24 runs" in r.stdout, r.stdout + r.stderr
+    assert len((out / "runs.csv").read_text().splitlines()) == 25 and (out / "report.html").stat().st_size > 0
+    r = run(bin_dir, work, "campaign", "--replay", str(out), "7")
+    assert r.returncode == 0 and "identical to its row in runs.csv" in r.stdout, r.stdout + r.stderr
+    r = run(bin_dir, work, "campaign", str(spec), "--runs", "24", "--scheduler", "local", "--out",
+            str(tmp_path / "dask"))
+    assert r.returncode == 2 and "pip install 'wamv-autopilot[campaign]'" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr

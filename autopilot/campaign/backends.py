@@ -205,6 +205,11 @@ def _sigint_held():
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    # multiprocessing's resource tracker, started by the first queue Dask makes, unblocks SIGINT in the thread
+    # that starts it (Dask's loop thread, which then spawns the workers): started here first, it is not again
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
@@ -214,29 +219,65 @@ def _sigint_held():
 
 def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
     try:
-        from distributed import Client, LocalCluster, as_completed
+        from distributed import Client, LocalCluster
     except ImportError:  # pragma: no cover - the extra is not installed
         raise ConfigError("--scheduler needs Dask: pip install 'wamv-autopilot[campaign]' "
                           "(dask[distributed])") from None
     cluster = own = None
-    if isinstance(scheduler, Client):
-        client = scheduler
-    else:
-        if scheduler == "local":
-            with _sigint_held():
-                # no dashboard, and the scheduler's own HTTP routes on a free loopback port: by default they
-                # took 8787, and a second campaign (or any Dask) on the machine printed a port-in-use warning
-                cluster = LocalCluster(n_workers=default_jobs(), threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR,
-                                       scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"})
-            address = cluster.scheduler_address
+    try:
+        if isinstance(scheduler, Client):
+            client = scheduler
         else:
-            address = check_scheduler_address(scheduler)
-            probe_scheduler(address)
-        try:
-            client = own = Client(address, set_as_default=False, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
-        except (OSError, TimeoutError) as exc:
-            raise ConfigError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({exc})") from None
+            if scheduler == "local":
+                with _sigint_held():
+                    # no dashboard, and the scheduler's own HTTP routes on a free loopback port: by default they
+                    # took 8787, and a second campaign (or any Dask) on the machine printed a port-in-use warning
+                    cluster = LocalCluster(n_workers=default_jobs(), threads_per_worker=1, processes=True,
+                                           dashboard_address=None, silence_logs=logging.ERROR,
+                                           scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"})
+                address = cluster.scheduler_address
+            else:
+                address = check_scheduler_address(scheduler)
+                probe_scheduler(address)
+            try:
+                client = own = Client(address, set_as_default=False, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
+            except (OSError, TimeoutError) as exc:
+                raise ConfigError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({exc})") from None
+        _gather(client, campaign, seed, runs, n_chunks, done, progress)
+    except BaseException:
+        # stopping on a Ctrl-C or an error: the nannies' complaints about the work cancelled under them (a
+        # traceback logged at ERROR, now and then) are not news; the campaign says what happened itself
+        with _dask_quiet():
+            _close(own, cluster)
+        raise
+    _close(own, cluster)
+
+
+def _close(client, cluster) -> None:
+    if client is not None:
+        client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+@contextlib.contextmanager
+def _dask_quiet():
+    """Dask's loggers at CRITICAL for the block (restored after: a library caller keeps its logging)."""
+    names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] == "distributed"]
+    before = {n: logging.getLogger(n).level for n in names}
+    for n in names:
+        logging.getLogger(n).setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for n, level in before.items():
+            logging.getLogger(n).setLevel(level)
+
+
+def _gather(client, campaign, seed, runs, n_chunks, done, progress) -> None:
+    """Submit every chunk, hand each result to ``done`` as it finishes, resubmit a lost one."""
+    from distributed import as_completed
+
     digest = campaign.digest()
     attempts: dict[int, int] = {}
 
@@ -245,24 +286,18 @@ def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
         key = f"autopilot-campaign-{digest}-s{seed}-n{runs}-c{k}-a{attempts[k]}"
         return client.submit(fly_chunk, campaign, seed, runs, k, key=key, pure=False)
 
-    try:
-        futures = {submit(k): k for k in range(n_chunks)}
-        todo = as_completed(list(futures), loop=client.loop, with_results=False, raise_errors=False)
-        for f in todo:
-            k = futures.pop(f)
-            if f.status == "finished":
-                done(k, f.result())
-                f.release()
-                continue
-            exc = f.exception()
-            if attempts[k] >= MAX_ATTEMPTS:
-                raise RuntimeError(f"chunk {k} failed {attempts[k]} times: {type(exc).__name__}: {exc}")
-            progress.retry(f"chunk {k} lost ({type(exc).__name__})")
-            g = submit(k)
-            futures[g] = k
-            todo.add(g)
-    finally:
-        if own is not None:
-            own.close()
-        if cluster is not None:
-            cluster.close()
+    futures = {submit(k): k for k in range(n_chunks)}
+    todo = as_completed(list(futures), loop=client.loop, with_results=False, raise_errors=False)
+    for f in todo:
+        k = futures.pop(f)
+        if f.status == "finished":
+            done(k, f.result())
+            f.release()
+            continue
+        exc = f.exception()
+        if attempts[k] >= MAX_ATTEMPTS:
+            raise RuntimeError(f"chunk {k} failed {attempts[k]} times: {type(exc).__name__}: {exc}")
+        progress.retry(f"chunk {k} lost ({type(exc).__name__})")
+        g = submit(k)
+        futures[g] = k
+        todo.add(g)
