@@ -49,7 +49,7 @@ import yaml
 
 from autopilot.geo import latlon_to_local
 from autopilot.schema import ConfigError
-from autopilot.userfile import csv_rows, parse_yaml, read_text
+from autopilot.userfile import csv_rows, parse_yaml, read_text, yaml_problem
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
@@ -214,7 +214,7 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
     try:
         data = parse_yaml(text)
     except yaml.YAMLError as exc:
-        raise MissionError(f"{path}: not valid YAML ({exc})") from exc
+        raise MissionError(f"{path}: not valid YAML ({yaml_problem(exc)})") from exc
     if not isinstance(data, dict):
         raise MissionError(f"{path}: expected a mapping with 'waypoints'")
     unknown = sorted(set(data) - _YAML_KEYS)

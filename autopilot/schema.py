@@ -153,14 +153,14 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "", require_
 def load_yaml(cls: type, path: str | Path, *, require_all: bool = False, empty: str | None = None) -> Any:
     """Load ``cls`` from a YAML file; syntax errors become :class:`ConfigError` naming the file. ``empty``:
     an empty file (or comments only) is refused with this text, rather than read as every default."""
-    from autopilot.userfile import parse_yaml, read_text
+    from autopilot.userfile import parse_yaml, read_text, yaml_problem
 
     path = Path(path)
     text = read_text(path, what="YAML file")
     try:
         data = parse_yaml(text)
     except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({exc})") from exc
+        raise ConfigError(f"{path}: not valid YAML ({yaml_problem(exc)})") from exc
     if data is None and empty is not None:
         raise ConfigError(f"{path}: {empty}")
     try:

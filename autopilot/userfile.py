@@ -95,6 +95,24 @@ def parse_yaml(text: str):
     return yaml.load(text, Loader=_unique_key_loader())  # noqa: S506 - a SafeLoader subclass
 
 
+def yaml_problem(exc) -> str:
+    """One line for a YAML syntax error: where (line and column, from 1) and what, without PyYAML's
+    multi-line excerpt of the text and its '<unicode string>' (a tab said as a tab: YAML indents with spaces).
+    """
+    mark = getattr(exc, "problem_mark", None)
+    problem = getattr(exc, "problem", None)
+    if mark is None or not problem:
+        return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    text = f"line {mark.line + 1}, column {mark.column + 1}: {problem}"
+    context, context_mark = getattr(exc, "context", None), getattr(exc, "context_mark", None)
+    if context:
+        text += f", {context}" + (f" from line {context_mark.line + 1}" if context_mark is not None
+                                  and context_mark.line != mark.line else "")
+    if "'\\t'" in problem:
+        text += " (a tab: YAML indents with spaces only)"
+    return text
+
+
 _LOADER = None
 
 

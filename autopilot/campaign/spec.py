@@ -394,14 +394,14 @@ def load_spec(path: str | Path) -> CampaignSpec:
     """Read and check a spec file (ConfigError naming the file and the key otherwise)."""
     import yaml
 
-    from autopilot.userfile import parse_yaml, read_text
+    from autopilot.userfile import parse_yaml, read_text, yaml_problem
 
     path = Path(path)
     text = read_text(path, what="campaign spec")
     try:
         data = parse_yaml(text)
     except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({exc})") from exc
+        raise ConfigError(f"{path}: not valid YAML ({yaml_problem(exc)})") from exc
     try:
         return _load_spec(data)
     except ConfigError as exc:
