@@ -88,3 +88,15 @@ def test_the_check_sees_a_broken_image(reviewed, tmp_path):
     bad = out / "broken.html"
     bad.write_text(page)
     assert _image_check(tmp_path, bad) == (1, 1)
+
+
+def test_a_campaign_report_renders_with_every_figure(tmp_path):
+    """The campaign's report.html (figures inline as data URIs) in the same browser: every figure decodes."""
+    _need_chromium()
+    from pathlib import Path
+
+    spec = Path(__file__).resolve().parents[1] / "config" / "campaigns" / "pond-robustness.yaml"
+    out = tmp_path / "campaign"
+    assert main(["campaign", str(spec), "--runs", "24", "--jobs", "1", "--out", str(out), "--quiet"]) == 0
+    images, broken = _image_check(tmp_path, out / "report.html")
+    assert images >= 3 and broken == 0, (images, broken)

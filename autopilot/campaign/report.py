@@ -134,6 +134,8 @@ def _table(header, rows) -> str:
 
 def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: dict) -> None:
     """Write report.html."""
+    from autopilot.review.report import IMAGE_CHECK  # the review report's broken-image check, the same markers
+
     esc = html.escape
     laws, conds = summary["laws"], summary["conditions"]
     parts = [
@@ -212,6 +214,8 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
         parts.append(f"<img src='data:image/png;base64,{_png(_sensitivity_figure(sens))}'>")
     parts.append("<h2>Sources</h2><ul>" + "".join(f"<li>{esc(s)}</li>" for s in summary["sources"]) + "</ul>")
     parts.append("<h2>campaign.json</h2><pre>" + esc(json.dumps(
-        {"campaign": campaign_data, "seed": summary["seed"], "runs": summary["runs"]}, indent=1)) + "</pre></body></html>")
+        {"campaign": campaign_data, "seed": summary["seed"], "runs": summary["runs"]}, indent=1)) + "</pre>")
+    parts.append(f"<footer>autopilot campaign &middot; <span id='image-check'>image check did not run</span></footer>"
+                 f"{IMAGE_CHECK}</body></html>")
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(parts))

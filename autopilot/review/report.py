@@ -37,7 +37,7 @@ figcaption { font-size: 0.9em; color: #424242; }
 footer { font-size: 0.8em; color: #757575; margin-top: 2em; }
 """
 
-_IMAGE_CHECK = """
+IMAGE_CHECK = """
 <script>
 window.addEventListener('load', function () {
   var imgs = document.images, broken = [];
@@ -106,7 +106,7 @@ def _page(title: str, body: str) -> str:
     return (f"<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{body}\n"
             f"<footer>autopilot review &middot; <span id=\"image-check\">image check did not run</span>"
-            f"</footer>\n{_IMAGE_CHECK}</body></html>\n")
+            f"</footer>\n{IMAGE_CHECK}</body></html>\n")
 
 
 def _table(header: list[str], rows: list[list[str]], numeric_from: int = 1) -> str:
