@@ -441,6 +441,17 @@ def test_a_local_cluster_says_nothing_of_its_own_when_another_dask_holds_the_por
     assert len(read_runs_csv(tmp_path / "out" / "runs.csv")) == 24
 
 
+def test_runs_on_the_command_line_read_as_the_spec_reads_them(tmp_path, capsys):
+    """`runs: 2.4e1` in a spec is 24 runs (YAML 1.2); `--runs 2.4e1` was refused as 'invalid int value'."""
+    assert main(["campaign", str(ROOT_SPEC), "--runs", "2.4e1", "--jobs", "1", "--out", str(tmp_path / "a"),
+                 "--quiet", "--no-report"]) == 0
+    assert len(read_runs_csv(tmp_path / "a" / "runs.csv")) == 24
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        main(["campaign", str(ROOT_SPEC), "--runs", "2.5", "--out", str(tmp_path / "b")])
+    assert exc.value.code == 2 and "argument --runs: '2.5' is not a whole number" in capsys.readouterr().err
+
+
 def _live_in_group(pgid: int) -> list[int]:
     """Processes of process group ``pgid`` that are not zombies (a container's init may not reap them)."""
     live = []

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import signal
 import sys
 from pathlib import Path
@@ -20,6 +21,22 @@ def load_campaign(spec_path):
         return resolve(spec, base_dir=Path(spec_path).resolve().parent)
     except ConfigError as exc:
         raise ConfigError(f"{spec_path}: {exc}") from None
+
+
+def _whole_number(text: str) -> int:
+    """An integer as the spec reads one: 4000, 4_000 or 4e3 (``runs: 4e3`` in a spec is read; the same on the
+    command line was refused as 'invalid int value')."""
+    try:
+        return int(text.replace("_", ""))
+    except ValueError:
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not value.is_integer():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number")
+    return int(value)
 
 
 @contextlib.contextmanager
@@ -127,8 +144,8 @@ def register(subparsers) -> None:
     )
     p.add_argument("spec", nargs="?", metavar="SPEC.yaml", help="the campaign spec (e.g. config/campaigns/pond-robustness.yaml)")
     p.add_argument("--out", metavar="DIR", help="output directory")
-    p.add_argument("--runs", type=int, metavar="N", help="number of runs (default: the spec's runs)")
-    p.add_argument("--seed", type=int, metavar="S", help="campaign seed (default: the spec's seed)")
+    p.add_argument("--runs", type=_whole_number, metavar="N", help="number of runs (default: the spec's runs)")
+    p.add_argument("--seed", type=_whole_number, metavar="S", help="campaign seed (default: the spec's seed)")
     p.add_argument("--jobs", type=int, metavar="J", help="local worker processes (default: this machine's cores)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="a Dask scheduler, tcp://HOST:PORT (dask-jobqueue, dask-kubernetes, dask-scheduler), "
