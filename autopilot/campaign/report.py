@@ -142,8 +142,9 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
         "<!doctype html><html><head><meta charset='utf-8'>",
         f"<title>campaign {esc(summary['campaign'])}</title>",
         "<style>body{font-family:sans-serif;max-width:1200px;margin:1em auto}table{border-collapse:collapse;"
+        "display:block;overflow-x:auto;max-width:100%;"  # a wide table scrolls in itself, not the page
         "font-size:13px;margin:.5em 0}td,th{border:1px solid #bbb;padding:2px 6px;text-align:right}"
-        "th{background:#eee}td:first-child{text-align:left}pre{font-size:11px;background:#f6f6f6;padding:6px}"
+        "th{background:#eee}td:first-child{text-align:left}pre{font-size:11px;background:#f6f6f6;padding:6px;overflow-x:auto}"
         "img{max-width:100%;height:auto}</style>",
         "</head><body>",
         f"<h1>Robustness campaign {esc(summary['campaign'])}</h1>",
