@@ -83,6 +83,13 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - no traceback reaches a user; AUTOPILOT_DEBUG=1 shows it
         if os.environ.get("AUTOPILOT_DEBUG"):
             raise
+        from autopilot.userfile import NO_ROOM_ERRNOS
+
+        if isinstance(exc, OSError) and exc.errno in NO_ROOM_ERRNOS:  # the machine's state, not a bug
+            where = f" {exc.filename}" if exc.filename else ""
+            print(f"autopilot {args.command}: error: cannot write{where}: {exc.strerror} (the disk is full, "
+                  "read-only, or a quota or file size limit was reached; free space and run again)", file=sys.stderr)
+            return 1
         print(f"autopilot {args.command}: internal error: {type(exc).__name__}: {exc} "
               "(a bug: please report it with the command line; AUTOPILOT_DEBUG=1 shows the traceback)", file=sys.stderr)
         return 1

@@ -12,6 +12,8 @@ says what it is instead; the CLI turns that into one line and exit code 2.
 from __future__ import annotations
 
 import codecs
+import contextlib
+import errno
 import re
 from pathlib import Path
 
@@ -150,6 +152,21 @@ def _unique_key_loader():
             list("-+0123456789"))
         _LOADER = UniqueKeyLoader
     return _LOADER
+
+
+NO_ROOM_ERRNOS = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS})  # the disk, not the program
+
+
+@contextlib.contextmanager
+def writing(path: str | Path):
+    """Name ``path`` in an OSError raised while writing it (a write that fails on a full disk says only
+    'File too large' or 'No space left on device', not which file)."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None:
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
+        raise
 
 
 def output_dir(path: str | Path, *, what: str = "--out") -> Path:

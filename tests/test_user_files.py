@@ -224,6 +224,38 @@ def test_internal_errors_reach_the_user_as_one_line(tmp_path, monkeypatch):
     assert err.getvalue().count("\n") == 1 and "internal error: RuntimeError: something unexpected" in err.getvalue()
 
 
+@pytest.mark.parametrize("command", ["campaign", "review"])
+def test_a_full_disk_is_said_as_such_not_as_a_bug(tmp_path, command):
+    """A campaign's results or a review's figures on a full disk (here a file size limit, as the daemon's
+    full-disk test does) ended in 'internal error: OSError: [Errno 27] File too large (a bug: please
+    report it ...)'. It is the machine's state: one line saying what could not be written, exit 1."""
+    import resource
+    import subprocess
+    import sys
+
+    if command == "campaign":
+        args = ["campaign", str(REPO / "config" / "campaigns" / "pond-robustness.yaml"), "--runs", "24", "--jobs",
+                "1", "--out", str(tmp_path / "out"), "--quiet"]
+        limit = 16_000  # campaign.json fits, the results do not
+    else:
+        from autopilot.review.synthetic import write_synthetic_log
+
+        write_synthetic_log(tmp_path / "m.jsonl")
+        args, limit = ["review", str(tmp_path / "m.jsonl"), "--out", str(tmp_path / "review")], 20_000
+
+    def small_files() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.RLIM_INFINITY))
+
+    env = {k: v for k, v in os.environ.items() if k != "AUTOPILOT_DEBUG"}
+    r = subprocess.run([sys.executable, "-m", "autopilot", *args], capture_output=True, text=True, timeout=300,
+                       preexec_fn=small_files, env=env, cwd=tmp_path)
+    assert r.returncode == 1, r.stderr[-2000:]
+    assert r.stderr.count("\n") == 1 and r.stderr.startswith(f"autopilot {command}: error: cannot write"), r.stderr
+    assert "File too large" in r.stderr and "internal error" not in r.stderr
+    if command == "campaign":
+        assert str(tmp_path / "out") in r.stderr  # which file
+
+
 def test_summary_json_of_model_check_is_json():
     json.loads(run_cli("model", "check", "--json").stdout)
 

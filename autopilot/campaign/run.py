@@ -104,9 +104,12 @@ def run_campaign(campaign: Campaign, out_dir, *, seed: int | None = None, runs: 
 def write_outputs(campaign: Campaign, rows, out_dir, *, seed: int, runs: int, info: dict | None = None,
                   report: bool = True) -> dict:
     """runs.csv (and .parquet), summary.json, report.html from the rows."""
+    from autopilot.userfile import writing
+
     out = Path(out_dir)
     cols = columns(campaign)
-    write_runs_csv(rows, out / "runs.csv", cols)
+    with writing(out / "runs.csv"):
+        write_runs_csv(rows, out / "runs.csv", cols)
     try:
         import pyarrow
         import pyarrow.parquet as pq
@@ -116,11 +119,13 @@ def write_outputs(campaign: Campaign, rows, out_dir, *, seed: int, runs: int, in
         pq.write_table(pyarrow.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows]), out / "runs.parquet")
     summary = summarise(campaign, rows, seed=seed, runs=runs, cols=cols)
     summary["run"] = {k: v for k, v in (info or {}).items() if k != "text"}
-    write_summary(summary, out / "summary.json")
+    with writing(out / "summary.json"):
+        write_summary(summary, out / "summary.json")
     if report:
         from autopilot.campaign.report import write_report
 
-        write_report(summary, rows, out / "report.html", campaign_data=campaign.to_data(), run_info=info or {})
+        with writing(out / "report.html"):
+            write_report(summary, rows, out / "report.html", campaign_data=campaign.to_data(), run_info=info or {})
     return summary
 
 
