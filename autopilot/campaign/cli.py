@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import math
 import signal
 import sys
 from pathlib import Path
@@ -24,17 +23,17 @@ def load_campaign(spec_path):
 
 
 def _whole_number(text: str) -> int:
-    """An integer as the spec reads one: 4000, 4_000 or 4e3 (``runs: 4e3`` in a spec is read; the same on the
-    command line was refused as 'invalid int value')."""
+    """An integer read as the spec reads one (its YAML: 4000, 4_000 or 4e3): ``runs: 4e3`` in a spec was read
+    while ``--runs 4e3`` was refused as 'invalid int value'."""
+    import yaml
+
+    from autopilot.userfile import parse_yaml
+
     try:
-        return int(text.replace("_", ""))
-    except ValueError:
-        pass
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not value.is_integer():
+        value = parse_yaml(text)
+    except yaml.YAMLError:
+        value = None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not float(value).is_integer():
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number")
     return int(value)
 
