@@ -83,6 +83,7 @@ class ControlCycle:
         self.last_step_s: float | None = None
         self.completed_t_s: float | None = None
         self.last_cmd: ThrustCommand = ZERO_THRUST
+        self.steered_error_rad: float | None = None  # the heading error the helm steered by last cycle
         self.failsafe_causes: list[str] = []  # every failsafe taken, in order (transient and latched)
 
     @property
@@ -116,7 +117,7 @@ class ControlCycle:
                 nav, mission_time_s=now_s, compass_connected=link.compass_connected,
                 thrusters_connected=link.thrusters_connected, acks_missing_in_a_row=link.acks_missing_in_a_row,
                 compass_garbage_s=link.compass_garbage_s, thruster_garbage_s=link.thruster_garbage_s,
-                battery_v=rest_v))
+                battery_v=rest_v, steered_heading_error_rad=self.steered_error_rad))
             for ev in decision.events:
                 events.append((ev.name, ev.fields))
                 if ev.name == "failsafe":
@@ -138,6 +139,7 @@ class ControlCycle:
         out = self._steer(nav, now_s, events, targets) if drive else None
         if out is not None:
             mode = out.mode
+        self.steered_error_rad = steps.steered_error_rad(out)
         events.extend(ap.pop_events())
         cmd = steps.command(out)
         self.last_cmd = cmd

@@ -94,3 +94,13 @@ def test_an_empty_config_is_refused_and_an_explicit_empty_mapping_means_the_defa
         load_config(tmp_path / "c.yaml")
     (tmp_path / "d.yaml").write_text("{}\n")
     assert load_config(tmp_path / "d.yaml") == DaemonConfig()
+
+
+def test_the_shipped_configuration_is_the_one_the_settings_render():
+    """config/autopilot.yaml (shipped as autopilot/data/autopilot.yaml) is generated from the settings' dataclasses
+    (render_yaml): a setting added, or a range's text changed, without regenerating it left the file users copy
+    without the new key or with the old text (it had drifted: four range comments read '2.14748e+09' and '[0, 1] -')."""
+    from autopilot.daemon.config import render_yaml
+    from autopilot.resources import default_config_path
+
+    assert default_config_path().read_text(encoding="utf-8") == render_yaml()

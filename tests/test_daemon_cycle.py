@@ -199,3 +199,17 @@ def test_a_waypoint_is_saved_as_reached_before_the_log_says_so(tmp_path):
     _run_loop(tmp_path, quiet_from_s=math.inf, until_s=12.0, waypoints=((6.0, 0.0), (200.0, 0.0)), listener=listener)
     assert [i for i, _ in seen] == [0]
     assert seen[0][1] is not None and seen[0][1].wp_index == 1 and seen[0][1].status == "running"
+
+
+def test_the_failsafe_is_told_the_heading_error_only_when_the_helm_steered_by_it():
+    """steps.steered_error_rad: a stopped helm (thrust off: complete, stop, disarmed) keeps a heading error it
+    does not steer by, and the operator's sticks steer by eye; neither is evidence of a heading that does not answer."""
+    import dataclasses
+
+    ap = Autopilot(DaemonConfig().gnc, [(0.0, 50.0)])  # the waypoint due east, the boat heading north
+    out = ap.step(steps.nav_input(_nav()), 0.1)
+    assert abs(out.heading_error_rad) > math.radians(60.0) and not out.thrust_off
+    assert steps.steered_error_rad(out) == out.heading_error_rad
+    assert steps.steered_error_rad(None) is None
+    assert steps.steered_error_rad(dataclasses.replace(out, thrust_off=True)) is None
+    assert steps.steered_error_rad(dataclasses.replace(out, mode=Mode.MANUAL)) is None

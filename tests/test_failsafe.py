@@ -257,3 +257,65 @@ def test_port_loss_while_waiting_is_reported():
     assert [(e.name, e.fields["cause"]) for e in d.events] == [("fault", "mbed_port_lost")]
     d = fs.update(Observation(t_s=0.1))
     assert [(e.name, e.fields["cause"]) for e in d.events] == [("fault_cleared", "mbed_port_lost")]
+
+
+def _steered(fs: Failsafe, t0_s: float, seconds: float, error_deg: float | None, *, since_s: float = 0.0,
+             dt_s: float = 0.1, **kw):
+    """Feed ``seconds`` of cycles with the compass heading still since ``since_s`` and the helm steering
+    ``error_deg`` off it; the last decision and the time after."""
+    t, d = t0_s, None
+    for _ in range(round(seconds / dt_s)):
+        t += dt_s
+        d = fs.update(good(t, heading_still_since_s=since_s,
+                           steered_heading_error_rad=None if error_deg is None else math.radians(error_deg), **kw))
+    return d, t
+
+
+def test_the_helm_steering_a_heading_that_never_moves_is_a_frozen_heading_until_it_moves():
+    """A compass stuck whole (its ROT frozen near zero too) sums no turn: the helm's own demand is the evidence.
+    heading_frozen_steer_error_deg (20) of error for heading_frozen_steer_s (3 s), counted while the compass
+    heading stays within 0.5 deg; zero thrust then, and no resume before the heading moves."""
+    fs = Failsafe(CFG)
+    t = run_until_auto(fs)
+    d, t = _steered(fs, t, 2.8, 25.0)
+    assert d.mode == "auto" and "heading_frozen" not in d.active  # 2.8 s: a WAM-V starting a turn
+    d, t = _steered(fs, t, 0.3, -25.0)  # either side counts
+    assert d.mode == "failsafe" and "heading_frozen" in d.active
+    fault = next(e for e in d.events if e.name == "fault")
+    assert "while the helm steered 20 deg or more off it for 3.0 s (limit 3 s)" in fault.fields["detail"]
+    d, t = _steered(fs, t, 10.0, None)  # zero thrust: the helm does not steer, the heading stays where it was
+    assert d.mode == "failsafe" and "heading_frozen" in d.active
+    d, t = _steered(fs, t, 0.1, None, since_s=t)  # it moved
+    assert "heading_frozen" not in d.active and any(e.name == "fault_cleared" for e in d.events)
+    d, t = _steered(fs, t, 2.2, None, since_s=t)
+    assert d.mode == "auto"  # resume_valid_s (2 s) later
+
+
+@pytest.mark.parametrize("error_deg, cfg_change", [
+    (19.0, {}),  # below heading_frozen_steer_error_deg: a boat pinned by the wind, steering hard, is not stuck
+    (90.0, {"heading_frozen_steer_s": 0.0}),  # off (a bench with the boat out of the water)
+])
+def test_steering_that_does_not_count_never_makes_a_frozen_heading(error_deg, cfg_change):
+    fs = Failsafe(dataclasses.replace(CFG, **cfg_change))
+    t = run_until_auto(fs)
+    d, t = _steered(fs, t, 30.0, error_deg)
+    assert d.mode == "auto" and not d.active
+
+
+def test_the_steering_time_restarts_when_the_heading_moves():
+    fs = Failsafe(CFG)
+    t = run_until_auto(fs)
+    for k in range(10):  # 2 s at a time, each with the heading moved: 20 s of steering, never 3 s of it unanswered
+        d, t = _steered(fs, t, 2.0, 45.0, since_s=float(k))
+        assert d.mode == "auto" and not d.active
+
+
+def test_a_stale_heading_is_not_called_frozen_but_the_steering_is_remembered():
+    fs = Failsafe(CFG)
+    t = run_until_auto(fs)
+    d, t = _steered(fs, t, 3.5, 30.0)
+    assert "heading_frozen" in d.active
+    d, t = _steered(fs, t, 1.0, None, heading_age_s=5.0)  # the sentences stopped: that is heading_stale
+    assert "heading_stale" in d.active and "heading_frozen" not in d.active
+    d, t = _steered(fs, t, 0.1, None)  # back, at the same heading: still frozen
+    assert "heading_frozen" in d.active

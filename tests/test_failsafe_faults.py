@@ -644,6 +644,49 @@ def test_a_frozen_compass_is_a_heading_fault_that_holds_until_the_heading_moves(
 
 
 @pytest.mark.slow
+def test_a_compass_stuck_whole_is_caught_by_the_helm_steering_a_heading_that_never_answers(tmp_path):
+    """Found by fault injection: a compass stuck whole (heading and rate of turn both repeating, the rate near zero
+    because it froze on a straight leg) gave the ROT sum nothing to add, so at the next corner the PID turned the
+    boat, the heading never answered, and it spun at full differential thrust with nothing in the log. Now the
+    helm's own demand is judged (failsafe.heading_frozen_steer_s): 20 deg or more of error for 3 s while the
+    compass heading stays within 0.5 deg is heading_frozen: zero thrust, no resume until the heading moves."""
+    import math
+
+    async def scenario():
+        d = Daemon(tmp_path, {"name": "corner", "frame": "local", "waypoints": [[14.0, 0.0], [14.0, 25.0]]},
+                   position_noise_m=0.0)
+        try:
+            await d.start()
+            await d.wait(lambda: d.rig.boat.state[0] > 5.0, 60.0, "half way up the first leg")
+            d.rig.sc30.heading_frozen = d.rig.sc30.rate_frozen = True
+            frozen_rate_rad_s = d.rig.boat.r_rad_s
+            psi0, t_frozen = d.rig.boat.state[2], d.clock.now_s()
+            await d.wait(lambda: any(r["cause"] == "heading_frozen" for r in d.events("fault")), 30.0, "heading_frozen")
+            t_fault = d.clock.now_s()
+            await d.wait(lambda: not d.rig.mbed.thrusting, 1.0, "zero thrust")
+            turned_rad = abs(d.rig.boat.state[2] - psi0)
+            await d.clock.sleep(6.0)  # still stuck: no resume
+            idle = not d.rig.mbed.thrusting
+            d.rig.sc30.heading_frozen = d.rig.sc30.rate_frozen = False
+            await d.wait(lambda: bool(d.events("resume")), 15.0, "resume once the heading moves")
+        finally:
+            await d.close()
+        return d, frozen_rate_rad_s, t_fault - t_frozen, turned_rad, idle
+
+    d, frozen_rate_rad_s, detect_s, turned_rad, idle = asyncio.run(scenario())
+    assert abs(frozen_rate_rad_s) < math.radians(2.0)  # below ROT_NOISE_RAD_S: the ROT sum sees no turn
+    fault = next(r for r in d.events("fault") if r["cause"] == "heading_frozen")
+    assert "while the helm steered 20 deg or more off it for" in fault["detail"], fault["detail"]
+    assert 3.0 <= detect_s < 15.0
+    assert turned_rad < math.radians(180.0)  # part of a turn, where it spun without end
+    assert idle
+    stuck = [c for c in d.events("cycle") if "heading_frozen" in (c["active_faults"] or [])]
+    assert len(stuck) > 50 and all(c["pwm_port_pct"] == 0 and c["pwm_stbd_pct"] == 0 for c in stuck)
+    assert [r["cause"] for r in d.events("resume")][-1] == "heading_frozen"
+    assert not [r for r in d.events("fault") if r["cause"] != "heading_frozen"], d.events("fault")
+
+
+@pytest.mark.slow
 def test_a_miswired_board_is_not_trusted_again_on_zero_commands(tmp_path):
     """Found by fault injection: a board with its channels swapped echoes every zero command right, so after its
     mbed_ack_missing the failsafe judged it healthy, resumed, steered the boat wrong for half a second and tripped

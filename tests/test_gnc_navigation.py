@@ -50,3 +50,18 @@ def test_a_heading_that_stands_still_while_the_rate_of_turn_says_turning_sums_th
     # across north: 359.9 deg and 0.1 deg are 0.2 deg apart
     north = NavMemory(still_heading_rad=math.radians(359.9), still_t_s=0.0, still_turn_rad=0.2)
     assert still_turn(math.radians(0.1), 0.1, rot, north)[2] == pytest.approx(0.2 + rot * 0.1)
+
+
+def test_since_when_the_compass_heading_has_stood_still_is_kept_until_it_moves():
+    """Navigation.heading_still_since_s: the time of the sample the still window began at (the failsafe counts
+    the helm's steering over it); a heading within 0.5 deg keeps it, one that moves restarts it."""
+    from autopilot.devices import NavSample, Stamped
+    from autopilot.gnc.navigation import HEADING_STILL_RAD, NavMemory, NavRules, assemble
+
+    mem, seen = NavMemory(), []
+    for k, h in enumerate([None, 1.0, 1.0 + 0.9 * HEADING_STILL_RAD, 1.0, 1.0 + 3 * HEADING_STILL_RAD, 1.0]):
+        t = 0.1 * k
+        sample = NavSample(heading_rad=None if h is None else Stamped(h, t, "HDT", True))
+        nav, mem = assemble(sample, t, mem, NavRules(), origin_lat_deg=0.0, origin_lon_deg=0.0)
+        seen.append(nav.heading_still_since_s)
+    assert seen == [None, 0.1, 0.1, 0.1, pytest.approx(0.4), pytest.approx(0.5)]

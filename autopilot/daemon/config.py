@@ -110,6 +110,15 @@ class FailsafeConfig:
         20.0, unit="deg", lo=5.0, hi=360.0, source="chosen: 4 x the heading PID's typical error; a stuck SC-30 spun the "
         "boat at 50 deg/s unnoticed", doc="the rate of turn (ROT) says the boat turned this much while the compass heading "
         "stayed within 0.5 deg: the heading is frozen (heading_frozen, until it moves)")
+    heading_frozen_steer_s: float = param(
+        3.0, unit="s", lo=0.0, hi=60.0, source="chosen: 2x the longest such time in 1,200 campaign runs (up to 10 m/s "
+        "of wind) and 168 evaluate runs (1.5 s)", doc="the helm steered at least heading_frozen_steer_error_deg off "
+        "the compass heading for this long while the heading stayed within 0.5 deg: the heading is frozen "
+        "(heading_frozen, until it moves); catches a compass whose rate of turn froze too; 0 = off (a bench with "
+        "the boat out of the water)")
+    heading_frozen_steer_error_deg: float = param(
+        20.0, unit="deg", lo=5.0, hi=180.0, source="chosen: a WAM-V pinned by 10 m/s of wind held 15 deg off for 9 s",
+        doc="the heading error that counts towards heading_frozen_steer_s")
     ack_missing_n: int = param(5, unit="commands", lo=1, hi=100, doc="this many consecutive unacknowledged Mbed commands is a fault")
     garbage_hold_s: float = param(1.0, unit="s", lo=0.0, hi=30.0, doc="a garbage burst on either line counts as a fault for this long")
     nmea_garbage_lines: int = param(5, unit="lines", lo=1, hi=1000, doc="more rejected NMEA lines than this within 1 s is a garbage burst on the compass line")

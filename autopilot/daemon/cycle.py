@@ -22,7 +22,7 @@ from autopilot.gnc import ControlOutput, NavInput
 from autopilot.gnc.navigation import Navigation, NavRules
 from autopilot.logschema import CYCLE_KEYS, Mode
 
-__all__ = ["nav_rules", "observe", "arbitrate", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
+__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
            "GNC_FIELDS"]
 
 MAX_STEP_DT_S = 1.0  # a GNC step after a long pause integrates at most this much
@@ -38,8 +38,10 @@ def nav_rules(cfg: DaemonConfig) -> NavRules:
 
 def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, thrusters_connected: bool,
             acks_missing_in_a_row: int, compass_garbage_s: float | None, thruster_garbage_s: float | None,
-            battery_v: float | None = None, thrusters_disobeying: bool = False) -> Observation:
-    """What the failsafe judges (times on the daemon's clock)."""
+            battery_v: float | None = None, thrusters_disobeying: bool = False,
+            steered_heading_error_rad: float | None = None) -> Observation:
+    """What the failsafe judges (times on the daemon's clock); ``steered_heading_error_rad``: the last cycle's
+    (:func:`steered_error_rad`)."""
     return Observation(
         t_s=nav.t_s, heading_age_s=nav.heading_age_s, heading_valid=nav.heading_valid,
         position_age_s=nav.position_age_s, fix_quality=nav.fix_quality,
@@ -48,8 +50,17 @@ def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, 
         mbed_connected=bool(thrusters_connected), last_garbage_t_s=compass_garbage_s,
         last_mbed_garbage_t_s=thruster_garbage_s, north_m=nav.north_m, east_m=nav.east_m,
         mission_time_s=mission_time_s, battery_v=battery_v, position_confirmed=nav.fix_confirmed,
-        heading_still_turn_rad=nav.still_turn_rad,
+        heading_still_turn_rad=nav.still_turn_rad, heading_still_since_s=nav.heading_still_since_s,
+        steered_heading_error_rad=steered_heading_error_rad,
     )
+
+
+def steered_error_rad(out: ControlOutput | None) -> float | None:
+    """The heading error the helm's PID turned the boat by this cycle; None when it did not steer by the heading
+    (no helm step, thrust off, the operator's sticks)."""
+    if out is None or out.thrust_off or out.mode is Mode.MANUAL:
+        return None
+    return out.heading_error_rad
 
 
 def arbitrate(decision: Decision, *, steerable: bool, manual: bool = False) -> tuple[Mode | None, bool]:

@@ -79,6 +79,10 @@ class Observation:
     position_confirmed: bool = True
     # the turn (rad) the rate of turn reported while the compass heading stayed still (Navigation.still_turn_rad)
     heading_still_turn_rad: float = 0.0
+    # since when the compass heading has stayed still (Navigation.heading_still_since_s); None: no heading yet
+    heading_still_since_s: float | None = None
+    # the heading error (rad) the helm steered by in the cycle before (None: it did not steer by the heading)
+    steered_heading_error_rad: float | None = None
 
 
 @dataclass(frozen=True)
@@ -217,6 +221,9 @@ class Failsafe:
         self._valid_since_s: float | None = None
         self._trip_cause: str | None = None
         self._low_since_s: dict[str, float] = {}
+        self._still_since_s: float | None = None  # the still heading the steering time below is counted over
+        self._steered_s = 0.0  # how long the helm steered heading_frozen_steer_error_deg off it meanwhile
+        self._last_t_s: float | None = None
 
     @property
     def latched(self) -> tuple[str, ...]:
@@ -244,8 +251,35 @@ class Failsafe:
                 out[cause] = f"battery (resting estimate) {v:.2f} V below {limit_v:g} V for {obs.t_s - since:.1f} s"
         return out
 
+    def _steered_unanswered(self, obs: Observation, found: dict[str, str]) -> None:
+        """heading_frozen when the helm has steered far off a compass heading that has not moved meanwhile.
+
+        A stuck compass whose rate of turn froze too (at a rate below ROT_NOISE_RAD_S, going straight)
+        reports no turn to sum: the PID then turns the boat, the heading does not answer, and it spins.
+        The helm's own demand is the evidence: with heading_frozen_steer_error_deg of error a WAM-V
+        turns within a second; one whose heading has not moved 0.5 deg after heading_frozen_steer_s of
+        that is not answering (or cannot turn: pinned by more wind than its thrusters hold, or on a
+        bench; it stops, and resumes once the heading moves)."""
+        cfg = self.cfg
+        since = obs.heading_still_since_s
+        if cfg.heading_frozen_steer_s <= 0.0 or since is None:
+            self._still_since_s, self._steered_s = since, 0.0
+        elif since != self._still_since_s:  # the heading moved: count again from here
+            self._still_since_s, self._steered_s = since, 0.0
+        elif (obs.steered_heading_error_rad is not None and self._last_t_s is not None
+              and abs(obs.steered_heading_error_rad) >= math.radians(cfg.heading_frozen_steer_error_deg)):
+            self._steered_s += min(max(obs.t_s - self._last_t_s, 0.0), 1.0)  # the last cycle's demand, held since
+        self._last_t_s = obs.t_s
+        if (cfg.heading_frozen_steer_s > 0.0 and self._steered_s >= cfg.heading_frozen_steer_s - 1e-9
+                and not {"heading_stale", "heading_invalid"} & found.keys()):
+            found.setdefault("heading_frozen", (
+                f"compass heading unchanged (within 0.5 deg) for {obs.t_s - since:.1f} s while the helm steered "
+                f"{cfg.heading_frozen_steer_error_deg:g} deg or more off it for {self._steered_s:.1f} s "
+                f"(limit {cfg.heading_frozen_steer_s:g} s)"))
+
     def update(self, obs: Observation) -> Decision:
         found = detect(obs, self.cfg, self.fence_ne_m)
+        self._steered_unanswered(obs, found)
         found.update(self._battery(obs))
         requests: list[Request] = []
         for cause in CAUSES:

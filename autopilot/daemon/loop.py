@@ -75,6 +75,7 @@ class LoopState:
     stop_signal: str | None = None
     mode: str = "waiting"  # the last cycle's
     last_cmd: ThrustCommand = ZERO_THRUST
+    steered_error_rad: float | None = None  # the heading error the helm steered by last cycle (failsafe)
     manual_input_wall_s: float = -math.inf  # wall time of the last manual input (a human's link runs on wall time)
     status: dict = field(default_factory=dict)  # the last cycle's, for `autopilot ctl status`
 
@@ -133,7 +134,8 @@ class ControlLoop:
             nav, mission_time_s=t_s, compass_connected=self.compass.connected,
             thrusters_connected=self.thrusters.connected, acks_missing_in_a_row=self.thrusters.consecutive_missing,
             compass_garbage_s=self.compass.last_garbage_s, thruster_garbage_s=self.thrusters.last_garbage_s,
-            battery_v=battery_rest_v, thrusters_disobeying=self.thrusters.disobeying))
+            battery_v=battery_rest_v, thrusters_disobeying=self.thrusters.disobeying,
+            steered_heading_error_rad=st.steered_error_rad))
         self._log_events(decision.events, t_s)
         helm_nav, unavailable = steps.helm_nav(nav, decision)
         for req in decision.requests:
@@ -148,6 +150,7 @@ class ControlLoop:
         out = self._steer(nav, now_s, t_s) if drive else None
         if out is not None:
             mode = out.mode
+        st.steered_error_rad = steps.steered_error_rad(out)
         self._log_helm_events(t_s)
         if self.ais is not None:
             for report in self.ais.new_reports(now_s):

@@ -15,7 +15,9 @@ simulated run sees the sensor's 1 Hz fixes and fallbacks exactly as the boat doe
   (``Navigation.still_turn_rad``); the failsafe calls a sum of ``heading_frozen_deg`` a frozen
   heading. A stuck SC-30 (checksum-valid sentences repeating one heading) once spun the boat
   at 50 deg/s for 30 s with nothing in the log: the PID chased a heading that never moved.
-  The sum restarts only when the heading moves, so a frozen compass keeps its fault;
+  The sum restarts only when the heading moves, so a frozen compass keeps its fault. Since when the
+  heading has stood still is kept too (``Navigation.heading_still_since_s``): a compass whose rate of
+  turn froze as well reports no turn, and the failsafe judges instead how long the helm steered meanwhile;
 - speed and course over ground: while valid, fresh (``position_stale_s``) and plausible;
 - position: the last fix in the local frame of the mission's origin (a jump refused, below), and that fix
   carried forward by the velocity over ground over its age (at most
@@ -87,6 +89,7 @@ class NavMemory:
     still_heading_rad: float | None = None  # the compass heading the still_turn_rad sum started at
     still_turn_rad: float = 0.0  # the turn ROT reported since (Navigation.still_turn_rad)
     still_t_s: float | None = None  # the time of the compass heading sample last judged
+    still_since_s: float | None = None  # the time of the compass heading sample the sum is anchored at
 
 
 @dataclass(frozen=True)
@@ -134,6 +137,9 @@ class Navigation:
     fix_confirmed: bool = True
     # the turn (rad, signed) the rate of turn reported while the compass heading stayed still (a frozen compass)
     still_turn_rad: float = 0.0
+    # since when (the sample's time, s) the compass heading has stayed within HEADING_STILL_RAD; None: no compass
+    # heading yet. The failsafe counts how long the helm steered while it did (a compass whose ROT froze too)
+    heading_still_since_s: float | None = None
 
     @property
     def steerable(self) -> bool:
@@ -288,6 +294,7 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
     compass = h is not None and h.valid and h.value is not None and age_s(h, now_s) <= rules.heading_stale_s
     still_anchor, still_t, still_turned = still_turn(float(h.value) if compass else None, h.t_s if compass else None,
                                                      _rot(sample, now_s, rules), memory)
+    still_since = still_t if still_anchor != memory.still_heading_rad else memory.still_since_s
     seen = sample.position
     gated = gate_fix(seen, memory, rules)
     pos = gated.used
@@ -311,7 +318,7 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
         fix_t_s=None if pos is None else pos.t_s,
         new_fix=latlon is not None and pos is seen and seen_t != memory.fix_t_s, sog_m_s=sog, cog_rad=cog,
         jump=gated.jump, fix_confirmed=bool(pos is not None and pos.valid and gated.used_confirmed),
-        still_turn_rad=still_turned,
+        still_turn_rad=still_turned, heading_still_since_s=still_since,
     )
     if heading_rad is not None:
         heading_t, heading = now_s, heading_rad
@@ -319,4 +326,5 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
         heading_t, heading = memory.heading_t_s, memory.heading_rad
     return nav, NavMemory(heading_t_s=heading_t, heading_rad=heading, fix_t_s=seen_t, fix=gated.fix,
                           jump=gated.pending, judged_t_s=gated.judged_t_s, confirmed=gated.confirmed,
-                          still_heading_rad=still_anchor, still_turn_rad=still_turned, still_t_s=still_t)
+                          still_heading_rad=still_anchor, still_turn_rad=still_turned, still_t_s=still_t,
+                          still_since_s=still_since)

@@ -22,7 +22,8 @@ outliers, and a wandering, quantised heading with lost sentences.
 Fault controls (set at any time): ``heading_dropout`` (no heading
 sentences), ``heading_invalid`` (empty HDT, THS mode V, empty GPatt), ``heading_frozen``
 (a stuck compass: every heading sentence repeats the heading of the moment it froze, checksum
-valid, while ROT goes on reporting the boat's turn),
+valid, while ROT goes on reporting the boat's turn), ``rate_frozen`` (ROT repeats the rate of the moment
+it froze: with ``heading_frozen``, a compass stuck whole),
 ``position_dropout`` (no GGA/RMC/GLL/VTG), ``fix_lost`` (GGA quality 0 and
 RMC status V with empty fields), ``fix_held`` (the position sentences keep
 repeating the last epoch: its UTC time, position, speed and course), ``drop_rate`` (probability a sentence is
@@ -104,6 +105,8 @@ class SimulatedSC30:
         self.heading_invalid = False
         self.heading_frozen = False
         self._frozen_rad: float | None = None
+        self.rate_frozen = False
+        self._frozen_rate_rad_s: float | None = None
         self.position_dropout = False
         self.fix_lost = False
         self.fix_held = False
@@ -200,7 +203,12 @@ class SimulatedSC30:
                 return None  # dropped, or lost (realistic heading error model)
             return encode_heading(kind, self._heading_rad(), self.talker)
         if kind == "ROT":
-            return encode_rot(self.boat.r_rad_s, self.talker)
+            if not self.rate_frozen:
+                self._frozen_rate_rad_s = None
+            elif self._frozen_rate_rad_s is None:
+                self._frozen_rate_rad_s = self.boat.r_rad_s
+            return encode_rot(self.boat.r_rad_s if self._frozen_rate_rad_s is None else self._frozen_rate_rad_s,
+                              self.talker)
         # UTC from the clock: the simulated day starts at 00:00:00 on 2024-06-01
         if kind == "ZDA":
             return encode_zda(t_s, self.talker)
