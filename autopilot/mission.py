@@ -38,6 +38,7 @@ outside [0, 86400] s, anything after a return to launch.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -83,6 +84,9 @@ class Mission:
     origin_lon_deg: float | None
     holds_s: tuple = ()  # one per waypoint: hold there this long (s) before going on; inf = until commanded; None = no hold
     rtl: bool = False  # the last item returns to the launch point (then holds there)
+    # the MAVLink items (after home) an uploaded mission came as: its item numbers are the planner's (see
+    # mission_to_items); () for a mission from a file
+    mavlink_items: tuple = ()
 
     @property
     def home_ne_m(self) -> tuple[float, float]:
@@ -489,44 +493,78 @@ def mission_from_items(items, *, origin_lat_deg: float, origin_lon_deg: float, m
         else:
             raise MissionItemError(f"{here}: command {cmd} not supported ({_SUPPORTED})", seq=k, field="command")
     try:
-        return _finish(where, name, points, latlon=True, home=None, origin=(origin_lat_deg, origin_lon_deg),
-                       max_range_m=max_range_m, rtl=rtl)
+        mission = _finish(where, name, points, latlon=True, home=None, origin=(origin_lat_deg, origin_lon_deg),
+                          max_range_m=max_range_m, rtl=rtl)
+        kept = ("frame", "command", "param1", "param2", "lat_deg", "lon_deg")
+        return dataclasses.replace(mission, mavlink_items=tuple({k: it.get(k, 0.0) for k in kept} for it in items[1:]))
     except MissionItemError:
         raise
     except MissionError as exc:
         raise MissionItemError(str(exc), seq=len(items) - 1, field="mission") from None
 
 
+NAV_ITEMS = (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM)  # the items that are waypoints of the mission
+
+
 def mission_to_items(mission: Mission, home_latlon: tuple[float, float] | None = None) -> list[dict]:
-    """The mission as MAVLink items (item 0 home, then one item per waypoint and an RTL at the end)."""
+    """The mission as MAVLink items: item 0 home, then an uploaded mission's items as they came (so the item
+    numbers the link reports and takes are the planner's: a DO_CHANGE_SPEED dropped from the download shifted
+    every later waypoint's number by one), or for a mission from a file one item per waypoint, with a
+    DO_CHANGE_SPEED before each leg whose speed changes, and an RTL at the end."""
     from autopilot.geo import local_to_latlon
 
     o = (mission.origin_lat_deg, mission.origin_lon_deg)
     home = home_latlon or mission.home_latlon or o
-    out = [dict(seq=0, frame=0, command=NAV_WAYPOINT, param1=0.0, param2=0.0, lat_deg=home[0], lon_deg=home[1])]
-    for i, (n, e) in enumerate(mission.waypoints_ne_m):
-        lat, lon = local_to_latlon(float(n), float(e), *o)
-        hold = mission.hold_s(i)
-        cmd = NAV_WAYPOINT if hold is None else (NAV_LOITER_UNLIM if math.isinf(hold) else NAV_LOITER_TIME)
-        out.append(dict(seq=len(out), frame=3, command=cmd, param1=0.0 if hold is None or math.isinf(hold) else hold,
-                        param2=0.0, lat_deg=lat, lon_deg=lon))
-    if mission.rtl:
-        out.append(dict(seq=len(out), frame=MAVLINK_MISSION_FRAME, command=NAV_RETURN_TO_LAUNCH, param1=0.0,
-                        param2=0.0, lat_deg=0.0, lon_deg=0.0))
-    return out
+    out = [dict(frame=0, command=NAV_WAYPOINT, param1=0.0, param2=0.0, lat_deg=home[0], lon_deg=home[1])]
+    if mission.mavlink_items:
+        out += [dict(it) for it in mission.mavlink_items]
+    else:
+        speeds = list(mission.speeds_m_s) or [None] * len(mission.waypoints_ne_m)
+        last_speed = None
+        for i, (n, e) in enumerate(mission.waypoints_ne_m):
+            if i < len(speeds) and speeds[i] is not None and speeds[i] != last_speed:
+                last_speed = speeds[i]
+                out.append(dict(frame=MAVLINK_MISSION_FRAME, command=DO_CHANGE_SPEED, param1=0.0,
+                                param2=float(last_speed), lat_deg=0.0, lon_deg=0.0))
+            lat, lon = local_to_latlon(float(n), float(e), *o)
+            hold = mission.hold_s(i)
+            cmd = NAV_WAYPOINT if hold is None else (NAV_LOITER_UNLIM if math.isinf(hold) else NAV_LOITER_TIME)
+            out.append(dict(frame=3, command=cmd, param1=0.0 if hold is None or math.isinf(hold) else hold,
+                            param2=0.0, lat_deg=lat, lon_deg=lon))
+        if mission.rtl:
+            out.append(dict(frame=MAVLINK_MISSION_FRAME, command=NAV_RETURN_TO_LAUNCH, param1=0.0, param2=0.0,
+                            lat_deg=0.0, lon_deg=0.0))
+    return [{"seq": k, **it} for k, it in enumerate(out)]
+
+
+@dataclass(frozen=True)
+class ItemNumbers:
+    """The MAVLink item numbers of a mission (mission_to_items): what MISSION_CURRENT, MISSION_ITEM_REACHED and
+    MISSION_SET_CURRENT carry."""
+
+    waypoints: tuple[int, ...]  # the item number of each waypoint
+    rtl: int | None  # the return-to-launch item's
+    count: int  # items, home (0) included
+
+    @classmethod
+    def of(cls, mission: Mission) -> ItemNumbers:
+        items = mission_to_items(mission)
+        return cls(tuple(it["seq"] for it in items[1:] if it["command"] in NAV_ITEMS),
+                     next((it["seq"] for it in items if it["command"] == NAV_RETURN_TO_LAUNCH), None), len(items))
+
+    def waypoint_of(self, seq: int) -> int | None:
+        """The waypoint (index) a jump to item ``seq`` flies to: that item's, or after a DO item the next one;
+        None for home (0) and beyond the last waypoint."""
+        if seq < 1:
+            return None
+        return next((i for i, s in enumerate(self.waypoints) if s >= seq), None)
 
 
 def to_waypoints_text(mission: Mission) -> str:
     """The mission as a Mission Planner file (QGC WPL 110), home = its origin: read back, the same mission."""
     rows = ["QGC WPL 110"]
-    speeds = list(mission.speeds_m_s) if mission.speeds_m_s is not None else [None] * len(mission.waypoints_ne_m)
-    seq, last_speed = 0, None
     for it in mission_to_items(mission, home_latlon=(mission.origin_lat_deg, mission.origin_lon_deg)):
-        k = it["seq"] - 1
-        if 0 <= k < len(speeds) and speeds[k] is not None and speeds[k] != last_speed:
-            rows.append(f"{seq}\t0\t2\t{DO_CHANGE_SPEED}\t0\t{speeds[k]!r}\t0\t0\t0\t0\t0\t1")
-            seq, last_speed = seq + 1, speeds[k]
-        rows.append(f"{seq}\t{1 if seq == 0 else 0}\t{it['frame']}\t{it['command']}\t{it['param1']!r}\t0\t0\t0\t"
-                    f"{it['lat_deg']:.9f}\t{it['lon_deg']:.9f}\t0\t1")
-        seq += 1
+        seq = it["seq"]
+        rows.append(f"{seq}\t{1 if seq == 0 else 0}\t{it['frame']}\t{it['command']}\t{it['param1']!r}\t"
+                    f"{it['param2']!r}\t0\t0\t{it['lat_deg']:.9f}\t{it['lon_deg']:.9f}\t0\t1")
     return "\n".join(rows) + "\n"

@@ -568,3 +568,108 @@ def test_a_state_that_cannot_be_saved_is_told_to_the_ground_station(tmp_path):
     assert text.severity == mavlink.MAV_SEVERITY_ERROR
     info = [r for r in boat.log() if r["event"] == "info" and r["message"] == "state not saved"]
     assert info and "Is a directory" in info[0]["error"]
+
+
+def test_link_loss_settings_set_over_the_link_take_effect(tmp_path):
+    """Found by a ground-station audit: FS_GCS_TIMEOUT and FS_GCS_ACT set over MAVLink were answered with their
+    new values and logged, and a lost station still waited the configured 5 s and took the configured
+    'continue' (the link kept the configuration it started with)."""
+    boat = Boat(tmp_path)  # the shipped configuration: gcs_timeout_s 5, gcs_lost_action continue
+    try:
+        boat.mode_is("auto", 20.0)
+        for name, value in ((b"FS_GCS_TIMEOUT", 1.5), (b"FS_GCS_ACT", 1.0)):  # 1 = hold
+            boat.gcs.mav.param_set_send(1, 1, name, value, mavlink.MAV_PARAM_TYPE_REAL32)
+            assert boat.recv("PARAM_VALUE", pred=lambda m, n=name: m.param_id == n.decode()).param_value == value
+        boat.wait_log(lambda r: r["event"] == "param" and r["param"] == "FS_GCS_ACT", what="the set carried out")
+        t_silent = time.monotonic()
+        boat.last_hb = math.inf  # the ground station goes quiet
+        lost = boat.wait_log(lambda r: r["event"] == "gcs" and r["state"] == "lost", 20.0, "link lost")
+        assert time.monotonic() - t_silent < 4.0 and lost["action"] == "hold"
+        boat.mode_is("hold")
+    finally:
+        assert boat.stop() == 0
+
+
+def test_a_mission_with_a_speed_item_keeps_the_planners_item_numbers(tmp_path):
+    """Found by a ground-station audit: an uploaded DO_CHANGE_SPEED was folded into the legs and dropped from the
+    numbering: the download lost it, MISSION_CURRENT and MISSION_ITEM_REACHED named the item before the right one,
+    and MISSION_SET_CURRENT with the planner's number flew to the wrong waypoint. Also: MISSION_REQUEST (the float
+    protocol) is answered with MISSION_ITEM, and a jump to home or past the mission is refused in item numbers."""
+    wps = [local_to_latlon(n, e, *ORIGIN) for n, e in ((15.0, 0.0), (30.0, 0.0), (30.0, 20.0))]
+    items = [(16, 0, 0, *ORIGIN), (16, 3, 0, *wps[0]), (178, 2, 0, 0.0, 0.0), (16, 3, 0, *wps[1]), (16, 3, 0, *wps[2])]
+    boat = Boat(tmp_path, mission={"name": "far", "frame": "local", "waypoints": [[-40.0, 0.0]]})
+    try:
+        boat.mode_is("auto")
+        boat.gcs.mav.mission_count_send(1, 1, len(items))
+        while True:
+            m = boat.recv(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"])
+            if m.get_type() == "MISSION_ACK":
+                break
+            cmd, frame, _, lat, lon = items[m.seq]
+            p2 = 1.5 if cmd == 178 else 0.0
+            boat.gcs.mav.mission_item_int_send(1, 1, m.seq, frame, cmd, 0, 1, 0, p2, 0, 0, round(lat * 1e7),
+                                               round(lon * 1e7), 0)
+        assert m.type == mavlink.MAV_MISSION_ACCEPTED
+        boat.wait_log(lambda r: r["event"] == "mission_replaced", what="mission replaced")
+        boat.gcs.mav.mission_request_list_send(1, 1)
+        assert boat.recv("MISSION_COUNT").count == 5
+        boat.gcs.mav.mission_request_send(1, 1, 2)  # the float protocol
+        speed = boat.recv(["MISSION_ITEM", "MISSION_ITEM_INT"], pred=lambda m: m.seq == 2)
+        assert (speed.get_type(), speed.command, speed.param2) == ("MISSION_ITEM", 178, 1.5)
+        assert boat.recv("MISSION_CURRENT", pred=lambda m: m.seq == 1).total == 5
+        reached = boat.recv("MISSION_ITEM_REACHED", 60.0)
+        assert reached.seq == 1
+        boat.recv("MISSION_CURRENT", pred=lambda m: m.seq == 3)  # the waypoint after the speed item
+        boat.gcs.mav.mission_set_current_send(1, 1, 4)
+        boat.recv("MISSION_CURRENT", pred=lambda m: m.seq == 4)
+        jumped = boat.wait_log(lambda r: r["event"] == "command" and r["command"] == "set_current", what="the jump")
+        assert jumped["accepted"] and jumped["answer"] == "waypoint 2"  # the third waypoint, item 4
+        boat.gcs.mav.mission_set_current_send(1, 1, 0)
+        assert "item 0 is home" in boat.recv("STATUSTEXT", pred=lambda m: "MISSION_SET_CURRENT" in m.text).text
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 9).result == mavlink.MAV_RESULT_DENIED
+    finally:
+        assert boat.stop() == 0
+    refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
+    assert refused == ["MISSION_SET_CURRENT refused: item 0 is home", "DO_SET_MISSION_CURRENT refused: item 9 is not a "
+                       "waypoint of the mission (waypoints are items 1..4)"]
+
+
+def test_mode_changes_as_the_standard_says_a_broken_datagram_and_the_planners_shortcuts(tmp_path):
+    """Found by a ground-station audit: a DO_SET_MODE or SET_MODE without MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (a
+    standard mode, MAV_MODE_AUTO_ARMED) was taken as custom mode 0, MANUAL, and left the mission; SET_MODE got no
+    COMMAND_ACK; a datagram cut inside a frame swallowed the next datagrams' commands for ~2 s; a message interval
+    set back from once a minute waited out the minute; MISSION_CLEAR_ALL for all types (255) cleared nothing;
+    Mission Planner's "fly to here" (a MISSION_ITEM with current 2) got no answer."""
+    boat = Boat(tmp_path)
+    try:
+        boat.mode_is("auto")
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_AUTO_ARMED, 0).result == \
+            mavlink.MAV_RESULT_DENIED
+        boat.gcs.mav.set_mode_send(1, mavlink.MAV_MODE_AUTO_ARMED, 0)
+        assert boat.recv("COMMAND_ACK", pred=lambda m: m.command == 11).result == mavlink.MAV_RESULT_DENIED
+        time.sleep(0.5)
+        assert boat.cycles()[-1]["mode"] == "auto"
+        boat.gcs.mav.set_mode_send(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 5)  # LOITER
+        assert boat.recv("COMMAND_ACK", pred=lambda m: m.command == 11).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("hold")
+        # a datagram whose header announces 255 bytes of payload it does not carry, then a command at once
+        boat.gcs.port.sendto(b"\xfd\xff\x00\x00\x00\xff\xbe\x4c\x00\x00", next(iter(boat.gcs.clients)))
+        ack = boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 1)
+        assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+        sys_status = mavlink.MAVLINK_MSG_ID_SYS_STATUS
+        assert boat.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, sys_status, 60e6).result == mavlink.MAV_RESULT_ACCEPTED
+        assert boat.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, sys_status, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.recv("SYS_STATUS", 2.5)
+        here = local_to_latlon(-10.0, 8.0, *ORIGIN)
+        boat.gcs.mav.mission_item_int_send(1, 1, 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 16, 2, 1, 0, 0, 0, 0,
+                                           round(here[0] * 1e7), round(here[1] * 1e7), 0)
+        assert boat.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
+        held = boat.wait_log(lambda r: r["event"] == "cycle" and r["mode"] == "hold" and r["hold_north_m"] is not None
+                             and abs(r["hold_north_m"] + 10.0) < 0.05, what="hold at the point")
+        assert abs(held["hold_east_m"] - 8.0) < 0.05
+        boat.gcs.mav.mission_clear_all_send(1, 1, mavlink.MAV_MISSION_TYPE_ALL)
+        assert boat.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
+        boat.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
+    finally:
+        assert boat.stop() == 0
+    assert not [r for r in boat.log() if r["event"] == "info" and r.get("message") == "mavlink message not handled"]

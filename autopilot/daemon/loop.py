@@ -35,6 +35,7 @@ from autopilot.gnc import Autopilot
 from autopilot.gnc.navigation import NavMemory, assemble
 from autopilot.gnc.passes import PassTracker
 from autopilot.logschema import Mode
+from autopilot.mission import ItemNumbers, Mission
 
 __all__ = ["LoopState", "ControlLoop", "watchdog_due", "COMMANDS_PER_CYCLE", "COMMANDS_QUEUED_MAX"]
 
@@ -100,6 +101,8 @@ class ControlLoop:
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
         self.ais = ais  # autopilot.daemon.traffic.AisSource: other vessels for collision avoidance (None: no AIS)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
+        self._numbered: Mission | None = None
+        self._item_numbers: ItemNumbers | None = None
         self.state = LoopState()
         self.commands: collections.deque = collections.deque()  # (request, answer callback), from the socket
         self._flooded = False  # commands were refused since the queue was last empty
@@ -242,6 +245,13 @@ class ControlLoop:
         self.state.passes_done = False
         self.passes = PassTracker(self.mission.waypoints_ne_m, start_index=self.ap.wp_index)
 
+    @property
+    def item_numbers(self) -> ItemNumbers:
+        """The running mission's MAVLink item numbers (worked out once per mission)."""
+        if self._numbered is not self.mission:
+            self._numbered, self._item_numbers = self.mission, ItemNumbers.of(self.mission)
+        return self._item_numbers
+
     def apply_config(self, cfg: DaemonConfig) -> None:
         """A new configuration from the next cycle on (a parameter set over the link)."""
         self.cfg = cfg
@@ -282,9 +292,9 @@ class ControlLoop:
             dist, brg = math.hypot(dn, de), math.degrees(math.atan2(de, dn)) % 360.0
         launch = ap.launch_ne_m
         launch_ll = (None, None) if launch is None else local_to_latlon(launch[0], launch[1], *origin)
-        n_items = 1 + len(self.mission.waypoints_ne_m) + (1 if self.mission.rtl else 0)
-        item = (len(self.mission.waypoints_ne_m) + 1 if ap.mode is Mode.RTL and self.mission.rtl
-                else ap.wp_index + 1)
+        numbers = self.item_numbers
+        n_items = numbers.count
+        item = numbers.rtl if ap.mode is Mode.RTL and numbers.rtl is not None else numbers.waypoints[ap.wp_index]
         return {
             "t_s": round(t_s, 2), "mode": mode.value, "helm_mode": ap.mode.value, "armed": ap.armed,
             "cycle": self.state.cycles, "wp_index": int(ap.wp_index), "wp_count": len(self.mission.waypoints_ne_m),

@@ -72,6 +72,10 @@ def parse_endpoint(url: str) -> EndpointSpec:
 class Endpoint:
     """Received bytes queued (bounded), sends that never block."""
 
+    # each received chunk holds whole frames (a datagram): a frame it leaves unfinished is damaged, and is not
+    # completed from the next one; a byte stream (a radio) carries frames across reads
+    framed = False
+
     def __init__(self, spec: EndpointSpec, rx_queue_bytes: int) -> None:
         self.spec = spec
         self.rx: collections.deque[bytes] = collections.deque()
@@ -89,8 +93,8 @@ class Endpoint:
         self.rx_bytes += len(data)
         self.wakeup.set()
 
-    def take(self, max_bytes: int) -> bytes:
-        """Up to about ``max_bytes`` of what was received."""
+    def take(self, max_bytes: int) -> list[bytes]:
+        """Up to about ``max_bytes`` of what was received, as it came (datagrams, or reads of a byte stream)."""
         out = []
         n = 0
         while self.rx and n < max_bytes:
@@ -100,7 +104,7 @@ class Endpoint:
             n += len(chunk)
         if not self.rx:
             self.wakeup.clear()
-        return b"".join(out)
+        return out
 
     async def open(self) -> None:  # pragma: no cover - interface
         raise NotImplementedError
@@ -125,6 +129,8 @@ class _Datagrams(asyncio.DatagramProtocol):
 
 
 class UdpEndpoint(Endpoint):
+    framed = True
+
     def __init__(self, spec: EndpointSpec, rx_queue_bytes: int) -> None:
         super().__init__(spec, rx_queue_bytes)
         self.transport: asyncio.DatagramTransport | None = None

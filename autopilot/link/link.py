@@ -111,6 +111,23 @@ def load_signing_key(spec: str) -> bytes:
     raise ConfigError(f"mavlink.signing_key_file: {path}: expected 64 hexadecimal digits or 32 bytes")
 
 
+def _drop_unfinished(mav) -> bool:
+    """Forget a frame the parser holds unfinished (pymavlink keeps it to complete from the next bytes); True if
+    there was one."""
+    if mav.buf_len() == 0:
+        return False
+    mav.buf, mav.buf_index = bytearray(), 0
+    mav.expected_length = mavlink.HEADER_LEN_V1 + 2
+    mav.have_prefix_error = False
+    return True
+
+
+def _custom_mode_enabled(base_mode) -> bool:
+    """SET_MODE's base_mode (DO_SET_MODE's param1) says the custom mode is meant, as ArduPilot requires: a
+    standard mode such as MAV_MODE_AUTO_ARMED with custom mode 0 was taken as MANUAL and left the mission."""
+    return (int(base_mode) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) != 0
+
+
 class _Port:
     """One endpoint and its codec."""
 
@@ -220,6 +237,32 @@ class MavlinkLink:
         home = (st.get("launch_lat_deg"), st.get("launch_lon_deg"))
         return mission_to_items(self.loop.mission, home_latlon=home if home[0] is not None else None)
 
+    def reposition(self, lat, lon) -> dict | None:
+        """The loop's request for "go here, hold there" (DO_REPOSITION, a guided MISSION_ITEM); None when the
+        point is not valid or beyond max_mission_range_m (refused, logged, shown)."""
+        if not (isinstance(lat, (int, float)) and math.isfinite(lat) and math.isfinite(lon)
+                and abs(lat) <= 90 and abs(lon) <= 180 and (lat, lon) != (0, 0)):
+            self.refused("reposition", f"reposition refused: position {lat}, {lon} is not valid")
+            return None
+        n, e = latlon_to_local(lat, lon, *self.origin())
+        if math.hypot(n, e) > self.max_range_m():
+            self.refused("reposition", f"reposition refused: {math.hypot(n, e):.0f} m from the "
+                         f"origin (max_mission_range_m {self.max_range_m():g} m)")
+            return None
+        return {"command": "hold", "north_m": n, "east_m": e}
+
+    def waypoint_of_item(self, seq: int, what: str) -> int | None:
+        """The waypoint (index) a jump to mission item ``seq`` flies to; None (refused, logged, shown) when the
+        item is not one: the texts number items as the planner does (home is 0)."""
+        numbers = self.loop.item_numbers
+        index = None if self.loop.ap.mission_cleared else numbers.waypoint_of(seq)
+        if index is None:
+            last = numbers.waypoints[-1] if numbers.waypoints and not self.loop.ap.mission_cleared else 0
+            why = ("item 0 is home" if seq == 0 else "no mission" if not last
+                   else f"item {seq} is not a waypoint of the mission (waypoints are items {numbers.waypoints[0]}..{last})")
+            self.refused(what.lower(), f"{what} refused: {why}")
+        return index
+
     def current_item(self) -> int:
         return int(self.status().get("mission_item", 0))
 
@@ -243,13 +286,16 @@ class MavlinkLink:
         ep = port.endpoint
         while True:
             await ep.wakeup.wait()
-            data = ep.take(RX_SLICE_BYTES)
-            if data:
+            for data in ep.take(RX_SLICE_BYTES):
                 try:
                     msgs = port.mav.parse_buffer(data) or []
                 except Exception:  # noqa: BLE001 - robust parsing should not raise; a frame that does is dropped
                     self.stats["parse_errors"] += 1
                     msgs = []
+                if ep.framed and _drop_unfinished(port.mav):
+                    # a datagram ending inside a frame (its header announcing more than it holds) once swallowed
+                    # the next datagrams' frames as that frame's payload: two seconds of commands went unanswered
+                    self.stats["rx_unfinished_datagrams"] += 1
                 t_slice = time.perf_counter()
                 for msg in msgs:
                     if time.perf_counter() - t_slice > RX_BUDGET_S:  # the control loop's turn, even mid-slice
@@ -288,7 +334,13 @@ class MavlinkLink:
         if t in ("COMMAND_LONG", "COMMAND_INT"):
             self._command(port, msg)
         elif t == "SET_MODE":
-            self._set_mode(port, msg, msg.custom_mode, ack_command=None)
+            if not _custom_mode_enabled(msg.base_mode):
+                why = (f"SET_MODE refused: base_mode {msg.base_mode} lacks MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1): "
+                       f"the mode is the custom mode, with that flag set")
+                self.refused("set_mode", why)
+                self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
+                return
+            self._set_mode(port, msg, msg.custom_mode)
         elif t == "MANUAL_CONTROL":
             x, r = (0 if v == 32767 else max(-1000, min(1000, v)) for v in (msg.x, msg.r))  # 32767: axis unused
             self.submit({"command": "manual", "forward_nd": x / 1000.0, "turn_nd": r / 1000.0, "source": "mavlink"},
@@ -307,7 +359,9 @@ class MavlinkLink:
 
     # ---------------------------------------------------------------- commands
     def _ack(self, port: _Port, msg, result: int) -> None:
-        port.send(port.mav.command_ack_encode(msg.command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
+        # SET_MODE is answered as ArduPilot answers it: COMMAND_ACK naming the message's id (11) as the command
+        command = mavlink.MAVLINK_MSG_ID_SET_MODE if msg.get_type() == "SET_MODE" else msg.command
+        port.send(port.mav.command_ack_encode(command, result, 0, 0, msg.get_srcSystem(), msg.get_srcComponent()))
 
     def _ask_loop(self, port: _Port, msg, request: dict) -> None:
         def answer(reply: dict) -> None:
@@ -336,9 +390,12 @@ class MavlinkLink:
         else:
             lat, lon = msg.param5, msg.param6
         if c == mavlink.MAV_CMD_DO_SET_MODE:
-            mode = self._whole(port, msg, msg.param2, "param2 (custom mode)", "a whole number >= 0", lambda k: k >= 0)
+            base = self._whole(port, msg, p1, "param1 (base mode)", "a whole number with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED "
+                               "(1) set: the mode is the custom mode in param2", _custom_mode_enabled)
+            mode = None if base is None else self._whole(port, msg, msg.param2, "param2 (custom mode)",
+                                                         "a whole number >= 0", lambda k: k >= 0)
             if mode is not None:
-                self._set_mode(port, msg, mode, ack_command=msg)
+                self._set_mode(port, msg, mode)
         elif c == mavlink.MAV_CMD_NAV_LOITER_UNLIM:
             self._ask_loop(port, msg, {"command": "hold"})
         elif c == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
@@ -354,22 +411,18 @@ class MavlinkLink:
             if k is not None:
                 self._ask_loop(port, msg, {"command": "arm" if k == 1 else "disarm"})
         elif c == mavlink.MAV_CMD_DO_REPOSITION:
-            if not (isinstance(lat, (int, float)) and math.isfinite(lat) and math.isfinite(lon)
-                    and abs(lat) <= 90 and abs(lon) <= 180 and (lat, lon) != (0, 0)):
+            request = self.reposition(lat, lon)
+            if request is None:
                 self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
-                self.refused("reposition", f"reposition refused: position {lat}, {lon} is not valid")
                 return
-            n, e = latlon_to_local(lat, lon, *self.origin())
-            if math.hypot(n, e) > self.max_range_m():
-                self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
-                self.refused("reposition", f"reposition refused: {math.hypot(n, e):.0f} m from the "
-                          f"origin (max_mission_range_m {self.max_range_m():g} m)")
-                return
-            self._ask_loop(port, msg, {"command": "hold", "north_m": n, "east_m": e})
+            self._ask_loop(port, msg, request)
         elif c == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT:
             seq = self._whole(port, msg, p1, "param1 (mission item)", "a whole number >= 1", lambda k: k >= 1)
-            if seq is not None:
-                self._ask_loop(port, msg, {"command": "set_current", "index": seq - 1})
+            index = None if seq is None else self.waypoint_of_item(seq, "DO_SET_MISSION_CURRENT")
+            if index is not None:
+                self._ask_loop(port, msg, {"command": "set_current", "index": index})
+            elif seq is not None:
+                self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
         elif c == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
             mid, interval_us = self._whole(port, msg, p1, "param1 (message id)", "a whole number"), msg.param2
             if mid is None:
@@ -386,6 +439,7 @@ class MavlinkLink:
                 self.refused("SET_MESSAGE_INTERVAL", why)
                 return
             self.rates[mid] = hz
+            self._due[mid] = 0.0  # from now: a rate raised from once a minute waited out the old minute
             self._ack(port, msg, mavlink.MAV_RESULT_ACCEPTED)
         elif c in (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
                    mavlink.MAV_CMD_GET_HOME_POSITION):
@@ -405,23 +459,20 @@ class MavlinkLink:
         else:
             self._ack(port, msg, mavlink.MAV_RESULT_UNSUPPORTED)
 
-    def _set_mode(self, port: _Port, msg, custom_mode: int, *, ack_command) -> None:
+    def _set_mode(self, port: _Port, msg, custom_mode: int) -> None:
+        """A mode change (DO_SET_MODE or SET_MODE ``msg``), answered with COMMAND_ACK."""
         command = command_for_rover_mode(custom_mode)
         if command is None:
             name = ROVER_MODES.get(int(custom_mode), "unknown")
             why = f"mode {int(custom_mode)} ({name}) not supported (MANUAL, HOLD, LOITER, AUTO, RTL, GUIDED)"
             self.refused("set_mode", why)
-            if ack_command is not None:
-                self._ack(port, ack_command, mavlink.MAV_RESULT_DENIED)
+            self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
             return
         if command == "manual":  # the sticks come as MANUAL_CONTROL; without them the manual timeout holds
             request = {"command": "manual", "forward_nd": 0.0, "turn_nd": 0.0}
         else:
             request = {"command": command}
-        if ack_command is not None:
-            self._ask_loop(port, ack_command, request)
-        else:
-            self.submit({**request, "source": "mavlink"}, lambda reply: None)
+        self._ask_loop(port, msg, request)
 
     # ---------------------------------------------------------------- parameters
     def _param_value(self, port: _Port, p: P.Param, index: int) -> None:
@@ -473,7 +524,10 @@ class MavlinkLink:
     def on_event(self, name: str, t_s: float, fields: dict) -> None:
         """A log event (MissionLog's listener): shown as STATUSTEXT; a reached waypoint as MISSION_ITEM_REACHED."""
         if name == "waypoint_reached":
-            self._reached.append(int(fields.get("wp_index", 0)) + 1)
+            seqs = self.loop.item_numbers.waypoints
+            k = int(fields.get("wp_index", 0))
+            if 0 <= k < len(seqs):
+                self._reached.append(seqs[k])
         said = T.event_text(name, fields)
         if said is not None:
             self._texts.append(said)
@@ -527,10 +581,14 @@ class MavlinkLink:
             self.send_all(lambda mav, t=target: T.ais_vessel(mav, t, t_loop))
 
     def _watch_gcs(self, now_s: float) -> None:
-        if self.gcs_last_s is None or self.gcs_lost or now_s - self.gcs_last_s <= self.cfg.gcs_timeout_s:
+        # the loop's configuration, not the one the link started with: FS_GCS_TIMEOUT and FS_GCS_ACT set over the
+        # link were answered with their new values and logged, and a lost station still waited the old timeout
+        # and took the old action
+        live = self.loop.cfg.mavlink
+        if self.gcs_last_s is None or self.gcs_lost or now_s - self.gcs_last_s <= live.gcs_timeout_s:
             return
         self.gcs_lost = True
-        action = self.cfg.gcs_lost_action
+        action = live.gcs_lost_action
         self.loop.log_event("gcs", state="lost", silent_s=now_s - self.gcs_last_s, action=action)
         if action != "continue":
             self.submit({"command": action, "source": "mavlink", "cause": "mavlink: ground station lost"},

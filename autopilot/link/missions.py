@@ -8,6 +8,7 @@
     download   GCS: MISSION_REQUEST_LIST -> us: MISSION_COUNT; GCS: MISSION_REQUEST(_INT) k -> MISSION_ITEM_INT k
     clear      GCS: MISSION_CLEAR_ALL    -> the loop clears it (holds if it was flying it) -> MISSION_ACK
     current    GCS: MISSION_SET_CURRENT  -> the loop jumps there -> MISSION_CURRENT
+    go here    GCS: MISSION_ITEM(_INT) with current = 2 (a guided goto) -> hold there -> MISSION_ACK
 
 Item 0 is home, as ArduPilot's planners write it; fence and rally items (mission types 1, 2) are not
 supported (MAV_MISSION_UNSUPPORTED).
@@ -83,6 +84,16 @@ class MissionProtocol:
                 return
             self.uploads[ep] = _Upload(peer, msg.count)
             self._ask(ep)
+        elif t in ("MISSION_ITEM_INT", "MISSION_ITEM") and msg.current == 2:
+            # a guided "fly to here" (Mission Planner's, ArduPilot's convention): not a mission item
+            it = item_of(msg)
+            request = self.link.reposition(it["lat_deg"], it["lon_deg"])
+            if request is None:
+                self._ack(ep, peer, mavlink.MAV_MISSION_ERROR)
+                return
+            self.link.submit({**request, "source": "mavlink"},
+                             lambda reply: self._ack(ep, peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"]
+                                                     else mavlink.MAV_MISSION_ERROR))
         elif t in ("MISSION_ITEM_INT", "MISSION_ITEM"):
             up = self.uploads.get(ep)
             if up is None or up.peer != peer or msg.seq != len(up.items):
@@ -106,17 +117,26 @@ class MissionProtocol:
                 self._ack(ep, peer, mavlink.MAV_MISSION_INVALID_SEQUENCE)
                 return
             it = items[msg.seq]
+            current = 1 if it["seq"] == self.link.current_item() else 0
+            if t == "MISSION_REQUEST":  # asked for the float item, answered with it (as ArduPilot does)
+                ep.send(mav.mission_item_encode(peer[0], peer[1], it["seq"], it["frame"], it["command"], current, 1,
+                                                it["param1"], it["param2"], 0.0, 0.0, it["lat_deg"], it["lon_deg"], 0.0))
+                return
             ep.send(mav.mission_item_int_encode(
-                peer[0], peer[1], it["seq"], it["frame"], it["command"], 1 if it["seq"] == self.link.current_item()
-                else 0, 1, it["param1"], it["param2"], 0.0, 0.0, int(round(it["lat_deg"] * 1e7)),
-                int(round(it["lon_deg"] * 1e7)), 0.0))
+                peer[0], peer[1], it["seq"], it["frame"], it["command"], current, 1, it["param1"], it["param2"],
+                0.0, 0.0, int(round(it["lat_deg"] * 1e7)), int(round(it["lon_deg"] * 1e7)), 0.0))
         elif t == "MISSION_CLEAR_ALL":
-            if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
+            # MAV_MISSION_TYPE_ALL (255) clears every type there is: here the mission
+            if mission_type not in (mavlink.MAV_MISSION_TYPE_MISSION, mavlink.MAV_MISSION_TYPE_ALL):
                 self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
                 return
             self._clear(ep, peer)
         elif t == "MISSION_SET_CURRENT":
-            self.link.submit({"command": "set_current", "index": int(msg.seq) - 1, "source": "mavlink"},
+            index = self.link.waypoint_of_item(int(msg.seq), "MISSION_SET_CURRENT")
+            if index is None:
+                self.link.send_mission_current()  # the answer MAVLink has: the current item, unchanged
+                return
+            self.link.submit({"command": "set_current", "index": index, "source": "mavlink"},
                              lambda reply: self.link.send_mission_current())
 
     def _clear(self, ep, peer) -> None:
