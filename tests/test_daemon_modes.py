@@ -172,7 +172,8 @@ def test_malformed_and_oversized_requests_are_refused_and_logged(tmp_path):
 @pytest.mark.parametrize("action", ["stop", "hold", "rtl"])
 def test_geofence_takes_its_configured_action(tmp_path, action):
     fence = [[-8.0, -8.0], [-8.0, 12.0], [12.0, 12.0], [12.0, -8.0]]
-    cfg = {"geofence": {"frame": "local", "polygon": fence}, "failsafe": {"actions": {"geofence": action}}}
+    cfg = {"geofence": {"frame": "local", "polygon": fence},
+           "failsafe": {"actions": {"geofence": action}, "allow_beyond_limits": True}}  # a test of the fence
 
     async def scenario():
         d = Daemon(tmp_path, {"name": "out", "frame": "local", "waypoints": [[40.0, 0.0]]}, config=cfg)

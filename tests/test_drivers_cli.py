@@ -81,3 +81,69 @@ def test_nmea_cli_shows_ais_targets(capsys):
     assert main(["nmea", str(SHARED / "nmea" / "ais-nmea.log")]) == 0
     text = capsys.readouterr()
     assert "AIS" in text.out and "mmsi=" in text.out and "target(s)" in text.err
+
+
+def test_a_port_in_use_is_refused_and_each_open_failure_is_said_in_words(tmp_path):
+    """Found by an operator audit: two daemons (one by hand beside the service) both opened the SC-30 and the Mbed
+    and interleaved their commands on the board; `autopilot nmea` on a running boat's port took bytes from its
+    daemon; a regular file, a directory or /dev/null were 'retried until it appears' with pyserial's
+    'Could not configure port: (25, ...)'. Ports are now opened with an exclusive lock, and each failure is named."""
+    import serial
+
+    from autopilot.drivers.serial_link import open_port, open_problem
+
+    pty = PtyEndpoint(tmp_path, "sc30")
+    first = open_port(pty.path, 4800, timeout=0)
+    try:
+        try:
+            open_port(pty.path, 4800, timeout=0)
+        except serial.SerialException as exc:
+            assert open_problem(pty.path, exc).startswith("in use by another program")
+        else:
+            raise AssertionError("a second open of a locked port succeeded")
+        assert main(["nmea", pty.path, "--timeout", "1"]) == 2  # the wiring check does not steal the daemon's bytes
+    finally:
+        first.close()
+        pty.close()
+    (tmp_path / "file").write_text("x")
+    cases = {str(tmp_path / "nope"): "no such device", str(tmp_path): "a directory, not a serial device",
+             str(tmp_path / "file"): "a regular file, not a serial device", "/dev/null": "not a serial device ("}
+    for path, words in cases.items():
+        try:
+            open_port(path, 4800, timeout=0).close()
+        except (serial.SerialException, OSError) as exc:
+            assert open_problem(path, exc).startswith(words), (path, open_problem(path, exc))
+        else:
+            raise AssertionError(f"{path} opened as a serial port")
+
+
+def test_a_daemon_whose_ports_another_program_holds_says_so_and_sends_nothing(tmp_path):
+    """The second daemon of the audit: its ports are held (here by this test, as the first daemon holds them):
+    it says which and why, keeps thrust at zero (it cannot even reach the board) and stops cleanly."""
+    import signal
+
+    from autopilot.drivers.serial_link import open_port
+    from tests.conftest import REPO
+
+    sc30, mbed = PtyEndpoint(tmp_path, "sc30"), PtyEndpoint(tmp_path, "mbed")
+    held = [open_port(sc30.path, 4800, timeout=0), open_port(mbed.path, 115200, timeout=0)]
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"origin_lat_deg: 52.0\norigin_lon_deg: 4.4\nserial:\n  sc30_port: {sc30.path}\n  mbed_port: {mbed.path}\n")
+    try:
+        p = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--config", str(cfg), "--mission",
+                              str(REPO / "config" / "missions" / "pond-9.1.yaml"), "--log-dir", str(tmp_path / "logs"),
+                              "--state-dir", str(tmp_path / "state"), "--runtime-dir", str(tmp_path / "run")],
+                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(3.0)
+        p.send_signal(signal.SIGINT)
+        _, err = p.communicate(timeout=30)
+        written = mbed.read()
+    finally:
+        for h in held:
+            h.close()
+        sc30.close()
+        mbed.close()
+    assert p.returncode == 0, err
+    for device, path in (("sc30", sc30.path), ("mbed", mbed.path)):
+        assert f"autopilot run: {device}: cannot open {path}: in use by another program" in err, err
+    assert not written

@@ -335,7 +335,8 @@ def test_recoverable_faults_stop_the_boat_in_time_and_the_mission_resumes_and_co
 def test_geofence_crossing_with_action_stop_stops_the_boat_and_stays_stopped(tmp_path):
     fence = [[-5.0, -5.0], [-5.0, 5.0], [8.0, 5.0], [8.0, -5.0]]
     mission = {"name": "fence", "frame": "local", "waypoints": [[30.0, 0.0]]}
-    config = {"geofence": {"frame": "local", "polygon": fence}, "failsafe": {"actions": {"geofence": "stop"}}}
+    config = {"geofence": {"frame": "local", "polygon": fence},
+              "failsafe": {"actions": {"geofence": "stop"}, "allow_beyond_limits": True}}  # a test of the fence
 
     async def scenario():
         d = Daemon(tmp_path, mission, config=config, position_noise_m=0.0)

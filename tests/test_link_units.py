@@ -178,3 +178,9 @@ def test_message_interval_keeps_each_rate_in_its_configured_range():
     assert rate_for_interval(rates, hb, 10.0) == (10.0, "")  # faster than allowed: the fastest allowed
     assert rate_for_interval(rates, att, -1) == (0.0, "")  # telemetry may be turned off
     assert rate_for_interval(rates, att, 1e5) == (10.0, "") and rate_for_interval(rates, att, 1.0) == (50.0, "")
+
+
+def test_the_ground_station_back_text_has_no_dangling_colon():
+    """Found by a ground-station audit: 'ground station back:' (the action of a station's return is None)."""
+    assert T.event_text("gcs", {"state": "back", "action": None})[1] == "ground station back"
+    assert T.event_text("gcs", {"state": "lost", "action": "hold"})[1] == "ground station lost: hold"

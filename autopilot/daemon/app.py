@@ -60,6 +60,23 @@ def _fence_ne_m(cfg: DaemonConfig, origin_lat_deg: float, origin_lon_deg: float)
     return tuple(latlon_to_local(lat, lon, origin_lat_deg, origin_lon_deg) for lat, lon in g.polygon)
 
 
+def _within_limits(cfg: DaemonConfig, mission, mission_path) -> None:
+    """Every waypoint, and the start (the mission's home, else the origin), inside the geofence and within
+    max_distance_m, as an upload is checked: a mission beyond them started, flew, and was turned back by its
+    own latched failsafe half way (a fence with lat/lon swapped stopped the boat at its first fix); unless
+    failsafe.allow_beyond_limits (a test of those failsafes)."""
+    from autopilot.daemon.failsafe import first_beyond_limits
+
+    if cfg.failsafe.allow_beyond_limits:
+        return
+    fence = _fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg)
+    start = "the start (the mission's home)" if mission.home_latlon is not None else "the start (the origin)"
+    why = (first_beyond_limits([mission.home_ne_m], cfg.failsafe, fence, lambda k: start)
+           or first_beyond_limits(mission.waypoints_ne_m, cfg.failsafe, fence, lambda k: f"waypoint {k + 1}"))
+    if why is not None:
+        raise ConfigError(f"{mission_path}: {why}")
+
+
 def sim_sentences(cfg: DaemonConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(10 Hz, 1 Hz) sentences of the simulated SC-30 at ``serial.sc30_baud``; ConfigError if they do not fit."""
     from autopilot.drivers.sc30_output import check_sentences, default_sentences
@@ -83,6 +100,14 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
             raise ConfigError("--speedup max: lockstep runs only with --sim (the boat's devices keep real time)")
     elif not (math.isfinite(opts.speedup) and 0.01 <= opts.speedup <= 100.0):
         raise ConfigError(f"--speedup: {opts.speedup!r} is outside the allowed range [0.01, 100], or max")
+    elif opts.speedup != 1.0 and not opts.sim:
+        # on the boat a faster clock ran the loop at N x rate_hz against real devices: late acks, stale fixes.
+        # Simulated devices in another process (the test rig, a bench simulator) sit on pseudo-terminals.
+        for key in ("sc30_port", "mbed_port"):
+            port = getattr(cfg.serial, key)
+            if not os.path.realpath(port).startswith("/dev/pts/"):
+                raise ConfigError(f"--speedup {opts.speedup:g}: serial.{key} {port} is not a simulated device (a "
+                                  "pseudo-terminal); real devices keep real time: --speedup is for --sim")
     mission = load_mission(
         opts.mission_path,
         origin_lat_deg=cfg.origin_lat_deg,
@@ -101,6 +126,7 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
             origin_lon_deg=cfg.sim.origin_lon_deg,
             max_range_m=cfg.max_mission_range_m,
         )
+    _within_limits(cfg, mission, opts.mission_path)
     if opts.sim:
         sim_sentences(cfg)  # refuses sets that do not fit in the line before anything starts
     log_dir = Path(opts.log_dir or cfg.log_dir)
@@ -179,8 +205,11 @@ class DeviceEvents:
     def __call__(self, name: str, *, device: str, **fields) -> None:
         if name == "port_open_failed":
             s = self.cfg.serial
-            _console(f"{device}: cannot open {fields.get('path')} ({fields.get('error')}); thrust stays at zero and the "
-                     f"port is retried every {s.reconnect_min_s:g}-{s.reconnect_max_s:g} s until it appears. "
+            # the AIS receiver is not a thruster's or the compass's: without it the boat flies, seeing no traffic
+            meaning = ("collision avoidance sees no AIS targets until it opens" if device == "ais"
+                       else "thrust stays at zero")
+            _console(f"{device}: cannot open {fields.get('path')}: {fields.get('why') or fields.get('error')}; "
+                     f"{meaning}, and the port is retried every {s.reconnect_min_s:g}-{s.reconnect_max_s:g} s. "
                      "Stop with Ctrl-C (or: systemctl stop wamv-autopilot).")
         self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message=name, device=device, **fields)
 

@@ -92,14 +92,11 @@ def _set_current(loop, request, helm_nav, unavailable, cause):
 
 def _beyond_limits(loop, points_ne_m, what) -> str | None:
     """Why a point the boat is sent to would trip a latched failsafe (the geofence, max_distance), or None."""
-    from autopilot.daemon.failsafe import position_limits
+    from autopilot.daemon.failsafe import first_beyond_limits
 
-    for k, (north_m, east_m) in enumerate(points_ne_m):
-        beyond = position_limits(north_m, east_m, loop.cfg.failsafe, loop.failsafe.fence_ne_m)
-        if beyond:
-            cause, detail = next(iter(beyond.items()))
-            return f"{what(k)} is beyond the {cause} failsafe: {detail}"
-    return None
+    if loop.cfg.failsafe.allow_beyond_limits:
+        return None
+    return first_beyond_limits(points_ne_m, loop.cfg.failsafe, loop.failsafe.fence_ne_m, what)
 
 
 def _mission(loop, request, helm_nav, unavailable, cause):

@@ -10,6 +10,7 @@ universes) are the ``gnc`` section, :class:`autopilot.gnc.GncConfig`.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -71,6 +72,13 @@ class GeofenceConfig:
             for i, (lat, lon) in enumerate(self.polygon):
                 if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
                     raise ConfigError(f"geofence.polygon[{i}]: [{lat}, {lon}] is not a latitude in [-90, 90] deg and longitude in [-180, 180] deg")
+        if self.frame != "none":
+            from autopilot.mathutil import polygon_problem
+
+            # a fence of no area (or a bow tie) has no inside: the boat was "outside" at its first fix and stopped
+            problem = polygon_problem(self.polygon)
+            if problem is not None:
+                raise ConfigError(f"geofence.polygon: {problem}")
 
 
 _ACTIONS = FAILSAFE_ACTIONS
@@ -129,6 +137,9 @@ class FailsafeConfig:
     max_mission_time_s: float = param(1800.0, unit="s", lo=1.0, hi=86400.0, doc="mission time limit: zero thrust and stop when reached")
     max_distance_m: float = param(500.0, unit="m", lo=1.0, hi=20000.0, doc="largest distance from the origin before a latched failsafe")
     resume_after_restart: bool = param(False, doc="after a restart, continue from the saved waypoint (else refuse to move)")
+    allow_beyond_limits: bool = param(False, doc="a mission (at start or uploaded) or a point commanded beyond the geofence or "
+                                      "max_distance_m, or a start outside them, is refused naming it; true allows it, to test "
+                                      "those failsafes on the water (the failsafe then takes the boat when it gets there)")
     cog_fallback: bool = param(False, doc="steer on course over ground when the heading is lost (logged as heading_source COG)")
     cog_fallback_min_sog_m_s: float = param(0.5, unit="m/s", lo=0.0, hi=10.0, doc="COG is meaningless below this speed")
     battery_sag_v: float = param(1.2, unit="V", lo=0.0, hi=5.0,
@@ -249,6 +260,14 @@ class DaemonConfig:
     def __post_init__(self) -> None:
         if (self.origin_lat_deg is None) != (self.origin_lon_deg is None):
             raise ConfigError("origin_lat_deg, origin_lon_deg: give both or neither")
+        ports = [("serial.sc30_port", self.serial.sc30_port), ("serial.mbed_port", self.serial.mbed_port)]
+        if self.ais.port:
+            ports.append(("ais.port", self.ais.port))
+        for k, (key, port) in enumerate(ports):
+            for other, same in ports[:k]:
+                if os.path.realpath(port) == os.path.realpath(same):
+                    # two drivers on one line steal each other's bytes: the boat sat waiting with no reason given
+                    raise ConfigError(f"{key}: {port} is {other} too: each device needs its own port")
         if self.failsafe.heading_stale_s < 1.0 / self.rate_hz:
             raise ConfigError(
                 f"failsafe.heading_stale_s: {self.failsafe.heading_stale_s} s is shorter than one control period ({1.0 / self.rate_hz:g} s)"

@@ -36,7 +36,8 @@ from autopilot.daemon.config import FailsafeConfig
 from autopilot.logschema import FAULT_CAUSES, LATCHED_CAUSES
 
 __all__ = ["CAUSES", "LATCHED", "WAITING_QUIET", "resting_voltage_v", "FAULT_CLASS", "NAV_CLASSES", "Observation", "Event", "Request",
-           "Decision", "Failsafe", "detect", "inside_polygon", "position_limits", "guarded_action"]
+           "Decision", "Failsafe", "detect", "inside_polygon", "position_limits", "first_beyond_limits",
+           "guarded_action"]
 
 CAUSES = FAULT_CAUSES  # the log schema owns the causes' names and order
 LATCHED = LATCHED_CAUSES
@@ -163,6 +164,17 @@ def position_limits(north_m: float, east_m: float, cfg: FailsafeConfig, fence_ne
     if dist_m > cfg.max_distance_m:
         out["max_distance"] = f"{dist_m:.1f} m from the origin (limit {cfg.max_distance_m:g} m)"
     return out
+
+
+def first_beyond_limits(points_ne_m, cfg: FailsafeConfig, fence_ne_m, name) -> str | None:
+    """Why the first of ``points_ne_m`` beyond a latched position limit would trip it when the boat got there
+    (``name(k)`` names point k: "waypoint 2 is beyond the max_distance failsafe: ..."), or None."""
+    for k, (north_m, east_m) in enumerate(points_ne_m):
+        beyond = position_limits(float(north_m), float(east_m), cfg, fence_ne_m)
+        if beyond:
+            cause, detail = next(iter(beyond.items()))
+            return f"{name(k)} is beyond the {cause} failsafe: {detail}"
+    return None
 
 
 def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, str]:

@@ -161,10 +161,12 @@ def _read_port(args, emit) -> None:
 
     if args.baud <= 0:
         raise ConfigError(f"--baud: {args.baud} must be > 0")
+    from autopilot.drivers.serial_link import open_port, open_problem
+
     try:
-        port = serial.Serial(args.source, baudrate=args.baud, timeout=0.2)
+        port = open_port(args.source, args.baud, timeout=0.2)
     except (serial.SerialException, OSError, ValueError) as exc:
-        raise ConfigError(f"{args.source}: cannot open: {exc}") from None
+        raise ConfigError(f"{args.source}: cannot open: {open_problem(args.source, exc)}") from None
     print(f"nmea: reading {args.source} at {args.baud} baud", file=sys.stderr, flush=True)
     idle_s = 0.0
     try:

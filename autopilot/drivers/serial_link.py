@@ -22,7 +22,7 @@ import serial
 from autopilot.clock import Clock
 from autopilot.devices import EventSink
 
-__all__ = ["SerialLink"]
+__all__ = ["SerialLink", "open_port", "open_problem"]
 
 _READ_CHUNK = 65536
 
@@ -34,6 +34,40 @@ def _pending(fd: int) -> int:
     import termios
 
     return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
+
+
+def open_port(path: str, baudrate: int, **kwargs) -> serial.Serial:
+    """The port opened with an exclusive lock (flock): two daemons once both drove one Mbed, their commands
+    interleaved, and a wiring check (``autopilot nmea``) on a running boat's port took bytes from its daemon."""
+    ser = serial.Serial(baudrate=baudrate, exclusive=True, **kwargs)
+    ser.port = path
+    ser.open()  # POSIX pyserial opens with O_NONBLOCK
+    return ser
+
+
+def open_problem(path: str, exc: BaseException) -> str:
+    """Why ``path`` could not be opened, in words an operator can act on (pyserial says 'Could not configure
+    port: (25, ...)' of a regular file and 'Errno 13' of a port the user may not open)."""
+    import stat
+
+    code, text = getattr(exc, "errno", None), str(exc)
+    if code in (errno.EAGAIN, errno.EWOULDBLOCK) or "exclusively lock" in text:
+        return "in use by another program (another autopilot daemon, or a terminal program, has it open)"
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        return "no such device (not plugged in, or another name: ls -l /dev/serial/by-id/)"
+    except OSError as err:
+        return err.strerror or text
+    if stat.S_ISDIR(st.st_mode):
+        return "a directory, not a serial device"
+    if not stat.S_ISCHR(st.st_mode):
+        return "a regular file, not a serial device"
+    if code in (errno.EACCES, errno.EPERM) or "Permission denied" in text:
+        return "permission denied (add the user to the dialout group and log in again; the service: SupplementaryGroups)"
+    if code == errno.ENOTTY or "Inappropriate ioctl" in text:
+        return "not a serial device (a character device without a serial line, such as /dev/null)"
+    return text
 
 
 class SerialLink:
@@ -101,7 +135,8 @@ class SerialLink:
                     self.open_failures += 1
                     if not self._failure_announced:  # once per outage, not every retry
                         self._failure_announced = True
-                        self.emit("port_open_failed", path=self.port_path, error=str(exc))
+                        self.emit("port_open_failed", path=self.port_path, error=str(exc),
+                                  why=open_problem(self.port_path, exc))
                 if not opened:
                     await self._clock.sleep(backoff_s)
                     backoff_s = min(2.0 * backoff_s, self._max_s)
@@ -127,9 +162,7 @@ class SerialLink:
         self._teardown()
 
     def _open(self) -> bool:
-        ser = serial.Serial(baudrate=self.baudrate, timeout=0, write_timeout=0)
-        ser.port = self.port_path
-        ser.open()  # POSIX pyserial opens with O_NONBLOCK
+        ser = open_port(self.port_path, self.baudrate, timeout=0, write_timeout=0)
         try:
             self.bytes_discarded += _pending(ser.fileno())
             ser.reset_input_buffer()  # bytes queued while nobody listened are stale

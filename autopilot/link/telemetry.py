@@ -220,7 +220,8 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
     if name == "arming":
         return mavlink.MAV_SEVERITY_NOTICE, ("armed" if f.get("armed") else "disarmed") + f" ({f.get('cause')})"
     if name == "gcs":
-        return mavlink.MAV_SEVERITY_WARNING, f"ground station {f.get('state')}: {f.get('action') or ''}".strip()
+        action = f.get("action")
+        return mavlink.MAV_SEVERITY_WARNING, f"ground station {f.get('state')}" + (f": {action}" if action else "")
     if name == "mission_replaced":
         return mavlink.MAV_SEVERITY_INFO, f"mission: {len(f.get('waypoints') or [])} waypoint(s)"
     if name == "param":
