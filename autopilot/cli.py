@@ -85,6 +85,9 @@ def main(argv: list[str] | None = None) -> int:
             raise
         from autopilot.userfile import NO_ROOM_ERRNOS
 
+        if isinstance(exc, IsADirectoryError):  # a directory where an output file goes: the user's to move
+            print(f"autopilot {args.command}: error: cannot write {exc.filename}: it is a directory", file=sys.stderr)
+            return 1
         if isinstance(exc, OSError) and exc.errno in NO_ROOM_ERRNOS:  # the machine's state, not a bug
             where = f" {exc.filename}" if exc.filename else ""
             print(f"autopilot {args.command}: error: cannot write{where}: {exc.strerror} (the disk is full, "

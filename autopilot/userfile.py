@@ -19,7 +19,8 @@ from pathlib import Path
 
 from autopilot.schema import ConfigError
 
-__all__ = ["read_text", "check_file", "check_text_head", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES"]
+__all__ = ["read_text", "check_file", "check_text_head", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES",
+           "number_cell", "unique_header", "MISSING_CELLS"]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")  # what the figures can be saved as
 
@@ -28,12 +29,19 @@ _BINARY_SNIFF = 8192
 
 def check_file(path: str | Path, *, what: str = "file") -> Path:
     """``path`` as a Path if it names a readable regular file; ConfigError otherwise."""
+    import stat
+
     p = Path(path)
     try:
         if p.is_dir():
             raise ConfigError(f"{p}: is a directory, not a {what}")
         with p.open("rb"):
             pass
+        if not stat.S_ISREG(p.stat().st_mode):
+            # a pipe is read once: the look at its first bytes (is it text? a log?) used up what the reading then
+            # missed: a review of <(zcat log.gz) lost its first 39 cycles and its mission_start, and said exit 0
+            raise ConfigError(f"{p}: a pipe or a device, not a file (read once, its start would be lost); save it "
+                              f"to a file first")
     except ConfigError:
         raise
     except OSError as exc:
@@ -85,6 +93,36 @@ def csv_rows(text: str) -> list[list[str]]:
     head = lines[0]
     delimiter = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
     return [[c.strip() for c in row] for row in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
+
+
+MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"
+
+
+def number_cell(text: str, row: int, column: str) -> float:
+    """A CSV cell: a finite number, or NaN for an empty or "no value" cell; anything else is refused naming the
+    row and the column (it was read as empty, without a word: a thrust of inf, a decimal comma, a stray word)."""
+    import math
+
+    if text in MISSING_CELLS:
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        hint = ""
+        if re.fullmatch(r"[-+]?\d*,\d+", text):
+            hint = " (a decimal comma: save the CSV with a point as the decimal separator)"
+        raise ConfigError(f"data row {row}, {column}: {text!r} is not a number{hint}") from None
+    if not math.isfinite(value):
+        raise ConfigError(f"data row {row}, {column}: {text} is not a finite number (leave the cell empty if it has no value)")
+    return value
+
+
+def unique_header(header: list[str], wanted) -> None:
+    """ConfigError when a column the reader uses appears twice (the last copy silently won)."""
+    for name in wanted:
+        at = [k + 1 for k, h in enumerate(header) if h == name]
+        if len(at) > 1:
+            raise ConfigError(f"column {name} appears {len(at)} times (columns {', '.join(map(str, at))}): keep one")
 
 
 def parse_yaml(text: str):
@@ -169,14 +207,19 @@ def writing(path: str | Path):
         raise
 
 
-def output_dir(path: str | Path, *, what: str = "--out") -> Path:
+def output_dir(path: str | Path, *, what: str = "--out", files: tuple[str, ...] = ()) -> Path:
     """``path`` created if need be and writable, checked before any work; ConfigError naming it otherwise
-    (a file where the directory should be, no permission: the work would have been lost at the end)."""
+    (a file where the directory should be, no permission: the work would have been lost at the end). ``files``:
+    names the command writes there; a directory by one of those names is refused too (it was an 'internal
+    error: IsADirectoryError' after the whole fit)."""
     import tempfile
 
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise ConfigError(f"{what} {p}: is a file, not a directory")
+    for name in files:
+        if (p / name).is_dir():
+            raise ConfigError(f"{what} {p}: {p / name} is a directory; the command writes a file of that name there")
     try:
         p.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=p):

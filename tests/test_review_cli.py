@@ -134,3 +134,37 @@ def test_nan_positions_huge_thrusts_and_a_utf16_log_are_said_so(tmp_path, capsys
     utf16.write_bytes(src.read_text().encode("utf-16"))
     assert main(["review", str(utf16), "--out", str(tmp_path / "r3")]) == 2
     assert f"{utf16}: UTF-16 text; save the mission log as UTF-8" in capsys.readouterr().err
+
+
+def test_a_compressed_log_is_read_a_pipe_is_refused_and_an_output_taken_by_a_directory_is_named(logs, tmp_path, capsys):
+    """Found by a new-user audit: `review <(zcat log.jsonl.gz)` lost the log's first 39 cycles and its mission_start
+    (the look at the first bytes used them up) and exited 0; a .gz was refused as binary; a directory named
+    report.html in --out was an 'internal error: IsADirectoryError'."""
+    import gzip
+    import os
+    import subprocess
+    import sys
+
+    d, _ = logs
+    plain = (d / "ok.jsonl").read_bytes()
+    (tmp_path / "ok.jsonl.gz").write_bytes(gzip.compress(plain))
+    assert main(["review", str(d / "ok.jsonl"), "--out", str(tmp_path / "a"), "--no-plots"]) == 0
+    assert main(["review", str(tmp_path / "ok.jsonl.gz"), "--out", str(tmp_path / "b"), "--no-plots"]) == 0
+    a, b = (json.loads((tmp_path / x / "summary.json").read_text()) for x in "ab")
+    assert a["cycles"] == b["cycles"] > 100 and a["distance_m"] == b["distance_m"] and a["waypoints"] == b["waypoints"]
+    capsys.readouterr()
+    r, w = os.pipe()
+    feeder = subprocess.Popen([sys.executable, "-c", f"import sys; sys.stdout.buffer.write(open({str(d / 'ok.jsonl')!r}, 'rb').read())"],
+                              stdout=w)
+    os.close(w)
+    try:
+        assert main(["review", f"/dev/fd/{r}", "--out", str(tmp_path / "c"), "--no-plots"]) == 2
+    finally:
+        os.close(r)
+        feeder.wait()
+    assert "a pipe or a device, not a file (read once, its start would be lost); save it to a file first" in \
+        capsys.readouterr().err
+    (tmp_path / "d" / "report.html").mkdir(parents=True)
+    assert main(["review", str(d / "ok.jsonl"), "--out", str(tmp_path / "d"), "--no-plots"]) == 2
+    assert f"{tmp_path / 'd' / 'report.html'} is a directory; the command writes a file of that name there" in \
+        capsys.readouterr().err

@@ -45,8 +45,11 @@ def test_csv_reader_pwm_latlon_gaps(tmp_path):
         hdg = "" if k == 7 else f"{30.0:.1f}"
         pwm_p = "" if k == 9 else "60"
         lines.append(f"{t[k]:.1f},{pwm_p},-40,{lat[k]:.9f},{lon[k]:.9f},{hdg},x")
-    lines.insert(20, "nan,60,60,,,,")  # a row without time is dropped
     path = tmp_path / "trial.csv"
+    path.write_text("\n".join(lines[:20] + ["nan,60,60,,,,"] + lines[20:]) + "\n")
+    with pytest.raises(ConfigError, match=r"data row 20, t_s: no time \(every row needs one\)"):  # was dropped unsaid
+        read_trial(path)
+    lines.insert(20, ",,,,,,")  # a row of empty cells (Excel writes them below the data) is no row
     path.write_text("\n".join(lines) + "\n")
     tr = read_trial(path)
     assert tr.t_s.size == 50
@@ -384,14 +387,96 @@ def test_a_pair_grown_from_the_runner_up_must_beat_the_leader(monkeypatch):
     assert ident.choose(Prep(), VESSEL, fits, Scores(), (), None, None, ident.Settings(), lambda m: None)[0] == AY
 
 
-@pytest.mark.parametrize("field, value", [("thrust_port_n", 1e9), ("speed_m_s", -0.5), ("yaw_rate_rad_s", float("nan")),
-                                          ("thrust_stbd_n", float("inf"))])
-def test_a_table_row_outside_its_range_is_refused_naming_row_and_column(tmp_path, field, value):
+@pytest.mark.parametrize("field, value, words", [
+    ("thrust_port_n", 1e9, "1e+09 is outside ["), ("speed_m_s", -0.5, "-0.5 is outside ["),
+    ("yaw_rate_rad_s", float("nan"), "empty (every row needs every column)"),
+    ("thrust_stbd_n", float("inf"), "inf is not a finite number")])
+def test_a_table_row_outside_its_range_is_refused_naming_row_and_column(tmp_path, field, value, words):
     """Found by review: a row typed 1e9 N went into the fit; its residual alone made thrust_asymmetry the
     verdict (SSE 1.3e15 -> 200)."""
     import dataclasses
 
     bad = dataclasses.replace(MEASURED_TABLE[3], **{field: value})
     write_table_csv([*MEASURED_TABLE[:3], bad, *MEASURED_TABLE[4:]], tmp_path / "t.csv")
-    with pytest.raises(ConfigError, match=re.escape(f"t.csv:5: {field} {value:g} is outside [")):
+    with pytest.raises(ConfigError, match=re.escape(f"t.csv: data row 4, {field}: {words}")):
         read_table_csv(tmp_path / "t.csv")
+
+
+def test_a_table_cell_that_is_not_a_number_names_its_row_and_column_and_a_decimal_comma_says_so(tmp_path):
+    """Found by a new-user audit: 't.csv:2: not a number (could not convert string to float: '0,0')', Python's
+    words and no column, where a trial CSV said which column and why."""
+    write_table_csv(MEASURED_TABLE, tmp_path / "t.csv")
+    text = (tmp_path / "t.csv").read_text()
+    (tmp_path / "semi.csv").write_text(text.replace(",", ";").replace(".", ","))
+    with pytest.raises(ConfigError, match=r"semi.csv: data row 1, \w+: '[-\d]*,\d+' is not a number \(a decimal comma"):
+        read_table_csv(tmp_path / "semi.csv")
+    lines = text.splitlines()
+    (tmp_path / "dup.csv").write_text("\n".join([lines[0] + "," + lines[0].split(",")[1]] +
+                                                 [ln + "," + ln.split(",")[1] for ln in lines[1:]]) + "\n")
+    with pytest.raises(ConfigError, match=r"dup.csv: column \w+ appears 2 times"):
+        read_table_csv(tmp_path / "dup.csv")
+
+
+def _trial_csv(path, t_s, *, extra_heading=None):
+    """A plain trial CSV at times ``t_s`` (a boat going north at 1 m/s, heading 0, equal thrusts)."""
+    head = "t_s,north_m,east_m,heading_deg,thrust_port_n,thrust_stbd_n" + (",heading_deg" if extra_heading else "")
+    rows = [f"{t:g},{t:g},0,0,20,20" + (f",{extra_heading}" if extra_heading else "") for t in t_s]
+    path.write_text("\n".join([head, *rows]) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda t: t.__setitem__(30, math.nan), "data row 31, t_s: no time (every row needs one)"),
+    (lambda t: t.__setitem__(31, t[30]), "t_s repeats 3 s at data row 31 and data row 32: each row is a moment"),
+    (lambda t: t.__setitem__(slice(31, None), t[31:] - 10.0), "t_s goes back from 3 s (data row 31) to -6.9 s"),
+    (lambda t: t.__setitem__(slice(31, None), t[31:] + 60.0), "t_s jumps 60.1 s from 3 s (data row 31) to 63.1 s "
+                                                            "(data row 32): a gap in the record"),
+])
+def test_a_trial_whose_times_are_not_one_record_is_refused_naming_the_row(tmp_path, change, words):
+    """Found by a new-user audit: a row without a time or with a repeated one was dropped without a word (its heading
+    lost); a 60-s gap was fitted as one trial and came out 'unexplained'; in a mission log a time going back kept
+    only the rows before it, silently (the CSV said so)."""
+    t = np.arange(120) * 0.1
+    change(t)
+    with pytest.raises(ConfigError, match=re.escape(words)):
+        read_trial(_trial_csv(tmp_path / "t.csv", t))
+
+
+def test_a_gap_or_a_step_back_in_a_mission_log_is_refused_naming_the_cycle_line(tmp_path):
+    from autopilot.review.synthetic import write_synthetic_log
+
+    write_synthetic_log(tmp_path / "ok.jsonl")
+    lines = (tmp_path / "ok.jsonl").read_text().splitlines()
+    cycles = [k for k, ln in enumerate(lines) if '"event": "cycle"' in ln or '"event":"cycle"' in ln]
+    assert len(cycles) > 200
+    for name, dt in (("gap", 60.0), ("back", -30.0)):
+        out = []
+        for k, ln in enumerate(lines):
+            if k >= cycles[150]:
+                rec = json.loads(ln)
+                rec["t_s"] = rec["t_s"] + dt
+                ln = json.dumps(rec)
+            out.append(ln)
+        (tmp_path / f"{name}.jsonl").write_text("\n".join(out) + "\n")
+        with pytest.raises(ConfigError, match=r"(jumps 60\.\d s|goes back from) .*\(cycle line \d+\)"):
+            read_trial(tmp_path / f"{name}.jsonl")
+
+
+def test_a_duplicated_column_a_compressed_log_and_an_output_taken_by_a_directory(tmp_path, capsys):
+    """Found by a new-user audit: a second heading_deg column silently won; a .jsonl.gz was 'binary data, not a text
+    trial CSV'; a directory named summary.json in --out was an 'internal error' after the whole fit."""
+    import gzip
+
+    from autopilot.review.synthetic import write_synthetic_log
+
+    with pytest.raises(ConfigError, match=r"column heading_deg appears 2 times \(columns 4, 7\): keep one"):
+        read_trial(_trial_csv(tmp_path / "dup.csv", np.arange(60) * 0.1, extra_heading=90))
+    write_synthetic_log(tmp_path / "ok.jsonl")
+    (tmp_path / "ok.jsonl.gz").write_bytes(gzip.compress((tmp_path / "ok.jsonl").read_bytes()))
+    plain, packed = read_trial(tmp_path / "ok.jsonl"), read_trial(tmp_path / "ok.jsonl.gz")
+    assert_allclose(plain.t_s, packed.t_s)
+    assert_allclose(plain.north_m, packed.north_m)
+    (tmp_path / "out" / "summary.json").mkdir(parents=True)
+    capsys.readouterr()
+    assert main(["sysid", str(tmp_path / "ok.jsonl"), "--out", str(tmp_path / "out"), "--no-report", "--quiet"]) == 2
+    assert "summary.json is a directory; the command writes a file of that name there" in capsys.readouterr().err

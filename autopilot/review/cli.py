@@ -34,7 +34,8 @@ def run(args: argparse.Namespace) -> int:
         check_mission_log(path)
     from autopilot.userfile import output_dir
 
-    out = output_dir(args.out if args.out else f"review-{Path(args.logs[0]).stem}")
+    out = output_dir(args.out if args.out else f"review-{Path(args.logs[0]).stem}",
+                     files=("report.html", "summary.json", "tracks.png"))
     result = review(args.logs, out, formats=formats, with_plots=not args.no_plots)
     failed = False
     for one in result.logs:

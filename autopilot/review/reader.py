@@ -422,6 +422,16 @@ def _block_to_array(rows: list, stats: ReadStats) -> np.ndarray:
 
 
 _SNIFF_BYTES = 65536
+GZIP_MAGIC = b"\x1f\x8b"
+
+
+def open_log(path: Path):
+    """The log's bytes: a gzip-compressed log (logrotate's .gz, or one compressed to mail) read as it is."""
+    import gzip
+
+    with path.open("rb") as f:
+        compressed = f.read(2) == GZIP_MAGIC
+    return gzip.open(path, "rb") if compressed else path.open("rb")
 
 
 def check_mission_log(path) -> Path:
@@ -435,8 +445,14 @@ def check_mission_log(path) -> Path:
     from autopilot.userfile import check_file, check_text_head
 
     p = check_file(path, what="mission log")
-    with p.open("rb") as f:
-        head = f.read(_SNIFF_BYTES)
+    head = b""
+    try:
+        with open_log(p) as f:
+            while len(head) < _SNIFF_BYTES and (chunk := f.read(min(4096, _SNIFF_BYTES - len(head)))):
+                head += chunk
+    except (OSError, EOFError) as exc:  # a compressed log cut short: what could be read is judged
+        if not head:
+            raise ConfigError(f"{p}: a gzip file that cannot be read ({exc})") from None
     if not head.strip():
         return p
     check_text_head(p, head, what="mission log")
@@ -454,6 +470,23 @@ def check_mission_log(path) -> Path:
                       "with an 'event'): not a mission log (docs/log-schema.md)")
 
 
+def _lines(f, stats: ReadStats):
+    """The file's lines; a compressed log cut short (a copy interrupted) ends where it can be read, noted."""
+    lineno = 0
+    it = iter(f)
+    while True:
+        try:
+            raw = next(it)
+        except StopIteration:
+            return
+        except (EOFError, OSError):  # gzip: "Compressed file ended before the end-of-stream marker", a bad CRC
+            stats.truncated_last_line = True
+            stats._skip(lineno + 1, "the compressed file ends early")
+            return
+        lineno += 1
+        yield raw
+
+
 def read_log(path) -> MissionLog:
     """Read one mission log in a single streaming pass.
 
@@ -463,7 +496,7 @@ def read_log(path) -> MissionLog:
     path = Path(path)
     try:
         size = path.stat().st_size
-        f = path.open("rb")
+        f = open_log(path)
     except OSError as exc:
         raise ConfigError(f"cannot read log {str(path)!r}: {exc.strerror or exc}") from exc
     stats = ReadStats()
@@ -500,7 +533,7 @@ def read_log(path) -> MissionLog:
 
     with f:
         lineno = 0
-        for raw in f:
+        for raw in _lines(f, stats):
             lineno += 1
             try:
                 rec = loads(raw)

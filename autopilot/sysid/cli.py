@@ -37,6 +37,9 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_cli)
 
 
+SYSID_OUTPUTS = ("summary.json", "report.html", "vessel-updated.yaml", "effects.yaml")  # what --out receives
+
+
 def run_cli(args: argparse.Namespace) -> int:
     from autopilot.sim import default_params_path, load_params
     from autopilot.sysid.effects import EFFECT_NAMES
@@ -44,7 +47,7 @@ def run_cli(args: argparse.Namespace) -> int:
 
     params_path = Path(args.params) if args.params else default_params_path()
     vessel = load_params(params_path)
-    output_dir(args.out)  # before the fit, not after it
+    output_dir(args.out, files=SYSID_OUTPUTS)  # before the fit, not after it
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     candidates = tuple(EFFECT_NAMES)
     if args.effects:

@@ -91,7 +91,7 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
             position_time_s=(t - c(F_POSITION_AGE))[keep], heading_time_s=(t - c(F_HEADING_AGE))[keep],
             thrust_port_n=c(F_THRUST_PORT)[keep], thrust_stbd_n=c(F_THRUST_STBD)[keep],
             exclude=exclude, sog_m_s=c(F_SOG)[keep], cog_deg=c(F_COG)[keep], rot_deg_s=c(F_RATE)[keep],
-            curve=curve, commands_held=True,
+            curve=curve, commands_held=True, row_name=lambda i: f"cycle line {first + i + 1}",
         )
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc

@@ -53,7 +53,7 @@ FOLDS = 5
 
 def read_table_csv(path) -> tuple[SteadyRow, ...]:
     """Read a steady-state table CSV."""
-    from autopilot.userfile import csv_rows, read_text
+    from autopilot.userfile import csv_rows, number_cell, read_text, unique_header
 
     path = Path(path)
     table = csv_rows(read_text(path, what="steady-state table CSV"))
@@ -63,15 +63,20 @@ def read_table_csv(path) -> tuple[SteadyRow, ...]:
         raise ConfigError(f"{path}: missing column(s) {', '.join(missing)} (need {', '.join(COLUMNS)})")
     col = {c: header.index(c) for c in COLUMNS}
     rows = []
-    for k, r in enumerate(table[1:], start=2):
+    for k, r in enumerate(table[1:], start=1):
         try:
-            vals = [float(r[col[c]]) for c in COLUMNS[1:]]
-        except (IndexError, ValueError) as exc:
-            raise ConfigError(f"{path}:{k}: not a number ({exc})") from exc
+            unique_header(header, COLUMNS)
+            if len(r) < len(header):
+                raise ConfigError(f"data row {k} has {len(r)} of {len(header)} fields")
+            vals = [number_cell(r[col[c]], k, c) for c in COLUMNS[1:]]
+        except ConfigError as exc:  # "data row 4, u_m_s: '1,98' is not a number (a decimal comma: ...)"
+            raise ConfigError(f"{path}: {exc}") from None
         for c, v in zip(COLUMNS[1:], vals):
+            if math.isnan(v):
+                raise ConfigError(f"{path}: data row {k}, {c}: empty (every row needs every column)")
             lo, hi, what = COLUMN_RANGES[c]
             if not lo <= v <= hi:  # NaN fails too
-                raise ConfigError(f"{path}:{k}: {c} {v:g} is outside [{lo:g}, {hi:g}] ({what})")
+                raise ConfigError(f"{path}: data row {k}, {c}: {v:g} is outside [{lo:g}, {hi:g}] ({what})")
         rows.append(SteadyRow(r[col["name"]], *vals))
     if len(rows) < 3:
         raise ConfigError(f"{path}: need at least 3 rows, got {len(rows)}")

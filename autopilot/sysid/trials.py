@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import csv
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -127,6 +126,38 @@ def _forward_fill(x: np.ndarray) -> np.ndarray:
     first = np.flatnonzero(ok)[0]
     x[:first] = x[first]
     return x
+
+
+GAP_MIN_S = 5.0  # a step in t_s longer than this and than GAP_STEPS typical steps is a gap in the record
+GAP_STEPS = 10.0
+
+
+def check_times(t: np.ndarray, row_name) -> None:
+    """ConfigError naming the row when the times of one trial are not one record: a row without a time, a time
+    repeated or going back, or a gap (the logger stopped). Each was once dropped or flown over without a word:
+    a 60-s gap replayed as one trial came out 'unexplained' (heading 5 deg against noise 0.9), a time going
+    back in a mission log kept only the rows before it. ``row_name(i)``: how the user finds row i."""
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ConfigError(f"{row_name(bad[0])}, t_s: no time (every row needs one)")
+    if t.size < 2:
+        return
+    dt = np.diff(t)
+    stuck = np.flatnonzero(dt <= 0.0)
+    if stuck.size:
+        i = stuck[0]
+        if dt[i] == 0.0:
+            raise ConfigError(f"t_s repeats {t[i]:g} s at {row_name(i)} and {row_name(i + 1)}: each row is a moment "
+                              "of its own (a row written twice? delete one)")
+        raise ConfigError(f"t_s goes back from {t[i]:g} s ({row_name(i)}) to {t[i + 1]:g} s ({row_name(i + 1)}): one "
+                          "trial's rows in time order (two trials in one file? give each its own file)")
+    limit_s = max(GAP_MIN_S, GAP_STEPS * float(np.median(dt)))
+    gaps = np.flatnonzero(dt > limit_s)
+    if gaps.size:
+        i = gaps[0]
+        raise ConfigError(f"t_s jumps {dt[i]:.1f} s from {t[i]:g} s ({row_name(i)}) to {t[i + 1]:g} s "
+                          f"({row_name(i + 1)}): a gap in the record (the logger stopped?); split the file there, "
+                          "each part a trial of its own")
 
 
 def _increasing_rows(t: np.ndarray) -> np.ndarray:
@@ -216,13 +247,16 @@ def make_trial(
     rot_deg_s=None,
     curve: ThrustCurve | None = None,
     commands_held: bool = False,
+    row_name=lambda i: f"data row {i + 1}",
 ) -> Trial:
     """Build a :class:`Trial` from raw per-row columns (degrees and duty only at this edge).
 
-    ``exclude``: rows whose measurements are not used (their commands are).
+    ``exclude``: rows whose measurements are not used (their commands are). ``row_name(i)``: row i as the
+    user finds it in the file (check_times' messages).
     """
     curve = curve or ThrustCurve()
     t = np.asarray(t_s, dtype=float)
+    check_times(t, row_name)
     sel = _increasing_rows(t)
     if sel.size < MIN_SAMPLES:
         raise ConfigError(f"trial {name}: only {sel.size} samples with a usable t_s (need {MIN_SAMPLES})")
@@ -291,7 +325,8 @@ def _commands(name, tp, ts, dp, ds, curve: ThrustCurve):
     raise ConfigError(f"trial {name}: needs thrust_port_n/thrust_stbd_n or pwm_port_pct/pwm_stbd_pct")
 
 
-def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = None) -> Trial:
+def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = None,
+                       row_name=lambda i: f"data row {i + 1}") -> Trial:
     """A trial from the CSV's columns (name -> per-row values, NaN = empty cell); ConfigError names what is missing."""
     get = cols.get
     north, east = get("north_m"), get("east_m")
@@ -311,36 +346,16 @@ def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = Non
         thrust_port_n=get("thrust_port_n"), thrust_stbd_n=get("thrust_stbd_n"),
         pwm_port_pct=get("pwm_port_pct"), pwm_stbd_pct=get("pwm_stbd_pct"),
         position_time_s=get("position_time_s"), heading_time_s=get("heading_time_s"),
-        sog_m_s=get("sog_m_s"), cog_deg=get("cog_deg"), rot_deg_s=get("rot_deg_s"), curve=curve,
+        sog_m_s=get("sog_m_s"), cog_deg=get("cog_deg"), rot_deg_s=get("rot_deg_s"), curve=curve, row_name=row_name,
     )
 
 
 TRIAL_COLUMNS = ("t_s", "north_m", "east_m", "lat_deg", "lon_deg", "heading_deg", "thrust_port_n", "thrust_stbd_n",
                  "pwm_port_pct", "pwm_stbd_pct", "position_time_s", "heading_time_s", "sog_m_s", "cog_deg", "rot_deg_s")
-MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"
-
-
-def _cell(text: str, row: int, column: str) -> float:
-    """A trial cell: a finite number, or NaN for an empty or "no value" cell; anything else is refused (it was
-    read as empty, without a word: a thrust of inf, a decimal comma, a stray word)."""
-    if text in MISSING_CELLS:
-        return math.nan
-    try:
-        value = float(text)
-    except ValueError:
-        hint = ""
-        if re.fullmatch(r"[-+]?\d*,\d+", text):
-            hint = " (a decimal comma: save the CSV with a point as the decimal separator)"
-        raise ConfigError(f"data row {row}, {column}: {text!r} is not a number{hint}") from None
-    if not math.isfinite(value):
-        raise ConfigError(f"data row {row}, {column}: {text} is not a finite number (leave the cell empty if it has no value)")
-    return value
-
-
 def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     """Read one trial CSV (columns in the module docstring); a cell that is not a number, a time going back
     or a last row cut off mid-write is refused naming the row."""
-    from autopilot.userfile import csv_rows, read_text
+    from autopilot.userfile import csv_rows, number_cell, read_text, unique_header
 
     path = Path(path)
     text = read_text(path, what="trial CSV")
@@ -348,6 +363,10 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     header = table[0] if table else []
     if "t_s" not in header:
         raise ConfigError(f"{path}: no t_s column in the header ({', '.join(header) or 'empty file'})")
+    try:
+        unique_header(header, TRIAL_COLUMNS)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
     width = len(header)
     if len(table) > 1 and len(table[-1]) < width and not text.endswith(("\n", "\r")):
         raise ConfigError(f"{path}: data row {len(table) - 1} has {len(table[-1])} of {width} fields and the file does "
@@ -357,24 +376,21 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
         for i, r in enumerate(table[1:]):
             for k, c in enumerate(r[:width]):
                 if header[k] in TRIAL_COLUMNS:  # other columns (a note, a label) are the user's own
-                    data[i, k] = _cell(c, i + 1, header[k])
-        t = data[:, header.index("t_s")]
-        finite = np.flatnonzero(np.isfinite(t))
-        back = np.flatnonzero(np.diff(t[finite]) < 0)
-        if back.size:
-            i, j = finite[back[0]], finite[back[0] + 1]
-            raise ConfigError(f"t_s goes back from {t[i]:g} s (data row {i + 1}) to {t[j]:g} s (data row {j + 1}): one "
-                              "trial's rows in time order (two trials in one file? give each its own file)")
+                    data[i, k] = number_cell(c, i + 1, header[k])
+        kept = np.flatnonzero(~np.all(np.isnan(data), axis=1))  # rows of empty cells (Excel's ",,,,,") are no rows
+        data = data[kept]
         cols = {h: data[:, k] for k, h in enumerate(header) if h in TRIAL_COLUMNS}
-        return trial_from_columns(path.stem, cols, curve=curve)
+        return trial_from_columns(path.stem, cols, curve=curve, row_name=lambda i: f"data row {kept[i] + 1}")
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
 
 
 def read_trial(path, *, curve: ThrustCurve | None = None) -> Trial:
-    """A trial CSV (``.csv``) or a mission log (``.jsonl``/``.json``)."""
-    suffix = Path(path).suffix.lower()
-    if suffix in (".jsonl", ".json", ".log"):
+    """A trial CSV (``.csv``) or a mission log (``.jsonl``/``.json``, or either gzip-compressed: ``.jsonl.gz``)."""
+    suffixes = [x.lower() for x in Path(path).suffixes]
+    if suffixes[-1:] == [".gz"]:
+        suffixes = suffixes[:-1]
+    if suffixes and suffixes[-1] in (".jsonl", ".json", ".log"):
         from autopilot.sysid.mission_log import read_mission_log
 
         return read_mission_log(path, curve=curve)
