@@ -83,7 +83,8 @@ def _convert(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
         return _convert(key, value, inner[0], meta)
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, Mapping):
-            raise ConfigError(f"{key}: expected a mapping of {tp.__name__} settings, got {value!r}")
+            got = "nothing (an empty section)" if value is None else f"{type(value).__name__} {value!r}"
+            raise ConfigError(f"{key}: expected its settings as 'key: value' lines below it, got {got}")
         return load(tp, value, where=f"{key}.")
     if tp is float or tp is int:
         return _check_number(key, value, tp, meta)
@@ -122,7 +123,8 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "", require_
     if data is None:
         data = {}
     if not isinstance(data, Mapping):
-        raise ConfigError(f"{where or cls.__name__}: expected a mapping, got {type(data).__name__}")
+        what = where.rstrip(".") if where else "the file"
+        raise ConfigError(f"{what}: expected settings as 'key: value' lines, got a {type(data).__name__}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(data) - set(fields))

@@ -75,6 +75,8 @@ CLI_CASES = [
      "serial: {sc30_port: /nonexistent/usb0, mbed_port: /nonexistent/usb0}\norigin_lat_deg: 52.0\norigin_lon_deg: 4.4\n",
      GOOD_MISSION, [], "autopilot run: error: {dir}/c.yaml: serial.mbed_port: /nonexistent/usb0 is serial.sc30_port too: "
      "each device needs its own port"),
+    ("configuration", "sim.vessel missing (--sim)", GOOD_CONFIG + "sim: {vessel: /nonexistent/vessel.yaml}\n", GOOD_MISSION,
+     ["--sim"], "autopilot run: error: sim.vessel: /nonexistent/vessel.yaml: cannot read (No such file or directory)"),
     ("configuration", "geofence of no area", "geofence: {frame: local, polygon: [[0, 0], [0, 0], [0, 0]]}\n",
      GOOD_MISSION, [], "autopilot run: error: {dir}/c.yaml: geofence.polygon: encloses no area (its vertices lie on one line)"),
     ("configuration", "geofence vertices out of order (a bow tie)",

@@ -40,7 +40,7 @@ BAD = [
     ({"origin_lat_deg": 52.0}, "origin_lat_deg, origin_lon_deg: give both or neither"),
     ({"origin_lat_deg": 91.0, "origin_lon_deg": 0.0}, "origin_lat_deg: 91.0 is outside the allowed range [-90, 90] deg"),
     ({"gnc": {"pid": {"kq": 1}}}, "gnc.pid.kq: unknown key"),
-    ({"serial": "x"}, "serial: expected a mapping of SerialConfig settings, got 'x'"),
+    ({"serial": "x"}, "serial: expected its settings as 'key: value' lines below it, got str 'x'"),  # not 'SerialConfig'
 ]
 
 

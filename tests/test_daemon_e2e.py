@@ -266,3 +266,26 @@ def test_a_ctrl_c_while_the_devices_open_is_a_clean_stop(tmp_path):
     last = json.loads(next(logs.glob("*.jsonl")).read_text().splitlines()[-1])
     assert p.returncode == 0 and "Traceback" not in err, err[-2000:]
     assert (last["event"], last["reason"], last["signal"]) == ("stop", "signal", "SIGINT")
+
+
+@pytest.mark.parametrize("signame", ["SIGTERM", "SIGHUP"])
+def test_a_sigterm_or_sighup_in_the_start_up_is_a_clean_stop(tmp_path, signame):
+    """Found by an operator audit: a SIGTERM or SIGHUP in the daemon's first ~0.3 s (before the loop's handlers)
+    killed it outright (exit 143 / 129), no stop line, a 0-byte log and a stale control socket. Sent here the
+    moment the control socket is announced, before the log, the rig and the loop exist."""
+    logs, run = tmp_path / "logs", tmp_path / "run"
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--config", str(CONFIG), "--mission", str(MISSIONS[0]),
+                          "--sim", "--speedup", "10", "--log-dir", str(logs), "--state-dir", str(tmp_path / "state"),
+                          "--runtime-dir", str(run)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = p.stderr.readline()
+        assert first.startswith("autopilot run: control socket"), first
+        p.send_signal(getattr(signal, signame))
+        _, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 0, (p.returncode, err[-2000:])
+    last = json.loads(next(logs.glob("*.jsonl")).read_text().splitlines()[-1])
+    assert (last["event"], last["reason"], last["signal"]) == ("stop", "signal", signame)
+    assert not (run / "control.sock").exists()

@@ -341,3 +341,31 @@ def test_idle_connections_never_lock_out_ctl_stop_and_a_huge_heading_is_refused(
     assert "Traceback" not in err and "OverflowError" not in err, err[-2000:]
     refused = [r["answer"] for r in d.log() if r["event"] == "command" and not r["accepted"]]
     assert any("heading_deg 1000" in a for a in refused)
+
+
+def test_a_disarmed_boat_says_so_in_status_and_in_every_mode_answer(tmp_path):
+    """Found by an operator audit: after `ctl disarm`, `ctl resume` answered "auto" and `ctl status` showed
+    "mode: auto ... faults: none" while the boat drifted with zero thrust; `hold` answered "hold"."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=25.0))
+        try:
+            await d.start()
+            await _wait_mode(d, "auto")
+            assert (await d.ctl("disarm"))[0] == 0
+            resumed = await d.ctl("resume")
+            held = await d.ctl("hold")
+            status = await d.ctl("status")
+            await d.clock.sleep(1.0)
+            idle = not d.rig.mbed.thrusting
+            armed = await d.ctl("arm")
+        finally:
+            await d.close()
+        return resumed, held, status, idle, armed
+
+    resumed, held, status, idle, armed = asyncio.run(scenario())
+    note = "(disarmed: zero thrust whatever the mode until armed (autopilot ctl arm))"
+    assert resumed[0] == 0 and resumed[1].endswith(note), resumed
+    assert held[0] == 0 and held[1].endswith(note), held
+    assert status[0] == 0 and "DISARMED: zero thrust whatever the mode (autopilot ctl arm)" in status[1].splitlines()[0]
+    assert idle
+    assert armed[0] == 0 and "disarmed" not in armed[1].lower()

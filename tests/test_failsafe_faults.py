@@ -12,6 +12,7 @@ the mission resumes and completes.
 from __future__ import annotations
 
 import asyncio
+import re
 import signal
 import sys
 from dataclasses import dataclass, field
@@ -390,6 +391,27 @@ def test_sigterm_mid_mission_sends_acknowledged_zero_thrust_and_exits_0(tmp_path
     assert stop["event"] == "stop" and stop["signal"] == sig.name and stop["ack_received"] is True
 
 
+def test_a_final_stop_the_mbed_never_acknowledges_is_said_at_the_end(tmp_path):
+    """Found by an operator audit: an Mbed silent at the end (SIGTERM) exited 0 with only "ack_received": false in
+    a JSON line; the summary now warns that the thrusters' stop is unconfirmed."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission())
+        try:
+            await d.start()
+            await d.steady_thrust(1.0)
+            d.rig.mbed.silent = True
+            d.proc.send_signal(signal.SIGTERM)
+            code = await d.finish(30.0)
+            err = (await d.proc.stderr.read()).decode()
+        finally:
+            await d.close()
+        return d, code, err
+
+    d, code, err = asyncio.run(scenario())
+    assert code == 0 and d.log()[-1]["ack_received"] is False
+    assert "WARNING: the Mbed did not acknowledge the final zero thrust: check that the thrusters stopped" in err, err[-1500:]
+
+
 @pytest.mark.slow
 def test_a_full_disk_neither_kills_the_daemon_nor_keeps_it_from_stopping_the_boat(tmp_path):
     """The log's writes failing (the file-size limit stands for a full disk: EFBIG as ENOSPC) raised out of
@@ -442,6 +464,9 @@ def test_a_full_disk_neither_kills_the_daemon_nor_keeps_it_from_stopping_the_boa
     assert last_cmd[2] == 0 and last_cmd[4] == 0
     assert err.count("log write failed") == 1, err[-2000:]
     assert "Traceback" not in err
+    # the end summary named the log and said nothing of it being cut short (found by an operator audit)
+    assert re.search(r"the log lost \d+ line\(s\): a write failed \(disk full\?\); it is incomplete, without its stop "
+                     r"line", err), err[-1500:]
     import json
 
     text = next((d.tmp / "logs").glob("*.jsonl")).read_text()

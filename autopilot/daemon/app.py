@@ -10,9 +10,11 @@ both data streams have been valid for ``failsafe.start_valid_s``.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import dataclasses
 import math
 import os
+import signal
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -77,6 +79,18 @@ def _within_limits(cfg: DaemonConfig, mission, mission_path) -> None:
         raise ConfigError(f"{mission_path}: {why}")
 
 
+def sim_params(cfg: DaemonConfig):
+    """The simulated boat's vessel set (sim.vessel, else the calibrated default); ConfigError naming the key. Read in
+    prepare(): a bad file was found after the control socket was announced, named neither the key nor the
+    configuration, and left a 0-byte log and a stale socket behind."""
+    from autopilot.sim import default_params_path, load_params
+
+    try:
+        return load_params(cfg.sim.vessel or default_params_path())
+    except ConfigError as exc:
+        raise ConfigError(f"sim.vessel: {exc}") from None
+
+
 def sim_sentences(cfg: DaemonConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(10 Hz, 1 Hz) sentences of the simulated SC-30 at ``serial.sc30_baud``; ConfigError if they do not fit."""
     from autopilot.drivers.sc30_output import check_sentences, default_sentences
@@ -129,6 +143,7 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
     _within_limits(cfg, mission, opts.mission_path)
     if opts.sim:
         sim_sentences(cfg)  # refuses sets that do not fit in the line before anything starts
+        sim_params(cfg)
     log_dir = Path(opts.log_dir or cfg.log_dir)
     state_dir = Path(opts.state_dir or cfg.state_dir)
     for name, d in (("log directory", log_dir), ("state directory", state_dir)):
@@ -230,11 +245,11 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: s
 
 async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
     """The simulated SC-30 and Mbed behind pseudo-terminals, and the boat behind them (``--sim``)."""
-    from autopilot.sim import Environment, default_params_path, load_params
+    from autopilot.sim import Environment
     from autopilot.sim.battery import BatteryConfig
     from autopilot.simdev import SimRig
 
-    params = load_params(cfg.sim.vessel or default_params_path())
+    params = sim_params(cfg)
     home_ne = mission.home_ne_m
     env = Environment(current_speed_m_s=cfg.sim.current_speed_m_s, current_towards_deg=cfg.sim.current_towards_deg,
                       wind_speed_m_s=cfg.sim.wind_speed_m_s, wind_from_deg=cfg.sim.wind_from_deg)
@@ -292,35 +307,57 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     sha = file_sha256(opts.mission_path)
     store = StateStore(state_dir)
     holder: dict = {}
+    # a SIGTERM or SIGHUP in the start-up (before the loop's own handlers) killed the daemon outright, leaving a
+    # 0-byte log and a stale control socket: it is held here and handed to the loop once there is one
+    early: list[str] = []
+    aio = asyncio.get_running_loop()
+    for sig in (signal.SIGTERM, signal.SIGINT, signal.SIGHUP):
+        aio.add_signal_handler(sig, early.append, sig.name)
     control = _control_server(control_socket(cfg, opts), holder)
     await control.start()  # before the log and the ports: a second daemon stops here
     if opts.sim:
         _console(f"control socket {control.path}: autopilot ctl --runtime-dir {control.path.parent} status")
-    log = MissionLog(log_path(log_dir, opts.mission_path))
-    start_index, hold_zero = _resume_index(cfg, opts, store, sha, len(mission.waypoints_ne_m))
-    t0_s = clock.now_s()
-    events = DeviceEvents(log, clock, t0_s, cfg)
-    tasks, rig, tmpdir = [], None, None
-    if lockstep:
-        tasks.append(asyncio.create_task(clock.drive(), name="lockstep"))
-    ports, boat_length_m = (cfg.serial.sc30_port, cfg.serial.mbed_port), cfg.boat_length_m
-    if opts.sim:
-        tmpdir = tempfile.TemporaryDirectory(prefix="autopilot-sim-")
-        rig, boat_length_m = await _sim_rig(cfg, mission, clock, tmpdir.name)
-        ports = (rig.sc30_path, rig.mbed_path)
-    sim_traffic, ais_driver, ais = await _ais(cfg, opts, mission, clock, events, rig, tmpdir)
-    compass, thrusters = _drivers(cfg, clock, events, *ports,
-                                  on_compass_line=ais.receiver.feed_line if cfg.ais.on_compass_line else None)
-    if lockstep:
-        clock.set_quiet(lambda: rig.quiet(compass, thrusters) and (ais_driver is None or sim_traffic.quiet(ais_driver)))
-    ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
-                   rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index)
-    loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
-                       compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
-                       fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
-                       t0_s=t0_s, ais=ais if (ais_driver is not None or cfg.ais.on_compass_line) else None)
-    holder["loop"] = loop
+    log = None
+    try:
+        log = MissionLog(log_path(log_dir, opts.mission_path))
+        start_index, hold_zero = _resume_index(cfg, opts, store, sha, len(mission.waypoints_ne_m))
+        t0_s = clock.now_s()
+        events = DeviceEvents(log, clock, t0_s, cfg)
+        tasks, rig, tmpdir = [], None, None
+        if lockstep:
+            tasks.append(asyncio.create_task(clock.drive(), name="lockstep"))
+        ports, boat_length_m = (cfg.serial.sc30_port, cfg.serial.mbed_port), cfg.boat_length_m
+        if opts.sim:
+            try:
+                tmpdir = tempfile.TemporaryDirectory(prefix="autopilot-sim-")
+            except OSError as exc:  # "No usable temporary directory found": a full or read-only /tmp
+                raise ConfigError(f"--sim: cannot create the simulated devices' directory in {os.environ.get('TMPDIR') or '/tmp'} "
+                                  f"({exc.strerror or exc}; set TMPDIR to a writable directory)") from None
+            rig, boat_length_m = await _sim_rig(cfg, mission, clock, tmpdir.name)
+            ports = (rig.sc30_path, rig.mbed_path)
+        sim_traffic, ais_driver, ais = await _ais(cfg, opts, mission, clock, events, rig, tmpdir)
+        compass, thrusters = _drivers(cfg, clock, events, *ports,
+                                      on_compass_line=ais.receiver.feed_line if cfg.ais.on_compass_line else None)
+        if lockstep:
+            clock.set_quiet(lambda: rig.quiet(compass, thrusters) and (ais_driver is None or sim_traffic.quiet(ais_driver)))
+        ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
+                       rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index)
+        loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
+                           compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
+                           fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
+                           t0_s=t0_s, ais=ais if (ais_driver is not None or cfg.ais.on_compass_line) else None)
+        holder["loop"] = loop
+    except BaseException:  # the start failed before the loop ran: no stale socket, no empty log left behind
+        await control.close()
+        if log is not None:
+            log.close()
+            with contextlib.suppress(OSError):
+                if log.path.stat().st_size == 0:
+                    log.path.unlink()
+        raise
     loop.install_signal_handlers()  # from here a Ctrl-C or SIGTERM is a clean stop, even while the devices open
+    if early:
+        loop.request_stop(early[0])
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
     link, reason, refused = None, "error", None
@@ -451,6 +488,13 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     n_wps = len(loop.mission.waypoints_ne_m)
     reached = st.reached
     lines = [f"log: {log_path}"]
+    lost = loop.log.lines_lost
+    if lost:  # the summary pointed at a log cut short (disk full) as if it were whole
+        lines.append(f"  the log lost {lost} line(s): a write failed (disk full?); it is incomplete"
+                     + (", without its stop line" if loop.log.failing else ""))
+    if st.stop_acknowledged is False:  # only a JSON field said so
+        lines.append("WARNING: the Mbed did not acknowledge the final zero thrust: check that the thrusters stopped "
+                     "(its own command timeout stops them)")
     done = "mission complete" if st.complete else "mission not complete"
     lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached")
     for i in range(n_wps):

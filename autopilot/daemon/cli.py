@@ -141,7 +141,8 @@ def _status_lines(st: dict) -> list[str]:
         return "n/a" if v is None else f"{v:{fmt}}{unit}"
 
     lines = [f"mode: {st.get('mode')}" + (f" (helm: {st['helm_mode']})" if st.get("helm_mode") not in (None, st.get("mode"))
-                                         else ""),
+                                         else "")
+             + (" - DISARMED: zero thrust whatever the mode (autopilot ctl arm)" if st.get("armed") is False else ""),
              f"mission time: {num('t_s', '.1f', ' s')}, cycle {st.get('cycle')}"]
     if "wp_index" in st:
         done = ", complete" if st.get("mission_complete") else ""

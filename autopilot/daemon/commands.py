@@ -49,7 +49,10 @@ def apply(loop, request: dict, helm_nav, unavailable: str, decision, t_s: float)
     if command not in QUIET or not ok or answer != "manual (held)":
         loop.log.event("command", t_s=t_s, command=command, source=source, accepted=ok, answer=answer)
     reply = {"ok": ok, "answer": answer, "mode": loop.ap.mode.value}
-    if ok and decision.mode != "auto" and loop.ap.mode is not Mode.MANUAL:
+    if ok and not loop.ap.armed and command not in ("disarm", "status"):
+        # "hold" answered "hold" of a disarmed boat, drifting with zero thrust (the operator thought it held)
+        reply["note"] = "disarmed: zero thrust whatever the mode until armed (autopilot ctl arm)"
+    elif ok and decision.mode != "auto" and loop.ap.mode is not Mode.MANUAL:
         reply["note"] = ("zero thrust until the failsafe clears: " + ", ".join(decision.active)
                          if decision.mode == "failsafe" else "waiting for valid data before control starts")
     return reply

@@ -77,6 +77,7 @@ class LoopState:
     mode: str = "waiting"  # the last cycle's
     last_cmd: ThrustCommand = ZERO_THRUST
     steered_error_rad: float | None = None  # the heading error the helm steered by last cycle (failsafe)
+    stop_acknowledged: bool | None = None  # the Mbed acknowledged the zero thrust of the stop (None: not stopped yet)
     manual_input_wall_s: float = -math.inf  # wall time of the last manual input (a human's link runs on wall time)
     status: dict = field(default_factory=dict)  # the last cycle's, for `autopilot ctl status`
 
@@ -422,6 +423,7 @@ class ControlLoop:
         if not st.passes_done:  # the passes still open end with the mission
             st.passes_done = True
             self._log_passes(self.passes.finish(), self.clock.now_s() - self.t0_s)
+        st.stop_acknowledged = ack
         status = {"complete": "complete", "signal": "stopped"}.get(reason, "aborted")
         if self.hold_zero is None or status != "stopped":
             self._save(status)

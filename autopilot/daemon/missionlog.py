@@ -115,6 +115,11 @@ class MissionLog:
         self._lost_in_run = 0
         self.listeners: list = []  # callables (name, t_s, fields) told every event but cycle lines (the link)
 
+    @property
+    def failing(self) -> bool:
+        """The last write failed (writes have not worked since): the lines after it, the stop line too, are lost."""
+        return self._failing is not None
+
     def event(self, name: str, /, *, t_s: float, **fields: Any) -> None:
         """Write one line. A failed write (a full disk, a storage card gone) never raises: the boat must
         keep being controlled and stopped without its log. The operator hears of it on the console and
