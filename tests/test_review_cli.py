@@ -168,3 +168,13 @@ def test_a_compressed_log_is_read_a_pipe_is_refused_and_an_output_taken_by_a_dir
     assert main(["review", str(d / "ok.jsonl"), "--out", str(tmp_path / "d"), "--no-plots"]) == 2
     assert f"{tmp_path / 'd' / 'report.html'} is a directory; the command writes a file of that name there" in \
         capsys.readouterr().err
+
+
+def test_two_logs_joined_in_one_file_are_said_so(logs, tmp_path, capsys):
+    """Found by a new-user audit: `cat a.jsonl b.jsonl` was reviewed as one mission of twice the cycles, its distance
+    including the jump back to the start, with only "1 cycle(s) with t_s going backwards" to go by."""
+    d, _ = logs
+    text = (d / "ok.jsonl").read_text()
+    (tmp_path / "two.jsonl").write_text(text + text)
+    assert main(["review", str(tmp_path / "two.jsonl"), "--out", str(tmp_path / "r"), "--no-plots"]) == 0
+    assert "2 missions in one file (a mission_start line each): reviewed as one" in capsys.readouterr().out

@@ -480,3 +480,16 @@ def test_a_duplicated_column_a_compressed_log_and_an_output_taken_by_a_directory
     capsys.readouterr()
     assert main(["sysid", str(tmp_path / "ok.jsonl"), "--out", str(tmp_path / "out"), "--no-report", "--quiet"]) == 2
     assert "summary.json is a directory; the command writes a file of that name there" in capsys.readouterr().err
+
+
+def test_a_mission_log_with_damaged_lines_is_said_so_by_the_identification(tmp_path):
+    """Found by a new-user audit: review lists a log's corrupt and cut-off lines; sysid skipped them in silence."""
+    from autopilot.review.synthetic import write_synthetic_log
+
+    write_synthetic_log(tmp_path / "ok.jsonl")
+    lines = (tmp_path / "ok.jsonl").read_text().splitlines(keepends=True)
+    lines[100] = "#garbage#\n"
+    (tmp_path / "bad.jsonl").write_text("".join(lines))
+    trial = read_trial(tmp_path / "bad.jsonl")
+    assert trial.counts["log_lines_skipped"] == 1
+    assert trial.read_notes == ("1 corrupt line(s) (not a JSON object): skipped", "first skipped: line 101: not JSON")

@@ -69,6 +69,9 @@ def run_cli(args: argparse.Namespace) -> int:
     bounds = _bounds(args)
     _distinct_files(args.trials)
     trials = [read_trial(p) for p in args.trials]
+    for path, trial in zip(args.trials, trials):
+        for note in trial.read_notes:
+            print(f"{path}: {note}", file=sys.stderr)
     summary = run(trials, vessel, args.out, params_file=str(params_path), candidates=candidates,
                   top_k=args.top_k, report=not args.no_report, log=log, bounds=bounds)
     _print(summary, args.out)

@@ -20,6 +20,7 @@ of more than 1.5 periods between cycles (``rate_hz`` of ``mission_start``).
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -96,4 +97,8 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
     trial.counts["cut_not_auto_rows"] = int(log.n_cycles - (last + 1 - first))
+    if log.stats.skipped:  # review said so of a damaged log; the identification said nothing
+        trial.counts["log_lines_skipped"] = int(log.stats.skipped)
+        trial = dataclasses.replace(trial, read_notes=tuple(s for s in log.stats.describe()[1:]
+                                                            if "skipped" in s or s.startswith("first")))
     return trial

@@ -91,6 +91,7 @@ class Trial:
     yaw_rate_rad_s: np.ndarray | None = None
     commands_held: bool = False  # a row missing between two rows: the motors held the command (mission logs)
     counts: dict = field(default_factory=dict)
+    read_notes: tuple = ()  # what reading the file skipped, in words (a mission log's damaged lines)
 
     @property
     def duration_s(self) -> float:
