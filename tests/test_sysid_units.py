@@ -493,3 +493,28 @@ def test_a_mission_log_with_damaged_lines_is_said_so_by_the_identification(tmp_p
     trial = read_trial(tmp_path / "bad.jsonl")
     assert trial.counts["log_lines_skipped"] == 1
     assert trial.read_notes == ("1 corrupt line(s) (not a JSON object): skipped", "first skipped: line 101: not JSON")
+
+
+@pytest.mark.slow
+def test_the_daemons_own_sim_log_names_its_fix_latency_not_an_antenna(tmp_path, capsys):
+    """Found by a new-user audit: one calm `autopilot run --sim` log gave antenna_offset, forward -0.18 m (95 %:
+    -0.21 .. -0.15), of a simulated boat with its antenna at the centre (another log a 6.5 ms thrust_lag). The
+    daemon dates a fix when its GGA began on the wire, 0.142 s after the simulated SC-30's epoch at 4800 baud
+    (the GGA goes in the slot after the epoch's, behind that slot's heading); at constant speed a latency of
+    the fix and an aft antenna look alike, and no candidate was a latency of the fix alone. fix_delay is."""
+    import subprocess
+    import sys
+
+    from tests.conftest import REPO
+
+    p = subprocess.run([sys.executable, "-m", "autopilot", "run", "--config", str(REPO / "config" / "autopilot.yaml"),
+                        "--mission", str(REPO / "config" / "missions" / "pond-9.4.yaml"), "--sim", "--speedup", "max",
+                        "--log-dir", str(tmp_path / "logs"), "--state-dir", str(tmp_path / "state"),
+                        "--runtime-dir", str(tmp_path / "run")], capture_output=True, text=True, timeout=180)
+    assert p.returncode == 0, p.stderr[-2000:]
+    log = next((tmp_path / "logs").glob("*.jsonl"))
+    assert main(["sysid", str(log), "--out", str(tmp_path / "out"), "--no-report", "--quiet"]) == 0
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert s["verdict"] == ["fix_delay"], s["verdict"]
+    row = next(r for r in s["effects"]["fix_delay"]["params"] if r["name"] == "delay_s")
+    assert 0.10 < row["ci95"][0] <= 0.142 <= row["ci95"][1] < 0.2, row

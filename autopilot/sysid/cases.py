@@ -63,6 +63,8 @@ VISIBLE = {
     # a lever arm moves the antenna by at most its length: it must be long against the GPS wander
     "antenna_offset": [("signed", "antenna_offset.forward_m", 2.0, 3.0), ("signed", "antenna_offset.starboard_m", 1.0, 2.0)],
     "sensor_delay": [("plain", "sensor_delay.delay_s", 0.6, 1.5)],
+    # a fix late by 0.8 s lags the track by 1.2 m at 1.5 m/s, and turns the velocity late through a turn
+    "fix_delay": [("plain", "fix_delay.delay_s", 0.8, 1.5)],
     # added to the vessel's 9.9 N m s^2: +15-40 is 2.5-5 times it
     "yaw_damping_quadratic": [("plain", "yaw_damping_quadratic.n_rr_nm_s2", 15.0, 40.0)],
     "hydro_refit": [("signed", "hydro_refit.resistance_linear_n_s_m", 2.5, 4.5), ("negative", "hydro_refit.n_r_nd", 0.004, 0.01)],
@@ -82,6 +84,7 @@ SMALL_RANGES = {
     "heading_bias": [(1.0, 4.0)],  # 1-4 deg at 1.5 m/s is 0.03-0.1 m/s of sideways drift, against metres of wander
     "antenna_offset": [(0.2, 0.7), (0.1, 0.35)],  # shorter than the 0.5-2 m wander, in the visible arm's proportion
     "sensor_delay": [(0.06, 0.2)],
+    "fix_delay": [(0.08, 0.27)],
     "yaw_damping_quadratic": [(1.5, 5.0)],
     "hydro_refit": [(0.25, 0.83), (0.0004, 0.0013)],
 }

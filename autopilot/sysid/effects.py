@@ -18,6 +18,8 @@ as it is:
     heading_bias            bias_deg                          sensed: compass reads psi + bias
     antenna_offset          forward_m, starboard_m            sensed: GPS antenna at this body lever arm
     sensor_delay            delay_s                           sensed: position and heading reported late
+    fix_delay               delay_s                           sensed: position (and its velocity) late, the
+                                                              heading on time
     yaw_damping_quadratic   n_rr_nm_s2                        fields (force when batched): extra -N_rr |r| r
     hydro_refit             resistance_linear_n_s_m, n_r_nd   fields (force when batched): re-fit of
                                                               VesselParams fields, fitted as changes
@@ -258,6 +260,22 @@ class SensorDelay(Effect):
         return out
 
 
+class FixDelay(Effect):
+    name, kind, sensed_order = "fix_delay", "sensor", 0
+    params = (EffectParam("delay_s", "s", 0.0, 0.0, 2.0, 0.1, grid=(0.0, 0.15, 0.4, 0.8)),)
+    doc = ("GNSS fixes (the position, and the velocity over ground taken from it) dated late by a fixed delay, the "
+           "heading on time: a receiver's output latency, or a fix that waited on the line behind the heading")
+
+    def sensed(self, v, out, t_s):
+        out = {k: a.copy() for k, a in out.items()}
+        for j, delay in enumerate(v["delay_s"]):
+            if delay > 0:
+                tq = np.maximum(t_s - delay, 0.0)
+                for k in ("north_m", "east_m"):
+                    out[k][j] = np.interp(tq, t_s, out[k][j])
+        return out
+
+
 class YawDampingQuadratic(Effect):
     name, kind, steady, vessel_fields = "yaw_damping_quadratic", "force", True, True
     params = (EffectParam("n_rr_nm_s2", "N m s^2", 0.0, -1e5, 1e5, 20.0, grid=(0.0, 15.0, 40.0)),)
@@ -315,7 +333,7 @@ class HydroRefit(Effect):
 
 EFFECTS: tuple[Effect, ...] = (
     Current(), WindForce(), ThrustAsymmetry(), ThrustLag(), ThrustDeadband(), HeadingBias(), AntennaOffset(),
-    SensorDelay(), YawDampingQuadratic(), HydroRefit(),
+    SensorDelay(), FixDelay(), YawDampingQuadratic(), HydroRefit(),
 )
 
 BY_NAME: dict[str, Effect] = {e.name: e for e in EFFECTS}

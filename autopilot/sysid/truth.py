@@ -164,8 +164,9 @@ def sensed(truth: Truth, t_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What a perfect sensor with the hidden sensor effects reports at ``t_s``: (north_m, east_m, psi_rad)."""
     e = truth.effects
     tq = np.maximum(np.asarray(t_s, dtype=float) - e.get("sensor_delay.delay_s", 0.0), 0.0)
-    n = np.interp(tq, truth.t_fine_s, truth.state["north_m"])
-    east = np.interp(tq, truth.t_fine_s, truth.state["east_m"])
+    tq_fix = np.maximum(tq - e.get("fix_delay.delay_s", 0.0), 0.0)  # the fix later still; the heading on time
+    n = np.interp(tq_fix, truth.t_fine_s, truth.state["north_m"])
+    east = np.interp(tq_fix, truth.t_fine_s, truth.state["east_m"])
     psi = np.interp(tq, truth.t_fine_s, truth.state["psi_rad"])
     lx, ly = e.get("antenna_offset.forward_m", 0.0), e.get("antenna_offset.starboard_m", 0.0)
     n, east = n + lx * np.cos(psi) - ly * np.sin(psi), east + lx * np.sin(psi) + ly * np.cos(psi)
