@@ -54,7 +54,12 @@ def check_text_head(p: Path, head: bytes, *, what: str = "file") -> None:
     if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
         excel = " (in Excel: 'CSV UTF-8')" if p.suffix.lower() == ".csv" else ""
         raise ConfigError(f"{p}: UTF-16 text; save the {what} as UTF-8{excel}")
-    if b"\x00" in head[:_BINARY_SNIFF]:
+    sniff = head[:_BINARY_SNIFF]
+    if b"\x00" in sniff:
+        # UTF-16 without a byte-order mark: every other byte of its ASCII text is a zero (it was "binary data")
+        odd, even = sniff[1::2], sniff[0::2]
+        if len(sniff) >= 8 and odd.count(0) >= 0.9 * len(odd) and even.count(0) <= 0.1 * len(even):
+            raise ConfigError(f"{p}: UTF-16 text (without a byte-order mark); save the {what} as UTF-8")
         raise ConfigError(f"{p}: binary data, not a text {what}")
 
 
@@ -164,6 +169,9 @@ def _unique_key_loader():
         class DuplicateKeyError(yaml.YAMLError):
             pass
 
+        class LeadingZeroError(yaml.YAMLError):
+            pass
+
         class UniqueKeyLoader(yaml.SafeLoader):
             pass
 
@@ -182,6 +190,18 @@ def _unique_key_loader():
             return loader.construct_mapping(node, deep=deep)
 
         UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, mapping)
+
+        def integer(loader, node):
+            # YAML 1.1 reads a leading zero as octal: `rate_hz: 010` ran at 8 Hz without a word (YAML 1.2 and
+            # every user read ten). Refused, saying both; 0 itself is zero.
+            text = str(node.value).replace("_", "")
+            if re.fullmatch(r"[-+]?0[0-9]+", text):
+                raise LeadingZeroError(f"line {node.start_mark.line + 1}, column {node.start_mark.column + 1}: "
+                                        f"{node.value}: a leading zero makes it octal in YAML "
+                                        f"({loader.construct_yaml_int(node)}); write {int(text, 10)}")
+            return loader.construct_yaml_int(node)
+
+        UniqueKeyLoader.add_constructor("tag:yaml.org,2002:int", integer)
         # YAML 1.1 wants a dot in a float: PyYAML reads ``1e9`` or ``5E-3`` as a string, so a spec's
         # ``runs: 1e4`` was refused as "not a number" while the user sees a number.  YAML 1.2 reads them as
         # floats; so do we (plain scalars only: a quoted "1e9" stays a string).

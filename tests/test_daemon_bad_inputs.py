@@ -38,6 +38,9 @@ CLI_CASES = [
     ("command line", "--speedup 10 without --sim", GOOD_CONFIG, GOOD_MISSION, ["--speedup", "10"],
      "autopilot run: error: --speedup 10: serial.sc30_port /nonexistent/sc30 is not a simulated device (a pseudo-terminal); "
      "real devices keep real time: --speedup is for --sim"),
+    ("command line", "--mavlink to an address that is not one", GOOD_CONFIG, GOOD_MISSION,
+     ["--mavlink", "udpout:999.1.1.1:14550"],
+     "autopilot run: error: --mavlink: 'udpout:999.1.1.1:14550': 999.1.1.1 is not an IPv4 address"),
     ("command line", "log directory not writable", GOOD_CONFIG, GOOD_MISSION, ["--log-dir", "/proc/autopilot-logs"],
      "autopilot run: error: log directory /proc/autopilot-logs: cannot create (No such file or directory)"),
     ("command line", "log directory is a file", GOOD_CONFIG, GOOD_MISSION, ["--log-dir", "{dir}/c.yaml"],
@@ -77,6 +80,9 @@ CLI_CASES = [
      "each device needs its own port"),
     ("configuration", "sim.vessel missing (--sim)", GOOD_CONFIG + "sim: {vessel: /nonexistent/vessel.yaml}\n", GOOD_MISSION,
      ["--sim"], "autopilot run: error: sim.vessel: /nonexistent/vessel.yaml: cannot read (No such file or directory)"),
+    ("configuration", "a number with a leading zero (YAML 1.1 octal)", GOOD_CONFIG + "rate_hz: 010\n", GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: not valid YAML (line 4, column 10: 010: a leading zero makes it octal in "
+     "YAML (8); write 10)"),
     ("configuration", "geofence of no area", "geofence: {frame: local, polygon: [[0, 0], [0, 0], [0, 0]]}\n",
      GOOD_MISSION, [], "autopilot run: error: {dir}/c.yaml: geofence.polygon: encloses no area (its vertices lie on one line)"),
     ("configuration", "geofence vertices out of order (a bow tie)",
@@ -111,6 +117,8 @@ CLI_CASES = [
      "autopilot run: error: {dir}/c.yaml: is a directory, not a YAML file"),
     ("mission", "saved as UTF-16", GOOD_CONFIG, GOOD_MISSION.encode("utf-16"), [],
      "autopilot run: error: {dir}/m.yaml: UTF-16 text; save the mission file as UTF-8"),
+    ("mission", "saved as UTF-16 without a byte-order mark", GOOD_CONFIG, GOOD_MISSION.encode("utf-16-le"), [],
+     "autopilot run: error: {dir}/m.yaml: UTF-16 text (without a byte-order mark); save the mission file as UTF-8"),
     ("mission", "binary data", GOOD_CONFIG, bytes(range(256)), [],
      "autopilot run: error: {dir}/m.yaml: binary data, not a text mission file"),
     ("mission", "negative hold", GOOD_CONFIG, GOOD_MISSION.replace("east_m: 0.0}", "east_m: 0.0, hold_s: -5}"), [],

@@ -85,3 +85,34 @@ def test_a_flood_of_refusals_is_answered_in_full_but_logged_five_a_second_and_co
     assert said == [{"message": "ctl refusals not logged", "count": 40 - REFUSALS_LOGGED_PER_S,
                      "limit_per_s": REFUSALS_LOGGED_PER_S}]
     assert logged[-1] == ("closing", {})  # said when the second was over, not only when the server closed
+
+
+def test_ctl_against_a_socket_that_is_not_a_daemons_says_so(tmp_path, capsys):
+    """Found by an operator audit: a socket answering {"ok": true, "answer": "status", "status": 5} (not the
+    daemon's) made `autopilot ctl status` an 'internal error: AttributeError'."""
+    import json
+    import socket
+    import threading
+
+    from autopilot.cli import main
+
+    path = tmp_path / "control.sock"
+    server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    server.bind(str(path))
+    server.listen()
+
+    def answer():
+        conn, _ = server.accept()
+        with conn:
+            conn.recv(65536)
+            conn.sendall((json.dumps({"ok": True, "answer": "status", "status": 5}) + "\n").encode())
+
+    t = threading.Thread(target=answer, daemon=True)
+    t.start()
+    try:
+        assert main(["ctl", "status", "--runtime-dir", str(tmp_path)]) == 3
+    finally:
+        t.join(5)
+        server.close()
+    err = capsys.readouterr().err
+    assert f"autopilot ctl: the answer on {path} is not a daemon's" in err and "internal error" not in err

@@ -616,7 +616,7 @@ def test_a_mission_with_a_speed_item_keeps_the_planners_item_numbers(tmp_path):
         boat.gcs.mav.mission_request_send(1, 1, 2)  # the float protocol
         speed = boat.recv(["MISSION_ITEM", "MISSION_ITEM_INT"], pred=lambda m: m.seq == 2)
         assert (speed.get_type(), speed.command, speed.param2) == ("MISSION_ITEM", 178, 1.5)
-        assert boat.recv("MISSION_CURRENT", pred=lambda m: m.seq == 1).total == 5
+        assert boat.recv("MISSION_CURRENT", pred=lambda m: m.seq == 1).total == 4  # the last item's number
         reached = boat.recv("MISSION_ITEM_REACHED", 60.0)
         assert reached.seq == 1
         boat.recv("MISSION_CURRENT", pred=lambda m: m.seq == 3)  # the waypoint after the speed item
@@ -670,6 +670,7 @@ def test_mode_changes_as_the_standard_says_a_broken_datagram_and_the_planners_sh
         boat.gcs.mav.mission_clear_all_send(1, 1, mavlink.MAV_MISSION_TYPE_ALL)
         assert boat.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
         boat.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
+        assert boat.recv("MISSION_CURRENT", pred=lambda m: m.total == 65535).seq == 0  # no mission (MAVLink's word)
     finally:
         assert boat.stop() == 0
     assert not [r for r in boat.log() if r["event"] == "info" and r.get("message") == "mavlink message not handled"]

@@ -124,6 +124,11 @@ def _ctl(args: argparse.Namespace) -> int:
     if reply is None:
         print("autopilot ctl: no running daemon answered (" + "; ".join(problems) + ")", file=sys.stderr)
         return 3
+    if not isinstance(reply, dict) or (args.command == "status" and reply.get("ok")
+                                       and not isinstance(reply.get("status"), dict)):
+        # something answers on the socket that is not this daemon (an internal error: AttributeError before)
+        print(f"autopilot ctl: the answer on {path} is not a daemon's: {str(reply)[:200]}", file=sys.stderr)
+        return 3
     if args.json:
         print(json.dumps(reply, indent=2 if args.command == "status" else None))
     elif args.command == "status" and reply.get("ok"):

@@ -15,7 +15,9 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
+import ipaddress
 import os
+import re
 import time
 from dataclasses import dataclass
 
@@ -54,6 +56,11 @@ def parse_endpoint(url: str) -> EndpointSpec:
             raise ValueError(f"{url!r}: port {port!r} is not a number") from None
         if not 1 <= port_n <= 65535:
             raise ValueError(f"{url!r}: port {port_n} outside 1..65535")
+        if re.fullmatch(r"[0-9.]+", host):  # a numeric address must be one (999.1.1.1 only failed every send)
+            try:
+                ipaddress.IPv4Address(host)
+            except ValueError:
+                raise ValueError(f"{url!r}: {host} is not an IPv4 address") from None
         return EndpointSpec(kind, host=host, port=port_n)
     if text.startswith("/"):
         path, sep, baud = text.rpartition(":")

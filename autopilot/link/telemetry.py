@@ -130,7 +130,11 @@ def nav_controller_output(mav, st: dict):
 
 
 def mission_current(mav, st: dict):
-    return mav.mission_current_encode(int(st.get("mission_item", 0)), int(st.get("mission_items", 0)))
+    # MAVLink's total is the last item's number (home, item 0, excluded: "on last item, sequence == total"), and
+    # UINT16_MAX with no mission: it said the count with home (one more) and 0 after a clear, where the download
+    # still gave home
+    items = int(st.get("mission_items", 0))
+    return mav.mission_current_encode(int(st.get("mission_item", 0)), items - 1 if items > 1 else 65535)
 
 
 def home_position(mav, st: dict):
