@@ -10,13 +10,16 @@ from autopilot.daemon.app import end_summary
 from autopilot.daemon.loop import LoopState
 
 
-def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True):
+def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_lost=0, log_failing=False,
+          stop_acknowledged=True):
     st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [0],
                    closest_m={0: 0.41, 1: 0.27, 2: float("nan")} if complete else {0: 0.41},
-                   completed_t_s=38.0 if complete else None, failsafe_causes=list(failsafes))
+                   completed_t_s=38.0 if complete else None, failsafe_causes=list(failsafes),
+                   stop_acknowledged=stop_acknowledged)
     held = speedup * cycles / (cycles + skipped)  # the rate a loop at that speedup skipping so many deadlines keeps
     return SimpleNamespace(state=st, clock=SimpleNamespace(now_s=lambda: 45.0, speedup=speedup), t0_s=5.0,
-                           mission=SimpleNamespace(waypoints_ne_m=np.zeros((3, 2))), speedup_held=lambda: held)
+                           mission=SimpleNamespace(waypoints_ne_m=np.zeros((3, 2))), speedup_held=lambda: held,
+                           log=SimpleNamespace(lines_lost=lines_lost, failing=log_failing))
 
 
 def test_a_clean_run():
@@ -40,3 +43,14 @@ def test_an_unfinished_mission():
     lines = end_summary(_loop(cycles=100, skipped=0, complete=False), "x", sim=False)
     assert lines[1].startswith("mission not complete") and "1 of 3 waypoint(s) reached" in lines[1]
     assert "  W1: not reached, closest approach n/a" in lines
+
+
+def test_a_log_cut_short_and_an_unacknowledged_stop_are_said():
+    """Found by an operator audit: the summary pointed at a log a full disk had cut short as if it were whole, and
+    an Mbed that never acknowledged the final zero was only a JSON field in that log."""
+    lines = end_summary(_loop(cycles=400, skipped=0, lines_lost=12, log_failing=True, stop_acknowledged=False), "x",
+                        sim=False)
+    assert lines[1] == "  the log lost 12 line(s): a write failed (disk full?); it is incomplete, without its stop line"
+    assert lines[2].startswith("WARNING: the Mbed did not acknowledge the final zero thrust")
+    clean = end_summary(_loop(cycles=400, skipped=0), "x", sim=False)
+    assert not any("lost" in ln or "WARNING" in ln for ln in clean)
