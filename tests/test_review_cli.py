@@ -178,3 +178,15 @@ def test_two_logs_joined_in_one_file_are_said_so(logs, tmp_path, capsys):
     (tmp_path / "two.jsonl").write_text(text + text)
     assert main(["review", str(tmp_path / "two.jsonl"), "--out", str(tmp_path / "r"), "--no-plots"]) == 0
     assert "2 missions in one file (a mission_start line each): reviewed as one" in capsys.readouterr().out
+
+
+def test_a_block_of_lines_written_twice_does_not_add_to_the_distance(logs, tmp_path):
+    """Found by a new-user audit: a log with lines 150-250 repeated (a copy glitch) gave a distance of 67.7 m for a
+    43.3 m mission: the jump back and the second pass were added. Only cycles later than every one before count."""
+    d, _ = logs
+    lines = (d / "ok.jsonl").read_text().splitlines(keepends=True)
+    (tmp_path / "dup.jsonl").write_text("".join(lines[:250] + lines[150:250] + lines[250:]))
+    assert main(["review", str(d / "ok.jsonl"), "--out", str(tmp_path / "a"), "--no-plots"]) == 0
+    assert main(["review", str(tmp_path / "dup.jsonl"), "--out", str(tmp_path / "b"), "--no-plots"]) == 0
+    a, b = (json.loads((tmp_path / x / "summary.json").read_text()) for x in "ab")
+    assert b["distance_m"] == pytest.approx(a["distance_m"], rel=1e-9) and a["distance_m"] > 10.0

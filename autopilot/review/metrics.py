@@ -543,7 +543,11 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
         mission_time, t_end = math.nan, 0.0
 
     n, e = log.col("north_m"), log.col("east_m")
-    ok = np.isfinite(n) & np.isfinite(e)
+    # only cycles later than every one before: a block of lines written twice (a copy glitch) added its jump back
+    # and its second pass to the distance (67.7 m for a 43.3 m mission)
+    with np.errstate(invalid="ignore"):
+        later = t > np.maximum.accumulate(np.r_[-np.inf, t[:-1]]) if len(t) else np.zeros(0, dtype=bool)
+    ok = np.isfinite(n) & np.isfinite(e) & later
     pn, pe = n[ok], e[ok]
     distance = float(np.sum(np.hypot(np.diff(pn), np.diff(pe)))) if len(pn) > 1 else (0.0 if len(pn) else math.nan)
 

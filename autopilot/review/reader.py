@@ -94,7 +94,8 @@ class ReadStats:
         if self.unknown_modes:
             out.append(f"{self.unknown_modes} cycle(s) with an unknown or missing mode")
         if self.time_reversals:
-            out.append(f"{self.time_reversals} cycle(s) with t_s going backwards")
+            out.append(f"{self.time_reversals} cycle(s) with t_s going backwards (the distance counts only cycles "
+                       "later than every one before)")
         if self.blank:
             out.append(f"{self.blank} blank line(s)")
         if self.examples:
