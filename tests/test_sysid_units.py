@@ -518,3 +518,13 @@ def test_the_daemons_own_sim_log_names_its_fix_latency_not_an_antenna(tmp_path, 
     assert s["verdict"] == ["fix_delay"], s["verdict"]
     row = next(r for r in s["effects"]["fix_delay"]["params"] if r["name"] == "delay_s")
     assert 0.10 < row["ci95"][0] <= 0.142 <= row["ci95"][1] < 0.2, row
+
+
+def test_a_refused_input_leaves_no_empty_out_directory(tmp_path, capsys):
+    """Found by a new-user audit: `autopilot sysid empty.csv --out new/` refused the file and left new/ behind."""
+    (tmp_path / "empty.csv").write_text("t_s\n")
+    assert main(["sysid", str(tmp_path / "empty.csv"), "--out", str(tmp_path / "new")]) == 2
+    assert not (tmp_path / "new").exists()
+    (tmp_path / "kept").mkdir()  # one the user made is left as it was
+    assert main(["sysid", str(tmp_path / "empty.csv"), "--out", str(tmp_path / "kept")]) == 2
+    assert (tmp_path / "kept").is_dir()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -42,12 +43,24 @@ SYSID_OUTPUTS = ("summary.json", "report.html", "vessel-updated.yaml", "effects.
 
 def run_cli(args: argparse.Namespace) -> int:
     from autopilot.sim import default_params_path, load_params
-    from autopilot.sysid.effects import EFFECT_NAMES
     from autopilot.userfile import output_dir
 
     params_path = Path(args.params) if args.params else default_params_path()
     vessel = load_params(params_path)
+    created = not Path(args.out).exists()
     output_dir(args.out, files=SYSID_OUTPUTS)  # before the fit, not after it
+    try:
+        return _run(args, vessel, params_path)
+    except ConfigError:
+        if created:  # a refused input left an empty --out behind
+            with contextlib.suppress(OSError):
+                Path(args.out).rmdir()
+        raise
+
+
+def _run(args: argparse.Namespace, vessel, params_path: Path) -> int:
+    from autopilot.sysid.effects import EFFECT_NAMES
+
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     candidates = tuple(EFFECT_NAMES)
     if args.effects:
