@@ -63,8 +63,14 @@ NO_SPEED_CHANGE = -1.0  # DO_CHANGE_SPEED param2 -1: "no change" (MAVLink common
 
 
 def _speed_change(speed, value):
-    """The leg speed after a DO_CHANGE_SPEED with ``value`` (its param2): unchanged for -1."""
-    return speed if value == NO_SPEED_CHANGE else value
+    """The leg speed after a DO_CHANGE_SPEED with ``value`` (its param2): unchanged for -1 (also as a file's text
+    "-1" or "-1.0": a Mission Planner file with it was refused as a speed of -1 m/s)."""
+    try:
+        if float(value) == NO_SPEED_CHANGE:
+            return speed
+    except (TypeError, ValueError):
+        pass
+    return value
 MAX_HOLD_S = 86400.0
 
 
@@ -293,6 +299,11 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
     else:
         raise MissionError(f"{path}: header must name north_m,east_m or lat_deg,lon_deg (got {','.join(cols)})")
     at = {c: k for k, c in enumerate(cols)}
+    for k, r in enumerate(rows[1:], start=1):
+        if len(r) > len(cols) and any(c for c in r[len(cols):]):
+            # "10,5,20,3" under north_m,east_m: decimal commas, read as 10 and 5 and flown without a word
+            comma = " (decimal commas? save the CSV with a point as the decimal separator)" if len(r) == 2 * len(cols) else ""
+            raise MissionError(f"{path}: data row {k} has {len(r)} fields under a header of {len(cols)}{comma}")
 
     def cell(row: list[str], name: str) -> str:
         k = at.get(name)

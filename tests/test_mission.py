@@ -119,3 +119,30 @@ def test_a_waypoint_in_a_local_frame_is_refused_not_read_as_degrees(tmp_path):
     item["params"][4:6] = [10.0001, 10.0]
     p.write_text(json.dumps({"mission": {"plannedHomePosition": [10, 10, 0], "items": [item]}}))
     assert load_mission(p).waypoints_ne_m[0][0] == pytest.approx(11.1, abs=0.1)
+
+
+def test_a_csv_row_with_more_fields_than_its_header_is_refused(tmp_path):
+    """Found by a new-user audit: `north_m,east_m` over `10,5,20,3` (decimal commas, comma-separated) flew
+    (10, 5) and (35, 2) instead of (10.5, 20.3) and (35.2, 20.1), without a word."""
+    (tmp_path / "dc.csv").write_text("north_m,east_m\n10,5,20,3\n35,2,20,1\n")
+    with pytest.raises(MissionError, match=r"data row 1 has 4 fields under a header of 2 \(decimal commas\?"):
+        load_mission(tmp_path / "dc.csv")
+    (tmp_path / "ok.csv").write_text("north_m,east_m,\n10,5,\n")  # a trailing empty column (Excel) is no field
+    assert_allclose(load_mission(tmp_path / "ok.csv").waypoints_ne_m, [[10.0, 5.0]])
+
+
+def test_a_mission_planner_change_speed_of_minus_one_keeps_the_speed(tmp_path):
+    """Found by a new-user audit: DO_CHANGE_SPEED param2 -1 ("no change", as Mission Planner writes it) in a
+    .waypoints file was refused as "speed -1 m/s outside (0, 3.5] m/s"."""
+    from tests.conftest import REPO
+
+    src = (REPO / "config" / "missions" / "examples" / "pond-9.4.waypoints").read_text().splitlines()
+    rows = [r.split("\t") for r in src]
+    k = next(i for i, r in enumerate(rows) if len(r) > 5 and r[3] == "178")
+    rows.insert(k + 2, [str(k + 2), "0", "2", "178", "0", "-1", "0", "0", "0", "0", "0", "1"])
+    for i, r in enumerate(rows[1:], start=0):
+        r[0] = str(i)
+    (tmp_path / "neg.waypoints").write_text("\n".join("\t".join(r) for r in rows) + "\n")
+    m = load_mission(tmp_path / "neg.waypoints")
+    base = load_mission(REPO / "config" / "missions" / "examples" / "pond-9.4.waypoints")
+    assert m.speeds_m_s == base.speeds_m_s and len(m.waypoints_ne_m) == len(base.waypoints_ne_m)

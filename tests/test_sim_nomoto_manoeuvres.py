@@ -37,6 +37,18 @@ def test_nomoto_cli_prints_the_four_constants():
     assert data["T1_s"] > data["T2_s"] > 0
     proc = run_cli("model", "nomoto", "--speed", "-1", check=False)
     assert proc.returncode == 2 and "--speed" in proc.stderr
+    # found by a new-user audit: inf printed K = 0, T1 = 0 "course-unstable" and JSON with Infinity, exit 0
+    for bad in ("inf", "1000"):
+        proc = run_cli("model", "nomoto", "--speed", bad, "--json", check=False)
+        assert proc.returncode == 2 and "is outside the allowed range (0, 3.5] m/s" in proc.stderr and not proc.stdout
+
+
+def test_a_zigzag_differential_beyond_a_thruster_is_refused():
+    """Found by a new-user audit: --differential-n up to 65 N was allowed, asking each thruster for 48.75 N of its
+    32.5 N (half thrust common); the help itself said within the 32.5 N per thruster."""
+    proc = run_cli("model", "manoeuvre", "zigzag", "--differential-n", "33", check=False)
+    assert proc.returncode == 2 and "(0, 32.5] N" in proc.stderr
+    assert run_cli("model", "manoeuvre", "zigzag", "--differential-n", "32.5", "--json").returncode == 0
 
 
 def test_turning_tests_follow_the_table_signs(params):

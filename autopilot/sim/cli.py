@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
 from autopilot.schema import ConfigError
@@ -121,8 +122,11 @@ def cmd_manoeuvre(args: argparse.Namespace) -> int:
     try:
         if not (0.0 < args.angle_deg < 90.0):
             raise ValueError(f"--angle-deg: {args.angle_deg} is outside the allowed range (0, 90) deg")
-        if not (0.0 < args.differential_n <= 2 * params.max_thrust_n):
-            raise ValueError(f"--differential-n: {args.differential_n} is outside the allowed range (0, {2 * params.max_thrust_n:g}] N")
+        if not (0.0 < args.differential_n <= params.max_thrust_n):
+            # half thrust common: a difference above max_thrust_n asked a thruster for more than it has (48.75 N of 32.5)
+            raise ValueError(f"--differential-n: {args.differential_n} is outside the allowed range (0, "
+                             f"{params.max_thrust_n:g}] N (with half thrust common, each thruster within its "
+                             f"{params.max_thrust_n:g} N)")
         if args.duration_s is not None and not (0.0 < args.duration_s <= 3600.0):
             raise ValueError(f"--duration-s: {args.duration_s} is outside the allowed range (0, 3600] s")
         result = manoeuvres.run(params, args.name, duration_s=args.duration_s, zigzag_angle_deg=args.angle_deg,
@@ -141,9 +145,13 @@ def cmd_manoeuvre(args: argparse.Namespace) -> int:
 
 
 def cmd_nomoto(args: argparse.Namespace) -> int:
+    from autopilot.mission import MAX_SPEED_M_S
     from autopilot.sim.nomoto import nomoto
 
     params = _params(args.params)
+    if not (math.isfinite(args.speed) and 0.0 < args.speed <= MAX_SPEED_M_S):  # inf printed K = 0 and bad JSON
+        raise ConfigError(f"--speed: {args.speed:g} is outside the allowed range (0, {MAX_SPEED_M_S:g}] m/s (the "
+                          "fastest measured row)")
     try:
         model = nomoto(params, args.speed)
     except ValueError as exc:
