@@ -239,6 +239,20 @@ def test_sysid_intervals_become_spreads_and_are_range_checked(tmp_path):
     (tmp_path / "summary.json").write_text(json.dumps(summary))
     with pytest.raises(Exception, match=r"hydro_refit\.n_r_nd.*\[-50, 0\]"):
         resolve(_load_spec({**SPEC, "vessel": {"sysid": "summary.json"}}), base_dir=tmp_path)
+    from autopilot.schema import ConfigError
+
+    # found by a new-user audit: params null was an internal error; a summary with nothing to spread (verdict none,
+    # or a renamed key) flew the nominal vessel with only a line in summary.json; a ci95 of booleans was taken
+    for bad, words in ((
+            {"effects": {"hydro_refit": {"params": None}}}, "effects.hydro_refit.params is not a list"), (
+            {"effects": {}}, "no identified parameter to spread"), (
+            {"effects": {"heading_bias": {"params": [{"name": "bias_deg", "ci95": [0.5, 1.5]}]}}},
+            "no identified parameter to spread (verdict none, or no effect the campaign's plant has: heading_bias.bias"), (
+            {"effects": {"thrust_asymmetry": {"params": [{"name": "asymmetry_nd", "ci95": [True, 0.05]}]}}},
+            "ci95 is not a finite [lo, hi]")):
+        (tmp_path / "summary.json").write_text(json.dumps(bad))
+        with pytest.raises(ConfigError, match=re.escape(words)):
+            resolve(_load_spec({**SPEC, "vessel": {"sysid": "summary.json"}}), base_dir=tmp_path)
 
 
 @pytest.mark.slow
@@ -609,3 +623,47 @@ def test_a_scheduler_address_that_is_not_one_is_refused_at_once_and_a_silent_por
             c.close()
     assert r.returncode == 2 and "Traceback" not in r.stderr and "internal error" not in r.stderr, r.stderr
     assert "does not speak Dask's protocol" in r.stderr
+
+
+def test_a_refused_scheduler_leaves_nothing_behind_and_says_when_nothing_listens(tmp_path, capsys):
+    """Found by a new-user audit: a refused --scheduler (a closed port: 21 s, then "does not speak Dask's protocol")
+    left DIR/campaign.json behind, and the rerun with --jobs was refused as "holds a campaign's results already"."""
+    import time as _time
+
+    out = tmp_path / "c"
+    t0 = _time.monotonic()
+    assert main(["campaign", str(ROOT_SPEC), "--runs", "4", "--out", str(out), "--scheduler", "tcp://127.0.0.1:1"]) == 2
+    assert _time.monotonic() - t0 < 10.0
+    assert "nothing listens at 127.0.0.1:1 (connection refused)" in capsys.readouterr().err
+    assert not (out / "campaign.json").exists()
+    out.mkdir(exist_ok=True)
+    (out / "campaign.json").write_text("{}")  # what an interrupted campaign leaves: no results, not kept
+    assert main(["campaign", str(ROOT_SPEC), "--runs", "4", "--jobs", "1", "--out", str(out), "--quiet",
+                 "--no-report"]) == 0
+
+
+def test_log_is_for_replay_and_never_replaces_a_file_unasked(tmp_path, capsys):
+    """Found by a new-user audit: `--log x.jsonl` without --replay was ignored without a word; `--replay DIR I --log
+    FILE` replaced an existing file (a mission log of the boat) without asking."""
+    out = tmp_path / "c"
+    assert main(["campaign", str(ROOT_SPEC), "--runs", "3", "--out", str(out), "--log", str(tmp_path / "x.jsonl")]) == 2
+    assert "--log FILE is for --replay DIR INDEX" in capsys.readouterr().err
+    assert main(["campaign", str(ROOT_SPEC), "--runs", "3", "--jobs", "1", "--out", str(out), "--quiet",
+                 "--no-report"]) == 0
+    keep = tmp_path / "keep.jsonl"
+    keep.write_text("precious\n")
+    assert main(["campaign", "--replay", str(out), "1", "--log", str(keep)]) == 2
+    assert "exists; give a new file, or --overwrite to replace it" in capsys.readouterr().err
+    assert keep.read_text() == "precious\n"
+    assert main(["campaign", "--replay", str(out), "1", "--log", str(keep), "--overwrite"]) == 0
+    assert keep.read_text() != "precious\n"
+
+
+def test_the_shipped_spec_is_found_by_its_name_and_its_readme_path_from_anywhere(tmp_path, monkeypatch):
+    """Found by a new-user audit: from an installed wheel the README's `autopilot campaign
+    config/campaigns/pond-robustness.yaml` could not be read (missions are found by name, specs were not)."""
+    from autopilot.campaign.cli import load_campaign
+
+    monkeypatch.chdir(tmp_path)
+    for name in ("pond-robustness", "config/campaigns/pond-robustness.yaml"):
+        assert load_campaign(name).spec.name == "pond-robustness"

@@ -29,11 +29,26 @@ import time
 from autopilot.campaign.lockstep import chunk_indices, chunks, fly_chunk
 from autopilot.schema import ConfigError
 
-__all__ = ["run_chunks", "Progress", "MAX_ATTEMPTS", "default_jobs", "check_scheduler_address", "probe_scheduler"]
+__all__ = ["run_chunks", "Progress", "MAX_ATTEMPTS", "default_jobs", "check_scheduler_address", "probe_scheduler",
+           "check_backend"]
 
 MAX_ATTEMPTS = 3
 SCHEDULER_TIMEOUT_S = 20.0  # to reach a scheduler and hear it say it is one
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+def check_backend(scheduler) -> None:
+    """Before anything is written: Dask installed for --scheduler, its address well formed and a scheduler answering
+    there (a refused --scheduler left DIR/campaign.json behind, and the rerun was refused as an earlier campaign)."""
+    if scheduler is None or not isinstance(scheduler, str):
+        return
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise ConfigError("--scheduler needs Dask: pip install 'wamv-autopilot[campaign]' "
+                          "(dask[distributed])") from None
+    if scheduler != "local":
+        probe_scheduler(check_scheduler_address(scheduler))
 
 
 def check_scheduler_address(address: str) -> str:
@@ -58,8 +73,20 @@ def probe_scheduler(address: str, timeout_s: float = SCHEDULER_TIMEOUT_S) -> Non
     accepted and stayed silent hung the campaign with no output (Dask's own timeout covers only the connect),
     and one that answered with something else (an SSH banner) raised from deep inside Dask."""
     import asyncio
+    import socket
+    from urllib.parse import urlsplit
 
     from distributed.core import rpc
+
+    parts = urlsplit(address)
+    if parts.scheme == "tcp":  # nothing listening: say so at once (Dask retried for 21 s, then blamed the protocol)
+        try:
+            socket.create_connection((parts.hostname, parts.port), timeout=min(timeout_s, 5.0)).close()
+        except ConnectionRefusedError:
+            raise ConfigError(f"--scheduler {address}: nothing listens at {parts.hostname}:{parts.port} (connection "
+                              "refused): start the scheduler (dask scheduler), or check the port (8786 by default)") from None
+        except OSError:
+            pass  # unreachable or slow: Dask's own connect says so below
 
     async def ask():
         r = rpc(address, timeout=timeout_s)

@@ -12,9 +12,16 @@ from autopilot.schema import ConfigError
 
 
 def load_campaign(spec_path):
-    """Read, check and resolve a spec file (every error names the file and the key)."""
+    """Read, check and resolve a spec file (every error names the file and the key); a shipped spec may be named
+    (``pond-robustness``), as missions are: from an installed wheel the README's config/campaigns/... is not there."""
     from autopilot.campaign.spec import load_spec, resolve
+    from autopilot.resources import shipped_campaigns
 
+    if not Path(spec_path).exists():
+        shipped = {p.stem: p for p in shipped_campaigns()}
+        name = Path(spec_path).stem if Path(spec_path).suffix in (".yaml", ".yml", "") else None
+        if name in shipped and (Path(spec_path).parent == Path(".") or Path(spec_path).parts[-2:-1] == ("campaigns",)):
+            spec_path = shipped[name]
     spec = load_spec(spec_path)
     try:
         return resolve(spec, base_dir=Path(spec_path).resolve().parent)
@@ -59,6 +66,8 @@ def _terminate_as_exit():
 def _cmd(args: argparse.Namespace) -> int:
     if args.replay is not None:
         return _replay(args)
+    if args.log is not None:  # it was ignored without a word
+        raise ConfigError("--log FILE is for --replay DIR INDEX (a new campaign writes DIR/runs.csv)")
     if args.spec is None:
         raise ConfigError("give a spec file (autopilot campaign SPEC.yaml --out DIR) or --replay DIR INDEX")
     if args.out is None:
@@ -112,6 +121,8 @@ def _replay(args: argparse.Namespace) -> int:
         from autopilot.userfile import output_file
 
         output_file(args.log, what="--log", suffixes=(".jsonl",))
+        if Path(args.log).exists() and not args.overwrite:  # a mission log of the boat was replaced without a word
+            raise ConfigError(f"--log {args.log}: exists; give a new file, or --overwrite to replace it")
     row, path, table = replay(out_dir, index, log_path=args.log)
     print(scorecard_text(row))
     print(f"log: {path} (autopilot review {path} --out DIR)")

@@ -14,7 +14,7 @@ import json
 import time
 from pathlib import Path
 
-from autopilot.campaign.backends import Progress, default_jobs, run_chunks
+from autopilot.campaign.backends import Progress, check_backend, default_jobs, run_chunks
 from autopilot.campaign.lockstep import chunks
 from autopilot.campaign.results import columns, summarise, write_runs_csv, write_summary
 from autopilot.campaign.spec import Campaign
@@ -26,8 +26,10 @@ OUTPUTS = ("campaign.json", "runs.csv", "runs.parquet", "summary.json", "report.
 
 
 def _previous(out: Path) -> list[Path]:
-    """A campaign's outputs already in ``out``."""
-    return [p for p in (*(out / n for n in OUTPUTS), *sorted(out.glob("replay-*.jsonl"))) if p.exists()]
+    """A campaign's outputs already in ``out``. A campaign.json alone is a run that never finished (interrupted,
+    or refused after it was written): not results to keep, it is written over."""
+    found = [p for p in (*(out / n for n in OUTPUTS), *sorted(out.glob("replay-*.jsonl"))) if p.exists()]
+    return [] if [p.name for p in found] == ["campaign.json"] else found
 
 
 def check_out_dir(out_dir, *, overwrite: bool = False) -> Path:
@@ -83,6 +85,7 @@ def run_campaign(campaign: Campaign, out_dir, *, seed: int | None = None, runs: 
     max_runs = next(f.metadata["hi"] for f in dataclasses.fields(campaign.spec) if f.name == "runs")
     if not 1 <= runs <= max_runs:
         raise ConfigError(f"--runs: {runs} is outside [1, {max_runs:,}] runs (the spec's limit)")
+    check_backend(scheduler)
     out = check_out_dir(out_dir, overwrite=overwrite)
     n_chunks = chunks(campaign, runs)
     if scheduler is None:

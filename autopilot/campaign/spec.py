@@ -440,12 +440,16 @@ def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[s
 
     def interval(effect: str, p: dict) -> tuple[float, float]:
         ci = p.get("ci95")
-        if not (isinstance(ci, list) and len(ci) == 2 and all(isinstance(x, (int, float)) and math.isfinite(x) for x in ci)):
+        if not (isinstance(ci, list) and len(ci) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                               and math.isfinite(x) for x in ci)):
             raise ConfigError(f"{where}: {effect}.{p.get('name')}: ci95 is not a finite [lo, hi]")
         return float(min(ci)), float(max(ci))
 
     for effect, body in effects.items():
-        params = body.get("params", []) if isinstance(body, dict) else []
+        params = body.get("params") if isinstance(body, dict) else None
+        if not isinstance(params, list):  # null or 5 was an internal error; a renamed key spread nothing, unsaid
+            raise ConfigError(f"{where}: effects.{effect}.params is not a list of parameters (a summary.json "
+                              "written by autopilot sysid)")
         for p in params:
             name = p.get("name") if isinstance(p, dict) else None
             if effect == "hydro_refit" and name in VESSEL_FIELDS:
@@ -463,6 +467,11 @@ def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[s
                 thrust["thrust_lag_s"] = Spread(uniform=(max(lo, 0.0), max(hi, 0.0)))
             else:
                 notes.append(f"{effect}.{name}: not spread (the campaign's plant has no such term)")
+    if not fields and not thrust:
+        # {"effects": {}} (a verdict of none) flew the nominal vessel with only a line in summary.json's sources
+        raise ConfigError(f"{where}: no identified parameter to spread (verdict none, or no effect the campaign's "
+                          "plant has: " + (", ".join(n.split(":")[0] for n in notes) or "no effects") + "); leave "
+                          "vessel.sysid empty to fly the vessel as it is")
     out = {}
     for name, (spread, key) in fields.items():
         _check_support(key, spread, _meta(VesselParams, name))
