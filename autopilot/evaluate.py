@@ -398,6 +398,10 @@ def _cmd(args: argparse.Namespace) -> int:
     params = load_params(args.vessel or default_params_path())
     base = load_yaml(GncConfig, args.config) if args.config else GncConfig()
     if args.traffic:
+        for given, opt in ((args.plot, "--plot"), (args.mission, "--mission")):
+            if given:  # both were ignored without a word: the encounter suite flies each scenario's own route
+                raise ConfigError(f"{opt} is not for --traffic: the encounter suite flies each scenario's own route "
+                                  "and draws no figures")
         return _traffic(args, params, base, args.condition or list(TRAFFIC_CONDITIONS))
     if args.plot:
         from autopilot.userfile import output_dir

@@ -180,3 +180,19 @@ def test_emitter_through_a_pty_to_the_ais_driver(tmp_path):
     # pacing: consecutive writes are at least their own line time apart
     for (t0, s0), (t1, s1) in zip(em.sent_log, em.sent_log[1:]):
         assert t1 - t0 >= (len(s1) + 2) * 10.0 / 38400 - 1e-9
+
+
+def test_a_scenario_without_targets_is_refused_and_traffic_takes_no_plot_or_mission(tmp_path, capsys):
+    """Found by a new-user audit: an empty scenario file was scored (a blank name, closest distance inf, "kept
+    yes", exit 0); `evaluate --traffic` ignored --plot and --mission without a word."""
+    from autopilot.cli import main
+    from autopilot.schema import ConfigError
+
+    (tmp_path / "empty.yaml").write_text("")
+    with pytest.raises(ConfigError, match="the scenario is empty"):
+        load_scenario(tmp_path / "empty.yaml")
+    with pytest.raises(ConfigError, match="targets: a traffic scenario needs at least one target"):
+        load_scenario({"name": "nothing", "targets": []})
+    assert main(["evaluate", "--traffic", str(tmp_path / "empty.yaml"), "--condition", "calm"]) == 2
+    assert main(["evaluate", "--traffic", "head-on", "--condition", "calm", "--plot", str(tmp_path / "p")]) == 2
+    assert "--plot is not for --traffic" in capsys.readouterr().err and not (tmp_path / "p").exists()

@@ -143,8 +143,14 @@ class TrafficScenario:
 def load_scenario(source: str | Path | dict) -> TrafficScenario:
     """A scenario from a YAML file or a mapping (every key checked, as configuration is)."""
     if isinstance(source, dict):
-        return load(TrafficScenario, source)
-    return load_yaml(TrafficScenario, source)
+        scenario = load(TrafficScenario, source)
+    else:
+        scenario = load_yaml(TrafficScenario, source, empty="the scenario is empty (no targets): a traffic scenario "
+                             "names its targets (see the shipped ones: autopilot files)")
+    if not scenario.targets:  # an empty one was scored as a run with an infinite closest distance, "kept yes"
+        where = "" if isinstance(source, dict) else f"{source}: "
+        raise ConfigError(f"{where}targets: a traffic scenario needs at least one target")
+    return scenario
 
 
 # --------------------------------------------------------------------------- kinematics
