@@ -90,3 +90,20 @@ def test_manoeuvre_plot_and_bad_name(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
     proc = run_cli("model", "manoeuvre", "XYZ", check=False)
     assert proc.returncode == 2 and "two command letters" in proc.stderr
+
+
+def test_a_heavy_vessel_is_compared_at_its_steady_state_or_said_not_settled():
+    """Found by a new-user audit: `model check` of a 2000-kg set showed BB 14 % slow and a 10000-kg one every
+    straight row 67 % slow, transients after a fixed 300 s, and `model calibrate` wrote such a set without a word.
+    The simulated time now scales with the surge time constant, and rows still changing are flagged."""
+    from dataclasses import replace
+
+    from autopilot.sim import default_params_path, load_params
+    from autopilot.sim.steady import check_table, solve_steady
+
+    base = load_params(default_params_path())
+    heavy = replace(base, mass_kg=2000.0)
+    bb = next(r for r in check_table(heavy).rows if r.row.name == "BB")
+    assert bb.speed_sim_m_s == pytest.approx(solve_steady(heavy, 2.3, 2.3)[0], rel=1e-4)
+    assert check_table(base).not_settled == () and check_table(heavy).not_settled == ()
+    assert "BB" in check_table(replace(base, mass_kg=10000.0)).not_settled  # 3600 s cap: said, not passed off
