@@ -381,9 +381,30 @@ HEADER = (
 )
 
 
+def _gnc_config(path):
+    """The GNC settings of ``path``: a file of GncConfig keys, or one with a ``gnc:`` section (the daemon's
+    configuration, which `autopilot files` ships: it was refused as "ais: unknown key", so a tuned gnc block
+    could not be evaluated without copying it out by hand)."""
+    from autopilot.gnc import GncConfig
+    from autopilot.schema import load, load_yaml
+    from autopilot.userfile import parse_yaml, read_text
+
+    try:
+        data = parse_yaml(read_text(path, what="YAML file"))
+    except Exception:  # noqa: BLE001 - load_yaml below says what is wrong with it, naming the file
+        data = None
+    if isinstance(data, dict) and "gnc" in data:
+        from autopilot.daemon.config import DaemonConfig
+
+        try:  # the whole daemon configuration checked, its gnc section taken
+            return load(DaemonConfig, data).gnc
+        except ConfigError as exc:
+            raise ConfigError(f"{path}: {exc}") from None
+    return load_yaml(GncConfig, path)
+
+
 def _cmd(args: argparse.Namespace) -> int:
     from autopilot.gnc import GUIDANCE_LAWS, GncConfig
-    from autopilot.schema import load_yaml
     from autopilot.sim import default_params_path, load_params
 
     missions = [Path(p) for p in args.mission] if args.mission else shipped_missions()
@@ -396,7 +417,7 @@ def _cmd(args: argparse.Namespace) -> int:
         if c not in CONDITION_NAMES:
             raise ConfigError(f"--condition: unknown condition {c!r} (known: {', '.join(CONDITION_NAMES)})")
     params = load_params(args.vessel or default_params_path())
-    base = load_yaml(GncConfig, args.config) if args.config else GncConfig()
+    base = _gnc_config(args.config) if args.config else GncConfig()
     if args.traffic:
         for given, opt in ((args.plot, "--plot"), (args.mission, "--mission")):
             if given:  # both were ignored without a word: the encounter suite flies each scenario's own route

@@ -176,3 +176,22 @@ def test_a_bad_mission_file_is_refused_before_any_output(tmp_path, capsys):
     assert main(["evaluate", "--mission", str(good), "--mission", str(bad), "--guidance", "fuzzy", "--condition", "calm"]) == 2
     out = capsys.readouterr()
     assert out.out == "" and "waypoint 2: same position as waypoint 1" in out.err
+
+
+def test_evaluate_takes_the_daemons_configuration_or_a_gnc_section(tmp_path, capsys):
+    """Found by a new-user audit: `evaluate --config` refused the shipped daemon configuration ("ais: unknown key")
+    and a file with a gnc: section, so a tuned gnc block could not be evaluated without copying it out."""
+    from autopilot.cli import main
+    from tests.conftest import REPO
+
+    mission = str(REPO / "config" / "missions" / "pond-9.1.yaml")
+    argv = ["evaluate", "--guidance", "fuzzy", "--condition", "calm", "--mission", mission, "--json", "--config"]
+    assert main(argv + [str(REPO / "config" / "autopilot.yaml")]) == 0
+    shipped = json.loads(capsys.readouterr().out.splitlines()[-1])
+    (tmp_path / "g.yaml").write_text("gnc:\n  pid: {kp_n_per_deg: 2}\n")
+    assert main(argv + [str(tmp_path / "g.yaml")]) == 0
+    tuned = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert shipped["completed"] and tuned["completed"] and tuned["xte_rms_m"] != shipped["xte_rms_m"]
+    (tmp_path / "bad.yaml").write_text("gnc:\n  pid: {kp_n_per_deg: 200}\n")
+    assert main(argv + [str(tmp_path / "bad.yaml")]) == 2
+    assert "gnc.pid.kp_n_per_deg: 200 is outside the allowed range" in capsys.readouterr().err

@@ -224,7 +224,7 @@ def test_internal_errors_reach_the_user_as_one_line(tmp_path, monkeypatch):
     assert err.getvalue().count("\n") == 1 and "internal error: RuntimeError: something unexpected" in err.getvalue()
 
 
-@pytest.mark.parametrize("command", ["campaign", "review"])
+@pytest.mark.parametrize("command", ["campaign", "review", "evaluate", "model"])
 def test_a_full_disk_is_said_as_such_not_as_a_bug(tmp_path, command):
     """A campaign's results or a review's figures on a full disk (here a file size limit, as the daemon's
     full-disk test does) ended in 'internal error: OSError: [Errno 27] File too large (a bug: please
@@ -237,11 +237,16 @@ def test_a_full_disk_is_said_as_such_not_as_a_bug(tmp_path, command):
         args = ["campaign", str(REPO / "config" / "campaigns" / "pond-robustness.yaml"), "--runs", "24", "--jobs",
                 "1", "--out", str(tmp_path / "out"), "--quiet"]
         limit = 16_000  # campaign.json fits, the results do not
-    else:
+    elif command == "review":
         from autopilot.review.synthetic import write_synthetic_log
 
         write_synthetic_log(tmp_path / "m.jsonl")
         args, limit = ["review", str(tmp_path / "m.jsonl"), "--out", str(tmp_path / "review")], 20_000
+    elif command == "evaluate":  # a figure: "cannot write: No space left" named no file (a new-user audit)
+        args, limit = ["evaluate", "--guidance", "fuzzy", "--condition", "calm", "--mission",
+                       str(REPO / "config" / "missions" / "pond-9.1.yaml"), "--plot", str(tmp_path / "p")], 2_000
+    else:
+        args, limit = ["model", "manoeuvre", "AF", "--plot", str(tmp_path / "a.png")], 2_000
 
     def small_files() -> None:
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.RLIM_INFINITY))
@@ -252,8 +257,8 @@ def test_a_full_disk_is_said_as_such_not_as_a_bug(tmp_path, command):
     assert r.returncode == 1, r.stderr[-2000:]
     assert r.stderr.count("\n") == 1 and r.stderr.startswith(f"autopilot {command}: error: cannot write"), r.stderr
     assert "File too large" in r.stderr and "internal error" not in r.stderr
-    if command == "campaign":
-        assert str(tmp_path / "out") in r.stderr  # which file
+    if command in ("campaign", "evaluate", "model"):
+        assert str(tmp_path / {"campaign": "out", "evaluate": "p", "model": "a.png"}[command]) in r.stderr  # which file
 
 
 def test_summary_json_of_model_check_is_json():

@@ -23,6 +23,7 @@ from autopilot.campaign.results import RUN_COLUMNS, read_runs_csv
 from autopilot.daemon.cycle import cycle_record
 from autopilot.daemon.missionlog import to_json
 from autopilot.schema import ConfigError, to_dict
+from autopilot.userfile import writing
 
 __all__ = ["replay", "same_row", "EPOCH"]
 
@@ -66,7 +67,8 @@ class _LogWriter:
 
     def line(self, event: str, t_s: float, **fields) -> None:
         stamp = (EPOCH + _dt.timedelta(seconds=t_s)).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
-        self.f.write(to_json({"event": event, "t_s": t_s, **fields, "timestamp": stamp}) + "\n")
+        with writing(self.f.name):  # a full disk names the file
+            self.f.write(to_json({"event": event, "t_s": t_s, **fields, "timestamp": stamp}) + "\n")
 
     def __call__(self, t_s: float, flight, c) -> None:
         """After each control cycle of the run (``c`` None: the run ended at ``t_s``)."""

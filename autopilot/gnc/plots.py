@@ -13,6 +13,7 @@ import numpy as np
 
 from autopilot.geo import wrap_pi
 from autopilot.plotting import pyplot, track_frame
+from autopilot.userfile import writing
 
 
 def plot_run(result, path: Path, waypoints_ne_m=None) -> None:
@@ -46,7 +47,8 @@ def plot_run(result, path: Path, waypoints_ne_m=None) -> None:
     a.plot(t, tr["thrust_stbd_n"], label="T starboard")
     a.set_xlabel("t (s)"), a.set_ylabel("N"), a.legend(), a.set_title("thrust")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with writing(path):  # a full disk names the file
+        fig.savefig(path, dpi=90)
     plt.close(fig)
 
 
@@ -65,5 +67,6 @@ def plot_surface(path: Path, config=None) -> None:
     a.plot_surface(tt, dd, z, cmap="viridis")
     a.set_xlabel("TCPA' (-)"), a.set_ylabel("DCPA' (-)"), a.set_zlabel("CDH (-)")
     a.set_title("Fuzzy control surface, Table 6.1 (Fig 6.5)")
-    fig.savefig(path, dpi=90)
+    with writing(path):  # a full disk names the file
+        fig.savefig(path, dpi=90)
     plt.close(fig)

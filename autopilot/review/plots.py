@@ -30,6 +30,7 @@ from autopilot.review.metrics import (
     nominal_period_s,
 )
 from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog
+from autopilot.userfile import writing
 
 MAX_POINTS = 4000  # per signal on a time axis (min/max pairs)
 MAX_TRACK_POINTS = 20000
@@ -251,7 +252,8 @@ def _finish_time_figure(fig, strip, log: MissionLog, scale: float, xlabel: str) 
 
 
 def _save(fig, path: Path) -> Path:
-    fig.savefig(path, dpi=_DPI)
+    with writing(path):  # a full disk names the file
+        fig.savefig(path, dpi=_DPI)
     pyplot().close(fig)
     return path
 

@@ -19,6 +19,7 @@ from autopilot.measured import LEVELS, level_thrust_n
 from autopilot.sim.environment import CALM
 from autopilot.sim.integrate import STATE_NAMES, simulate, step
 from autopilot.sim.params import VesselParams
+from autopilot.userfile import writing
 
 NAMES = ("speed", "zigzag", "spin", "<two letters, e.g. AF, BD, Fb>")
 
@@ -155,5 +156,6 @@ def plot(result: ManoeuvreResult, path: str) -> None:
     for a in ax.flat:
         a.grid(True, alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with writing(path):  # a full disk names the file
+        fig.savefig(path, dpi=90)
     plt.close(fig)
