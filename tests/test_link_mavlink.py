@@ -581,6 +581,12 @@ def test_link_loss_settings_set_over_the_link_take_effect(tmp_path):
             boat.gcs.mav.param_set_send(1, 1, name, value, mavlink.MAV_PARAM_TYPE_REAL32)
             assert boat.recv("PARAM_VALUE", pred=lambda m, n=name: m.param_id == n.decode()).param_value == value
         boat.wait_log(lambda r: r["event"] == "param" and r["param"] == "FS_GCS_ACT", what="the set carried out")
+        # beat for a second more, the boat's address known: a boat that never heard the station has nothing to lose
+        # (a clean-clone run: the beats had all gone out before the station knew where the boat was)
+        t_end = time.monotonic() + 1.0
+        while time.monotonic() < t_end:
+            boat.beat()
+            boat.gcs.recv_match(blocking=True, timeout=0.05)
         t_silent = time.monotonic()
         boat.last_hb = math.inf  # the ground station goes quiet
         lost = boat.wait_log(lambda r: r["event"] == "gcs" and r["state"] == "lost", 20.0, "link lost")
