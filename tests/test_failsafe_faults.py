@@ -629,6 +629,25 @@ def test_a_gnss_glitch_is_refused_and_a_real_move_re_anchors_without_a_failsafe(
     assert ("GPS jumps refused / re-anchored", "3 / 2") in card.table_rows()
 
 
+async def _freeze_compass(d: Daemon, *, rate: bool, limit_s: float):
+    """Freeze the simulated SC-30's heading (and with ``rate`` its ROT) until heading_frozen, hold it 6 s more,
+    release it and wait for the resume: (seconds to the fault, the boat's true turn by then, thrust idle while
+    frozen, the rate of turn it froze at)."""
+    d.rig.sc30.heading_frozen = True
+    d.rig.sc30.rate_frozen = rate
+    frozen_rate_rad_s = d.rig.boat.r_rad_s
+    psi0, t_frozen = d.rig.boat.state[2], d.clock.now_s()
+    await d.wait(lambda: any(r["cause"] == "heading_frozen" for r in d.events("fault")), limit_s, "heading_frozen")
+    detect_s = d.clock.now_s() - t_frozen
+    await d.wait(lambda: not d.rig.mbed.thrusting, 1.0, "zero thrust")
+    turned_rad = abs(d.rig.boat.state[2] - psi0)
+    await d.clock.sleep(6.0)  # still frozen: no resume
+    idle = not d.rig.mbed.thrusting
+    d.rig.sc30.heading_frozen = d.rig.sc30.rate_frozen = False
+    await d.wait(lambda: bool(d.events("resume")), 15.0, "resume once the heading moves")
+    return detect_s, turned_rad, idle, frozen_rate_rad_s
+
+
 @pytest.mark.slow
 def test_a_frozen_compass_is_a_heading_fault_that_holds_until_the_heading_moves(tmp_path):
     """Found by fault injection: the SC-30's heading stuck at one value (checksum valid, ROT still live) while the
@@ -643,20 +662,10 @@ def test_a_frozen_compass_is_a_heading_fault_that_holds_until_the_heading_moves(
         try:
             await d.start()
             await d.wait(lambda: bool(d.events("waypoint_reached")), 60.0, "the corner")
-            psi0 = d.rig.boat.state[2]
-            d.rig.sc30.heading_frozen = True
-            t_frozen = d.clock.now_s()
-            await d.wait(lambda: any(r["cause"] == "heading_frozen" for r in d.events("fault")), 10.0, "heading_frozen")
-            t_fault = d.clock.now_s()
-            await d.wait(lambda: not d.rig.mbed.thrusting, 1.0, "zero thrust")
-            turned_rad = abs(d.rig.boat.state[2] - psi0)
-            await d.clock.sleep(6.0)  # still frozen: no resume
-            idle = not d.rig.mbed.thrusting
-            d.rig.sc30.heading_frozen = False
-            await d.wait(lambda: bool(d.events("resume")), 15.0, "resume once the heading moves")
+            detect_s, turned_rad, idle, _ = await _freeze_compass(d, rate=False, limit_s=10.0)
         finally:
             await d.close()
-        return d, t_fault - t_frozen, turned_rad, idle
+        return d, detect_s, turned_rad, idle
 
     d, detect_s, turned_rad, idle = asyncio.run(scenario())
     fault = next(r for r in d.events("fault") if r["cause"] == "heading_frozen")
@@ -684,20 +693,10 @@ def test_a_compass_stuck_whole_is_caught_by_the_helm_steering_a_heading_that_nev
         try:
             await d.start()
             await d.wait(lambda: d.rig.boat.state[0] > 5.0, 60.0, "half way up the first leg")
-            d.rig.sc30.heading_frozen = d.rig.sc30.rate_frozen = True
-            frozen_rate_rad_s = d.rig.boat.r_rad_s
-            psi0, t_frozen = d.rig.boat.state[2], d.clock.now_s()
-            await d.wait(lambda: any(r["cause"] == "heading_frozen" for r in d.events("fault")), 30.0, "heading_frozen")
-            t_fault = d.clock.now_s()
-            await d.wait(lambda: not d.rig.mbed.thrusting, 1.0, "zero thrust")
-            turned_rad = abs(d.rig.boat.state[2] - psi0)
-            await d.clock.sleep(6.0)  # still stuck: no resume
-            idle = not d.rig.mbed.thrusting
-            d.rig.sc30.heading_frozen = d.rig.sc30.rate_frozen = False
-            await d.wait(lambda: bool(d.events("resume")), 15.0, "resume once the heading moves")
+            detect_s, turned_rad, idle, frozen_rate_rad_s = await _freeze_compass(d, rate=True, limit_s=30.0)
         finally:
             await d.close()
-        return d, frozen_rate_rad_s, t_fault - t_frozen, turned_rad, idle
+        return d, frozen_rate_rad_s, detect_s, turned_rad, idle
 
     d, frozen_rate_rad_s, detect_s, turned_rad, idle = asyncio.run(scenario())
     assert abs(frozen_rate_rad_s) < math.radians(2.0)  # below ROT_NOISE_RAD_S: the ROT sum sees no turn
