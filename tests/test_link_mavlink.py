@@ -539,6 +539,10 @@ def test_with_signing_unsigned_and_wrongly_signed_commands_are_refused_telemetry
         boat.gcs.mav.command_long_send(1, 1, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0, 0, 0, 0, 0, 0)
         boat.wait_log(lambda r: r["event"] == "command" and not r["accepted"] and "COMMAND_LONG" in r["answer"],
                       what="unsigned command refused")
+        boat.gcs.mav.request_data_stream_send(1, 1, mavlink.MAV_DATA_STREAM_ALL, 0, 0)  # would stop the telemetry
+        boat.wait_log(lambda r: r["event"] == "command" and not r["accepted"] and "REQUEST_DATA_STREAM" in r["answer"],
+                      what="unsigned stream request refused")
+        boat.recv("ATTITUDE", 2.0)
         boat.sign_with(bytes(32))  # the wrong key
         boat.gcs.mav.param_set_send(1, 1, b"HDG_KP", 2.0, mavlink.MAV_PARAM_TYPE_REAL32)
         boat.wait_log(lambda r: r["event"] == "command" and not r["accepted"] and "PARAM_SET" in r["answer"],
@@ -680,3 +684,45 @@ def test_mode_changes_as_the_standard_says_a_broken_datagram_and_the_planners_sh
     finally:
         assert boat.stop() == 0
     assert not [r for r in boat.log() if r["event"] == "info" and r.get("message") == "mavlink message not handled"]
+
+
+def _count(boat: Boat, seconds: float) -> dict[str, int]:
+    """How many of each message type the station hears from the boat in ``seconds`` of wall time (from now on: what
+    waits in the socket's buffer is read and dropped first)."""
+    while boat.gcs.recv_match(blocking=False) is not None:
+        pass
+    seen: dict[str, int] = {}
+    t_end = time.monotonic() + seconds
+    while time.monotonic() < t_end:
+        boat.beat()
+        m = boat.gcs.recv_match(blocking=True, timeout=0.1)
+        if m is not None and m.get_srcSystem() == 1:
+            seen[m.get_type()] = seen.get(m.get_type(), 0) + 1
+    return seen
+
+
+def test_mission_planners_stream_rates_are_obeyed(tmp_path):
+    """Mission Planner sets telemetry rates with REQUEST_DATA_STREAM (its SRn_ rates), not SET_MESSAGE_INTERVAL; it
+    was ignored, so its rate settings did nothing. Streams group the messages as ArduPilot Rover does; HEARTBEAT
+    keeps its rate; a stream with none of ours changes nothing."""
+    boat = Boat(tmp_path)
+    try:
+        boat.mode_is("auto")
+        boat.gcs.mav.request_data_stream_send(1, 1, mavlink.MAV_DATA_STREAM_EXTENDED_STATUS, 0, 0)  # stop
+        boat.gcs.mav.request_data_stream_send(1, 1, mavlink.MAV_DATA_STREAM_EXTRA1, 2, 1)  # ATTITUDE at 2 Hz
+        boat.gcs.mav.request_data_stream_send(1, 1, mavlink.MAV_DATA_STREAM_RC_CHANNELS, 0, 0)  # none of ours
+        time.sleep(0.5)
+        seen = _count(boat, 4.0)
+        assert not {"SYS_STATUS", "GPS_RAW_INT", "NAV_CONTROLLER_OUTPUT", "MISSION_CURRENT"} & set(seen), seen
+        assert 6 <= seen["ATTITUDE"] <= 10, seen  # 2 Hz, was 10
+        assert 16 <= seen["GLOBAL_POSITION_INT"] <= 24 and 12 <= seen["VFR_HUD"] <= 20, seen  # untouched
+        assert 3 <= seen["HEARTBEAT"] <= 5, seen
+        boat.gcs.mav.request_data_stream_send(1, 1, mavlink.MAV_DATA_STREAM_ALL, 3, 1)
+        time.sleep(0.5)
+        seen = _count(boat, 4.0)
+        for name in ("SYS_STATUS", "GPS_RAW_INT", "NAV_CONTROLLER_OUTPUT", "MISSION_CURRENT", "ATTITUDE",
+                     "GLOBAL_POSITION_INT", "VFR_HUD"):
+            assert 10 <= seen.get(name, 0) <= 14, (name, seen)  # 3 Hz each
+        assert 3 <= seen["HEARTBEAT"] <= 5, seen
+    finally:
+        assert boat.stop() == 0

@@ -39,7 +39,7 @@ from autopilot.link.missions import MissionProtocol
 from autopilot.link.modes import ROVER_MODES, command_for_rover_mode
 from autopilot.schema import ConfigError
 
-__all__ = ["MavlinkLink", "load_signing_key", "rate_for_interval", "READ_ONLY_MESSAGES"]
+__all__ = ["MavlinkLink", "load_signing_key", "rate_for_interval", "rates_for_stream", "READ_ONLY_MESSAGES"]
 
 TICK_S = 0.02
 RX_SLICE_BYTES = 1024
@@ -52,8 +52,7 @@ READ_ONLY_MESSAGES = frozenset({
     mavlink.MAVLINK_MSG_ID_HEARTBEAT, mavlink.MAVLINK_MSG_ID_PARAM_REQUEST_LIST,
     mavlink.MAVLINK_MSG_ID_PARAM_REQUEST_READ, mavlink.MAVLINK_MSG_ID_MISSION_REQUEST_LIST,
     mavlink.MAVLINK_MSG_ID_MISSION_REQUEST, mavlink.MAVLINK_MSG_ID_MISSION_REQUEST_INT,
-    mavlink.MAVLINK_MSG_ID_MISSION_ACK, mavlink.MAVLINK_MSG_ID_REQUEST_DATA_STREAM,
-    mavlink.MAVLINK_MSG_ID_TIMESYNC, mavlink.MAVLINK_MSG_ID_SYSTEM_TIME,
+    mavlink.MAVLINK_MSG_ID_MISSION_ACK, mavlink.MAVLINK_MSG_ID_TIMESYNC, mavlink.MAVLINK_MSG_ID_SYSTEM_TIME,
 })
 _RATE_MESSAGES = {  # message id -> (rates field, builder)
     mavlink.MAVLINK_MSG_ID_HEARTBEAT: "heartbeat_hz", mavlink.MAVLINK_MSG_ID_SYS_STATUS: "sys_status_hz",
@@ -63,6 +62,33 @@ _RATE_MESSAGES = {  # message id -> (rates field, builder)
     mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: "nav_controller_output_hz",
     mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: "mission_current_hz",
 }
+
+
+# REQUEST_DATA_STREAM (Mission Planner's telemetry rates, its SRn_ parameters): the stream -> our messages in it,
+# grouped as ArduPilot Rover groups them (GCS_Common.cpp STREAM_*_msgs); HEARTBEAT is in none, as there
+_STREAM_MESSAGES = {
+    mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: (
+        mavlink.MAVLINK_MSG_ID_SYS_STATUS, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT,
+        mavlink.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT),
+    mavlink.MAV_DATA_STREAM_POSITION: (mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,),
+    mavlink.MAV_DATA_STREAM_EXTRA1: (mavlink.MAVLINK_MSG_ID_ATTITUDE,),
+    mavlink.MAV_DATA_STREAM_EXTRA2: (mavlink.MAVLINK_MSG_ID_VFR_HUD,),
+}
+
+
+def rates_for_stream(rates: MavlinkRates, stream_id: int, rate_hz: int, start_stop: int) -> dict[int, float]:
+    """REQUEST_DATA_STREAM: the new rate (Hz) of each message of stream ``stream_id`` (MAV_DATA_STREAM_ALL: of
+    every stream); ``start_stop`` 0 stops them, 1 sets ``rate_hz``, anything else changes nothing (as ArduPilot).
+    Each rate is held to its configured range; streams with none of our messages change nothing."""
+    if start_stop not in (0, 1):
+        return {}
+    if stream_id == mavlink.MAV_DATA_STREAM_ALL:
+        mids = [m for group in _STREAM_MESSAGES.values() for m in group]
+    else:
+        mids = list(_STREAM_MESSAGES.get(stream_id, ()))
+    meta = {f.name: f.metadata for f in dataclasses.fields(rates)}
+    hz = float(rate_hz) if start_stop == 1 else 0.0
+    return {m: min(max(hz, meta[_RATE_MESSAGES[m]]["lo"]), meta[_RATE_MESSAGES[m]]["hi"]) for m in mids}
 
 
 def rate_for_interval(rates: MavlinkRates, message_id: int, interval_us: float) -> tuple[float | None, str]:
@@ -349,6 +375,11 @@ class MavlinkLink:
             self.missions.handle(port, msg)
         elif t in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
             self._param(port, msg)
+        elif t == "REQUEST_DATA_STREAM":  # unanswered, as ArduPilot: the new rate shows in the telemetry itself
+            for mid, hz in rates_for_stream(self.cfg.rates, msg.req_stream_id, msg.req_message_rate,
+                                            msg.start_stop).items():
+                self.rates[mid] = hz
+                self._due[mid] = 0.0
 
     def _gcs_seen(self) -> None:
         now = self.clock()
