@@ -366,7 +366,7 @@ def _runs(missions, laws, condition_names, params, base_config, record: bool):
 def format_row(r: RunResult) -> str:
     ca = " ".join(f"{c:4.2f}" for c in r.closest_approach_m)
     return (
-        f"{r.mission:<14} {r.guidance:<12} {r.condition:<10} {'yes' if r.completed else 'NO ':<4} "
+        f"{r.mission:<14} {r.guidance:<12} {r.condition:<12} {'yes' if r.completed else 'NO ':<4} "
         f"{r.xte_rms_m:6.2f} {r.xte_max_m:6.2f} {r.time_s:7.1f} {r.energy_ns:8.0f} {r.saturation_pct:5.1f} "
         f"{'CIRCLED' if r.circled else '-':<7} {ca}"
         + ("" if r.hold is None else
@@ -376,7 +376,7 @@ def format_row(r: RunResult) -> str:
 
 
 HEADER = (
-    f"{'mission':<14} {'guidance':<12} {'condition':<10} {'done':<4} {'xteRMS':>6} {'xteMAX':>6} "
+    f"{'mission':<14} {'guidance':<12} {'condition':<12} {'done':<4} {'xteRMS':>6} {'xteMAX':>6} "
     f"{'time_s':>7} {'energyNs':>8} {'sat%':>5} {'circle':<7} closest approach per waypoint (m)"
 )
 
@@ -407,9 +407,10 @@ def _cmd(args: argparse.Namespace) -> int:
     from autopilot.gnc import GUIDANCE_LAWS, GncConfig
     from autopilot.sim import default_params_path, load_params
 
-    missions = [Path(p) for p in args.mission] if args.mission else shipped_missions()
-    laws = args.guidance or list(GUIDANCE_LAWS)
-    conds = args.condition or list(CONDITION_NAMES)
+    # each given once: a repeated --guidance flew every run twice and counted both in the summary
+    missions = list(dict.fromkeys(Path(p) for p in args.mission)) if args.mission else shipped_missions()
+    laws = list(dict.fromkeys(args.guidance or GUIDANCE_LAWS))
+    conds = list(dict.fromkeys(args.condition or CONDITION_NAMES))
     for law in laws:
         if law not in GUIDANCE_LAWS:
             raise ConfigError(f"--guidance: unknown law {law!r} (known: {', '.join(GUIDANCE_LAWS)})")
@@ -423,7 +424,10 @@ def _cmd(args: argparse.Namespace) -> int:
             if given:  # both were ignored without a word: the encounter suite flies each scenario's own route
                 raise ConfigError(f"{opt} is not for --traffic: the encounter suite flies each scenario's own route "
                                   "and draws no figures")
-        return _traffic(args, params, base, args.condition or list(TRAFFIC_CONDITIONS))
+        if args.guidance:  # ignored without a word too: the suite flies the configuration's law
+            raise ConfigError(f"--guidance is not for --traffic: the encounter suite flies the configuration's law "
+                              f"({base.guidance.law}); give another with --config (guidance: law:)")
+        return _traffic(args, params, base, list(dict.fromkeys(args.condition or TRAFFIC_CONDITIONS)))
     if args.plot:
         from autopilot.userfile import output_dir
 
@@ -462,7 +466,7 @@ def _scenario_paths(names) -> list[Path]:
         else:
             raise ConfigError(f"--traffic: {name!r} is neither a file nor a shipped scenario "
                               f"({', '.join(shipped)}, or all)")
-    return out
+    return list(dict.fromkeys(out))  # each once: "--traffic all --traffic head-on" flew head-on twice
 
 
 def _traffic(args, params, base, conds) -> int:

@@ -440,6 +440,8 @@ def load_mission(
     """Read, check and convert a mission file (format from its extension)."""
     path = Path(path)
     parser = _PARSERS.get(path.suffix.lower())
+    if path.is_dir():  # it was "unknown mission format ''"
+        raise MissionError(f"{path}: is a directory, not a mission file ({', '.join(_PARSERS)})")
     if parser is None:
         raise MissionError(f"{path}: unknown mission format {path.suffix!r} (known: {', '.join(_PARSERS)})")
     try:

@@ -145,7 +145,11 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "", require_
         kwargs[name] = _convert(key, data[name], hints[name], f.metadata)
     try:
         obj = cls(**kwargs)
-    except ConfigError:
+    except ConfigError as exc:
+        # a check across fields names its field as the class knows it ("kinds: ..."); nested, the reader needs
+        # the whole path ("conditions.gusty.faults.kinds: ...")
+        if where and str(exc).split(":", 1)[0] in fields:
+            raise ConfigError(f"{where}{exc}") from None
         raise
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{where or cls.__name__}: {exc}") from exc

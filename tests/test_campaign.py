@@ -197,6 +197,10 @@ def test_replay_reproduces_a_runs_scorecard_and_review_reads_its_log(tmp_path, c
     ({"conditions": {"c": {"faults": {"kinds": ["gnss_lost"], "at_s": {"scale": [1, 2]}}}}},
      ["conditions.c.faults.at_s.scale"]),
     ({"seed": -1}, ["seed: -1 is outside the allowed range [0, 9223372036854775807]\n"]),  # was [0, 9.22337e+18] -
+    # found by an audit: a blank name titled the report "Robustness campaign "; an empty kinds list was named
+    # without its place ("kinds: give at least one fault kind")
+    ({"name": " "}, ["name: give the campaign a name"]),
+    ({"conditions": {"c": {"faults": {"kinds": []}}}}, ["conditions.c.faults.kinds: give at least one fault kind"]),
 ])
 def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change, named):
     spec = tmp_path / "bad.yaml"

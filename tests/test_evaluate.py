@@ -39,7 +39,9 @@ def test_current_from_the_east_still_completes(params):
 
 
 def test_cli_json_fields(capsys):
-    rc = main(["evaluate", "--json", "--mission", str(MISSIONS / "pond-9.2.yaml"), "--guidance", "fuzzy", "--condition", "calm"])
+    # each option given twice (as pasted twice): the run was flown and printed twice
+    rc = main(["evaluate", "--json", "--mission", str(MISSIONS / "pond-9.2.yaml"), "--guidance", "fuzzy", "--condition",
+               "calm", "--guidance", "fuzzy", "--condition", "calm", "--mission", str(MISSIONS / "pond-9.2.yaml")])
     assert rc == 0
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert len(rows) == 1
@@ -195,3 +197,15 @@ def test_evaluate_takes_the_daemons_configuration_or_a_gnc_section(tmp_path, cap
     (tmp_path / "bad.yaml").write_text("gnc:\n  pid: {kp_n_per_deg: 200}\n")
     assert main(argv + [str(tmp_path / "bad.yaml")]) == 2
     assert "gnc.pid.kp_n_per_deg: 200 is outside the allowed range" in capsys.readouterr().err
+
+
+def test_the_table_columns_line_up_for_every_condition_and_law():
+    """current_wind (12 characters) pushed its row's columns two places right of the header's."""
+    from autopilot.evaluate import CONDITION_NAMES, HEADER, RunResult, format_row
+    from autopilot.gnc import GUIDANCE_LAWS
+
+    at = HEADER.index("done")
+    for law in GUIDANCE_LAWS:
+        for cond in CONDITION_NAMES:
+            row = format_row(RunResult("pond-9.1", law, cond, True, [0.3], 0.1, 0.2, 28.0, 960.0, 6.8, False))
+            assert row[at:at + 4] == "yes ", (law, cond, row)

@@ -79,6 +79,10 @@ def test_mission_error_is_config_error(tmp_path):
         load_mission(tmp_path / "missing.yaml")
     with pytest.raises(MissionError, match="unknown mission format"):
         load_mission(tmp_path / "m.txt")
+    (tmp_path / "missions.yaml").mkdir()
+    for d in (tmp_path, tmp_path / "missions.yaml"):  # was "unknown mission format ''" (or a read error)
+        with pytest.raises(MissionError, match="is a directory, not a mission file"):
+            load_mission(d)
 
 
 def test_bad_waypoints_and_plan(tmp_path):

@@ -11,6 +11,7 @@ from numpy.testing import assert_allclose
 from autopilot.clock import SimClock
 from autopilot.drivers.ais import AisReceiver
 from autopilot.drivers.ais_device import AisDriver
+from autopilot.evaluate import _scenario_paths, shipped_scenarios
 from autopilot.geo import latlon_to_local
 from autopilot.gnc.encounter import OwnShip
 from autopilot.schema import ConfigError
@@ -196,3 +197,6 @@ def test_a_scenario_without_targets_is_refused_and_traffic_takes_no_plot_or_miss
     assert main(["evaluate", "--traffic", str(tmp_path / "empty.yaml"), "--condition", "calm"]) == 2
     assert main(["evaluate", "--traffic", "head-on", "--condition", "calm", "--plot", str(tmp_path / "p")]) == 2
     assert "--plot is not for --traffic" in capsys.readouterr().err and not (tmp_path / "p").exists()
+    assert main(["evaluate", "--traffic", "head-on", "--condition", "calm", "--guidance", "los"]) == 2
+    assert "--guidance is not for --traffic" in capsys.readouterr().err
+    assert [p.name for p in _scenario_paths(["all", "head-on", "head-on"])] == [p.name for p in shipped_scenarios()]

@@ -226,6 +226,10 @@ class CampaignSpec:
     gnc: GncConfig = param(default_factory=GncConfig, doc="the GNC configuration (the law is each run's)")
     failsafe: FailsafeConfig = param(default_factory=FailsafeConfig, doc="the daemon's failsafe configuration")
 
+    def __post_init__(self) -> None:
+        if not self.name.strip():  # a blank name made a report titled "Robustness campaign " and nothing else
+            raise ConfigError("name: give the campaign a name (it titles the report), or leave the key out")
+
 
 @dataclass(frozen=True)
 class MissionData:
