@@ -150,7 +150,7 @@ class ControlCycle:
         """One helm step (ControlLoop._steer): integrators reset when control (re)starts."""
         ap = self.ap
         if not self.driving:
-            ap.reset_integrator()
+            ap.restart_control()
             self.last_step_s = None
         # steps.step_dt_s on an exact clock: the cycles of simulated time are one period apart, and a restart
         # takes one period too (the difference of two accumulated times would only add rounding)

@@ -19,8 +19,21 @@ one hold item there, flown with the lining up (gnc.hold.reposition_m, shipped) a
 the boat is within 1 m of the point (true position), the largest error over the 30 s after,
 and over the hold's last 60 s.
 
+--currents: the station-keep mission's hold in currents of 0.2 to 0.5 m/s towards each quarter
+(the conditions above stop at 0.2 m/s), shipped against the learning gate shipped before 2026-12-04
+(the disturbance estimate learned only below 0.2 m/s over ground, from at most 1.5 m of error: a
+current that carries the boat faster than that was never learned), --position-noise-m noise, --seeds.
+
     python benchmarks/station_keeping.py [--markdown] [--noise --seeds 5] [--after-rtl] [--position-noise-m M]
     python benchmarks/station_keeping.py --offset [--seeds 3] [--markdown]
+--chatter: how the thrust moves while holding with a noisy position (0.3 m white noise per 1 Hz
+fix, --seeds seeds), calm and in 0.3 m/s of current, with the position the hold steers by smoothed
+(gnc.hold.position_smoothing_s, shipped) and without (0: each fix as it comes): the standard deviation
+of each thruster's thrust, the largest change from one 10 Hz command to the next, sign reversals a
+minute, the hold's energy and position RMS.
+
+    python benchmarks/station_keeping.py --currents [--position-noise-m 0.3] [--seeds 3] [--markdown]
+    python benchmarks/station_keeping.py --chatter [--seeds 3] [--markdown]
 """
 
 from __future__ import annotations
@@ -96,6 +109,78 @@ def offset_main(args) -> int:
     return 0
 
 
+OLD_GATE = {"learn_below_m_s": 0.2, "learn_error_m": 1.5}  # the learning gate before 2026-12-04
+
+
+def currents_main(args) -> int:
+    from concurrent.futures import ProcessPoolExecutor
+
+    params = load_params(default_params_path())
+    mission = load_mission(next(p for p in shipped_missions() if p.stem == "station-keep"))
+    base = GncConfig()
+    ways = {"shipped": base, "gate before 2026-12-04": dataclasses.replace(base, hold=dataclasses.replace(base.hold,
+                                                                                                          **OLD_GATE))}
+    envs = [(spd, tow) for spd in (0.2, 0.25, 0.3, 0.4, 0.5) for tow in (0.0, 90.0, 180.0, 270.0)]
+    jobs = [(mission, params, cfg, spd, tow, seed, args.position_noise_m or 0.0)
+            for spd, tow in envs for cfg in ways.values() for seed in range(args.seeds)]
+    with ProcessPoolExecutor() as ex:
+        scores = list(ex.map(_current_hold, jobs))
+    header = ("current (m/s)", "towards (deg)", *(f"{w}: RMS / max (m), heading RMS (deg)" for w in ways))
+    out, k = [], 0
+    for spd, tow in envs:
+        row = [f"{spd:.2f}", f"{tow:.0f}"]
+        for _ in ways:
+            got = scores[k:k + args.seeds]
+            k += args.seeds
+            rms, mx, hd = zip(*got)
+            row.append(f"{min(rms):.2f}-{max(rms):.2f} / {max(mx):.1f}, {max(hd):.0f}" if args.seeds > 1 else
+                       f"{rms[0]:.2f} / {mx[0]:.1f}, {hd[0]:.0f}")
+        out.append(tuple(row))
+    _print(header, out, args.markdown)
+    return 0
+
+
+def _current_hold(job):
+    from autopilot.sim import Environment
+
+    mission, params, cfg, spd, tow, seed, noise = job
+    h = run_closed_loop(params, mission.waypoints_ne_m, holds_s=mission.holds_s, config=cfg, seed=seed,
+                        env=Environment(current_speed_m_s=spd, current_towards_deg=tow), position_noise_m=noise).hold
+    return h.position_error_rms_m, h.position_error_max_m, h.heading_error_rms_deg
+
+
+def chatter_main(args) -> int:
+    from autopilot.sim import Environment
+
+    params = load_params(default_params_path())
+    mission = load_mission(next(p for p in shipped_missions() if p.stem == "station-keep"))
+    base = GncConfig()
+    ways = {f"smoothed ({base.hold.position_smoothing_s:g} s, shipped)": base,
+            "each fix as it comes (0)": dataclasses.replace(base, hold=dataclasses.replace(base.hold,
+                                                                                           position_smoothing_s=0.0))}
+    header = ("condition", "position", "thrust std (N)", "largest step (N)", "reversals / min", "energy (N s)",
+              "position RMS (m)")
+    out = []
+    for cond, env in (("calm", Environment()), ("0.3 m/s towards 90", Environment(current_speed_m_s=0.3,
+                                                                                  current_towards_deg=90.0))):
+        for name, cfg in ways.items():
+            got = []
+            for seed in range(args.seeds):
+                r = run_closed_loop(params, mission.waypoints_ne_m, holds_s=mission.holds_s, env=env, config=cfg,
+                                    seed=seed, position_noise_m=0.3, record=True)
+                held = np.array([h == h and h is not None for h in r.trace["hold_error_m"]])  # not NaN: holding
+                tp, ts = (np.asarray(r.trace[k])[held] for k in ("thrust_port_n", "thrust_stbd_n"))
+                minutes = held.sum() * 0.1 / 60.0
+                flips = (np.count_nonzero(np.diff(np.sign(tp))) + np.count_nonzero(np.diff(np.sign(ts)))) / 2
+                got.append((max(tp.std(), ts.std()), max(np.abs(np.diff(tp)).max(), np.abs(np.diff(ts)).max()),
+                            flips / minutes, r.hold.energy_n_s, r.hold.position_error_rms_m))
+            cols = list(zip(*got))
+            out.append((cond, name, *(f"{min(c):{f}}-{max(c):{f}}" if args.seeds > 1 else f"{c[0]:{f}}"
+                                      for c, f in zip(cols, (".1f", ".0f", ".0f", ".0f", ".2f")))))
+    _print(header, out, args.markdown)
+    return 0
+
+
 def _print(header, out, markdown: bool) -> None:
     if markdown:
         print("| " + " | ".join(header) + " |")
@@ -116,9 +201,15 @@ def main() -> int:
     ap.add_argument("--after-rtl", action="store_true", help="the hold at the launch point after pond-9.1 with rtl")
     ap.add_argument("--position-noise-m", type=float, default=None, help="position noise alone (m, per fix)")
     ap.add_argument("--offset", action="store_true", help="holds started from rest with the point off the bow")
+    ap.add_argument("--currents", action="store_true", help="the hold in currents of 0.2-0.5 m/s")
+    ap.add_argument("--chatter", action="store_true", help="the thrust while holding with a noisy position")
     args = ap.parse_args()
+    if args.chatter:
+        return chatter_main(args)
     if args.offset:
         return offset_main(args)
+    if args.currents:
+        return currents_main(args)
     params = load_params(default_params_path())
     mission = load_mission(next(p for p in shipped_missions() if p.stem == ("pond-9.1" if args.after_rtl
                                                                               else "station-keep")))

@@ -287,3 +287,14 @@ def test_a_ctrl_c_while_the_commands_load_is_no_traceback(monkeypatch):
     with contextlib.redirect_stderr(err):
         assert cli.main(["files"]) == 130
     assert err.getvalue() == "autopilot: interrupted\n"
+
+
+def test_a_local_mission_without_an_origin_is_flown_in_sim_with_a_note_of_what_the_boat_will_say(tmp_path):
+    """Found by a new-user audit: systemd/INSTALL.md's --sim check passed with the shipped configuration (no origin)
+    and a pond mission, then the boat refused the same pair at every start. The --sim run now says so first."""
+    code, message = _run_cli(tmp_path, "sim: {vessel: /nonexistent/vessel.yaml}\n", GOOD_MISSION, ["--sim"])
+    assert code == 2  # refused afterwards, for the vessel file: the note came before
+    note, error = message.splitlines()
+    assert note.startswith(f"note: {tmp_path}/m.yaml is in metres from an origin neither it nor the configuration "
+                           "gives: flown from sim.origin (") and "without --sim it is refused" in note
+    assert error.startswith("autopilot run: error: ") and "vessel" in error

@@ -6,6 +6,7 @@ import math
 
 import pytest
 
+from autopilot.daemon.commands import waiting_note
 from autopilot.daemon.config import FailsafeActions, FailsafeConfig
 from autopilot.daemon.failsafe import (
     CAUSES,
@@ -167,6 +168,9 @@ def test_zero_thrust_is_kept_while_the_fault_lasts_and_resumes_after_resume_vali
     t_clear = t + 3.0
     d = fs.update(good(t_clear))
     assert [e.name for e in d.events] == ["fault_cleared"] and not d.thrust_allowed
+    # what an operator's accepted command is told meanwhile (it said "until the failsafe clears: " and nothing)
+    assert waiting_note(d, CFG.resume_valid_s) == (f"zero thrust until the data has been valid for "
+                                                   f"{CFG.resume_valid_s:g} s (the fault has cleared)")
     k = 1
     while True:
         d = fs.update(good(t_clear + 0.1 * k))
@@ -177,6 +181,13 @@ def test_zero_thrust_is_kept_while_the_fault_lasts_and_resumes_after_resume_vali
     assert [e.name for e in d.events] == ["failsafe_cleared", "resume"]
     assert d.events[1].fields["cause"] == "heading_stale"
     assert d.events[1].fields["valid_for_s"] == pytest.approx(CFG.resume_valid_s)
+
+
+def test_an_accepted_command_during_a_fault_is_told_which():
+    fs = Failsafe(CFG)
+    t = run_until_auto(fs)
+    assert waiting_note(fs.update(good(t, heading_age_s=2.0)), CFG.resume_valid_s) == \
+        "zero thrust until the failsafe clears: heading_stale"
 
 
 def test_a_flapping_fault_restarts_the_recovery_timer():

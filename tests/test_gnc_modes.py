@@ -83,7 +83,8 @@ def test_sqrt_controller_is_linear_near_and_braking_limited_far():
 
 
 def test_inside_the_radius_it_drifts_and_it_drives_back_from_the_edge():
-    sk = StationKeeper(HoldConfig(radius_m=2.0), (0.0, 0.0), initial_heading_rad=0.0)
+    # the positions below jump from step to step: seen as they come, unsmoothed (the law's geometry is under test)
+    sk = StationKeeper(HoldConfig(radius_m=2.0, position_smoothing_s=0.0), (0.0, 0.0), initial_heading_rad=0.0)
     assert sk.step(-0.5, 0.0, 0.0, 0.1, 0.0, 0.1).drifting  # well inside: zero thrust
     assert sk.step(-1.9, 0.0, 0.0, 0.1, 0.0, 0.1).drifting
     back = sk.step(-2.1, 0.0, 0.0, 0.0, 0.0, 0.1)
@@ -97,7 +98,7 @@ def test_a_hold_started_across_the_line_to_its_point_lines_up_bow_or_stern_first
     """7 m away with the point abeam the boat first puts its bow on it, abaft (140 deg off) its stern, and holds
     with the hull as it then lies; dead ahead, or with a heading to keep, or nearer than reposition_m, the hold's
     own law from the start (its reference heading is the boat's)."""
-    cfg = HoldConfig()
+    cfg = HoldConfig(position_smoothing_s=0.0)  # the positions below jump: seen as they come
     east = math.radians(90.0)
     abeam = StationKeeper(cfg, (0.0, 7.0), initial_heading_rad=0.0)
     out = abeam.step(0.0, 0.0, 0.0, 0.0, 0.0, 0.1)
@@ -165,6 +166,22 @@ def test_station_keeping_meets_its_aims(station_keep_runs):
     assert cw.position_error_rms_m <= 1.0 and cw.position_error_p95_m <= 2.0
     assert calm.heading_error_rms_deg <= 10.0 and cw.heading_error_rms_deg <= 10.0
     assert station_keep_runs["current_wind"].trace["mode"][-1] == "complete"
+
+
+@pytest.mark.parametrize("towards_deg", [0.0, 90.0])
+def test_a_current_faster_than_the_old_learning_gate_is_held(params, towards_deg):
+    """Found by a behaviour audit: the disturbance estimate learned only below 0.2 m/s over ground, so a current of
+    0.25 m/s or more, which carries the boat faster than that, was never learned: the boat kept its arrival heading,
+    stern or beam to the current, and swung ~10 m round the point under full thrust for the whole hold (RMS 8.5 m at
+    0.3 m/s, here: arriving heading north-east, the current behind or abeam), while the summary said reached."""
+    from autopilot.mission import load_mission
+    from autopilot.resources import shipped_missions
+    from autopilot.sim import Environment
+
+    m = load_mission(next(p for p in shipped_missions() if p.stem == "station-keep"))
+    hold = run_closed_loop(params, m.waypoints_ne_m, holds_s=m.holds_s, position_noise_m=0.3, seed=1,
+                           env=Environment(current_speed_m_s=0.3, current_towards_deg=towards_deg)).hold
+    assert hold.position_error_rms_m < 1.5 and hold.heading_error_rms_deg < 12.0, hold
 
 
 def test_holding_in_current_and_wind_takes_thrust_and_faces_the_resultant(station_keep_runs):
@@ -255,3 +272,40 @@ def test_set_current_after_the_mission_was_cleared_says_so():
     ap.clear_mission(None, cause="test", unavailable="no position")
     ok, answer = ap.set_current(0, cause="test")
     assert not ok and answer == "set current refused: the mission was cleared (upload one first)"
+
+
+@pytest.mark.parametrize("law", ["fuzzy", "proportional"])
+def test_a_waypoint_the_boat_drifted_past_while_the_helm_was_stopped_is_not_reached(law):
+    """Found by a behaviour audit: a fix lost 4.5 m short of a waypoint stopped the helm; the boat coasted past it
+    at zero thrust, and when the fix came back the waypoint was logged reached ("passed", 10 m off). The helm's
+    restart (after a failsafe, as the daemon's loop and evaluate's cycle call it) now asks the route to see its
+    target ahead again, as a pause does; the boat turns back for it. (LOS switches when the boat is past the
+    perpendicular at the leg's end, file 004, wherever it came from: it steers along the leg, so past its end it
+    would never come back before the perpendicular to be asked again.)"""
+    cfg = dataclasses.replace(GncConfig(), guidance=dataclasses.replace(GncConfig().guidance, law=law))
+    ap = Autopilot(cfg, [(20.0, 0.0), (20.0, 30.0)])
+    for k in range(40):  # steering for the waypoint, 3 m to the east of the line to it, 15 m short
+        out = ap.step(NavInput(11.0 + 0.1 * k, 3.0, 0.0, 1.0, 0.0, 0.0), 0.1)
+        assert out.reached_index is None
+    ap.restart_control()  # the helm stopped; the boat drifted 10 m on, past the waypoint abeam
+    out = ap.step(NavInput(25.0, 3.0, 0.0, 1.0, 0.0, 0.0), 0.1)
+    assert out.reached_index is None and ap.wp_index == 0
+
+
+def test_the_hold_smooths_a_fixs_jump_but_follows_the_boats_own_motion_without_lag():
+    """Found by a behaviour audit: with 0.3 m of noise on each 1 Hz fix, the hold's speed law turned each fix's jump
+    into a thrust step of up to 60 N (full ahead to full astern in 0.1 s), dozens of times a minute, calm water
+    included. The position it steers by now closes on the fixes with position_smoothing_s and moves with the speed
+    and course over ground between them (benchmarks/station_keeping.py --chatter)."""
+    cfg = HoldConfig()
+    sk = StationKeeper(cfg, (10.0, 0.0), initial_heading_rad=0.0)
+    for k in range(30):  # moving north at 0.5 m/s, the fixes exact: no lag
+        out = sk.step(0.05 * k, 0.0, 0.0, 0.5, 0.0, 0.1)
+        assert out.error_m == pytest.approx(10.0 - 0.05 * k, abs=1e-9)
+    n = 0.05 * 29
+    before = sk.step(n, 0.0, 0.0, 0.0, 0.0, 0.1)
+    jumped = sk.step(n - 1.0, 0.0, 0.0, 0.0, 0.0, 0.1)  # a fix 1 m off: a tenth of a second's share of it
+    assert jumped.error_m - before.error_m == pytest.approx(0.1 / cfg.position_smoothing_s * 1.0, rel=1e-6)
+    for _ in range(int(5 * cfg.position_smoothing_s / 0.1)):
+        out = sk.step(n - 1.0, 0.0, 0.0, 0.0, 0.0, 0.1)
+    assert out.error_m == pytest.approx(before.error_m + 1.0, abs=0.01)  # and all of it in a few time constants

@@ -53,3 +53,20 @@ def test_no_gap_no_change():
     y = np.cos(t)
     t2, y2 = envelope(t, y)
     assert np.array_equal(t2, t) and np.array_equal(y2, y)
+
+
+def test_the_guidance_figure_names_the_law_the_log_flew(tmp_path, monkeypatch):
+    """Found by a new-user audit: the figure was titled "fuzzy guidance" above a LOS run's empty TCPA/DCPA/CDH."""
+    from autopilot.review import plots
+    from autopilot.review.reader import read_log
+    from autopilot.review.synthetic import write_synthetic_log
+
+    path = tmp_path / "los.jsonl"
+    write_synthetic_log(path, duration_s=20.0)
+    path.write_text(path.read_text().replace('"guidance": "fuzzy"', '"guidance": "los"', 1))
+    log = read_log(path)
+    assert log.guidance_law == "los"
+    titles = []
+    monkeypatch.setattr(plots, "_save", lambda fig, p: titles.append(fig.axes[0].get_title()) or p)
+    plots.plot_guidance(log, tmp_path / "g.png")
+    assert titles == ["synthetic: los guidance (dashed: waypoint reached)"]

@@ -45,9 +45,16 @@ def chunk_indices(campaign: Campaign, runs: int, chunk: int) -> range:
     return range(chunk * size, min((chunk + 1) * size, runs))
 
 
+def run_gnc(campaign: Campaign, setup: RunSetup):
+    """The GNC configuration a run flies: the spec's, with the run's guidance law."""
+    from dataclasses import replace
+
+    gnc = campaign.spec.gnc
+    return replace(gnc, guidance=replace(gnc.guidance, law=setup.law))
+
+
 def _flight(campaign: Campaign, setup: RunSetup):
     """The run's Flight: the daemon's cycle with its failsafe, the SC-30 model seeded from the run."""
-    from dataclasses import replace
 
     from autopilot.closed_loop import Flight
     from autopilot.daemon.config import DaemonConfig
@@ -58,7 +65,7 @@ def _flight(campaign: Campaign, setup: RunSetup):
     from autopilot.sim.sensors import SensorModel
 
     spec = campaign.spec
-    gnc = replace(spec.gnc, guidance=replace(spec.gnc.guidance, law=setup.law))
+    gnc = run_gnc(campaign, setup)
     m = setup.mission
     ap = Autopilot(gnc, m.waypoints_ne_m, speeds_m_s=m.speeds_m_s, holds_s=m.holds_s, rtl=m.rtl,
                    boat_length_m=setup.params.length_m)

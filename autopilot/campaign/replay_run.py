@@ -18,7 +18,7 @@ import math
 from pathlib import Path
 
 from autopilot.campaign.draw import draw_run
-from autopilot.campaign.lockstep import GNC_RATE_HZ, chunk_indices, fly
+from autopilot.campaign.lockstep import GNC_RATE_HZ, chunk_indices, fly, run_gnc
 from autopilot.campaign.results import RUN_COLUMNS, read_runs_csv
 from autopilot.daemon.cycle import cycle_record
 from autopilot.daemon.missionlog import to_json
@@ -57,7 +57,7 @@ class _LogWriter:
                   guidance=setup.law, rate_hz=GNC_RATE_HZ, sim=True, speedup="max", origin_lat_deg=52.0,
                   origin_lon_deg=4.4, waypoints=[[n, e] for n, e in m.waypoints_ne_m],
                   waypoint_speeds_m_s=list(m.speeds_m_s), boat_length_m=setup.params.length_m,
-                  config={"gnc": to_dict(spec.gnc), "failsafe": to_dict(spec.failsafe),
+                  config={"gnc": to_dict(run_gnc(campaign, setup)), "failsafe": to_dict(spec.failsafe),
                           "campaign": {"name": spec.name, "seed": seed, "index": setup.index,
                                        "condition": setup.condition, "drawn": dict(setup.drawn),
                                        "faults": [f.describe() for f in setup.faults],

@@ -140,6 +140,10 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
             origin_lon_deg=cfg.sim.origin_lon_deg,
             max_range_m=cfg.max_mission_range_m,
         )
+        # the bench check of systemd/INSTALL.md passed this way, and the boat then refused the same pair at start
+        print(f"note: {opts.mission_path} is in metres from an origin neither it nor the configuration gives: "
+              f"flown from sim.origin ({cfg.sim.origin_lat_deg:g}, {cfg.sim.origin_lon_deg:g}); without --sim it "
+              "is refused until origin_lat_deg/origin_lon_deg are set (the launch point)", file=sys.stderr)
     _within_limits(cfg, mission, opts.mission_path)
     if opts.sim:
         sim_sentences(cfg)  # refuses sets that do not fit in the line before anything starts

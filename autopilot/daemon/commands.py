@@ -53,9 +53,17 @@ def apply(loop, request: dict, helm_nav, unavailable: str, decision, t_s: float)
         # "hold" answered "hold" of a disarmed boat, drifting with zero thrust (the operator thought it held)
         reply["note"] = "disarmed: zero thrust whatever the mode until armed (autopilot ctl arm)"
     elif ok and decision.mode != "auto" and loop.ap.mode is not Mode.MANUAL:
-        reply["note"] = ("zero thrust until the failsafe clears: " + ", ".join(decision.active)
-                         if decision.mode == "failsafe" else "waiting for valid data before control starts")
+        reply["note"] = waiting_note(decision, loop.failsafe.cfg.resume_valid_s)
     return reply
+
+
+def waiting_note(decision, resume_valid_s: float) -> str:
+    """Why an accepted command does not move the boat yet (the failsafe holds the thrust at zero)."""
+    if decision.mode != "failsafe":
+        return "waiting for valid data before control starts"
+    if not decision.active:  # the fault has cleared, the data must stay good a while: it said "clears: " and nothing
+        return f"zero thrust until the data has been valid for {resume_valid_s:g} s (the fault has cleared)"
+    return "zero thrust until the failsafe clears: " + ", ".join(decision.active)
 
 
 def _helm(loop, request, helm_nav, unavailable, cause):

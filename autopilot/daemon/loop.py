@@ -179,7 +179,7 @@ class ControlLoop:
         """One GNC step and what follows from it (waypoint events, completion, saved progress)."""
         st = self.state
         if not st.driving:  # control (re)starts: nothing integrated while the boat was stopped counts
-            self.ap.reset_integrator()
+            self.ap.restart_control()
             st.last_step_s = None
         dt_s = steps.step_dt_s(now_s, st.last_step_s, self.cfg.period_s)
         st.last_step_s, st.driving = now_s, True

@@ -168,6 +168,16 @@ class Autopilot:
         self.pid.reset()
         self.speed_trim.reset()
 
+    def restart_control(self) -> None:
+        """The helm drives again after cycles it did not (a failsafe, a lost fix): the integrals are zeroed, and
+        the route's "passed abeam" test must see its target ahead again, as after a pause. The boat drifted
+        meanwhile: a fix lost 4.5 m short of a waypoint came back with the boat coasted past it, and the waypoint
+        was logged reached ("passed", 10 m off) though the boat never came near it under control."""
+        self.reset_integrator()
+        for g in (self.guidance, getattr(self.current, "guidance", None)):
+            if g is not None:
+                g.disarm_pass()
+
     # ---------------------------------------------------------------- commands
     def request(self, command: str, nav: NavInput | None, *, cause: str, heading_rad: float | None = None,
                 unavailable: str = "no position and heading",

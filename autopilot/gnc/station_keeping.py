@@ -58,6 +58,14 @@ class HoldConfig:
 
     radius_m: float = param(0.0, unit="m", lo=0.0, hi=100.0, source="ArduPilot LOIT_RADIUS (drift, then return)",
                             doc="drift at zero thrust inside this radius, drive back at it; 0 = hold precisely")
+    position_smoothing_s: float = param(3.0, unit="s", lo=0.0, hi=30.0, source="benchmarks/station_keeping.py --chatter",
+                                        doc="the position the hold steers by follows each fix with this time constant, "
+                                            "moved on by the speed and course over ground between (no lag for the "
+                                            "boat's own motion; each fix's noise jump spread out); 0 = the fixes as "
+                                            "they come")
+    radius_slow_m_s: float = param(0.2, unit="m/s", lo=0.01, hi=3.0, source="chosen",
+                                   doc="with radius_m: back within half the radius, drift again only below this ground "
+                                       "speed (else it coasts through and out the other side)")
     speed_gain_per_s: float = param(0.55, unit="1/s", lo=0.01, hi=10.0, source="tuned in simulation (autopilot evaluate)",
                                     doc="near the point, the speed to close with per metre of error along the hull")
     brake_m_s2: float = param(0.25, unit="m/s^2", lo=0.01, hi=2.0,
@@ -69,9 +77,12 @@ class HoldConfig:
                                 doc="growth of the disturbance estimate per metre of error along the hull")
     learn_within_m: float = param(5.0, unit="m", lo=0.1, hi=50.0, source="chosen",
                                   doc="the disturbance estimate learns only this close to the point (not from an approach)")
-    learn_below_m_s: float = param(0.2, unit="m/s", lo=0.01, hi=3.0, source="chosen",
-                                   doc="... and only below this ground speed (holding, not overshooting)")
-    learn_error_m: float = param(1.5, unit="m", lo=0.05, hi=50.0, source="chosen",
+    learn_below_m_s: float = param(3.0, unit="m/s", lo=0.01, hi=3.0,
+                                   source="benchmarks/station_keeping.py --currents: at 0.2 m/s a current of 0.25 m/s "
+                                          "or more, carrying the boat faster than that, was never learned (RMS 9-11 m)",
+                                   doc="... and only below this ground speed (3 = at any speed; with radius_m, below "
+                                       "radius_slow_m_s too)")
+    learn_error_m: float = param(3.0, unit="m", lo=0.05, hi=50.0, source="benchmarks/station_keeping.py --currents",
                                  doc="at most this much error drives the estimate (a large error is a transient)")
     integral_limit_n: float = param(28.0, unit="N", lo=0.0, hi=100.0, source="below the 32.5 N of a thruster",
                                     doc="largest disturbance estimate (per thruster)")
@@ -133,6 +144,7 @@ class StationKeeper:
         self._started = False
         self._lining_up = False  # closing along the line to the point (bow or stern on it)
         self._astern = False  # ... stern first
+        self._position: tuple[float, float] | None = None  # the smoothed position (north, east), m
 
     @property
     def disturbance_ne_n(self) -> tuple[float, float]:
@@ -141,10 +153,11 @@ class StationKeeper:
     def step(self, north_m: float, east_m: float, psi_rad: float, sog_m_s: float, cog_rad: float,
              dt_s: float) -> HoldOutput:
         cfg = self.config
+        north_m, east_m = self._smoothed(north_m, east_m, sog_m_s, cog_rad, dt_s)
         en, ee = self.target[0] - north_m, self.target[1] - east_m
         d = math.hypot(en, ee)
         if cfg.radius_m > 0.0:  # drift inside the radius; come back from its edge to half of it, and stop there
-            slow = not math.isfinite(sog_m_s) or sog_m_s < cfg.learn_below_m_s
+            slow = not math.isfinite(sog_m_s) or sog_m_s < cfg.radius_slow_m_s
             if self._drifting and d >= cfg.radius_m:
                 self._drifting = False
             elif not self._drifting and d <= 0.5 * cfg.radius_m and slow:
@@ -153,7 +166,9 @@ class StationKeeper:
             return self._out(psi_rad, 0.0, 0.0, False, True, d)
         if d > cfg.approach_m:
             return self._out(math.atan2(ee, en), 0.0, cfg.approach_speed_m_s, True, False, d)
-        slow = not math.isfinite(sog_m_s) or sog_m_s < cfg.learn_below_m_s
+        # drifting and driving back (radius_m), the drive back is no holding to learn from: only when slow there
+        below = cfg.learn_below_m_s if cfg.radius_m <= 0.0 else min(cfg.learn_below_m_s, cfg.radius_slow_m_s)
+        slow = not math.isfinite(sog_m_s) or sog_m_s < below
         if d < cfg.learn_within_m and slow:  # learn from holding, not from an approach or an overshoot
             w = min(1.0, cfg.learn_error_m / max(d, 1e-9))  # at most learn_error_m of error counts
             dn = self._d_n[0] + cfg.ki_n_per_m_s * en * w * dt_s
@@ -177,6 +192,21 @@ class StationKeeper:
         lead = 1.0 if tau_com >= 0.0 else -1.0  # astern, turning the other way moves the boat the same way
         psi_d = self._psi_ref + clamp(math.atan2(lead * e_l, cfg.lookahead_m), -limit, limit)
         return self._out(wrap_pi(psi_d), tau_com, 0.0, False, False, d)
+
+    def _smoothed(self, north_m: float, east_m: float, sog_m_s: float, cog_rad: float, dt_s: float):
+        """A complementary filter: the position moves with the velocity over ground and closes on the measured one
+        with ``position_smoothing_s``; a fix's noise reached the thrust at once through the speed law (~50 N per
+        metre: with 0.3 m of noise a fix, 60 N steps, ahead to astern, dozens of times a minute)."""
+        tau = self.config.position_smoothing_s
+        if tau <= 0.0 or self._position is None or not (math.isfinite(north_m) and math.isfinite(east_m)):
+            self._position = (north_m, east_m)
+            return north_m, east_m
+        pn, pe = self._position
+        if math.isfinite(sog_m_s) and math.isfinite(cog_rad):
+            pn, pe = pn + sog_m_s * math.cos(cog_rad) * dt_s, pe + sog_m_s * math.sin(cog_rad) * dt_s
+        k = min(1.0, dt_s / tau)
+        self._position = (pn + k * (north_m - pn), pe + k * (east_m - pe))
+        return self._position
 
     def _update_line_up(self, en: float, ee: float, d: float, psi_rad: float) -> None:
         """Lining up with the point: decided at the hold's first step, ends at half ``reposition_m``; the bow or

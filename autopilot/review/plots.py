@@ -456,7 +456,8 @@ def plot_guidance(log: MissionLog, path: Path) -> Path | None:
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
     axes[2].set_ylim(-0.05, 1.05)
-    axes[0].set_title(f"{log.name}: fuzzy guidance (dashed: waypoint reached)")
+    # it said "fuzzy guidance" above a LOS run's three empty panels
+    axes[0].set_title(f"{log.name}: {log.guidance_law or 'waypoint'} guidance (dashed: waypoint reached)")
     _finish_time_figure(fig, strip, log, scale, xlabel)
     return _save(fig, path)
 

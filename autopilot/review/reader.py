@@ -143,6 +143,12 @@ class MissionLog:
         return self.path.stem
 
     @property
+    def guidance_law(self) -> str | None:
+        """The guidance law ``mission_start`` names (None when it names none)."""
+        law = (self.start or {}).get("guidance")
+        return law if isinstance(law, str) and law else None
+
+    @property
     def waypoints_ne_m(self) -> np.ndarray:
         """(N, 2) waypoints from ``mission_start`` ((0, 2) when absent or malformed)."""
         try:
