@@ -101,8 +101,10 @@ def test_circling_flag_fires_closed_loop_with_guards_off(params):
     # 10 Hz fixes (an RTK receiver): with the SC-30's 1 Hz fix the dead-reckoned position jumps and
     # happens to land within the 0.1 m tolerance
     fast_gps = SensorRates(fix_period_s=0.1, rot_period_s=0.1)
-    r = run_closed_loop(params, [(0.0, 4.0)], config=load(GncConfig, {"guidance": guards_off}), t_max_s=90.0,
-                        sensor_rates=fast_gps)
+    # the speed trim's old law (the integral of the wanted speed): the boat a little faster than wanted, as this
+    # geometry was found with; at exactly the wanted speed it happens to land within the tolerance on its first pass
+    r = run_closed_loop(params, [(0.0, 4.0)], config=load(GncConfig, {"guidance": guards_off, "speed": {
+                        "reference_time_constant_s": 0.0}}), t_max_s=90.0, sensor_rates=fast_gps)
     assert r.circled
     r = run_closed_loop(params, [(0.0, 4.0)], config=load(GncConfig, {"guidance": {"law": "fuzzy"}}), t_max_s=90.0)
     assert r.completed and not r.circled

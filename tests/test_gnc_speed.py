@@ -18,7 +18,9 @@ def nav(speed_m_s, psi_rad=0.0):
 
 
 def test_trim_pi_terms_and_bound():
-    t = SpeedTrim(SpeedTrimConfig(kp_n_s_per_m=8.0, ki_n_per_m=3.0, integral_limit_n=15.0, trim_limit_n=20.0))
+    # the integral of the wanted speed's error (no reference speed): the PI law and its bounds alone
+    t = SpeedTrim(SpeedTrimConfig(kp_n_s_per_m=8.0, ki_n_per_m=3.0, integral_limit_n=15.0, trim_limit_n=20.0,
+                                  reference_time_constant_s=0.0))
     assert_allclose(t.terms(1.0, 0.5).trim_n, 4.0)  # 8 * 0.5
     t.integrate(1.0, 0.5, 2.0)
     assert_allclose(t.integral_n, 3.0)  # 3 * 0.5 * 2
@@ -30,7 +32,7 @@ def test_trim_pi_terms_and_bound():
 
 
 def test_trim_anti_windup_blocks_only_the_saturated_direction():
-    t = SpeedTrim(SpeedTrimConfig(ki_n_per_m=1.0))
+    t = SpeedTrim(SpeedTrimConfig(ki_n_per_m=1.0, reference_time_constant_s=0.0))  # the blocks alone
     t.integrate(1.0, 0.0, 1.0)
     t.integrate(1.0, 0.0, 1.0, block_up=True)  # allocator cut the common mode: may not grow
     assert_allclose(t.integral_n, 1.0)
@@ -82,3 +84,29 @@ def test_headwind_needs_the_trim(enabled, completes):
     cfg = load(GncConfig, {"speed": {"enabled": enabled}})
     r = run_closed_loop(params, [(14.0, 14.0)], config=cfg, env=conditions()["wind"], t_max_s=60.0)  # leg into the NE wind
     assert r.completed is completes
+
+
+def test_the_integral_does_not_wind_up_while_the_boat_gets_going_but_learns_a_steady_error():
+    """Found by a new-user audit: from rest the integral of the wanted speed's error wound up over the ~10 s the boat
+    takes to get going (16 N against the table's 9.4 N), and the boat then ran 40 % over its speed. It learns from
+    the speed the boat should have by now; a headwind's steady shortfall still reaches it."""
+    import dataclasses
+    import math
+
+    from autopilot.gnc.speed import SpeedTrim, SpeedTrimConfig
+
+    def spin_up(cfg):
+        trim = SpeedTrim(cfg)
+        for k in range(100):  # 10 s: the boat's own surge response from rest towards 1 m/s
+            trim.integrate(1.0, 1.0 - math.exp(-0.1 * k / 10.0), 0.1)
+        return trim.integral_n
+
+    shipped = SpeedTrimConfig()
+    assert abs(spin_up(shipped)) < 1.0
+    assert spin_up(dataclasses.replace(shipped, reference_time_constant_s=0.0)) > 10.0  # the old law
+    trim = SpeedTrim(shipped)
+    for _ in range(600):  # a headwind holds the boat at 0.7 m/s for a minute
+        trim.integrate(1.0, 0.7, 0.1)
+    assert trim.integral_n == shipped.integral_limit_n
+    trim.reset()
+    assert trim.integral_n == 0.0 and trim.reference_m_s is None
