@@ -519,3 +519,26 @@ def test_the_receiver_loads_its_decoder_when_made_not_at_the_first_message():
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "True"
+
+
+def test_a_report_without_a_position_keeps_the_vessel_where_it_was_last_seen():
+    """Found by a traffic audit: a report with "position not available" (lat 91, lon 181) from a vessel already placed
+    wrote over its position, and the vessel vanished from collision avoidance at once, 60 m ahead on the track. Its
+    last position stays, ageing from its last real report, until it is stale."""
+    from pyais import encode_dict
+
+    from autopilot.drivers.ais import AisReceiver
+
+    def report(lat, lon):
+        return encode_dict(dict(type=1, mmsi=211000003, lat=lat, lon=lon, speed=1.0, course=90.0, heading=90),
+                           talker_id="AI", sentence_type="VDM")[0]
+
+    rx = AisReceiver()
+    rx.feed_line(report(52.8428, 5.7058), 0.0)
+    rx.feed_line(report(91.0, 181.0), 10.0)
+    (t,) = rx.targets(11.0)
+    assert (round(t.lat_deg, 4), round(t.lon_deg, 4), t.position_t_s) == (52.8428, 5.7058, 0.0)
+    assert t.messages == 2 and t.last_t_s == 10.0
+    rx2 = AisReceiver()  # never placed: no position to keep, not a target to steer round
+    rx2.feed_line(report(91.0, 181.0), 0.0)
+    assert rx2.targets(1.0) == []

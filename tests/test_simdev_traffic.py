@@ -200,3 +200,13 @@ def test_a_scenario_without_targets_is_refused_and_traffic_takes_no_plot_or_miss
     assert main(["evaluate", "--traffic", "head-on", "--condition", "calm", "--guidance", "los"]) == 2
     assert "--guidance is not for --traffic" in capsys.readouterr().err
     assert [p.name for p in _scenario_paths(["all", "head-on", "head-on"])] == [p.name for p in shipped_scenarios()]
+
+
+def test_a_name_outside_ais_text_is_refused_naming_the_characters():
+    """Found by a traffic audit: a target named "FÄHRE €" was an internal error (KeyError: 'Ä') in evaluate, and
+    under --sim the simulated transmitter died without a word: the boat sailed through a vessel it never saw."""
+    with pytest.raises(ConfigError, match=r"target 7: name 'FÄHRE €': 'Ä', '€' not in AIS's 6-bit text"):
+        load_scenario({"name": "x", "targets": [{"mmsi": 7, "name": "FÄHRE €", "north_m": 100.0, "east_m": 0.0,
+                                                 "course_deg": 180.0, "speed_m_s": 1.0}]})
+    load_scenario({"name": "x", "targets": [{"mmsi": 7, "name": "Ferry 2", "north_m": 100.0, "east_m": 0.0,
+                                             "course_deg": 180.0, "speed_m_s": 1.0}]})  # lower case is sent as upper

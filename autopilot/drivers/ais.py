@@ -659,8 +659,11 @@ class TargetTable:
             old = AisTarget(mmsi=msg.mmsi, ais_class=msg.ais_class, last_t_s=now_s)
         changes: dict = {"last_t_s": now_s, "messages": old.messages + 1, "ais_class": msg.ais_class}
         if msg.msg_type in (1, 2, 3, 18, 19):
-            changes.update({k: getattr(msg, k) for k in _POSITION_FIELDS})
-            changes["position_t_s"] = now_s
+            # "position not available" (lat 91, lon 181) from a vessel already placed made it vanish from collision
+            # avoidance at once; its last position and motion stay, dead-reckoned and ageing until it is stale
+            if msg.lat_deg is not None or not old.has_position:
+                changes.update({k: getattr(msg, k) for k in _POSITION_FIELDS})
+                changes["position_t_s"] = now_s
             changes["turn_rad_s"] = msg.turn_rad_s
             if msg.nav_status is not None:
                 changes["nav_status"] = msg.nav_status

@@ -69,6 +69,8 @@ STATIC_INTERVAL_S = 360.0  # types 5 and 24: every 6 min (ITU-R M.1371-5 Annex 1
 BEHAVIOURS = ("straight", "turn", "gives_way", "does_not_give_way")
 
 
+AIS_TEXT_CHARS = frozenset("@ABCDEFGHIJKLMNOPQRSTUVWXYZ[\\]^_ !\"#$%&'()*+,-./0123456789:;<=>?")  # ITU-R M.1371 Table 47
+
 @dataclass(frozen=True)
 class TargetSpec:
     """One simulated vessel."""
@@ -103,6 +105,10 @@ class TargetSpec:
             raise ConfigError(f"target {self.mmsi}: give the start as north_m/east_m or as lat_deg/lon_deg (one pair)")
         if len(self.name) > 20:
             raise ConfigError(f"target {self.mmsi}: name {self.name!r} longer than AIS's 20 characters")
+        bad = sorted({c for c in self.name.upper() if c not in AIS_TEXT_CHARS})
+        if bad:  # "FÄHRE" was an internal error in evaluate, and under --sim killed the transmitter without a word
+            raise ConfigError(f"target {self.mmsi}: name {self.name!r}: {', '.join(map(repr, bad))} not in AIS's "
+                              "6-bit text (A-Z, 0-9, space and !\"#$%&'()*+,-./:;<=>?[\\]^_)")
 
 
 @dataclass(frozen=True)
