@@ -271,3 +271,15 @@ def test_mission_cost_and_delay():
     s = score_encounter(t, 0.5 * t, 0 * t, {}, situation={}, acting={}, psi_share_rad=0 * t, required_m=1.0,
                         cost=slow, reference=ref)
     assert s.delay_s == 49.0 and s.extra_distance_m == pytest.approx(0.0, abs=1.0)
+
+
+@pytest.mark.parametrize("situation", ["overtaken", "safe"])
+def test_score_never_calls_a_pass_closer_than_a_boat_length_the_rules(situation):
+    """Found by a traffic audit: an overtaking vessel that did not give way passed 0.9 m off (current and wind set the
+    boat into its track) and a vessel first reported after the pass came 2.0 m off, both scored "as the rules want"."""
+    t = np.arange(0.0, 10.0)
+    s = score_encounter(t, 0 * t, 0 * t, {7: (-45 + 10 * t, 0.9 + 0 * t)}, situation={7: [situation] * 10},
+                        acting={7: [False] * 10}, psi_share_rad=0 * t, required_m=16.0)
+    (ts,) = s.targets
+    assert not ts.rule_followed and not s.rules_followed and "collision not avoided" in ts.note
+    assert ("never seen at risk" in ts.note) == (situation == "safe")

@@ -19,7 +19,8 @@ Per target (:class:`TargetScore`):
   while acting for it is to starboard; stand on (17, 13 overtaken) = we did
   never altered to port while acting for it (17(c)); an alteration made for
   another target while standing on is noted, not failed;
-  overtaking (13) = either side; safe = we never acted for it.
+  overtaking (13) = either side; safe = we never acted for it; and in every
+  case the boats never came within a boat length (``CONTACT_M``, rule 8).
 
 For the mission (:class:`MissionCost`, :func:`mission_cost`): arrival time,
 distance run and thrust impulse (N s, as ``autopilot.review.metrics``'s
@@ -36,7 +37,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TargetScore", "MissionCost", "EncounterScore", "closest_approach", "mission_cost", "score_target",
+# closer than the WAM-V's own length (3.96 m) is contact or as near as makes no difference: it was scored "as the
+# rules want" at 0.9 m (the other vessel overtaking, the boat set back into its track)
+CONTACT_M = 4.0
+
+__all__ = ["CONTACT_M", "TargetScore", "MissionCost", "EncounterScore", "closest_approach", "mission_cost", "score_target",
            "score_encounter", "GIVE_WAY", "STAND_ON"]
 
 GIVE_WAY = ("head-on", "crossing-give-way")
@@ -106,6 +111,10 @@ def score_target(target_id: int, t_s, own_north_m, own_east_m, tgt_north_m, tgt_
     sit_arr = np.asarray(list(situation))
     notes = []
     ok = True
+    if d_min < CONTACT_M:  # whatever the situation was, or if it was never seen: rule 8 (avoid collision) failed
+        ok = False
+        notes.append(f"came within {d_min:.1f} m, under a boat length ({CONTACT_M:g} m): collision not avoided "
+                     "(rules 8, 17(b))" + ("; never seen at risk" if first == "safe" else ""))
     if first in GIVE_WAY:
         if big.size and np.any(big < 0):
             ok = False
