@@ -37,9 +37,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# closer than the WAM-V's own length (3.96 m) is contact or as near as makes no difference: it was scored "as the
-# rules want" at 0.9 m (the other vessel overtaking, the boat set back into its track)
-CONTACT_M = 4.0
+from autopilot.measured import HULL_LENGTH_M
+
+# closer than the WAM-V's own length is contact or as near as makes no difference: it was scored "as the rules
+# want" at 0.9 m (the other vessel overtaking, the boat set back into its track)
+CONTACT_M = HULL_LENGTH_M
 
 __all__ = ["CONTACT_M", "TargetScore", "MissionCost", "EncounterScore", "closest_approach", "mission_cost", "score_target",
            "score_encounter", "GIVE_WAY", "STAND_ON"]
