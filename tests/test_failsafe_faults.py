@@ -724,8 +724,14 @@ def test_a_miswired_board_is_not_trusted_again_on_zero_commands(tmp_path):
             await d.steady_thrust(1.0)
             d.rig.mbed.swapped = True
             t0 = d.clock.now_s()
-            await d.wait(lambda: sum(r["cause"] == "mbed_ack_missing" for r in d.events("fault")) >= 2, 30.0,
-                         "the second trip")
+            try:
+                await d.wait(lambda: sum(r["cause"] == "mbed_ack_missing" for r in d.events("fault")) >= 2, 30.0,
+                             "the second trip")
+            except AssertionError as e:  # say what the board was sent and what the failsafe did meanwhile
+                seen = [(r["event"], round(r["t_s"], 2), r.get("cause")) for r in d.log()
+                        if r["event"] in ("fault", "resume", "mbed_echo_mismatch")]
+                raise AssertionError(f"{e}; swapped at {t0:.2f}; events {seen}; "
+                                     f"last commands {d.rig.mbed.commands[-40:]}") from None
             t_second = d.clock.now_s()
             await d.clock.sleep(8.0)
         finally:

@@ -3,6 +3,7 @@ the noise model (Gauss-Markov + white), outlier rejection, and the shared GPS/he
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -181,6 +182,49 @@ def test_outliers_are_found_without_a_model():
     jumped = north.copy()
     jumped[[10, 11, 50]] += [10.0, -8.0, 10.0]  # two adjacent jumps too
     assert_allclose(np.flatnonzero(outliers(t, jumped, neighbours=4, window_s=4.0, floor=3.0)), [10, 11, 50])
+
+
+def test_a_burst_of_outliers_is_found_and_the_clean_fixes_beside_it_are_not():
+    """Multipath holds a receiver on one wrong solution for a few fixes: the plain leave-one-out fit follows
+    the burst through its own members. With it alone a 3-fix burst of 10 m on a turn flagged two clean fixes
+    after it and missed none only by luck; a 2-fix burst of 6 m flagged the clean fixes on both sides and
+    neither member. The second fit across a gap (skip=1, as prediction.OUTLIER_SKIP gives positions) flags
+    exactly the burst, for bursts of 1-5 fixes."""
+    rng = np.random.default_rng(1)
+    t = np.arange(0.0, 90.0, 1.0)
+    speed_m_s, rate_rad_s = 1.5, 0.15
+    north = speed_m_s / rate_rad_s * np.sin(rate_rad_s * t) + 0.15 * rng.standard_normal(t.size)
+    assert not outliers(t, north, neighbours=4, window_s=4.0, floor=3.0, skip=1).any()
+    for fixes in range(1, 6):
+        for jump_m in (6.0, 10.0):
+            jumped = north.copy()
+            jumped[30:30 + fixes] += jump_m
+            found = np.flatnonzero(outliers(t, jumped, neighbours=4, window_s=4.0, floor=3.0, skip=1))
+            assert_allclose(found, np.arange(30, 30 + fixes), err_msg=f"{fixes} fixes of {jump_m} m")
+    jumped = north.copy()
+    jumped[30:33] += 10.0
+    assert set(np.flatnonzero(outliers(t, jumped, neighbours=4, window_s=4.0, floor=3.0))) - {30, 31, 32}  # old
+
+
+def test_gps_outlier_bursts_hold_one_offset_in_both_generators():
+    """A burst repeats its first fix's jump for outlier_fixes fixes (a new one starting inside it takes over);
+    its starts are the single-fix outliers of the same seed, so a seed's other errors do not move."""
+    model = GpsErrorModel(wander_m=0.0, white_m=0.0, outlier_rate=0.02, outlier_fixes=3)
+    t = np.arange(0.0, 3000.0)
+    n, e, jump = position_errors(model, t, np.random.default_rng(3))
+    n1, e1, jump1 = position_errors(dataclasses.replace(model, outlier_fixes=1), t, np.random.default_rng(3))
+    starts = np.flatnonzero(jump1)
+    assert len(starts) > 30
+    last_start = starts[np.searchsorted(starts, np.arange(t.size), side="right") - 1]
+    held = (np.arange(t.size) >= starts[0]) & (np.arange(t.size) - last_start < 3)
+    assert_allclose(jump, held)
+    assert_allclose(n[held], n1[last_start[held]]) and assert_allclose(e[held], e1[last_start[held]])
+    assert_allclose(np.hypot(n, e)[jump], 10.0) and not n[~jump].any()
+    stream = PositionErrorStream(model, np.random.default_rng(4))
+    err = np.array([stream.next(tk) for tk in t])
+    big = np.hypot(*err.T) > 5.0
+    runs = np.diff(np.flatnonzero(np.diff(np.r_[0, big.astype(int), 0])))[::2]
+    assert len(runs) > 30 and min(runs) >= 3
 
 
 def test_gauss_markov_statistics():

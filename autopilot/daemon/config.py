@@ -202,8 +202,9 @@ class SimConfig:
     # realistic SC-30 errors (autopilot.sim.gps_error, the identification's measurement model); 0 = off
     position_wander_m: float = param(0.0, unit="m", lo=0.0, hi=50.0, source="issue 12: 0.5-2 m", doc="wandering (Gauss-Markov) GPS error per axis, 1 sigma; > 0 (or an outlier rate) switches to one fix per second with position_noise_m as its white part")
     position_wander_time_s: float = param(45.0, unit="s", lo=0.1, hi=1e5, source="issue 12: 30-60 s", doc="correlation time of the GPS wander")
-    position_outlier_rate: float = param(0.0, unit="-", lo=0.0, hi=1.0, source="issue 12: 1 %", doc="fraction of GPS fixes that jump by position_outlier_m")
-    position_outlier_m: float = param(10.0, unit="m", lo=0.0, hi=1000.0, source="issue 12: 10 m", doc="size of a single-fix GPS jump")
+    position_outlier_rate: float = param(0.0, unit="-", lo=0.0, hi=1.0, source="issue 12: 1 %", doc="fraction of GPS fixes that start a jump by position_outlier_m")
+    position_outlier_m: float = param(10.0, unit="m", lo=0.0, hi=1000.0, source="issue 12: 10 m", doc="size of a GPS jump")
+    position_outlier_fixes: int = param(1, unit="fixes", lo=1, hi=60, source="not in the sources: multipath holds a receiver on a wrong solution for seconds", doc="consecutive fixes one GPS jump lasts (1: single-fix outliers)")
     velocity_noise_m_s: float = param(0.05, unit="m/s", lo=0.0, hi=5.0, source="not in the sources: a GNSS receiver's Doppler velocity", doc="error of the reported speed and course over ground, as a velocity error per axis (white, 1 sigma), with the realistic GPS error above")
     heading_wander_deg: float = param(0.0, unit="deg", lo=0.0, hi=30.0, source="issue 12: 0.3 deg", doc="slowly wandering heading error, 1 sigma; > 0 (or a loss rate) adds it to heading_noise_deg")
     heading_wander_time_s: float = param(30.0, unit="s", lo=0.1, hi=1e5, doc="correlation time of the heading wander")
@@ -218,7 +219,8 @@ class SimConfig:
             return None
         return GpsErrorModel(wander_m=self.position_wander_m, wander_time_s=self.position_wander_time_s,
                              white_m=self.position_noise_m, outlier_rate=self.position_outlier_rate,
-                             outlier_m=self.position_outlier_m, velocity_white_m_s=self.velocity_noise_m_s)
+                             outlier_m=self.position_outlier_m, outlier_fixes=self.position_outlier_fixes,
+                             velocity_white_m_s=self.velocity_noise_m_s)
 
     @property
     def heading_error_model(self):

@@ -8,9 +8,11 @@ same kind of error:
 - Position (per axis, north and east independently): a first-order
   Gauss-Markov error ``b`` (1-sigma ``wander_m``, correlation time
   ``wander_time_s``) plus white noise (``white_m``); a fraction
-  ``outlier_rate`` of the fixes jumps by ``outlier_m`` in a random direction
-  (a single-fix outlier: the next fix is clean again). The GPS computes one
-  fix per second; the error is drawn at the fix times.
+  ``outlier_rate`` of the fixes jumps by ``outlier_m`` in a random direction,
+  for ``outlier_fixes`` consecutive fixes (1: a single-fix outlier, the next
+  fix is clean again; more: a burst, multipath holding the receiver on one
+  wrong solution). The GPS computes one fix per second; the error is drawn at
+  the fix times.
 - Velocity (the speed and course over ground the receiver reports with each fix):
   the true velocity over ground plus white noise per axis (``velocity_white_m_s``),
   a Doppler measurement that does not carry the position's wander.
@@ -54,13 +56,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class GpsErrorModel:
-    """GPS position error per axis: Gauss-Markov wander + white noise + single-fix outliers."""
+    """GPS position error per axis: Gauss-Markov wander + white noise + outliers (single fixes or bursts)."""
 
     wander_m: float = param(1.0, unit="m", lo=0.0, hi=50.0, source="issue 12: 0.5-2 m", doc="1-sigma of the wandering (Gauss-Markov) error per axis")
     wander_time_s: float = param(45.0, unit="s", lo=0.1, hi=1e5, source="issue 12: 30-60 s", doc="correlation time of the wander")
     white_m: float = param(0.15, unit="m", lo=0.0, hi=50.0, source="issue 12: ~0.15 m", doc="1-sigma of the white part per axis")
-    outlier_rate: float = param(0.01, unit="-", lo=0.0, hi=1.0, source="issue 12: 1 %", doc="fraction of fixes that jump")
+    outlier_rate: float = param(0.01, unit="-", lo=0.0, hi=1.0, source="issue 12: 1 %", doc="fraction of fixes that start a jump")
     outlier_m: float = param(10.0, unit="m", lo=0.0, hi=1000.0, source="issue 12: 10 m", doc="size of a jump (random direction)")
+    outlier_fixes: int = param(1, unit="fixes", lo=1, hi=60, source="not in the sources: multipath holds a receiver on a wrong solution for seconds", doc="consecutive fixes one jump lasts (the same offset on each)")
     velocity_white_m_s: float = param(0.05, unit="m/s", lo=0.0, hi=5.0, source="not in the sources: a GNSS receiver's Doppler velocity", doc="1-sigma of the velocity error per axis behind the reported speed and course over ground (white)")
 
     @property
@@ -108,8 +111,12 @@ def position_errors(model: GpsErrorModel, t_fix_s, rng: np.random.Generator) -> 
     t = np.asarray(t_fix_s, dtype=float)
     north = gauss_markov(t, model.wander_m, model.wander_time_s, rng) + rng.normal(0.0, 1.0, t.size) * model.white_m
     east = gauss_markov(t, model.wander_m, model.wander_time_s, rng) + rng.normal(0.0, 1.0, t.size) * model.white_m
-    jump = rng.random(t.size) < model.outlier_rate
+    start = rng.random(t.size) < model.outlier_rate
     angle = rng.uniform(0.0, 2.0 * math.pi, t.size)
+    # a burst repeats its first fix's offset (the same draws as single-fix outliers: seeds keep their errors)
+    last_start = np.maximum.accumulate(np.where(start, np.arange(t.size), -model.outlier_fixes))
+    jump = np.arange(t.size) - last_start < model.outlier_fixes
+    angle = angle[np.maximum(last_start, 0)]
     north = north + np.where(jump, model.outlier_m * np.cos(angle), 0.0)
     east = east + np.where(jump, model.outlier_m * np.sin(angle), 0.0)
     return north, east, jump
@@ -143,6 +150,8 @@ class PositionErrorStream:
         self.model, self._rng = model, rng
         self._t_s: float | None = None
         self._b = np.zeros(2)
+        self._jump = np.zeros(2)  # the offset of the burst under way
+        self._jump_left = 0  # fixes it still lasts
 
     def next(self, t_s: float) -> tuple[float, float]:
         """(north_m, east_m) error of the fix taken at ``t_s`` (times increasing)."""
@@ -157,7 +166,10 @@ class PositionErrorStream:
         err = self._b + m.white_m * rng.standard_normal(2)
         if rng.random() < m.outlier_rate:
             a = rng.uniform(0.0, 2.0 * math.pi)
-            err = err + m.outlier_m * np.array([math.cos(a), math.sin(a)])
+            self._jump, self._jump_left = m.outlier_m * np.array([math.cos(a), math.sin(a)]), m.outlier_fixes
+        if self._jump_left > 0:
+            err = err + self._jump
+            self._jump_left -= 1
         return float(err[0]), float(err[1])
 
     def velocity(self, vn_m_s: float, ve_m_s: float) -> tuple[float, float]:

@@ -19,7 +19,7 @@ The noise (s_w, s_g, tau) of a channel is shared by all trials (one receiver, on
 estimated by restricted maximum likelihood from a fitted model's residuals (:func:`estimate`,
 each series' mean removed as the initial state's offset absorbs it), inside the bounds a real
 sensor has (:class:`NoiseBounds`): a residual that needs more than that is model error, not noise.
-Single-fix outliers are rejected before any fit, without a model (:func:`outliers`).
+Outliers (single fixes and short bursts) are rejected before any fit, without a model (:func:`outliers`).
 """
 
 from __future__ import annotations
@@ -237,39 +237,54 @@ def estimate(series, bounds: tuple, start: ChannelNoise | None = None, time_prio
 
 
 def outliers(t_s: np.ndarray, y: np.ndarray, *, neighbours: int, window_s: float, floor: float,
-             k: float = 6.0) -> np.ndarray:
-    """Single-sample outliers of a smooth series, without a model: each sample against a quadratic
-    through its ``neighbours`` nearest valid neighbours within ``window_s`` (itself left out); flagged
-    above max(k robust sigmas, ``floor``), the worst first, the others judged again without it.
+             k: float = 6.0, skip: int = 0) -> np.ndarray:
+    """Outliers of a smooth series, without a model: each sample against a quadratic through its
+    ``neighbours`` nearest valid neighbours within ``window_s`` (itself left out); flagged above
+    max(k robust sigmas, ``floor``), the worst first, the others judged again without it.
+
+    ``skip`` > 0 also judges each sample against a quadratic through neighbours beyond the ``skip``
+    nearest valid ones on each side (two-sided only; its window widened in proportion): a burst of
+    outliers with one offset (multipath holding a receiver on a wrong solution for a few fixes) pulls
+    the plain fit through its own members, hiding the burst and flagging the clean fixes beside it,
+    but not this one. A sample's score is the larger of its two errors, each over its own limit;
+    flagged one at a time, a burst goes from the middle out, up to about 2 (skip + 1) fixes long.
     Returns a boolean mask."""
     t, y = np.asarray(t_s, float), np.asarray(y, float)
     bad = np.zeros(t.size, dtype=bool)
     if t.size < neighbours + 4:
         return bad
+    half = max(neighbours // 2, 1)
+    stencils = [(0, window_s)] + ([(skip, window_s * (skip + half) / half)] if skip > 0 else [])
     while True:
-        err = _leave_one_out_errors(t, y, bad, neighbours, window_s)
-        ok = np.isfinite(err)
-        if ok.sum() < 5:
-            return bad
-        scale = 1.4826 * float(np.median(np.abs(err[ok])))
-        limit = max(k * scale, floor)
-        worst = int(np.nanargmax(np.where(ok, np.abs(err), -np.inf)))
-        if not abs(err[worst]) > limit:
+        score = np.full(t.size, -np.inf)
+        for gap, window in stencils:
+            err = _leave_one_out_errors(t, y, bad, neighbours, window, skip=gap)
+            ok = np.isfinite(err)
+            if ok.sum() < 5:
+                if gap == 0:
+                    return bad
+                continue
+            limit = max(k * 1.4826 * float(np.median(np.abs(err[ok]))), floor)
+            score = np.where(ok, np.maximum(score, np.abs(np.where(ok, err, 0.0)) / limit), score)
+        worst = int(np.argmax(score))
+        if not score[worst] > 1.0:
             return bad
         bad[worst] = True
 
 
-def _leave_one_out_errors(t, y, bad, neighbours: int, window_s: float, *, with_gain: bool = False):
+def _leave_one_out_errors(t, y, bad, neighbours: int, window_s: float, *, with_gain: bool = False, skip: int = 0):
     """Each sample minus the quadratic through its nearest valid neighbours at its time (NaN where too
     few within ``window_s``); with ``with_gain`` also sum(w^2) of the prediction's weights (the error's
-    variance for white noise s^2 is s^2 (1 + sum w^2)). Vectorised over the samples."""
+    variance for white noise s^2 is s^2 (1 + sum w^2)). ``skip`` > 0: the neighbours beyond the ``skip``
+    nearest valid ones on each side, on both sides (NaN where one side has none). Vectorised over the
+    samples."""
     err = np.full(t.size, np.nan)
     gain = np.full(t.size, np.nan)
     good = np.flatnonzero(~bad)
     n = good.size
-    if n > neighbours:
+    if n > neighbours + 2 * skip:
         tg, yg = t[good], y[good]
-        offsets = np.r_[np.arange(-neighbours, 0), np.arange(1, neighbours + 1)]
+        offsets = np.r_[np.arange(-neighbours - skip, -skip), np.arange(skip + 1, skip + neighbours + 1)]
         cand = np.arange(n)[:, None] + offsets[None, :]  # positions in the good samples
         inside = (cand >= 0) & (cand < n)
         cand_c = np.clip(cand, 0, n - 1)
@@ -278,6 +293,8 @@ def _leave_one_out_errors(t, y, bad, neighbours: int, window_s: float, *, with_g
         pick = np.take_along_axis(cand_c, order, axis=1)
         dtp = np.take_along_axis(dt, order, axis=1)
         ok = np.all(np.abs(dtp) <= window_s, axis=1)
+        if skip > 0:  # across the gap, not extrapolated past it
+            ok &= np.any(dtp < 0.0, axis=1) & np.any(dtp > 0.0, axis=1)
         if ok.any():
             d = dtp[ok]
             vander = np.stack([d * d, d, np.ones_like(d)], axis=2)  # (m, neighbours, 3)

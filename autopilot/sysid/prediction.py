@@ -47,6 +47,10 @@ OUTLIER_VELOCITY_M_S = 0.5
 # (neighbours, window_s, floor) of the outlier test and the model-free white-noise estimate, per channel
 LOCAL_FIT = {"position": (4, 4.0, OUTLIER_POSITION_M), "heading": (6, 1.0, OUTLIER_HEADING_RAD),
              "velocity": (4, 4.0, OUTLIER_VELOCITY_M_S)}
+# fixes skipped on each side by the outlier test's second fit (noise.outliers): a GPS multipath burst holds a
+# few consecutive fixes on one wrong solution, which the plain fit follows (a 3-fix burst of 10 m went
+# unflagged, the clean fixes beside it flagged instead, and the residual it left was judged a missing effect)
+OUTLIER_SKIP = {"position": 1, "heading": 0, "velocity": 0}
 CHANNEL_NAMES = tuple(c.name for c in CHANNELS)
 
 
@@ -230,7 +234,7 @@ def _samples(channel: str, t: np.ndarray, values: np.ndarray, end_s: float, dt_s
     bad = np.zeros(t.size, dtype=bool)
     if reject:
         for y in values:
-            bad |= outliers(t, y, neighbours=neighbours, window_s=window_s, floor=floor)
+            bad |= outliers(t, y, neighbours=neighbours, window_s=window_s, floor=floor, skip=OUTLIER_SKIP[channel])
     t, values = t[~bad], values[:, ~bad]
     scales = [white_scale(t, y, neighbours=neighbours, window_s=window_s) for y in values]
     white = None if any(w is None for w in scales) else math.sqrt(sum(w * w for w in scales) / len(scales))
