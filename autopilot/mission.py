@@ -50,7 +50,7 @@ import yaml
 
 from autopilot.geo import latlon_to_local
 from autopilot.schema import ConfigError
-from autopilot.userfile import csv_rows, parse_yaml, read_text, yaml_problem
+from autopilot.userfile import csv_rows, parse_yaml, read_text, too_many_fields, yaml_problem
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
@@ -300,10 +300,9 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
         raise MissionError(f"{path}: header must name north_m,east_m or lat_deg,lon_deg (got {','.join(cols)})")
     at = {c: k for k, c in enumerate(cols)}
     for k, r in enumerate(rows[1:], start=1):
-        if len(r) > len(cols) and any(c for c in r[len(cols):]):
-            # "10,5,20,3" under north_m,east_m: decimal commas, read as 10 and 5 and flown without a word
-            comma = " (decimal commas? save the CSV with a point as the decimal separator)" if len(r) == 2 * len(cols) else ""
-            raise MissionError(f"{path}: data row {k} has {len(r)} fields under a header of {len(cols)}{comma}")
+        problem = too_many_fields(r, len(cols), k)
+        if problem:
+            raise MissionError(f"{path}: {problem}")
 
     def cell(row: list[str], name: str) -> str:
         k = at.get(name)
@@ -445,7 +444,7 @@ def load_mission(
     if parser is None:
         raise MissionError(f"{path}: unknown mission format {path.suffix!r} (known: {', '.join(_PARSERS)})")
     try:
-        text = read_text(path, what="mission file")
+        text = read_text(path, what="mission file", spreadsheet=path.suffix.lower() == ".csv")
     except ConfigError as exc:
         raise MissionError(str(exc)) from None
     return parser(path, text, (origin_lat_deg, origin_lon_deg), max_range_m)

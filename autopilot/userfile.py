@@ -20,7 +20,7 @@ from pathlib import Path
 from autopilot.schema import ConfigError
 
 __all__ = ["read_text", "check_file", "check_text_head", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES",
-           "number_cell", "unique_header", "MISSING_CELLS"]
+           "number_cell", "unique_header", "too_many_fields", "MISSING_CELLS"]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")  # what the figures can be saved as
 
@@ -63,8 +63,11 @@ def check_text_head(p: Path, head: bytes, *, what: str = "file") -> None:
         raise ConfigError(f"{p}: binary data, not a text {what}")
 
 
-def read_text(path: str | Path, *, what: str = "file") -> str:
-    """The UTF-8 text of a user's file, a leading BOM removed; ConfigError naming the file otherwise."""
+def read_text(path: str | Path, *, what: str = "file", spreadsheet: bool = False) -> str:
+    """The UTF-8 text of a user's file, a leading BOM removed; ConfigError naming the file otherwise.
+
+    ``spreadsheet`` (a CSV): text that is not UTF-8 is read as Windows-1252, what Excel's plain "CSV" writes
+    on a Western-European Windows (a label or a comment with an o-umlaut or a degree sign was refused)."""
     p = check_file(path, what=what)
     try:
         data = p.read_bytes()
@@ -76,6 +79,9 @@ def read_text(path: str | Path, *, what: str = "file") -> str:
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
+        if spreadsheet:
+            with contextlib.suppress(UnicodeDecodeError):
+                return data.decode("cp1252")
         byte = data[exc.start]
         raise ConfigError(
             f"{p}: not UTF-8 text (byte 0x{byte:02X} at offset {exc.start}; Latin-1 or another encoding?): "
@@ -87,7 +93,8 @@ def csv_rows(text: str) -> list[list[str]]:
     """The rows of a CSV text, stripped cells; blank lines and ``#`` comment lines left out.
 
     The delimiter is the header line's: a comma, or the semicolon or tab that spreadsheets
-    write in locales where the comma is the decimal separator.
+    write in locales where the comma is the decimal separator; there a number's decimal comma is
+    read as a point ("10,5" is 10.5: with a semicolon between the cells it cannot be two cells).
     """
     import csv
     import io
@@ -97,7 +104,27 @@ def csv_rows(text: str) -> list[list[str]]:
         return []
     head = lines[0]
     delimiter = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
-    return [[c.strip() for c in row] for row in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
+    rows = [[c.strip() for c in row] for row in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
+    if delimiter != ",":
+        rows = [[_point(c) for c in row] for row in rows]
+    return rows
+
+
+_DECIMAL_COMMA = re.compile(r"[-+]?\d*,\d+(?:[eE][-+]?\d+)?")
+
+
+def _point(cell: str) -> str:
+    """A number written with a decimal comma, with a point instead; any other cell as it is."""
+    return cell.replace(",", ".") if _DECIMAL_COMMA.fullmatch(cell) else cell
+
+
+def too_many_fields(row: list[str], width: int, k: int) -> str | None:
+    """What is wrong with data row ``k`` when it has more non-empty fields than the header's ``width``, else None:
+    "10,5,20,3" under two columns is decimal commas, read as 10 and 5 and used without a word."""
+    if len(row) <= width or not any(c for c in row[width:]):
+        return None
+    return (f"data row {k} has {len(row)} fields under a header of {width} (decimal commas? save the CSV with a "
+            f"point as the decimal separator)")
 
 
 MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"

@@ -66,7 +66,7 @@ def test_bad_configuration_file(tmp_path, kind):
     _assert_one_clean_message(proc, path, EXPECT[kind])
 
 
-@pytest.mark.parametrize("kind", list(EXPECT))
+@pytest.mark.parametrize("kind", [k for k in EXPECT if k != "latin-1"])  # a CSV may be Windows-1252 (Excel)
 def test_bad_trial_file(tmp_path, kind):
     path = _bad_variants(tmp_path, "t.csv", "t_s,north_m,east_m,heading_deg,thrust_port_n,thrust_stbd_n\n")[kind]
     proc = run_cli("sysid", str(path), "--out", str(tmp_path / "out"), check=False)
@@ -120,16 +120,31 @@ def test_bom_yaml_mission_and_configuration(tmp_path):
 
 
 def test_bom_csv_mission_as_excel_writes_it(tmp_path):
-    text = "north_m;east_m;speed_m_s\r\n10,5;2;1.0\r\n"  # an Excel locale with ; and decimal commas
-    (tmp_path / "bad.csv").write_bytes(codecs.BOM_UTF8 + text.encode())
     (tmp_path / "m.csv").write_bytes(codecs.BOM_UTF8 + b"north_m;east_m;speed_m_s\r\n10.5;2;1.0\r\n20;-1;\r\n")
     from autopilot.mission import MissionError, load_mission
 
     m = load_mission(tmp_path / "m.csv")
     np.testing.assert_allclose(m.waypoints_ne_m, [[10.5, 2.0], [20.0, -1.0]])
     assert m.speeds_m_s == (1.0, None)
+    (tmp_path / "word.csv").write_bytes(codecs.BOM_UTF8 + b"north_m;east_m\r\nten;2\r\n")
     with pytest.raises(MissionError, match="waypoint 1: north_m is not a number"):  # says which cell, no traceback
-        load_mission(tmp_path / "bad.csv")
+        load_mission(tmp_path / "word.csv")
+
+
+def test_a_european_excel_csv_mission_is_read_as_written(tmp_path):
+    """Excel's plain "CSV" in a German or Dutch Windows: semicolons, decimal commas, Windows-1252 (a label
+    column with an umlaut). It was refused ("not UTF-8 text", then "not a number"); with commas between the
+    cells a decimal comma is ambiguous and stays refused."""
+    text = "north_m;east_m;speed_m_s;Bemerkung\r\n10,5;-2,25;1,2;Boje Nord\r\n20;-1,5;;Br\u00fccke\r\n"
+    (tmp_path / "m.csv").write_bytes(text.encode("cp1252"))
+    from autopilot.mission import MissionError, load_mission
+
+    m = load_mission(tmp_path / "m.csv")
+    np.testing.assert_allclose(m.waypoints_ne_m, [[10.5, -2.25], [20.0, -1.5]])
+    assert m.speeds_m_s == (1.2, None)
+    (tmp_path / "comma.csv").write_text("north_m,east_m\n10,5,2,25\n")
+    with pytest.raises(MissionError, match="data row 1 has 4 fields under a header of 2 .decimal commas"):
+        load_mission(tmp_path / "comma.csv")
 
 
 def test_bom_waypoints_file(tmp_path):
@@ -322,8 +337,9 @@ def _trial_rows(n=40, *, sep=",", dec="."):
 TRIAL_CASES = [
     ("inf thrust", TRIAL_HEAD + "\n".join(_trial_rows()).replace("10.0,10.0", "inf,10.0", 1) + "\n",
      "data row 1, thrust_port_n: inf is not a finite number (leave the cell empty if it has no value)"),
-    ("Excel decimal commas", TRIAL_HEAD.replace(",", ";") + "\n".join(_trial_rows(sep=";", dec=",")) + "\n",
-     "data row 1, t_s: '0,0' is not a number (a decimal comma: save the CSV with a point as the decimal separator)"),
+    ("decimal commas between commas", TRIAL_HEAD + "\n".join(_trial_rows()).replace("0.0,0.0,10.0", "0,5,0.0,10.0", 1)
+     + "\n", "data row 1 has 7 fields under a header of 6 (decimal commas? save the CSV with a point as the decimal "
+     "separator)"),
     ("a word", TRIAL_HEAD + "\n".join(_trial_rows()).replace("0.0,0.0,10.0", "0.0,north,10.0", 1) + "\n",
      "data row 1, heading_deg: 'north' is not a number"),
     ("time going back", TRIAL_HEAD + "\n".join(_trial_rows()[:20] + _trial_rows()[5:]) + "\n",
@@ -340,6 +356,22 @@ def test_a_trial_csv_cell_that_is_not_a_number_is_refused_naming_the_row(tmp_pat
     path.write_text(text)
     proc = run_cli("sysid", str(path), "--out", str(tmp_path / "out"), "--no-report", check=False)
     assert proc.returncode == 2 and proc.stderr.strip() == f"autopilot sysid: error: {path}: {message}", proc.stderr
+
+
+def test_a_european_excel_trial_csv_gives_the_same_trial(tmp_path):
+    """The trial as a German Excel saves it (semicolons, decimal commas, Windows-1252 in a label column)
+    is the trial the point-and-comma file gives."""
+    from autopilot.sysid import read_trial
+
+    plain = tmp_path / "plain.csv"
+    plain.write_text(TRIAL_HEAD + "\n".join(_trial_rows()) + "\n")
+    excel = tmp_path / "excel.csv"
+    rows = [r + ";B\u00f6e" for r in _trial_rows(sep=";", dec=",")]
+    excel.write_bytes((TRIAL_HEAD.replace(",", ";").replace("\n", ";Notiz\n") + "\r\n".join(rows) + "\r\n")
+                      .encode("cp1252"))
+    a, b = read_trial(plain), read_trial(excel)
+    for name in ("t_s", "north_m", "east_m", "heading_rad", "thrust_port_n", "thrust_stbd_n"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
 def test_the_same_trial_twice_is_refused(tmp_path):

@@ -53,10 +53,10 @@ FOLDS = 5
 
 def read_table_csv(path) -> tuple[SteadyRow, ...]:
     """Read a steady-state table CSV."""
-    from autopilot.userfile import csv_rows, number_cell, read_text, unique_header
+    from autopilot.userfile import csv_rows, number_cell, read_text, too_many_fields, unique_header
 
     path = Path(path)
-    table = csv_rows(read_text(path, what="steady-state table CSV"))
+    table = csv_rows(read_text(path, what="steady-state table CSV", spreadsheet=True))
     header = table[0] if table else []
     missing = [c for c in COLUMNS if c not in header]
     if missing:
@@ -68,6 +68,9 @@ def read_table_csv(path) -> tuple[SteadyRow, ...]:
             unique_header(header, COLUMNS)
             if len(r) < len(header):
                 raise ConfigError(f"data row {k} has {len(r)} of {len(header)} fields")
+            problem = too_many_fields(r, len(header), k)
+            if problem:
+                raise ConfigError(problem)
             vals = [number_cell(r[col[c]], k, c) for c in COLUMNS[1:]]
         except ConfigError as exc:  # "data row 4, u_m_s: '1,98' is not a number (a decimal comma: ...)"
             raise ConfigError(f"{path}: {exc}") from None

@@ -356,10 +356,10 @@ TRIAL_COLUMNS = ("t_s", "north_m", "east_m", "lat_deg", "lon_deg", "heading_deg"
 def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     """Read one trial CSV (columns in the module docstring); a cell that is not a number, a time going back
     or a last row cut off mid-write is refused naming the row."""
-    from autopilot.userfile import csv_rows, number_cell, read_text, unique_header
+    from autopilot.userfile import csv_rows, number_cell, read_text, too_many_fields, unique_header
 
     path = Path(path)
-    text = read_text(path, what="trial CSV")
+    text = read_text(path, what="trial CSV", spreadsheet=True)
     table = csv_rows(text)
     header = table[0] if table else []
     if "t_s" not in header:
@@ -375,6 +375,9 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     data = np.full((len(table) - 1, width), np.nan)
     try:
         for i, r in enumerate(table[1:]):
+            problem = too_many_fields(r, width, i + 1)
+            if problem:
+                raise ConfigError(problem)
             for k, c in enumerate(r[:width]):
                 if header[k] in TRIAL_COLUMNS:  # other columns (a note, a label) are the user's own
                     data[i, k] = number_cell(c, i + 1, header[k])
