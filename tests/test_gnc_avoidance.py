@@ -230,6 +230,22 @@ def test_stand_on_waits_for_the_give_way_vessel():
     assert run.psi_share_rad.min() >= 0.0
 
 
+@pytest.mark.parametrize("speed_m_s", [1.2, 1.3, 1.5])
+def test_a_vessel_closing_slowly_from_astern_is_still_kept_at_the_safe_distance(speed_m_s):
+    """Found by review: a vessel overtaking our 1 m/s boat at 1.2 m/s, not giving way, has a long TCPA, so a
+    risk under stand_on_risk until 8 m off; we acted then and it passed 5.8 m off (8.2 m at 1.3 m/s), where
+    21 m were needed. At close quarters we act whatever the risk (rule 17(b))."""
+    import dataclasses
+
+    sc = load_scenario(SCENARIOS / "overtaken.yaml")
+    t = dataclasses.replace(sc.targets[0], speed_m_s=speed_m_s, north_m=-60.0)
+    sc = dataclasses.replace(sc, targets=(t,))
+    run = simulate(sc)
+    s = score_run(run, sc).targets[0]
+    assert s.situation == "overtaken" and s.distance_kept, (s.min_distance_m, s.required_m)
+    assert run.active.any() and run.t_s[np.argmax(run.active)] > 30.0  # it stood on while the other could act
+
+
 def test_give_way_acts_early():
     """Rule 16: early and substantial action: the give-way turn starts at least a minute before the CPA."""
     sc = load_scenario(SCENARIOS / "crossing-starboard.yaml")

@@ -37,6 +37,11 @@ past (TCPA <= 0) is no risk.
 - stand on (crossing 17, being overtaken 13/17): keep course and speed while
   CR < ``stand_on_risk``; above it the give-way vessel has evidently not
   acted in time and we act (17(a)(ii), 17(b));
+- close quarters, either way: a target that will pass inside the distance
+  it needs (safe distance + extent) and is within ``close_quarters_factor``
+  x that distance is acted for whatever its risk (17(b)): a vessel closing
+  slowly has a long TCPA, so a low risk, until no alteration can open the
+  distance (one overtaking at 1.2 m/s passed our 1 m/s boat 5.8 m off);
 - safe: nothing. Once acting for a target we keep acting until its
   situation is safe again (past and clear, or the risk gone).
 
@@ -144,6 +149,14 @@ class AvoidanceConfig:
         source="chosen in simulation (rule 17(a)(ii), 17(b)): 0.85 let a vessel that does not give way overtake "
                "within 14.5 m of the calibrated model (autopilot evaluate --traffic)",
         doc="a stand-on vessel keeps course and speed below this risk and acts above it",
+    )
+    close_quarters_factor: float = param(
+        2.0, unit="-", lo=1.0, hi=20.0,
+        source="rule 17(a)(ii), 17(b); chosen in simulation: a vessel overtaking at 1.2 m/s (ours 1 m/s) passed "
+               "5.8 m off, its risk under stand_on_risk until 8 m",
+        doc="whatever the risk, we act for a target that will pass closer than the safe distance (plus its extent) "
+            "once it is within this x that distance: a vessel closing slowly has a long TCPA, so a low risk, "
+            "until it is too close for any alteration to open the safe distance",
     )
     min_alteration_deg: float = param(
         30.0, unit="deg", lo=0.0, hi=90.0, source="rule 8(b): large enough to be readily apparent",
@@ -344,7 +357,7 @@ class Avoidance:
                 self._acting.discard(tid)
             elif tid not in self._acting:
                 threshold = cfg.give_way_risk if e.situation.give_way else cfg.stand_on_risk
-                if risk >= threshold:
+                if risk >= threshold or self._close_quarters(e):
                     self._acting.add(tid)
             assessed.append((e, risk, tid in self._acting))
         present = {e.target_id for e in encounters}
@@ -383,6 +396,11 @@ class Avoidance:
             targets=tuple(rows),
             reason=reason,
         )
+
+    def _close_quarters(self, e: Encounter) -> bool:
+        """The target will pass inside the distance it needs and is already within close_quarters_factor x it."""
+        g, need = e.geometry, self.config.safe_distance_m + e.target.extent_m
+        return g.tcpa_s > 0.0 and g.dcpa_m < need and g.range_m < self.config.close_quarters_factor * need
 
     # ------------------------------------------------------------------ the search
     def _clearance(self, own: OwnShip, e: Encounter, course_rad: float, speed_m_s: float,
