@@ -19,6 +19,7 @@ __all__ = [
     "thesis_params_path",
     "measured_table_path",
     "missions_dir",
+    "shipped_mission",
     "shipped_missions",
     "campaigns_dir",
     "shipped_campaigns",
@@ -60,6 +61,16 @@ def missions_dir() -> Path:
 def shipped_missions() -> list[Path]:
     """The YAML missions of ``missions/`` (not the format examples), sorted by name."""
     return sorted(missions_dir().glob("*.yaml"))
+
+
+def shipped_mission(name: str) -> Path | None:
+    """The shipped mission a bare name means (``pond-9.4`` or ``pond-9.4.yaml``, format examples too), or None."""
+    if not name or "/" in name or name.startswith("."):
+        return None
+    for p in [*shipped_missions(), *sorted((missions_dir() / "examples").glob("*"))]:
+        if name in (p.name, p.stem) and p.is_file():
+            return p
+    return None
 
 
 def campaigns_dir() -> Path:

@@ -79,6 +79,29 @@ def test_install_md_check_runs_a_simulated_mission(installed, tmp_path):
 
 
 @pytest.mark.slow
+def test_a_new_user_flies_a_shipped_mission_by_name_without_a_checkout(installed, tmp_path):
+    """From an installed wheel there is no config/ to point at: the Quick start's paths did not exist there.
+    With --sim the shipped configuration is the default and a shipped mission is found by its name; on the
+    boat (no --sim) the configuration stays required, and a name that is nothing says what is shipped."""
+    bin_dir, work = installed
+    logs = tmp_path / "logs"
+    r = run(bin_dir, work, "run", "--mission", "pond-9.4", "--sim", "--speedup", "max", "--log-dir", str(logs),
+            "--state-dir", str(tmp_path / "state"))
+    assert r.returncode == 0, r.stderr[-3000:]
+    files = shipped(bin_dir, work)
+    assert f"note: --sim without --config: the shipped configuration ({files['autopilot.yaml']})" in r.stderr
+    assert f"note: --mission pond-9.4: the shipped mission {files['pond-9.4.yaml']}" in r.stderr
+    assert "mission complete" in r.stderr and len(list(logs.glob("mission-*.jsonl"))) == 1
+    r = run(bin_dir, work, "run", "--mission", "pond-9.4")
+    assert r.returncode == 2 and r.stderr.strip().endswith("--config is required without --sim (the boat's serial "
+                                                           "ports and origin; `autopilot files` lists the shipped "
+                                                           "configuration to copy and edit)"), r.stderr
+    r = run(bin_dir, work, "run", "--mission", "pond-9.9", "--sim")
+    assert r.returncode == 2 and "--mission pond-9.9: no such file, nor a shipped mission (pond-9.1" in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+@pytest.mark.slow
 def test_model_check_evaluate_and_sysid_table_run_from_the_install(installed, tmp_path):
     bin_dir, work = installed
     r = run(bin_dir, work, "model", "check")

@@ -18,8 +18,10 @@ def register(subparsers) -> None:
             "position are valid. SIGTERM/SIGINT/SIGHUP stop the boat (zero thrust, acknowledged) and exit 0."
         ),
     )
-    p.add_argument("--config", required=True, metavar="FILE", help="daemon configuration (config/autopilot.yaml)")
-    p.add_argument("--mission", required=True, metavar="FILE", help="mission file (waypoints)")
+    p.add_argument("--config", metavar="FILE", help="daemon configuration (config/autopilot.yaml); required on the "
+                   "boat, with --sim the shipped one by default (autopilot files lists it)")
+    p.add_argument("--mission", required=True, metavar="FILE", help="mission file (waypoints), or the name of a "
+                   "shipped one (pond-9.4; autopilot files lists them)")
     p.add_argument("--sim", action="store_true", help="start simulated SC-30 and Mbed on pseudo-terminals in this process")
     p.add_argument("--speedup", type=_speedup, default=1.0, metavar="N|max",
                    help="--sim: run the clock N times faster than real time (default 1), or max: the daemon and the "
@@ -67,12 +69,34 @@ def _speedup(text: str) -> float:
 
 
 def _run(args: argparse.Namespace) -> int:
+    import sys
+    from pathlib import Path
+
     from autopilot.daemon.app import RunOptions, run_daemon
     from autopilot.daemon.config import load_config
+    from autopilot.resources import default_config_path, shipped_mission, shipped_missions
 
-    cfg = load_config(args.config)
+    config = args.config
+    if config is None:
+        if not args.sim:  # the boat's own ports and launch point: never a default that only fits the bench
+            print("autopilot run: error: --config is required without --sim (the boat's serial ports and origin; "
+                  "`autopilot files` lists the shipped configuration to copy and edit)", file=sys.stderr)
+            return 2
+        config = default_config_path()
+        print(f"note: --sim without --config: the shipped configuration ({config})", file=sys.stderr)
+    mission = args.mission
+    if not Path(mission).exists():
+        shipped = shipped_mission(mission)
+        if shipped is None:
+            names = ", ".join(p.stem for p in shipped_missions())
+            print(f"autopilot run: error: --mission {mission}: no such file, nor a shipped mission ({names}; "
+                  "`autopilot files` lists them with their paths)", file=sys.stderr)
+            return 2
+        print(f"note: --mission {mission}: the shipped mission {shipped}", file=sys.stderr)
+        mission = str(shipped)
+    cfg = load_config(config)
     opts = RunOptions(
-        mission_path=args.mission,
+        mission_path=mission,
         sim=args.sim,
         speedup=args.speedup,
         log_dir=args.log_dir,
