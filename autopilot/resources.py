@@ -95,6 +95,7 @@ def shipped_files() -> list[tuple[str, Path]]:
     out += [("mission format example", p) for p in sorted((missions_dir() / "examples").iterdir()) if p.is_file()]
     out += [("robustness campaign spec", p) for p in shipped_campaigns()]
     out += [("traffic scenario (autopilot evaluate --traffic)", p) for p in sorted((data_dir() / "traffic").glob("*.yaml"))]
+    out += [("boat PC service (INSTALL.md says how)", p) for p in sorted((data_dir() / "systemd").iterdir()) if p.is_file()]
     return out
 
 
