@@ -327,6 +327,12 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("accepted", "bool", "-", "false: refused, the last fix is kept (and ages); true: a second fix agreed, the position moved there"),
         _f("repeated", "bool", "-", "refused while another refused fix was waiting: far fixes that do not agree (the ground station is told of the first only)"),
     )),
+    EventSpec("hold_heading", "a hold at a given heading (`autopilot ctl hold --heading`, MAVLink's yaw) cannot keep its point: the current and wind it has learned lie across that heading by more than `gnc.hold.max_correction_deg` (the boat cannot push sideways; it keeps the heading and sits off the point); or it can again", (
+        _f("across", "bool", "-", "true: cannot keep the point at this heading; false: can again (or a new hold took its place)"),
+        _f("heading_deg", "float", "deg", "the heading held"),
+        _f("feasible_heading_deg", "float", "deg", "(across) the direction of the disturbance: bow (or stern) this way holds the point (a hold without a heading faces it)"),
+        _f("limit_deg", "float", "deg", "(across) the heading correction station keeping may use"),
+    )),
     EventSpec("launch", "the launch point was set: where the boat was when control first started (`rtl` returns there)", (
         _f("north_m", "float", "m", "local frame"),
         _f("east_m", "float", "m", "local frame"),

@@ -146,6 +146,41 @@ def test_the_least_effort_heading_turns_into_the_disturbance():
     assert sk.disturbance_ne_n[0] < -cfg.disturbance_min_n
 
 
+def test_a_given_hold_heading_across_the_current_is_said_to_be_infeasible():
+    """Found by a behaviour audit: `ctl hold --heading` across a current was kept without a word while the boat,
+    which cannot push sideways, sat metres off the point. The keeper now says the heading it could hold (the
+    disturbance's direction) once the disturbance lies across the given one beyond max_correction_deg; along
+    the hull (bow or stern), or without a given heading, nothing is said."""
+    cfg = HoldConfig()
+    east = StationKeeper(cfg, (0.0, 0.0), heading_rad=0.0)  # north; pushed west of the point: the current sets west
+    outs = [east.step(0.0, -1.0, 0.0, 0.0, 0.0, 0.1) for _ in range(600)]
+    assert outs[0].feasible_heading_rad is None  # nothing learned yet
+    assert outs[-1].feasible_heading_rad == pytest.approx(math.radians(90.0), abs=1e-6)
+    assert outs[-1].psi_ref_rad == 0.0  # the operator's heading is kept
+    astern = StationKeeper(cfg, (0.0, 0.0), heading_rad=0.0)  # the current from astern: along the hull
+    assert all(astern.step(1.0, 0.0, 0.0, 0.0, 0.0, 0.1).feasible_heading_rad is None for _ in range(600))
+    free = StationKeeper(cfg, (0.0, 0.0), initial_heading_rad=0.0)
+    assert all(free.step(0.0, -1.0, 0.0, 0.0, 0.0, 0.1).feasible_heading_rad is None for _ in range(600))
+
+
+def test_the_helm_logs_a_hold_heading_it_cannot_keep_once_and_when_it_can_again():
+    from autopilot.logschema import event_spec
+
+    ap = helm()
+    ap.step(HERE, 0.1)
+    assert ap.request("hold", HERE, cause="test", heading_rad=0.0)[0]
+    west = dataclasses.replace(HERE, east_m=-1.0)
+    for _ in range(600):
+        ap.step(west, 0.1)
+    said = [f for name, f in ap.pop_events() if name == "hold_heading"]
+    assert said == [{"across": True, "heading_deg": 0.0, "feasible_heading_deg": 90.0, "limit_deg": 40.0}]
+    assert set(said[0]) <= {f.name for f in event_spec("hold_heading").fields}
+    assert ap.request("hold", HERE, cause="test", heading_rad=math.radians(90.0))[0]  # facing it: can hold
+    ap.step(HERE, 0.1)
+    said = [f for name, f in ap.pop_events() if name == "hold_heading"]
+    assert said == [{"across": False, "heading_deg": 90.0}]
+
+
 @pytest.fixture(scope="module")
 def station_keep_runs(params):
     from autopilot.mission import load_mission

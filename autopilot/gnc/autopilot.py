@@ -133,6 +133,7 @@ class Autopilot:
         self._last_kind: str | None = None
         self.avoidance = Avoidance(config.avoidance)
         self._situations: dict[int, tuple[str, bool]] = {}  # target -> (situation, acting) last logged
+        self._hold_across = False  # the last hold_heading event said the given heading cannot be kept
 
     # ---------------------------------------------------------------- state
     @property
@@ -372,9 +373,25 @@ class Autopilot:
                 break
             self._hand_over(s.then, nav)
             s = self.current.update(nav, dt_s)
+        self._check_hold_heading(s)
         s, avoid = self._avoid(nav, s, targets, t_s)
         out = self._inner(nav, dt_s, s, reached)
         return out if avoid is None else dataclasses.replace(out, avoidance=avoid)
+
+    def _check_hold_heading(self, s: Steering) -> None:
+        """Say when a hold's given heading cannot be kept on the point (the current or wind across it), and when
+        it can again: the operator chose it, so it is kept, but the boat will sit off the point."""
+        feasible = s.hold.feasible_heading_rad if s.hold is not None else None
+        across = feasible is not None
+        if across == self._hold_across:
+            return
+        self._hold_across = across
+        if across or s.hold is not None:
+            fields = {"across": across, "heading_deg": round(math.degrees(s.hold.psi_ref_rad) % 360.0, 1)}
+            if across:
+                fields["feasible_heading_deg"] = round(math.degrees(feasible) % 360.0, 1)
+                fields["limit_deg"] = self.config.hold.max_correction_deg
+            self._events.append(("hold_heading", fields))
 
     def _avoid(self, nav: NavInput, s: Steering, targets, t_s: float):
         """Collision avoidance on the mode's course (autopilot.gnc.avoidance): one more input to the same PID

@@ -48,6 +48,7 @@ from autopilot.schema import param
 
 __all__ = ["HoldConfig", "HoldOutput", "StationKeeper"]
 
+CROSS_MIN_X = 3.0  # a given heading is called infeasible once this x disturbance_min_n pushes across it
 _ASTERN_DEG = 110.0  # lining up: the stern leads when the point is farther than this off the bow ...
 _ASTERN_BAND_DEG = 20.0  # ... give or take this much (hysteresis)
 
@@ -119,6 +120,9 @@ class HoldOutput:
     error_m: float
     psi_ref_rad: float  # the heading it holds (given, or least effort)
     disturbance_n: float  # the steady thrust the disturbance takes, along psi_ref, per thruster
+    # a given hold heading the disturbance lies across, beyond max_correction_deg of it (either end): the boat
+    # cannot push sideways, so it cannot hold the point at that heading; the heading it could hold (rad)
+    feasible_heading_rad: float | None = None
 
 
 def sqrt_controller(error: float, gain: float, accel: float) -> float:
@@ -245,4 +249,20 @@ class StationKeeper:
         dn, de = self._d_n
         along = dn * math.cos(self._psi_ref) + de * math.sin(self._psi_ref)
         return HoldOutput(psi_d_rad=psi_d, tau_com_n=tau_com, speed_cmd_m_s=speed, approach=approach,
-                          drifting=drifting, error_m=d, psi_ref_rad=self._psi_ref, disturbance_n=along)
+                          drifting=drifting, error_m=d, psi_ref_rad=self._psi_ref, disturbance_n=along,
+                          feasible_heading_rad=self._infeasible())
+
+    def _infeasible(self) -> float | None:
+        """With a given heading: the disturbance's own direction when it lies across that heading (the hull line,
+        bow or stern) by more than ``max_correction_deg`` and pushes sideways with ``CROSS_MIN_X`` x
+        ``disturbance_min_n`` or more; None otherwise (least effort always faces it)."""
+        cfg = self.config
+        if self.heading_rad is None:
+            return None
+        dn, de = self._d_n
+        off = abs(wrap_pi(math.atan2(de, dn) - self.heading_rad))
+        off = min(off, math.pi - off)
+        cross = math.hypot(dn, de) * math.sin(off)
+        if off <= math.radians(cfg.max_correction_deg) or cross < CROSS_MIN_X * cfg.disturbance_min_n:
+            return None
+        return math.atan2(de, dn)

@@ -236,6 +236,9 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
         if f.get("repeated"):  # once a second while the fixes disagree: the first said it, position_stale follows
             return None
         return mavlink.MAV_SEVERITY_WARNING, f"GPS jump of {f.get('distance_m', 0.0):.0f} m refused"
+    if name == "hold_heading" and f.get("across"):
+        return mavlink.MAV_SEVERITY_WARNING, (f"hold heading {f.get('heading_deg', 0.0):.0f}: current across it, "
+                                              f"point not held (try {f.get('feasible_heading_deg', 0.0):.0f})")
     if name == "mission_complete":
         return mavlink.MAV_SEVERITY_INFO, "mission complete"
     if name == "info" and f.get("message") == "log write failed":  # the boat's own record is going: say so
