@@ -22,6 +22,7 @@ from autopilot.sysid.prediction import channel_costs, predict, rmse
 from autopilot.sysid.search import BACKWARD_NFEV, HORIZONS_S, STUCK_CHI2
 
 MAX_FOLDS = 6  # beyond six trials, fold j holds out trials j, j + 6, j + 12, ...
+MIN_JACKKNIFE_FOLDS = 3  # fewer folds: the intervals are the curvature's alone (with_jackknife)
 
 
 def held_out_folds(n: int) -> tuple[tuple[int, ...], ...]:
@@ -132,7 +133,7 @@ def with_jackknife(fit: Fit, fold_theta) -> Fit:
     parameters (benchmark master seed 20261202): the curvature trusts a noise model whose
     correlation time four short trials hardly tell (13 s estimated for a true 31 s, seed 1310052047)."""
     g = len(fold_theta)
-    if g < 3 or not fit.keys:
+    if g < MIN_JACKKNIFE_FOLDS or not fit.keys:
         return fit
     from scipy.stats import t as student_t
 
