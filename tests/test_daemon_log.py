@@ -78,3 +78,20 @@ def test_a_full_disk_loses_lines_without_raising_and_the_log_says_how_many(tmp_p
     assert res["console"] == 1
     lines = path.read_text().split("\n")
     assert sum(1 for line in lines if line and not line.endswith("}")) == 1  # the line the limit cut, ended
+
+
+def test_the_console_does_not_echo_each_ais_report(tmp_path):
+    """Found by a traffic audit: every `target` line (one per AIS report and vessel, up to one a second each) went
+    to stderr and the journal too; a port's 1500 vessels made 1500 journal lines a second, faults among them.
+    The log keeps them, the listeners (the link) hear them, the console does not."""
+    import io
+
+    console, told = io.StringIO(), []
+    log = MissionLog(tmp_path / "m.jsonl", console=console)
+    log.listeners.append(lambda name, t_s, fields: told.append(name))
+    log.event("target", t_s=1.0, mmsi=244000001, north_m=10.0)
+    log.event("fault", t_s=1.1, cause="position_stale", detail="x")
+    log.close()
+    names = [json.loads(x)["event"] for x in (tmp_path / "m.jsonl").read_text().splitlines()]
+    assert names == ["target", "fault"] and told == ["target", "fault"]
+    assert '"event":"fault"' in console.getvalue().replace(" ", "") and "target" not in console.getvalue()

@@ -210,3 +210,14 @@ def test_a_name_outside_ais_text_is_refused_naming_the_characters():
                                                  "course_deg": 180.0, "speed_m_s": 1.0}]})
     load_scenario({"name": "x", "targets": [{"mmsi": 7, "name": "Ferry 2", "north_m": 100.0, "east_m": 0.0,
                                              "course_deg": 180.0, "speed_m_s": 1.0}]})  # lower case is sent as upper
+
+
+def test_a_turn_that_ends_before_it_starts_is_refused():
+    """Found by a traffic audit: turn_until_s before turn_from_s was accepted and the target went straight, a
+    scenario that did not test the turn it said it did."""
+    target = {"mmsi": 7, "name": "T", "north_m": 100.0, "east_m": 0.0, "course_deg": 180.0, "speed_m_s": 1.0,
+              "behaviour": "turn", "turn_rate_deg_s": 2.0, "turn_from_s": 60.0}
+    with pytest.raises(ConfigError, match=r"target 7: turn_until_s 30 s is not after turn_from_s 60 s"):
+        load_scenario({"name": "x", "targets": [{**target, "turn_until_s": 30.0}]})
+    load_scenario({"name": "x", "targets": [{**target, "turn_until_s": 90.0}]})
+    load_scenario({"name": "x", "targets": [target]})  # for ever

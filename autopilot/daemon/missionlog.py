@@ -95,6 +95,11 @@ class _LineFile:
             self._fd = None
 
 
+# events the log keeps but the console (stderr, the journal) does not: one per AIS report and target, up to one a
+# second each; a port's 1500 vessels were 1500 journal lines a second and hid every fault among them
+CONSOLE_QUIET = frozenset({"target"})
+
+
 class MissionLog:
     """``log.event(name, t_s=..., **fields)`` writes one line; ``console`` gets non-cycle events too."""
 
@@ -153,7 +158,7 @@ class MissionLog:
                 listener(name, t_s, fields)
             except Exception:  # noqa: BLE001 - a listener must never stop the log or the loop
                 pass
-        if self._console is not None:
+        if self._console is not None and name not in CONSOLE_QUIET:
             try:
                 self._console.msg(name, t_s=t_s, **{k: v for k, v in fields.items() if k != "config"})
             except (OSError, ValueError):  # a closed stderr must not stop the boat logic

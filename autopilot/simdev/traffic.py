@@ -109,6 +109,10 @@ class TargetSpec:
         if bad:  # "FÄHRE" was an internal error in evaluate, and under --sim killed the transmitter without a word
             raise ConfigError(f"target {self.mmsi}: name {self.name!r}: {', '.join(map(repr, bad))} not in AIS's "
                               "6-bit text (A-Z, 0-9, space and !\"#$%&'()*+,-./:;<=>?[\\]^_)")
+        if self.turn_until_s is not None and self.turn_until_s <= self.turn_from_s:
+            # the turn never happened and the target went straight, which the scenario did not say
+            raise ConfigError(f"target {self.mmsi}: turn_until_s {self.turn_until_s:g} s is not after turn_from_s "
+                              f"{self.turn_from_s:g} s (the turn would never happen)")
 
 
 @dataclass(frozen=True)
