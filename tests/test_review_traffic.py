@@ -10,6 +10,7 @@ review's reader.
 from __future__ import annotations
 
 import json
+import re
 import math
 from pathlib import Path
 
@@ -279,3 +280,18 @@ def test_the_report_loads_in_a_browser(traffic_review, tmp_path):
     _need_chromium()
     images, broken = _image_check(tmp_path, traffic_review.report)
     assert images == traffic_review.report.read_text().count("<img ") and broken == 0
+
+
+def test_a_target_that_went_silent_while_closing_is_said_to_have_an_unknown_closest_approach(traffic_log, tmp_path):
+    """Found by a traffic audit: a target whose AIS stopped while it closed in (a transponder switched off, out of
+    range of the receiver) got the closest approach of its reported span, far off, said as the pass's without a
+    word. The review now says how close it came after its last report is not in the log."""
+    silent = tmp_path / "silent.jsonl"
+    kept = [raw for raw in traffic_log.read_text().splitlines()
+            if not ('"event":"target"' in raw.replace(" ", "") and json.loads(raw)["t_s"] > 100.0)]
+    silent.write_text("\n".join(kept) + "\n")
+    (ferry,) = score(read_log(silent)).targets
+    assert re.search(r"its reports stopped \d+ s before the log ended, \d+ m away and closing at [\d.]+ m/s: how "
+                     r"close it came after that is not in the log", ferry.note), ferry.note
+    (whole,) = score(read_log(traffic_log)).targets
+    assert "reports stopped" not in (whole.note or "") and whole.closest_m < ferry.closest_m

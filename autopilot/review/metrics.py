@@ -687,6 +687,10 @@ def target_review(log: MissionLog, track: TargetTrack) -> TargetReview:
                       required_m=required if math.isfinite(required) else 0.0)
     t_min = sc.t_min_s
     ptn, pte = track.position_at([t_min])
+    note = sc.note
+    silent = _silent_while_closing(log, track, fix_t, n, e, tn, te)
+    if silent:
+        note = f"{note}; {silent}" if note else silent
     return TargetReview(
         **common, situations=_situations_met(log, track.target, list(sc.situations)), situation=sc.situation,
         closest_m=sc.min_distance_m, closest_t_s=t_min,
@@ -694,8 +698,31 @@ def target_review(log: MissionLog, track: TargetTrack) -> TargetReview:
         target_north_m=float(ptn[0]), target_east_m=float(pte[0]),
         distance_kept=sc.distance_kept if math.isfinite(required) else None,
         acted=sc.acted or first_act is not None, first_action_t_s=first_act if first_act is not None else sc.first_action_t_s,
-        side=sc.side, max_alteration_deg=sc.max_alteration_deg, rule_followed=sc.rule_followed, note=sc.note,
+        side=sc.side, max_alteration_deg=sc.max_alteration_deg, rule_followed=sc.rule_followed, note=note,
     )
+
+
+SILENT_AFTER_S = 30.0  # a target under way reports every 2-10 s (ITU-R M.1371, class A): three lost reports and more
+MOORED_M_S = 0.25  # slower than this a target's last position stands for where it is (as encounter's stationary)
+
+
+def _silent_while_closing(log: MissionLog, track: TargetTrack, fix_t, n, e, tn, te) -> str | None:
+    """What to say when the target's reports stopped well before the log's end while it was closing in: its closest
+    approach after the last report is not in the log (the closest figure is only that of its reported span)."""
+    end_t = float(log.col("t_s")[-1]) if len(log.col("t_s")) else math.nan
+    last_t = float(track.t_s[-1])
+    usual_s = float(np.median(np.diff(track.t_s))) if len(track.t_s) > 2 else 0.0
+    under_way = track.speed_m_s[-1] > MOORED_M_S  # a moored ship reports every 3 min and stays where it was
+    if not (under_way and end_t - last_t > max(SILENT_AFTER_S, 3.0 * usual_s)) or len(fix_t) < 2:
+        return None
+    d = np.hypot(tn - n, te - e)
+    k = len(d) - 1
+    j = int(np.searchsorted(fix_t, fix_t[k] - 5.0))  # the range ~5 s before the last known one
+    if j >= k or not d[k] < d[j]:
+        return None
+    rate = (d[j] - d[k]) / (fix_t[k] - fix_t[j])
+    return (f"its reports stopped {end_t - last_t:.0f} s before the log ended, {d[k]:.0f} m away and closing at "
+            f"{rate:.1f} m/s: how close it came after that is not in the log")
 
 
 def target_reviews(log: MissionLog) -> list[TargetReview]:
