@@ -218,7 +218,8 @@ def test_gps_outlier_bursts_hold_one_offset_in_both_generators():
     last_start = starts[np.searchsorted(starts, np.arange(t.size), side="right") - 1]
     held = (np.arange(t.size) >= starts[0]) & (np.arange(t.size) - last_start < 3)
     assert_allclose(jump, held)
-    assert_allclose(n[held], n1[last_start[held]]) and assert_allclose(e[held], e1[last_start[held]])
+    assert_allclose(n[held], n1[last_start[held]])
+    assert_allclose(e[held], e1[last_start[held]])
     assert_allclose(np.hypot(n, e)[jump], 10.0) and not n[~jump].any()
     stream = PositionErrorStream(model, np.random.default_rng(4))
     err = np.array([stream.next(tk) for tk in t])

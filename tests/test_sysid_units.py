@@ -535,3 +535,31 @@ def test_a_refused_input_leaves_no_empty_out_directory(tmp_path, capsys):
     (tmp_path / "kept").mkdir()  # one the user made is left as it was
     assert main(["sysid", str(tmp_path / "empty.csv"), "--out", str(tmp_path / "kept")]) == 2
     assert (tmp_path / "kept").is_dir()
+
+
+@pytest.mark.parametrize("psi_deg, u, v, r", [(0.0, 1.2, 0.1, 0.05), (135.0, 0.4, -0.2, -0.1), (-60.0, 0.0, 0.0, 0.0)])
+def test_the_wind_effect_is_the_simulators_windage(psi_deg, u, v, r):
+    """The `wind` effect's force (the air's velocity as parameters) is what the simulator's rhs adds for the same
+    true wind, through its Environment (5 m/s blowing from 090: the air flows west)."""
+    from autopilot.sim import Environment
+    from autopilot.sim.model import make_rhs
+    from autopilot.sysid.effects import BY_NAME
+
+    calm = make_rhs(VESSEL, Environment())
+    windy = make_rhs(VESSEL, Environment(wind_speed_m_s=5.0, wind_from_deg=90.0))
+    psi = math.radians(psi_deg)
+    d = np.subtract(windy(0.0, 0.0, 0.0, psi, u, v, r, 20.0, 15.0), calm(0.0, 0.0, 0.0, psi, u, v, r, 20.0, 15.0))
+    fx, fy, mz = BY_NAME["wind"].force({"north_m_s": 0.0, "east_m_s": -5.0}, VESSEL)(psi, u, v, r)
+    assert_allclose(d[3:], [fx / VESSEL.mass_x_kg, fy / VESSEL.mass_y_kg, mz / VESSEL.inertia_z_kg_m2], atol=1e-12)
+    assert abs(fy) > 1.0  # there is a force to compare
+    rows = {row["name"]: row["value"] for row in BY_NAME["wind"].derived(
+        {"north_m_s": 0.0, "east_m_s": -5.0}, {"north_m_s": 0.1, "east_m_s": 0.1})}
+    assert rows["speed_m_s"] == pytest.approx(5.0) and rows["from_deg"] == pytest.approx(90.0)
+    # no wind is no force (still air's drag on a moving boat included, as make_rhs has none without wind): a
+    # batched replay's other runs carry the hook at its null value
+    null = BY_NAME["wind"].force({"north_m_s": 0.0, "east_m_s": 0.0}, VESSEL)(psi, u, v, r)
+    assert null == (0.0, 0.0, 0.0) or np.all(np.asarray(null) == 0.0)
+    batch = BY_NAME["wind"].force({"north_m_s": np.array([0.0, 0.0]), "east_m_s": np.array([0.0, -5.0])}, VESSEL)
+    got = batch(np.full(2, psi), np.full(2, u), np.full(2, v), np.full(2, r))
+    assert_allclose(np.asarray(got)[:, 0], 0.0, atol=0.0)
+    assert_allclose(np.asarray(got)[:, 1], [fx, fy, mz])

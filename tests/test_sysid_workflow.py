@@ -302,6 +302,25 @@ def test_closed_loop_current_from_pond_logs(current_logs):
 
 
 @pytest.mark.slow
+def test_closed_loop_wind_is_named_wind(tmp_path):
+    """Found by a sysid audit: pond logs flown by the daemon in the simulator's wind (a windage force that turns
+    with the heading) came out `unexplained`: the list had only a steady earth-frame force. The `wind` effect is
+    the simulator's windage with the air's velocity as its parameters, screened from four quadrants (started near
+    no wind, 5 m/s from the east fitted 4.3 m/s from the south-west)."""
+    from autopilot.sysid import read_trial
+    from autopilot.sysid.closed_loop import fly_pond_logs
+
+    logs = fly_pond_logs(tmp_path, 20261205, n_logs=4, wind_speed_m_s=5.0, wind_from_deg=90.0, speedup=3.0)
+    result = identify([read_trial(p) for p in logs], VESSEL)
+    print(f"  {result.status} {result.verdict} {result.chosen.values()} {result.notes}")
+    assert result.status == "effects" and result.verdict == ("wind",), result.notes
+    v = result.chosen.values()
+    speed, blows_from = math.hypot(v["wind.north_m_s"], v["wind.east_m_s"]), math.degrees(
+        math.atan2(-v["wind.east_m_s"], -v["wind.north_m_s"])) % 360.0
+    assert abs(speed - 5.0) < 0.25 and abs(blows_from - 90.0) < 3.0, (speed, blows_from)
+
+
+@pytest.mark.slow
 def test_mission_log_and_its_csv_export_agree(current_logs, tmp_path):
     """The same closed-loop logs read from the .jsonl and from `autopilot review --export csv`:
     the old workflow gave wind forces whose intervals did not overlap. Fitted with the effect the

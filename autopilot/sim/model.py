@@ -92,6 +92,23 @@ def make_batch_rhs(params_runs, envs, external_force: Callable | None = None) ->
     return _bind(p, (cur[:, 0], cur[:, 1]), (air[:, 0], air[:, 1]), wind_on, sinus, external_force, np)
 
 
+def windage_gains(p) -> tuple:
+    """(k_x, k_y, k_n) of the windage model (autopilot.sim.environment): 1/2 rho_a C_X A_F, 1/2 rho_a C_Y A_L
+    and -rho_a C_N A_L L, from the vessel's parameters (floats, or arrays over a batch)."""
+    rho = p.air_density_kg_m3
+    return (0.5 * rho * p.wind_cx * p.frontal_area_m2, 0.5 * rho * p.wind_cy * p.lateral_area_m2,
+            -rho * p.wind_cn * p.lateral_area_m2 * p.length_m)
+
+
+def windage(gains, air_n_m_s, air_e_m_s, cos_psi, sin_psi, u_m_s, v_m_s) -> tuple:
+    """Body-frame (X N, Y N, N N m) of air flowing at (north, east) on a boat heading (cos, sin) psi and moving at
+    (u, v) in body axes (the environment docstring's X_w, Y_w, N_w; floats or arrays)."""
+    a_x = air_n_m_s * cos_psi + air_e_m_s * sin_psi - u_m_s
+    a_y = -air_n_m_s * sin_psi + air_e_m_s * cos_psi - v_m_s
+    k_x, k_y, k_n = gains
+    return k_x * a_x * abs(a_x), k_y * a_y * abs(a_y), k_n * a_x * a_y
+
+
 def _bind(p, current_ne_m_s, wind_ne_m_s, wind_on, sinus, ext, xp) -> Rhs:
     """The right-hand side over the parameters ``p`` (floats, or arrays over a batch of runs; then
     ``wind_on`` is a mask over the runs)."""
@@ -113,11 +130,9 @@ def _bind(p, current_ne_m_s, wind_ne_m_s, wind_on, sinus, ext, xp) -> Rhs:
     has_current = bool(np.any(cur_n != 0.0) or np.any(cur_e != 0.0))
     air_n, air_e = wind_ne_m_s
     has_wind = bool(np.any(wind_on))
-    wind_x = 0.5 * p.air_density_kg_m3 * p.wind_cx * p.frontal_area_m2
-    wind_y = 0.5 * p.air_density_kg_m3 * p.wind_cy * p.lateral_area_m2
-    wind_n = -p.air_density_kg_m3 * p.wind_cn * p.lateral_area_m2 * length
+    gains = windage_gains(p)
     if isinstance(wind_on, np.ndarray):  # a batch: the runs without wind have no windage term at all
-        wind_x, wind_y, wind_n = wind_x * wind_on, wind_y * wind_on, wind_n * wind_on
+        gains = tuple(k * wind_on for k in gains)
     ext_columns = bool(getattr(ext, "takes_columns", False))
 
     def rhs(t_s, n, e, psi, u, v, r, thrust_port_n, thrust_stbd_n):
@@ -137,11 +152,8 @@ def _bind(p, current_ne_m_s, wind_ne_m_s, wind_on, sinus, ext, xp) -> Rhs:
         mz = speed * (n_v * v_r + n_r * r) + n_vvv * v3_over_u - (d_r1 + d_r2 * abs(r)) * r
         mz = mz + k_np * (thrust_port_n - thrust_stbd_n)
         if has_wind:
-            a_x = air_n * c + air_e * s - u
-            a_y = -air_n * s + air_e * c - v
-            fx = fx + wind_x * a_x * abs(a_x)
-            fy = fy + wind_y * a_y * abs(a_y)
-            mz = mz + wind_n * a_x * a_y
+            w_x, w_y, w_n = windage(gains, air_n, air_e, c, s, u, v)
+            fx, fy, mz = fx + w_x, fy + w_y, mz + w_n
         if sinus is not None:  # file 003 Eq 7, earth-fixed direction
             f_d = sinus.amplitude_n * sin(sinus.omega_rad_s * t_s) + sinus.bias_n
             fx = fx + f_d * cos(sinus.angle_rad - psi)

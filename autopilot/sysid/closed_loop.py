@@ -39,13 +39,14 @@ FLIGHT_TIMEOUT_S = 300.0  # a pond mission at 2x takes ~20 s
 
 
 def realistic_sim(rng: np.random.Generator, *, seed: int, current_speed_m_s: float = 0.0,
-                  current_towards_deg: float = 0.0):
+                  current_towards_deg: float = 0.0, wind_speed_m_s: float = 0.0, wind_from_deg: float = 0.0):
     """A SimConfig whose SC-30 measures like issue 12's sensor (ranges of realistic.draw_models), its speed and
     course over ground with a velocity error of 0.03-0.1 m/s per axis (realistic.VELOCITY_WHITE_M_S)."""
     from autopilot.daemon.config import SimConfig
 
     return SimConfig(
         seed=seed, current_speed_m_s=current_speed_m_s, current_towards_deg=current_towards_deg % 360.0,
+        wind_speed_m_s=wind_speed_m_s, wind_from_deg=wind_from_deg % 360.0,
         position_noise_m=0.15, position_wander_m=float(rng.uniform(0.5, 2.0)),
         position_wander_time_s=float(rng.uniform(30.0, 60.0)), position_outlier_rate=0.01, position_outlier_m=10.0,
         heading_noise_deg=0.0, heading_wander_deg=0.3, heading_wander_time_s=float(rng.uniform(20.0, 60.0)),
@@ -102,17 +103,19 @@ def _landed(mission, proc, flight_dir: Path, state: str) -> Path:
 
 def fly_pond_logs(log_dir, seed: int, *, n_logs: int = 5, current_speed_m_s: float = 0.0,
                   current_towards_deg: float | None = None, speedup: float = SPEEDUP, baud: int = BAUD,
-                  jobs: int = PARALLEL_FLIGHTS) -> list[Path]:
+                  jobs: int = PARALLEL_FLIGHTS, wind_speed_m_s: float = 0.0, wind_from_deg: float = 0.0) -> list[Path]:
     """``n_logs`` pond missions (cycling through pond-9.1..9.4) with one sensor and one current, from ``seed``.
 
-    The current's direction is drawn unless given; each flight has its own noise seed. ``baud``: the
+    The current's direction is drawn unless given; the wind (the simulator's windage) is given or none;
+    each flight has its own noise seed. ``baud``: the
     SC-30's line (BAUD by default, see there). ``jobs`` flights at a time, each a daemon in its own process
     writing to its own ``flight-<k>/`` (the flights wait on the clock, not the processor: four at 2x use
     about a tenth of a core each); the logs are returned in flight order.
     """
     rng = np.random.default_rng(seed)
     towards = float(rng.uniform(0.0, 360.0)) if current_towards_deg is None else current_towards_deg
-    sim = realistic_sim(rng, seed=0, current_speed_m_s=current_speed_m_s, current_towards_deg=towards)
+    sim = realistic_sim(rng, seed=0, current_speed_m_s=current_speed_m_s, current_towards_deg=towards,
+                        wind_speed_m_s=wind_speed_m_s, wind_from_deg=wind_from_deg)
     import dataclasses
 
     flights = []

@@ -76,6 +76,23 @@ def retry(prep, vessel, f: Fit, x0_fresh) -> Fit:
         f = from_fresh_states(prep, vessel, f, x0_fresh, RETRY_NFEV)
     if chi2(f) > STUCK_CHI2 and len(f.keys) == 1 and PARAM_BY_KEY[f.keys[0]].stepwise:
         f = profile(prep, vessel, f, x0_fresh)
+    if chi2(f) > STUCK_CHI2 and len(f.effects) == 1 and BY_NAME[f.effects[0]].multimodal:
+        f = from_each_start(prep, vessel, f, x0_fresh)
+    return f
+
+
+def from_each_start(prep, vessel, f: Fit, x0_fresh) -> Fit:
+    """A fit of an effect whose cost has several minima, stuck above the noise: refitted from each of its
+    screening starts (the grid's combinations) with the fresh states; the best."""
+    import itertools
+
+    eff = BY_NAME[f.effects[0]]
+    for combo in itertools.product(*[PARAM_BY_KEY[k].grid or (PARAM_BY_KEY[k].start,) for k in eff.keys]):
+        g = fit_model(prep, vessel, f.effects, f.trials, x0_fresh[list(f.trials)], theta0=list(combo),
+                      horizons_s=HORIZONS_S, max_nfev=RETRY_NFEV)
+        f = g if g.cost < f.cost else f
+        if chi2(f) <= STUCK_CHI2:
+            break
     return f
 
 
