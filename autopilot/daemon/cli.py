@@ -84,6 +84,7 @@ def _run(args: argparse.Namespace) -> int:
             return 2
         config = default_config_path()
         print(f"note: --sim without --config: the shipped configuration ({config})", file=sys.stderr)
+    cfg = load_config(config)  # the configuration's errors first, as before a mission was found by its name
     mission = args.mission
     if not Path(mission).exists():
         shipped = shipped_mission(mission)
@@ -94,7 +95,6 @@ def _run(args: argparse.Namespace) -> int:
             return 2
         print(f"note: --mission {mission}: the shipped mission {shipped}", file=sys.stderr)
         mission = str(shipped)
-    cfg = load_config(config)
     opts = RunOptions(
         mission_path=mission,
         sim=args.sim,
