@@ -305,7 +305,7 @@ def test_closed_loop_current_from_pond_logs(current_logs):
 def test_closed_loop_wind_is_named_wind(tmp_path):
     """Found by a sysid audit: pond logs flown by the daemon in the simulator's wind (a windage force that turns
     with the heading) came out `unexplained`: the list had only a steady earth-frame force. The `wind` effect is
-    the simulator's windage with the air's velocity as its parameters, screened from four quadrants (started near
+    the simulator's windage with the air's velocity as its parameters, screened from a grid of starts (started near
     no wind, 5 m/s from the east fitted 4.3 m/s from the south-west)."""
     from autopilot.sysid import read_trial
     from autopilot.sysid.closed_loop import fly_pond_logs

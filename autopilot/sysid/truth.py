@@ -146,8 +146,12 @@ def simulate_truth(vessel: VesselParams, effects: dict, rng: np.random.Generator
     if current is not None:  # start moving with the water plus its own speed
         x0[3] += c_n * math.cos(psi0) + c_e * math.sin(psi0)
         x0[4] += -c_n * math.sin(psi0) + c_e * math.cos(psi0)
-    state = simulate(hidden_params(vessel, effects), tf, tpf, tsf, x0=x0, current=current, external_force=_wind(effects),
-                     dt_s=FINE_DT_S)
+    a_n, a_e = effects.get("wind.north_m_s", 0.0), effects.get("wind.east_m_s", 0.0)
+    # the simulator's own wind (its Environment and rhs), not the identification's hook: the air's velocity
+    # (towards) as the meteorological speed and direction it blows from
+    air = (math.hypot(a_n, a_e), (math.degrees(math.atan2(a_e, a_n)) + 180.0) % 360.0) if (a_n or a_e) else None
+    state = simulate(hidden_params(vessel, effects), tf, tpf, tsf, x0=x0, current=current, wind=air,
+                     external_force=_wind(effects), dt_s=FINE_DT_S)
     return Truth(t10, dp10, ds10, tf, dict(state), dict(effects))
 
 
