@@ -386,7 +386,7 @@ class Autopilot:
         if across == self._hold_across:
             return
         self._hold_across = across
-        if across or s.hold is not None:
+        if s.hold is not None:  # (across implies a hold; a hold that ended says nothing)
             fields = {"across": across, "heading_deg": round(math.degrees(s.hold.psi_ref_rad) % 360.0, 1)}
             if across:
                 fields["feasible_heading_deg"] = round(math.degrees(feasible) % 360.0, 1)
