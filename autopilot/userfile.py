@@ -141,7 +141,7 @@ def number_cell(text: str, row: int, column: str) -> float:
         value = float(text)
     except ValueError:
         hint = ""
-        if re.fullmatch(r"[-+]?\d*,\d+", text):
+        if _DECIMAL_COMMA.fullmatch(text):
             hint = " (a decimal comma: save the CSV with a point as the decimal separator)"
         raise ConfigError(f"data row {row}, {column}: {text!r} is not a number{hint}") from None
     if not math.isfinite(value):

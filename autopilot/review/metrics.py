@@ -34,6 +34,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from autopilot.gnc.encounter import EncounterConfig
 from autopilot.gnc.passes import closest_per_pass
 from autopilot.logschema import Mode
 from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog, TargetTrack, _is_number
@@ -703,7 +704,6 @@ def target_review(log: MissionLog, track: TargetTrack) -> TargetReview:
 
 
 SILENT_AFTER_S = 30.0  # a target under way reports every 2-10 s (ITU-R M.1371, class A): three lost reports and more
-MOORED_M_S = 0.25  # slower than this a target's last position stands for where it is (as encounter's stationary)
 
 
 def _silent_while_closing(log: MissionLog, track: TargetTrack, fix_t, n, e, tn, te) -> str | None:
@@ -712,7 +712,9 @@ def _silent_while_closing(log: MissionLog, track: TargetTrack, fix_t, n, e, tn, 
     end_t = float(log.col("t_s")[-1]) if len(log.col("t_s")) else math.nan
     last_t = float(track.t_s[-1])
     usual_s = float(np.median(np.diff(track.t_s))) if len(track.t_s) > 2 else 0.0
-    under_way = track.speed_m_s[-1] > MOORED_M_S  # a moored ship reports every 3 min and stays where it was
+    # a ship slower than the avoidance's "stationary" (the log's setting) reports every 3 min and stays where it was
+    stationary = log.config_number("gnc", "avoidance", "encounter", "stationary_speed_m_s")
+    under_way = track.speed_m_s[-1] > (EncounterConfig().stationary_speed_m_s if stationary is None else stationary)
     if not (under_way and end_t - last_t > max(SILENT_AFTER_S, 3.0 * usual_s)) or len(fix_t) < 2:
         return None
     d = np.hypot(tn - n, te - e)

@@ -127,6 +127,17 @@ def param_row(name, unit, value, sigma) -> dict:
     return {"name": name, "unit": unit, "value": value, "ci95": [value - Z_95 * sigma, value + Z_95 * sigma], "sigma": sigma}
 
 
+def polar_rows(value: dict, sigma: dict, direction: str, turn_deg: float) -> list[dict]:
+    """Speed and direction rows of a velocity given as ``north_m_s``, ``east_m_s`` (the direction it goes towards
+    plus ``turn_deg``: 180 for where a wind blows from), intervals by the delta method."""
+    vn, ve, sn, se = value["north_m_s"], value["east_m_s"], sigma["north_m_s"], sigma["east_m_s"]
+    speed = math.hypot(vn, ve)
+    s_speed = math.sqrt((vn * sn) ** 2 + (ve * se) ** 2) / max(speed, 1e-9)
+    s_dir = math.degrees(math.sqrt((ve * sn) ** 2 + (vn * se) ** 2)) / max(speed**2, 1e-12)
+    angle = (math.degrees(math.atan2(ve, vn)) + turn_deg) % 360.0
+    return [param_row("speed_m_s", "m/s", speed, s_speed), param_row(direction, "deg", angle, s_dir)]
+
+
 class Current(Effect):
     name, kind = "current", "environment"
     params = (EffectParam("north_m_s", "m/s", 0.0, -2.0, 2.0, 0.1), EffectParam("east_m_s", "m/s", 0.0, -2.0, 2.0, 0.1))
@@ -137,12 +148,7 @@ class Current(Effect):
 
     def derived(self, value, sigma):
         """Speed and direction (towards), intervals by the delta method."""
-        cn, ce, sn, se = value["north_m_s"], value["east_m_s"], sigma["north_m_s"], sigma["east_m_s"]
-        speed = math.hypot(cn, ce)
-        s_speed = math.sqrt((cn * sn) ** 2 + (ce * se) ** 2) / max(speed, 1e-9)
-        s_dir = math.degrees(math.sqrt((ce * sn) ** 2 + (cn * se) ** 2)) / max(speed**2, 1e-12)
-        towards = math.degrees(math.atan2(ce, cn)) % 360.0
-        return [param_row("speed_m_s", "m/s", speed, s_speed), param_row("towards_deg", "deg", towards, s_dir)]
+        return polar_rows(value, sigma, "towards_deg", 0.0)
 
 
 class WindForce(Effect):
@@ -194,12 +200,7 @@ class Wind(Effect):
 
     def derived(self, value, sigma):
         """Speed and the direction it blows from (meteorological), intervals by the delta method."""
-        wn, we, sn, se = value["north_m_s"], value["east_m_s"], sigma["north_m_s"], sigma["east_m_s"]
-        speed = math.hypot(wn, we)
-        s_speed = math.sqrt((wn * sn) ** 2 + (we * se) ** 2) / max(speed, 1e-9)
-        s_dir = math.degrees(math.sqrt((we * sn) ** 2 + (wn * se) ** 2)) / max(speed**2, 1e-12)
-        from_deg = (math.degrees(math.atan2(we, wn)) + 180.0) % 360.0
-        return [param_row("speed_m_s", "m/s", speed, s_speed), param_row("from_deg", "deg", from_deg, s_dir)]
+        return polar_rows(value, sigma, "from_deg", 180.0)
 
 
 class ThrustAsymmetry(Effect):
