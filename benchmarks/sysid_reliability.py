@@ -21,6 +21,7 @@ trials cannot rule out (its 95 % interval in ``not_excluded`` covering the truth
     python benchmarks/sysid_reliability.py --seeds 20                      # every group, ~2 h on 1 core
     python benchmarks/sysid_reliability.py --seeds 10 --groups single,none --jobs 2
     python benchmarks/sysid_reliability.py --seeds 5 --groups closed_loop   # flies 5 pond logs per draw
+    python benchmarks/sysid_reliability.py --seeds 10 --groups closed_loop_wind --jobs 1
     python benchmarks/sysid_reliability.py --seeds 2 --groups small --jsonl small.jsonl
     python benchmarks/sysid_reliability.py --summarise draws.jsonl           # the tables of a run so far
 
@@ -44,7 +45,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small")  # new groups last: same seeds
+GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small", "closed_loop_wind")  # new groups last: same seeds
 
 
 def cases_of(groups):
@@ -62,6 +63,8 @@ def cases_of(groups):
             out += [Case((e,)) for e in UNLISTED]
         elif g == "closed_loop":
             out += [Case(("current",), kind="closed_loop", n_trials=5), Case((), kind="closed_loop", n_trials=5)]
+        elif g == "closed_loop_wind":  # the simulator's windage (cases.CLOSED_LOOP_WIND_M_S) in five pond logs
+            out.append(Case(("wind",), kind="closed_loop", n_trials=5))
         elif g == "velocity":  # the realistic trials with the receiver's speed and course over ground too
             out += [Case((e,), velocity=True) for e in DRAWS] + [Case((), velocity=True)]
         elif g == "white":
@@ -118,6 +121,7 @@ AIMS = (
     ("nothing hidden: none (realistic trials)", lambda c: c.kind == "realistic" and not c.effects, 0.95),
     ("nothing hidden: none (closed-loop logs)", lambda c: c.kind == "closed_loop" and not c.effects, 0.95),
     ("0.2 m/s current named from five pond logs", lambda c: c.kind == "closed_loop" and c.effects == ("current",), None),
+    ("3-6 m/s of wind named from five pond logs", lambda c: c.kind == "closed_loop" and c.effects == ("wind",), None),
     ("an effect outside the list: unexplained or flagged not adequate", lambda c: c.unlisted, 0.80),
     ("with speed and course over ground: named exactly (or none)", lambda c: c.velocity, 0.95),
     ("white-noise 10 Hz trials: named exactly (or none)", lambda c: c.kind == "white", None),
