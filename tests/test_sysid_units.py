@@ -612,7 +612,8 @@ def test_a_stuck_multimodal_fit_is_retried_from_the_wide_starts_after_the_grid(m
 
     starts = []
 
-    def fit_model(prep, vessel, effects, trials, x0, *, theta0, horizons_s, max_nfev):
+    def fit_model(prep, vessel, effects, trials, x0, *, theta0, horizons_s, max_nfev, free_through_horizons):
+        assert free_through_horizons  # the parameters leave the start over the short horizons
         starts.append(tuple(theta0))
         at_noise = tuple(theta0) == (10.0, -6.0)
         return _fit(effects, 900.0 if at_noise else 5000.0 - len(starts))

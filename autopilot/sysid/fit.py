@@ -197,6 +197,7 @@ def fit_model(
     fixed: dict | None = None,
     max_nfev: int = 40,
     horizons_s=(),
+    free_through_horizons: bool = False,
 ) -> Fit:
     """Least squares (scipy trf) of the effects' parameters and the trials' initial states.
 
@@ -205,7 +206,9 @@ def fit_model(
     poor start falls into local minima (a wrong initial yaw rate turns the whole
     track); short horizons are nearly linear and lead it to the right basin.
     Given values (``theta0``) are held there and only the states fit; without
-    ``theta0`` the parameters fit from their starts through the horizons too.
+    ``theta0`` the parameters fit from their starts through the horizons too, and
+    with ``free_through_horizons`` from ``theta0`` (a multimodal effect's grid
+    start: search.from_each_start).
     """
     keys = tuple(k for e in effects for k in BY_NAME[e].keys)
     trials = tuple(trials)
@@ -215,7 +218,8 @@ def fit_model(
     if keys and theta0 is not None and len(theta0) != len(keys):
         raise ValueError(f"theta0 has {len(theta0)} values for {len(keys)} parameters {keys}")
     if horizons_s:
-        x0, theta0 = _through_horizons(prep, vessel, effects, keys, trials, x0, theta0, fixed, horizons_s)
+        x0, theta0 = _through_horizons(prep, vessel, effects, keys, trials, x0, theta0, fixed, horizons_s,
+                                       free=free_through_horizons)
     return _solve(prep, vessel, effects, keys, trials, x0, theta0, fixed, max_nfev)
 
 
@@ -224,13 +228,14 @@ def _cost(prep, vessel, keys, trials, x0, theta, fixed) -> float:
     return float(np.sum(probe.fun(probe.pack(theta, x0)) ** 2))
 
 
-def _through_horizons(prep, vessel, effects, keys, trials, x0, theta0, fixed, horizons_s):
+def _through_horizons(prep, vessel, effects, keys, trials, x0, theta0, fixed, horizons_s, *, free: bool = False):
     """(states, values) to start the whole fit from: fitted through growing horizons, kept only when they
     fit the whole trials better than the given start, and never worse than "no effect" from the given
     states. Given values are held through the horizons (only the states fit): a short horizon may hold
     nothing that fixes a parameter, which then drifts onto a flat stretch it cannot leave (a 23.0 %
-    deadband started at its true value went to 29 % at chi-square 1.13 for 0.93, seed 1008)."""
-    held = bool(keys) and theta0 is not None
+    deadband started at its true value went to 29 % at chi-square 1.13 for 0.93, seed 1008). With ``free`` the
+    given values are where the parameters start, and they fit through the horizons too."""
+    held = bool(keys) and theta0 is not None and not free
     hold = dict(fixed or {}) | (dict(zip(keys, (float(v) for v in theta0))) if held else {})
     x0_h, theta_h = x0, theta0
     for h in horizons_s:
