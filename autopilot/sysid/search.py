@@ -5,9 +5,11 @@ Stages (called in this order by :func:`autopilot.sysid.identification.identify`)
 - :func:`screen_candidates`: a few batched Gauss-Newton steps of every candidate from the
   baseline, twice (over whole trials, at most SCREEN_MAX_TRIALS of them, and over 15-s windows,
   at most SCREEN_MAX_WINDOWS), ranked by cost: the starts of the full fits.
-- :func:`fit_singles`: the ``top_k`` best of each screening fitted fully over all trials.
+- :func:`fit_singles`: the ``top_k`` best of each screening fitted fully over all trials (a
+  multimodal effect the two screenings led to different places: from both, the better kept).
 - :func:`polish_and_retry`: the leader refitted from fresh states; fits that stop above the noise
-  retried (longer, from fresh states through growing horizons, profiled for a threshold).
+  retried (longer, from fresh states through growing horizons, profiled for a threshold, a
+  multimodal effect from each start of its grids; those first).
 - :func:`fit_pairs`: a second effect from the best single's fit; :func:`refit_best_pair`, when the
   single is not adequate, the best pair again from fresh states; and the backward step (each of the
   pair's effects refitted alone from the pair's values).
