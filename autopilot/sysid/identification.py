@@ -19,8 +19,9 @@
    under it; cross-validation over trials (``holdout.py``): the chosen model must lower the held-out
    cost of a channel by ``min_holdout_gain`` against the baseline (and not raise the total), a pair
    also against its single; the
-   intervals are the larger of curvature and the delete-a-fold jackknife, and every named effect must
-   still be clearly away from no effect with them.
+   intervals are the larger of curvature and the delete-a-fold jackknife (and, where the cost is not
+   quadratic over them, of short windows': ``intervals.py``), and every named effect must still be
+   clearly away from no effect with them.
 6. Verdict (:func:`verdict`): the final model's channels are adequate -> its effects, or ``none``;
    otherwise ``unexplained``, with the nearest candidates and how far they fall short: never a
    confident name for a model that does not fit. A ``none`` whose noise estimate sits at a sensor's
@@ -47,6 +48,7 @@ from autopilot.sysid.holdout import (
     held_out_gain,
     with_jackknife,
 )
+from autopilot.sysid.intervals import WINDOW_S, curvature_holds, with_windows
 from autopilot.sysid.noise import NoiseBounds
 from autopilot.sysid.prediction import Prepared, initial_states, prepare
 
@@ -232,6 +234,7 @@ def confirm(prep, vessel, fits: dict, chosen, single, x0_init, scores, s: Settin
         say(f"cross-validated {'+'.join(chosen)} over {len(folds)} folds: held-out cost "
             + ", ".join(f"{ch} {100 * g:.0f} %" for ch, g in per.items()) + f" below {'+'.join(ref) or 'the baseline'}")
         fits[chosen] = with_jackknife(fits[chosen], cv[chosen].fold_theta)
+        fits[chosen] = _honest_curvature(prep, vessel, fits[chosen], notes)
         weak = [e for e in chosen if not judge.is_away(fits[chosen], e)]
         if gain >= s.min_holdout_gain and not weak:
             break
@@ -242,6 +245,21 @@ def confirm(prep, vessel, fits: dict, chosen, single, x0_init, scores, s: Settin
     if len(folds) < MIN_JACKKNIFE_FOLDS:
         _few_trials(prep.n_trials, fits[chosen], notes)
     return prep, fits, chosen, notes, cv
+
+
+def _honest_curvature(prep, vessel, fit: Fit, notes: list) -> Fit:
+    """``fit`` with the windows' intervals when its cost is not quadratic over its own (intervals.py)."""
+    if curvature_holds(prep, vessel, fit):
+        return fit
+    widened = with_windows(prep, vessel, fit, min_folds=MIN_JACKKNIFE_FOLDS)
+    note = (f"{'+'.join(fit.effects)}: the whole trials' cost is not quadratic over the curvature interval (the "
+            "replay is far from linear in the parameters there: a threshold, or a closed-loop log in wind whose replay "
+            "leaves the track within seconds)")
+    if widened is None:
+        notes.append(note + ": no window long enough to widen it; the intervals may be too narrow")
+        return fit
+    notes.append(note + f": the intervals are the larger of the whole trials' and {WINDOW_S:.0f}-s windows'")
+    return widened
 
 
 def _few_trials(n_trials: int, fit, notes: list[str]) -> None:
