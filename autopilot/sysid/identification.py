@@ -253,8 +253,8 @@ def _honest_curvature(prep, vessel, fit: Fit, notes: list) -> Fit:
         return fit
     widened = with_windows(prep, vessel, fit, min_folds=MIN_JACKKNIFE_FOLDS)
     note = (f"{'+'.join(fit.effects)}: the whole trials' cost is not quadratic over the curvature interval (the "
-            "replay is far from linear in the parameters there: a threshold, or a closed-loop log in wind whose replay "
-            "leaves the track within seconds)")
+            "replay is far from linear in the parameters there: a threshold, or wind over long trials or closed-loop "
+            "logs, whose replay leaves the track within seconds)")
     if widened is None:
         notes.append(note + ": no window long enough to widen it; the intervals may be too narrow")
         return fit
