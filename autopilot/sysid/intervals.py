@@ -16,8 +16,8 @@ with an interval of +-0.00002 (z 48 and 44).
 sigmas either side of each parameter (the states held) against the Jacobian's prediction. When
 it fails, :func:`with_windows` takes the larger of the interval and that of the trials cut into
 ``WINDOW_S`` windows, each replayed from its own fitted state (multiple shooting without the
-continuity): short enough that the replay stays near-linear, and its delete-a-trial jackknife
-(all of a trial's windows held out together) sees the spread between trials. The same seed:
+continuity): short enough that the replay stays near-linear, and its jackknife over the trials'
+cross-validation folds (all of a trial's windows held out together) sees the spread between trials. The same seed:
 95 % intervals of +-0.023 and +-0.030 m/s, z 1.8 and 2.6; the twelve long trials z 0.05 and 0.06.
 """
 
