@@ -251,7 +251,7 @@ def _honest_curvature(prep, vessel, fit: Fit, notes: list) -> Fit:
     """``fit`` with the windows' intervals when its cost is not quadratic over its own (intervals.py)."""
     if curvature_holds(prep, vessel, fit):
         return fit
-    widened = with_windows(prep, vessel, fit, min_folds=MIN_JACKKNIFE_FOLDS)
+    widened = with_windows(prep, vessel, fit)
     note = (f"{'+'.join(fit.effects)}: the whole trials' cost is not quadratic over the curvature interval (the "
             "replay is far from linear in the parameters there: a threshold, or wind over long trials or closed-loop "
             "logs, whose replay leaves the track within seconds)")

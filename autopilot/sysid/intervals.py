@@ -28,6 +28,7 @@ import dataclasses
 import numpy as np
 
 from autopilot.sysid.fit import Fit, Problem, fit_model
+from autopilot.sysid.holdout import MIN_JACKKNIFE_FOLDS, held_out_folds, with_jackknife
 
 __all__ = ["curvature_holds", "with_windows", "WINDOW_S", "QUADRATIC_TOLERANCE"]
 
@@ -62,11 +63,10 @@ def curvature_holds(prep, vessel, fit: Fit) -> bool:
     return True
 
 
-def with_windows(prep, vessel, fit: Fit, min_folds: int = 3) -> Fit | None:
+def with_windows(prep, vessel, fit: Fit, min_folds: int = MIN_JACKKNIFE_FOLDS) -> Fit | None:
     """``fit`` with each sigma the larger of its own and the windows' (module docstring: curvature over
     WINDOW_S windows, widened by their jackknife over the trials' cross-validation folds, holdout.held_out_folds,
     when there are at least ``min_folds``); None when the trials hold no window with enough measurements."""
-    from autopilot.sysid.holdout import held_out_folds, with_jackknife
     from autopilot.sysid.prediction import initial_states
     from autopilot.sysid.search import HORIZONS_S, screening_windows
 
