@@ -125,11 +125,7 @@ class ControlCycle:
             if decision.requests:  # a latched fault's action (ControlLoop._failsafe_action)
                 helm_nav, unavailable = steps.helm_nav(nav, decision)
             for req in decision.requests:
-                action, fallback = req.action, req.fallback
-                ok, answer = ap.request(action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
-                if not ok:
-                    action, fallback = "stop", answer
-                    ap.request("stop", None, cause=f"failsafe {req.cause}")
+                action, fallback = steps.answer_failsafe(ap, req, helm_nav, unavailable)
                 events.append(("failsafe", {"cause": req.cause, "action": action, "configured": req.configured,
                                             "fallback": fallback}))
                 self.failsafe_causes.append(req.cause)

@@ -248,7 +248,7 @@ EVENTS: tuple[EventSpec, ...] = (
         _CAUSE,
         _f("action", "string", "-", "the action taken: " + ", ".join(f"`{a}`" for a in FAILSAFE_ACTIONS)),
         _f("configured", "string", "-", "the action configured for the cause (`failsafe.actions`)"),
-        _f("fallback", "string", "-", "why the configured action was not taken (it needs a position and a heading), or null"),
+        _f("fallback", "string", "-", "why the configured action was not taken (it needs a position and a heading; a stronger action a fault took before stands), or null"),
     )),
     EventSpec("failsafe_cleared", "no cause for `failsafe.resume_valid_s`", _RECOVERY),
     EventSpec("resume", "the GNC drives again (integrators reset)", _RECOVERY),

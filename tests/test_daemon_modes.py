@@ -273,6 +273,34 @@ def test_battery_low_returns_home_then_critical_stops(tmp_path):
     asyncio.run(scenario())
 
 
+def test_a_flat_battery_stops_and_battery_low_does_not_drive_it_on(tmp_path):
+    """Found by a new-user audit (`sim.battery_initial_soc: 0`): battery_critical stopped the boat after 5 s,
+    battery_low's rtl drove it on 5 s later, for 30 minutes at up to full thrust on an empty battery."""
+    battery = BatteryConfig(capacity_ah=0.5, initial_soc=0.0)
+
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=30.0), rig_options={"battery": battery})
+        try:
+            await d.start()
+            await d.wait(lambda: any(r["cause"] == "battery_low" for r in d.events("failsafe")), 60.0, "battery low")
+            await d.clock.sleep(5.0)
+            crit, low = (next(r for r in d.events("failsafe") if r["cause"] == c)
+                         for c in ("battery_critical", "battery_low"))
+            assert crit["action"] == "stop" and crit["t_s"] < low["t_s"]
+            assert (low["action"], low["configured"]) == ("stop", "rtl"), low
+            assert low["fallback"] == "battery_critical took stop before: a milder action does not replace it"
+            assert [m[1:] for m in _modes(d)][-1] == ("stop", "failsafe battery_critical")
+            after = [r for r in d.log() if r["event"] == "cycle" and r["t_s"] > crit["t_s"] + 0.5]
+            assert len(after) > 50 and all(r["thrust_port_n"] == 0 and r["thrust_stbd_n"] == 0 for r in after)
+            assert not d.rig.mbed.thrusting
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
+
+
 def test_old_firmware_without_the_battery_field_still_works(tmp_path):
     async def scenario():
         d = Daemon(tmp_path, {"name": "short", "frame": "local", "waypoints": [[8.0, 0.0]]})

@@ -146,6 +146,45 @@ def test_battery_stages_need_the_voltage_low_for_their_time():
     assert fs.update(good(t3 + 6.0, battery_v=None)).active[-2:] == ("battery_low", "battery_critical")  # latched
 
 
+def test_a_milder_latched_action_never_replaces_a_stronger_one():
+    """Found by a new-user audit: a flat battery (below both thresholds at once) tripped battery_critical after
+    its 5 s and battery_low after its 10 s; low's rtl then replaced critical's stop and the boat drove on for
+    half an hour on an empty battery. Now the stop stands; a later stronger action still replaces a milder."""
+    cfg = dataclasses.replace(CFG, battery_low_v=12.0, battery_low_s=10.0, battery_critical_v=11.7,
+                              battery_critical_s=5.0, actions=FailsafeActions(battery_low="rtl", geofence="hold"))
+    fs = Failsafe(cfg)
+    t = run_until_auto(fs)
+    reqs = [r for k in range(120) for r in fs.update(good(t + 0.1 * k, battery_v=11.0)).requests]
+    assert [(r.cause, r.action, r.overruled_by) for r in reqs] == [
+        ("battery_critical", "stop", None), ("battery_low", "rtl", ("battery_critical", "stop"))]
+    assert reqs[1].fallback == "battery_critical took stop before: a milder action does not replace it"
+    assert fs.action_of("battery_low") == "rtl"  # what it asked: its own configured action, not taken
+
+    fs = Failsafe(cfg, fence_ne_m=[(-10.0, -10.0), (-10.0, 10.0), (10.0, 10.0), (10.0, -10.0)])  # hold, then rtl
+    t = run_until_auto(fs)
+    first = fs.update(good(t, north_m=20.0, east_m=0.0)).requests
+    assert [(r.cause, r.action, r.overruled_by) for r in first] == [("geofence", "hold", None)]
+    reqs = [r for k in range(1, 120) for r in fs.update(good(t + 0.1 * k, north_m=20.0, east_m=0.0,
+                                                                battery_v=11.9)).requests]
+    assert [(r.cause, r.overruled_by) for r in reqs] == [("battery_low", ("geofence", "hold"))]  # hold > rtl
+
+
+def test_an_overruled_request_leaves_the_helm_as_it_is():
+    from autopilot.daemon.cycle import answer_failsafe
+    from autopilot.daemon.failsafe import Request
+    from autopilot.gnc import Autopilot, GncConfig, NavInput
+
+    ap = Autopilot(GncConfig(), [(50.0, 0.0)])
+    nav = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    ap.step(nav, 0.1)
+    assert answer_failsafe(ap, Request("battery_critical", "stop", "stop"), nav, "") == ("stop", None)
+    assert ap.mode.value == "stop"
+    late = Request("battery_low", "rtl", "rtl", "battery_critical took stop before: a milder action does not replace "
+                   "it", overruled_by=("battery_critical", "stop"))
+    assert answer_failsafe(ap, late, nav, "") == ("stop", late.fallback)
+    assert ap.mode.value == "stop"
+
+
 def test_resting_voltage_takes_out_the_sag_of_the_duties():
     assert resting_voltage_v(None, 50.0, 50.0, 1.2) is None
     assert resting_voltage_v(11.5, 100.0, -100.0, 1.2) == pytest.approx(12.7)  # reverse draws the same

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from autopilot.daemon.cycle import answer_failsafe
 from autopilot.logschema import Mode
 
 __all__ = ["apply", "failsafe_action", "replace_key"]
@@ -26,13 +27,8 @@ QUIET = {"manual"}  # sent tens of times a second: logged when it changes the mo
 
 
 def failsafe_action(loop, req, helm_nav, unavailable: str, t_s: float) -> None:
-    """A latched fault's action to the helm; refused (rtl without a launch point) -> stop."""
-    ap = loop.ap
-    action, fallback = req.action, req.fallback
-    ok, answer = ap.request(action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
-    if not ok:
-        action, fallback = "stop", answer
-        ap.request("stop", None, cause=f"failsafe {req.cause}")
+    """A latched fault's action to the helm (:func:`autopilot.daemon.cycle.answer_failsafe`), logged."""
+    action, fallback = answer_failsafe(loop.ap, req, helm_nav, unavailable)
     loop.log.event("failsafe", t_s=t_s, cause=req.cause, action=action, configured=req.configured, fallback=fallback)
     loop.state.failsafe_causes.append(req.cause)
 

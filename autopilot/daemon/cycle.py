@@ -1,7 +1,7 @@
 """One control cycle as a short chain of pure steps (the loop in :mod:`autopilot.daemon.loop` wires them).
 
     NavSample --assemble--> Navigation --observe--> Observation --Failsafe.update--> Decision
-    Decision.requests, operator commands --the helm (autopilot.gnc.Autopilot.request)--> the helm's mode
+    Decision.requests --answer_failsafe--> the helm's mode; operator commands --the helm (Autopilot.request)--> it
     Decision --arbitrate--> drive? --steer (the helm)--> ControlOutput --command--> ThrustCommand
     everything --cycle_record--> the cycle line (autopilot.logschema.CYCLE)
 
@@ -22,7 +22,7 @@ from autopilot.gnc import ControlOutput, NavInput
 from autopilot.gnc.navigation import Navigation, NavRules
 from autopilot.logschema import CYCLE_KEYS, Mode
 
-__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
+__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "answer_failsafe", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
            "GNC_FIELDS"]
 
 MAX_STEP_DT_S = 1.0  # a GNC step after a long pause integrates at most this much
@@ -78,6 +78,19 @@ def arbitrate(decision: Decision, *, steerable: bool, manual: bool = False) -> t
     if not decision.thrust_allowed or not steerable:
         return Mode.FAILSAFE, False
     return None, True
+
+
+def answer_failsafe(ap, req, helm_nav: NavInput | None, unavailable: str) -> tuple[str, str | None]:
+    """A latched fault's request to the helm ``ap``: (the action in force after it, why not the configured one).
+    Overruled (a stronger action a fault took before stands): the helm is left as it is; refused (rtl without a
+    launch point): stop."""
+    if req.overruled_by is not None:
+        return req.overruled_by[1], req.fallback
+    ok, answer = ap.request(req.action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
+    if ok:
+        return req.action, req.fallback
+    ap.request("stop", None, cause=f"failsafe {req.cause}")
+    return "stop", answer
 
 
 def helm_nav(nav: Navigation, decision: Decision) -> tuple[NavInput | None, str]:

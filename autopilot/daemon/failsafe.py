@@ -18,6 +18,9 @@ Two kinds of fault:
   critical) never clear. Each asks once for its configured action
   (``failsafe.actions``: stop, hold or rtl; Mbed faults and battery_critical always
   stop) as a :class:`Request` for the helm; they do not themselves stop the GNC.
+  A milder action never replaces a stronger one a latched fault took before
+  (ACTION_STRENGTH): a flat battery trips battery_critical (5 s) before battery_low
+  (10 s), and battery_low's rtl drove the boat on after the critical stop.
 
 The guard (ArduPilot's ``requires_position()``): hold and rtl need a position and a
 heading. A position or heading fault never takes them, and a latched fault that
@@ -54,6 +57,9 @@ FAULT_CLASS: dict[str, str] = {
 }
 NAV_CLASSES = frozenset({"position", "heading"})  # faults of what hold and rtl need
 ALWAYS_STOP = frozenset({"mbed", "battery_critical"})
+# the latched faults' actions, mildest first: a later fault's milder action leaves a stronger one in force
+# (ArduPilot Rover's failsafe priorities, highest first: Terminate, Hold, RTL)
+ACTION_STRENGTH = ("rtl", "hold", "stop")
 
 
 @dataclass(frozen=True)
@@ -102,6 +108,8 @@ class Request:
     action: str  # the action to take: stop, hold or rtl (after the guard)
     configured: str  # the one configured for the cause
     fallback: str | None = None  # why the configured one is not taken
+    # (cause, action) of the stronger action a latched fault took before: it stays in force, this one is not taken
+    overruled_by: tuple[str, str] | None = None
 
 
 @dataclass(frozen=True)
@@ -245,6 +253,14 @@ class Failsafe:
         """The action a latched cause took (None if it has not tripped)."""
         return self._actions.get(cause)
 
+    def _stronger_taken(self, action: str) -> tuple[str, str] | None:
+        """(cause, action) of the strongest action taken so far when it is stronger than ``action``."""
+        taken = [(ACTION_STRENGTH.index(a), c, a) for c, a in self._actions.items()]  # an overruled one is milder
+        if not taken:
+            return None
+        strength, cause, strongest = max(taken)
+        return (cause, strongest) if strength > ACTION_STRENGTH.index(action) else None
+
     def configured(self, cause: str) -> str:
         cls = FAULT_CLASS[cause]
         return "stop" if cls in ALWAYS_STOP else getattr(self.cfg.actions, cls)
@@ -299,8 +315,11 @@ class Failsafe:
                 self._latched[cause] = found[cause]
                 configured = self.configured(cause)
                 action, why = guarded_action(configured, FAULT_CLASS[cause], _nav_missing(found))
+                stronger = self._stronger_taken(action)
                 self._actions[cause] = action
-                requests.append(Request(cause, action, configured, why))
+                if stronger is not None:
+                    why = f"{stronger[0]} took {stronger[1]} before: a milder action does not replace it"
+                requests.append(Request(cause, action, configured, why, overruled_by=stronger))
         now = dict(found)
         now.update({c: d for c, d in self._latched.items() if c not in now})
         events: list[Event] = []
