@@ -291,3 +291,53 @@ def test_a_sigterm_or_sighup_in_the_start_up_is_a_clean_stop(tmp_path, signame):
     last = json.loads(next(logs.glob("*.jsonl")).read_text().splitlines()[-1])
     assert (last["event"], last["reason"], last["signal"]) == ("stop", "signal", signame)
     assert not (run / "control.sock").exists()
+
+
+def test_a_second_bench_run_keeps_its_own_progress_and_a_held_start_is_said(tmp_path):
+    """Found by a new-user audit: a second `--sim` run (own socket) read the first's live mission progress as an
+    interrupted mission and sat at zero thrust for max_mission_time_s, said only in a JSON line; after a kill -9
+    the next bench run did the same, and the summary never said why."""
+    import yaml
+
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(tmp_path / "xdg")}  # the default runtime directory, this test's
+    work = tmp_path / "work"
+    work.mkdir()
+    cfg = yaml.safe_load(CONFIG.read_text())
+    cfg.setdefault("failsafe", {})["max_mission_time_s"] = 120.0
+    (work / "c.yaml").write_text(yaml.safe_dump(cfg))
+
+    def run(speedup: str, **kw):
+        return subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--config", "c.yaml", "--mission",
+                                 str(MISSIONS[0]), "--sim", "--speedup", speedup], cwd=work, env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+
+    first = run("1")
+    try:
+        line = first.stderr.readline()
+        while line.startswith("note: "):
+            line = first.stderr.readline()
+        assert line.startswith("autopilot run: control socket"), line
+        progress = work / "state" / "mission-progress.json"
+        deadline = time.monotonic() + 30.0
+        while not progress.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        before = progress.read_bytes()
+        second = run("max")
+        _, err = second.communicate(timeout=120)
+        assert second.returncode == 0, err[-2000:]
+        assert "another daemon runs, so this bench run keeps its mission progress in" in err, err[-2000:]
+        assert "mission complete" in err and "holding zero thrust" not in err, err[-2000:]
+        private = [p for p in (tmp_path / "xdg").iterdir() if "-sim-" in p.name]
+        assert private == []  # removed at exit
+        assert progress.read_bytes() == before  # the first run's progress is its own
+    finally:
+        first.kill()  # as a crash: its progress says running
+        first.wait(timeout=30)
+    third = run("max")
+    _, err = third.communicate(timeout=120)
+    assert third.returncode == 0, err[-2000:]
+    lines = [x for x in err.splitlines() if x.startswith("autopilot run: ")]
+    assert any("holding zero thrust: interrupted mission found in the state directory and "
+               "failsafe.resume_after_restart is false (--fresh starts afresh); `autopilot ctl --runtime-dir" in x
+               and x.endswith("resume` starts the mission") for x in lines), lines
+    assert any("the boat waited at zero thrust from the start: interrupted mission" in x for x in lines), lines

@@ -14,6 +14,7 @@ import contextlib
 import dataclasses
 import math
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -27,6 +28,7 @@ from autopilot.daemon.missionlog import MissionLog, log_path
 from autopilot.daemon.sd_notify import Notifier
 from autopilot.daemon.state import StateStore, file_sha256
 from autopilot.geo import latlon_to_local
+from autopilot.logschema import Mode
 from autopilot.resources import package_version
 from autopilot.schema import ConfigError, to_dict
 
@@ -150,6 +152,11 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
         sim_params(cfg)
     log_dir = Path(opts.log_dir or cfg.log_dir)
     state_dir = Path(opts.state_dir or cfg.state_dir)
+    path = control_socket(cfg, opts)
+    if private_sim_dir(path.parent) and opts.state_dir is None:
+        # the running daemon's progress is not this bench run's: read as an interrupted mission, it held this run
+        # at zero thrust for max_mission_time_s; written, it would have been the other's to resume after a crash
+        state_dir = path.parent / "state"
     for name, d in (("log directory", log_dir), ("state directory", state_dir)):
         if d.exists() and not d.is_dir():  # mkdir said "cannot create (File exists)"
             raise ConfigError(f"{name} {d}: is a file, not a directory")
@@ -159,7 +166,6 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
             raise ConfigError(f"{name} {d}: cannot create ({exc.strerror})") from exc
         if not os.access(d, os.W_OK | os.X_OK):
             raise ConfigError(f"{name} {d}: not writable by this user")
-    path = control_socket(cfg, opts)
     if _answers(path):
         raise ConfigError(f"another autopilot daemon is running: it answers on {path} (autopilot ctl status); "
                           "stop it first, or give this one its own --runtime-dir")
@@ -197,6 +203,11 @@ def control_socket(cfg: DaemonConfig, opts: RunOptions) -> Path:
     if opts.sim and given is None and _answers(path):
         path = path.parent.with_name(f"{path.parent.name}-sim-{os.getpid()}") / SOCKET_NAME
     return path
+
+
+def private_sim_dir(directory: Path) -> bool:
+    """A second bench run's own directory (:func:`control_socket`): this run's alone, removed at its exit."""
+    return directory.name.endswith(f"-sim-{os.getpid()}")
 
 
 def _answers(path: Path) -> bool:
@@ -244,7 +255,7 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: s
         return 0, None
     if cfg.failsafe.resume_after_restart:
         return saved, None
-    return 0, "interrupted mission found in the state directory and failsafe.resume_after_restart is false"
+    return 0, "interrupted mission found in the state directory and failsafe.resume_after_restart is false (--fresh starts afresh)"
 
 
 async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
@@ -320,11 +331,16 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     control = _control_server(control_socket(cfg, opts), holder)
     await control.start()  # before the log and the ports: a second daemon stops here
     if opts.sim:
-        _console(f"control socket {control.path}: autopilot ctl --runtime-dir {control.path.parent} status")
+        _console(f"control socket {control.path}: autopilot ctl --runtime-dir {control.path.parent} status"
+                 + (f"; another daemon runs, so this bench run keeps its mission progress in {state_dir} too "
+                    "(removed at exit)" if private_sim_dir(state_dir.parent) else ""))
     log = None
     try:
         log = MissionLog(log_path(log_dir, opts.mission_path))
         start_index, hold_zero = _resume_index(cfg, opts, store, sha, len(mission.waypoints_ne_m))
+        if hold_zero is not None:  # only a JSON line said so, and a bench run sat still for max_mission_time_s
+            _console(f"holding zero thrust: {hold_zero}; `autopilot ctl --runtime-dir {control.path.parent} resume` "
+                     "starts the mission")
         t0_s = clock.now_s()
         events = DeviceEvents(log, clock, t0_s, cfg)
         tasks, rig, tmpdir = [], None, None
@@ -397,6 +413,9 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         notifier.close()
         for line in end_summary(loop, str(log.path), sim=opts.sim):
             _console(line)
+        for d in {control.path.parent, state_dir.parent}:
+            if private_sim_dir(d):
+                shutil.rmtree(d, ignore_errors=True)
     if refused is not None:
         raise refused
     return code
@@ -505,6 +524,8 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
         ca = st.closest_m.get(i)
         got = "reached" if i in reached else "not reached"
         lines.append(f"  W{i}: {got}, closest approach " + (f"{ca:.2f} m" if ca is not None and math.isfinite(ca) else "n/a"))
+    if loop.hold_zero is not None and loop.ap.mode is Mode.STOP and not reached:
+        lines.append(f"  the boat waited at zero thrust from the start: {loop.hold_zero}")
     causes = list(st.failsafe_causes)
     lines.append(f"failsafes: {len(causes)}" + (f" ({', '.join(causes[:5])}{', ...' if len(causes) > 5 else ''})" if causes else ""))
     total = st.cycles + st.skipped
