@@ -70,3 +70,34 @@ def test_the_guidance_figure_names_the_law_the_log_flew(tmp_path, monkeypatch):
     monkeypatch.setattr(plots, "_save", lambda fig, p: titles.append(fig.axes[0].get_title()) or p)
     plots.plot_guidance(log, tmp_path / "g.png")
     assert titles == ["synthetic: los guidance (dashed: waypoint reached)"]
+
+
+def test_the_track_drawn_breaks_where_the_gps_was_lost_as_the_exports_do(tmp_path):
+    """Found by a new-user audit: through an 8-s GPS outage the daemon holds the last fix (its age growing); the
+    GPX and GeoJSON broke the track there, the track plot drew a straight line across."""
+    import json
+
+    from autopilot.review.export import track_fixes
+    from autopilot.review.plots import track_line
+    from autopilot.review.reader import read_log
+    from autopilot.review.synthetic import write_synthetic_log
+
+    path = tmp_path / "m.jsonl"
+    write_synthetic_log(path, duration_s=60.0)
+    out, held = [], None
+    for line in path.read_text().splitlines():
+        rec = json.loads(line)
+        if rec.get("event") == "cycle" and 20.0 <= rec["t_s"] < 28.0:
+            if held is None:  # the last fix before the outage, held from here on with its age growing
+                held = {k: rec[k] for k in ("north_m", "east_m", "lat_deg", "lon_deg")}
+                held["fix_t_s"] = rec["t_s"] - rec["position_age_s"]
+            rec.update({k: v for k, v in held.items() if k != "fix_t_s"}, position_age_s=rec["t_s"] - held["fix_t_s"])
+        out.append(json.dumps(rec))
+    path.write_text("\n".join(out) + "\n")
+    log = read_log(path)
+    n, _ = track_line(log)
+    assert len(track_fixes(log)[3]) == 2
+    breaks = np.flatnonzero(np.isnan(n))
+    assert len(breaks) == 2 and breaks[-1] == len(n) - 1  # one break inside, the end
+    _, fix_t = log.fix_rows()
+    assert fix_t[breaks[0] - 1] < 20.0 and fix_t[breaks[0]] >= 27.0  # across the outage, nothing drawn

@@ -91,12 +91,22 @@ def track_fixes(log: MissionLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, li
     lat, lon = lat_row[rows], lon_row[rows]
     if len(rows) == 0:
         return fix_t, lat, lon, []
-    lost = np.cumsum(~np.isfinite(lat_row))  # rows without a position so far
+    return fix_t, lat, lon, fix_stretches(rows, fix_t, np.isfinite(lat_row))
+
+
+def fix_stretches(rows: np.ndarray, fix_t: np.ndarray, has_position: np.ndarray) -> list[tuple[int, int]]:
+    """The [start, stop) index ranges (into ``rows``, the fixes' rows, measured at ``fix_t``) of unbroken
+    stretches: a stretch breaks where a row between two fixes has no position (``has_position``, per row) or
+    the fixes are more than FIX_GAP_FACTOR typical intervals apart (the daemon holds the last fix through an
+    outage: drawn as measured, the track crossed 8 s without a fix in a straight line)."""
+    if len(rows) == 0:
+        return []
+    lost = np.cumsum(~has_position)  # rows without a position so far
     dt = np.diff(fix_t)
     typical = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
     brk = (lost[rows[1:]] != lost[rows[:-1]]) | (dt > FIX_GAP_FACTOR * typical) | (dt <= 0)
     cuts = np.concatenate([[0], np.nonzero(brk)[0] + 1, [len(rows)]])
-    return fix_t, lat, lon, list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
+    return list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
 
 
 def waypoints_latlon(log: MissionLog) -> np.ndarray:

@@ -262,6 +262,18 @@ def _has(*arrays) -> bool:
     return any(np.isfinite(a).any() for a in arrays)
 
 
+def track_line(log: MissionLog) -> tuple[np.ndarray, np.ndarray]:
+    """(north_m, east_m) of the track as drawn: the measured fixes, NaN between the stretches the exports
+    break it into (:func:`autopilot.review.export.fix_stretches`)."""
+    from autopilot.review.export import fix_stretches
+
+    n, e = log.col("north_m"), log.col("east_m")
+    rows, fix_t = log.fix_rows()
+    gap = np.array([np.nan])
+    stretches = fix_stretches(rows, fix_t, np.isfinite(n) & np.isfinite(e))
+    return tuple(np.concatenate([x for a, b in stretches for x in (v[rows[a:b]], gap)] or [gap]) for v in (n, e))
+
+
 def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
     """Track in the local frame with waypoints, closest approaches, start, faults, failsafes, holds and launch."""
     n, e = log.col("north_m"), log.col("east_m")
@@ -270,12 +282,10 @@ def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
         return None
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 8))
-    rows, _ = log.fix_rows()  # the measured fixes, a break wherever the position was lost
+    rows, _ = log.fix_rows()
     fix_n, fix_e = np.full(len(n), np.nan), np.full(len(n), np.nan)
     fix_n[rows], fix_e[rows] = n[rows], e[rows]
-    lost = ~(np.isfinite(n) & np.isfinite(e))
-    keep = np.isfinite(fix_n) | lost
-    n2, e2 = track_points(fix_n[keep], fix_e[keep])
+    n2, e2 = track_points(*track_line(log))
     _avoid_stretches(ax, log, card, fix_n, fix_e)
     ax.plot(e2, n2, color=OWN_TRACK_COLOR, lw=1.2, label="track (position fixes)")
     ok = np.nonzero(np.isfinite(n) & np.isfinite(e))[0]
