@@ -54,6 +54,8 @@ def check_text_head(p: Path, head: bytes, *, what: str = "file") -> None:
     if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
         excel = " (in Excel: 'CSV UTF-8')" if p.suffix.lower() == ".csv" else ""
         raise ConfigError(f"{p}: UTF-16 text; save the {what} as UTF-8{excel}")
+    if head.startswith(b"\x1f\x8b"):  # gzip's magic: "binary data" did not say what to do
+        raise ConfigError(f"{p}: gzip-compressed; decompress it first (gunzip {p.name})")
     sniff = head[:_BINARY_SNIFF]
     if b"\x00" in sniff:
         # UTF-16 without a byte-order mark: every other byte of its ASCII text is a zero (it was "binary data")

@@ -88,7 +88,7 @@ def test_too_few_fixes_is_a_clear_error():
 
 def _cycle(k, t, **over):
     rec = {"event": "cycle", "t_s": t, "timestamp": "2026-01-01T00:00:00Z", "cycle": k, "mode": "auto",
-           "thrust_port_n": 10.0 + k, "thrust_stbd_n": 12.0, "north_m": float(np.floor(t)), "east_m": 0.5 * float(np.floor(t)),
+           "thrust_port_n": 10.0 + k % 20, "thrust_stbd_n": 12.0, "north_m": float(np.floor(t)), "east_m": 0.5 * float(np.floor(t)),
            "heading_deg": 1.0 * k % 360, "position_age_s": t - np.floor(t) + 0.05, "heading_age_s": 0.02,
            "sog_m_s": 1.0, "cog_deg": 0.0, "yaw_rate_deg_s": 0.5, "skipped_cycles": 0}
     rec.update(over)

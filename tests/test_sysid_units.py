@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -698,3 +699,141 @@ def test_a_smooth_cost_keeps_its_curvature_interval():
     prep = prepare([trial])
     f = fit_model(prep, VESSEL, ("current",), (0,), [[0.0, 0.0, 0.3, 1.0, 0.0, 0.0]])
     assert np.all(np.isfinite(f.sigma)) and curvature_holds(prep, VESSEL, f)
+
+
+def test_a_speed_and_course_whose_fix_was_lost_is_dated_in_its_own_epoch():
+    """Found by a new-user audit: a 1 Hz receiver's GGA garbled on the line, its RMC intact: the new speed and
+    course were dated with the latest fix, the epoch before (37.138 s for a course measured at 38.138 s)."""
+    from autopilot.sysid.trials import new_velocities
+
+    t_row = np.round(np.arange(33.01, 42.0, 0.1), 3)
+    fix_time = np.full(t_row.size, np.nan)
+    sog, cog = np.full(t_row.size, np.nan), np.full(t_row.size, np.nan)
+    epochs = [33.138 + k for k in range(8)]
+    for epoch in epochs:
+        k = int(np.searchsorted(t_row, epoch + 0.17))  # the GGA arrives ~0.17 s after the epoch ...
+        if epoch != 38.138:  # ... but this one was lost
+            fix_time[k] = epoch
+        sog[k + 2], cog[k + 2] = 0.9 + epoch / 100.0, epoch  # the RMC two rows later, always
+    is_new, times = new_velocities(sog, cog, np.isfinite(fix_time), fix_time, t_row)
+    assert_allclose(times[is_new], epochs)
+
+
+def test_one_lost_fix_does_not_move_the_fix_delay(tmp_path):
+    """The same on a daemon's log (tests/data/lost-fix/README.md): one fix of 49 blanked moved the fix delay
+    from 0.138 s to 0.104 s, 95 % 0.072-0.135 for a true 0.142 s."""
+    from pathlib import Path
+
+    csv = Path(__file__).parent / "data" / "lost-fix" / "pond-9.4-one-fix-lost.csv"
+    assert main(["sysid", str(csv), "--out", str(tmp_path / "out"), "--no-report", "--quiet"]) == 0
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert s["verdict"] == ["fix_delay"], s["verdict"]
+    row = next(r for r in s["effects"]["fix_delay"]["params"] if r["name"] == "delay_s")
+    assert row["ci95"][0] <= 0.142 <= row["ci95"][1] and abs(row["value"] - 0.142) < 0.01, row
+
+
+def _edited_pond_csv(tmp_path, edit) -> Path:
+    """The lost-fix test log (tests/data/lost-fix) with ``edit(header, rows)`` applied, as a user's file."""
+    import csv
+
+    src = Path(__file__).parent / "data" / "lost-fix" / "pond-9.4-one-fix-lost.csv"
+    with src.open(newline="") as fh:
+        table = list(csv.reader(fh))
+    header, rows = table[0], table[1:]
+    edit(header, rows)
+    out = tmp_path / "edited.csv"
+    with out.open("w", newline="") as fh:
+        csv.writer(fh).writerows([header, *rows])
+    return out
+
+
+def test_a_compass_that_starts_late_is_not_an_internal_error(tmp_path, capsys):
+    """Found by a new-user audit: no heading in a trial's first 3 s (the compass started late) crashed the initial
+    state's fit on an empty window: 'internal error: TypeError: expected non-empty vector for x'."""
+    def late(header, rows):
+        t, h, ht = header.index("t_s"), header.index("heading_deg"), header.index("heading_time_s")
+        for r in rows:
+            if float(r[t]) < 4.0:
+                r[h] = r[ht] = ""
+
+    path = _edited_pond_csv(tmp_path, late)
+    assert main(["sysid", str(path), "--out", str(tmp_path / "out"), "--no-report", "--quiet"]) == 0
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert s["verdict"] == ["fix_delay"], s["verdict"]
+
+
+@pytest.mark.parametrize("column, value, message", [
+    ("thrust_port_n", "2000", "data row 251, thrust_port_n: 2000 N is outside -32.5 to 32.5 N (the thrusters' thrust "
+                              "curve; refused beyond half as much again"),
+    ("lat_deg", "152", "data row 251, lat_deg: 152 deg is outside -90 to 90 deg"),
+    ("sog_m_s", "-1", "data row 251, sog_m_s: -1 m/s is below 0 m/s"),
+])
+def test_a_value_no_boat_gives_is_refused_naming_its_row(tmp_path, column, value, message):
+    """Found by a new-user audit: a typed 2000 N among thrusts of at most 32.5 N was replayed as given
+    ('unexplained', no row named); a latitude of 152 deg counted as two more fixes and changed the verdict."""
+    def typo(header, rows):
+        rows[250][header.index(column)] = value
+        if column == "lat_deg":  # the positions in lat/lon only, as a GPS export has them
+            for r in rows:
+                r[header.index("north_m")] = r[header.index("east_m")] = ""
+
+    path = _edited_pond_csv(tmp_path, typo)
+    if column == "lat_deg":
+        lines = path.read_text().splitlines()
+        keep = [i for i, h in enumerate(lines[0].split(",")) if h not in ("north_m", "east_m")]
+        path.write_text("\n".join(",".join(c for i, c in enumerate(x.split(",")) if i in keep) for x in lines) + "\n")
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        read_trial(path)
+
+
+@pytest.mark.parametrize("scale, hint", [(1000.0, "milliseconds? divide by 1000"),
+                                         (1.0 / 86400.0, "days (a spreadsheet's date-time)? multiply by 86400")])
+def test_a_time_not_in_seconds_is_refused_saying_which_unit_it_looks_like(tmp_path, scale, hint):
+    """Found by a new-user audit: t_s in milliseconds flew as an 'unexplained' 13-hour trial; in Excel's serial
+    days it was refused as '6 position fixes' of a file with 49."""
+    def rescale(header, rows):
+        for name in ("t_s", "position_time_s", "heading_time_s"):
+            k = header.index(name)
+            for r in rows:
+                r[k] = "" if r[k] == "" else repr(float(r[k]) * scale + (46361.0 if scale < 1 else 0.0))
+
+    with pytest.raises(ConfigError, match=re.escape(hint)):
+        read_trial(_edited_pond_csv(tmp_path, rescale))
+
+
+def test_no_report_removes_an_earlier_runs_report(tmp_path):
+    """Found by a new-user audit: `--no-report` into a DIR of an earlier run left its report.html, showing the
+    other verdict beside the new summary.json."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.html").write_text("<html>an earlier run: verdict none</html>")
+    csv = Path(__file__).parent / "data" / "lost-fix" / "pond-9.4-one-fix-lost.csv"
+    assert main(["sysid", str(csv), "--out", str(out), "--no-report", "--quiet"]) == 0
+    assert (out / "summary.json").exists() and not (out / "report.html").exists()
+
+
+@pytest.mark.parametrize("name", ["mission", "mission.txt", "mission.jsonl.gz"])
+def test_a_mission_log_is_read_as_one_whatever_its_name(tmp_path, name):
+    """Found by a new-user audit: a mission log saved without its .jsonl was read as a CSV and refused with its
+    whole first JSON line quoted as 'the header'."""
+    import gzip
+
+    from autopilot.review.synthetic import write_synthetic_log
+
+    write_synthetic_log(tmp_path / "m.jsonl")
+    data = (tmp_path / "m.jsonl").read_bytes()
+    (tmp_path / name).write_bytes(gzip.compress(data) if name.endswith(".gz") else data)
+    assert read_trial(tmp_path / name).counts == read_trial(tmp_path / "m.jsonl").counts
+
+
+def test_a_delay_the_noise_bound_absorbs_is_inconclusive_not_none(tmp_path):
+    """Found by a new-user audit (tests/data/no-time-columns/README.md): `none` while a candidate not ruled out
+    stood 11 sigma from no effect, its residual absorbed by a heading wander at its 1-deg bound."""
+    csv = Path(__file__).parent / "data" / "no-time-columns" / "pond-9.4-cycles.csv"
+    assert main(["sysid", str(csv), "--out", str(tmp_path / "out"), "--no-report", "--quiet"]) == 0
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert s["status"] == "inconclusive" and s["effects"] == {}, (s["status"], s["notes"])
+    note = next(n for n in s["notes"] if "absorbs what" in n)
+    assert note.startswith("the heading noise's wander part is at its bound") and "sensor_delay" in note, note
+    delay = next(c for c in s["not_excluded"] if c["param"] == "sensor_delay.delay_s")
+    assert 0.1 < delay["ci95"][0] < 0.2 < delay["ci95"][1] < 0.3, delay

@@ -12,15 +12,19 @@ from autopilot.schema import ConfigError
 
 
 def register(subparsers) -> None:
+    from autopilot.sysid.trials import CSV_HELP
+
     p = subparsers.add_parser(
         "sysid",
         help="find where simulation and measurements disagree, name the missing effect, fit it",
         description=(
-            "Replay measured trials (CSV, see autopilot/sysid/trials.py) or daemon mission logs (.jsonl) "
+            "Replay measured trials (CSV files, one per trial, columns below) or daemon mission logs (.jsonl) "
             "through the simulator, fit every candidate effect, choose by BIC confirmed on held-out "
             "trials, and write DIR/summary.json, DIR/report.html, DIR/vessel-updated.yaml, DIR/effects.yaml. "
             "With --table, examine a steady-state table (SPEC 6) instead."
         ),
+        epilog=CSV_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("trials", nargs="*", metavar="TRIAL", help="trial CSV files or mission logs (.jsonl)")
     p.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
@@ -33,7 +37,8 @@ def register(subparsers) -> None:
                         "needing more is model error (autopilot/sysid/noise.py NoiseBounds)")
     p.add_argument("--heading-wander-max", type=float, metavar="DEG",
                    help="largest wandering heading error of your compass (deg; default 1)")
-    p.add_argument("--no-report", action="store_true", help="skip report.html (faster)")
+    p.add_argument("--no-report", action="store_true",
+                   help="skip report.html (faster; an earlier run's report.html in DIR is removed)")
     p.add_argument("--quiet", action="store_true")
     p.set_defaults(func=run_cli)
 
@@ -49,6 +54,9 @@ def run_cli(args: argparse.Namespace) -> int:
     vessel = load_params(params_path)
     created = not Path(args.out).exists()
     output_dir(args.out, files=SYSID_OUTPUTS)  # before the fit, not after it
+    if args.no_report:  # an earlier run's report beside this run's summary showed the other verdict
+        with contextlib.suppress(FileNotFoundError):
+            (Path(args.out) / "report.html").unlink()
     try:
         return _run(args, vessel, params_path)
     except ConfigError:

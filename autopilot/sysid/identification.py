@@ -287,6 +287,14 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
                          "trials, or bound the sensor: --gps-wander-max, --heading-wander-max)")
         else:
             notes.append(f"{why}: the intervals may be too narrow")
+    elif status == "none":
+        absorbed = absorbed_by_noise(prep, fits, s)
+        if absorbed:
+            status = "inconclusive"
+            notes.append(f"{'; '.join(judge.at_bounds(prep.noise, s.bounds))}, and there it absorbs what "
+                         f"{', '.join(absorbed)} would explain, clearly away from no effect (their intervals are among those not ruled out): "
+                         "verdict inconclusive, not none (bound the sensor tighter if it is better than that: "
+                         "--gps-wander-max, --heading-wander-max; or fly more trials)")
     if status == "effects" and len(chosen) == 1:
         rivals = tied_singles(prep, vessel, fits, chosen, scores, s)
         if rivals:
@@ -318,6 +326,16 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
         adequacy=adequacy, nearest=nearest, notes=notes,
         not_excluded=not_excluded(fits, named) if status in ("none", "inconclusive") else [],
     )
+
+
+def absorbed_by_noise(prep, fits: dict, s: Settings) -> list[str]:
+    """The fitted single candidates clearly away from no effect when the noise estimate sits at a sensor's bound
+    without binding (judge.at_bounds): a closed-loop log exported without its time columns carries a real
+    0.2-s delay of every measurement (sensor_delay 0.161-0.231 s), and a heading wander held at its 1-deg bound
+    with a 4-s correlation time swallowed it whole: ``none``, though the delay was 11 sigma from zero."""
+    if not judge.at_bounds(prep.noise, s.bounds):
+        return []
+    return sorted(k[0] for k, f in fits.items() if len(k) == 1 and f.keys and judge.is_away(f, k[0]))
 
 
 def tied_singles(prep, vessel, fits: dict, chosen: tuple, scores, s: Settings) -> list[tuple]:

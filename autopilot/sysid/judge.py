@@ -248,15 +248,16 @@ AT_BOUND = 0.97  # an estimate this close to its largest allowed value sits at t
 BOUND_BINDING = 3.84
 
 
-def at_bounds(noise: Noise, bounds: NoiseBounds, adequacy: dict) -> list[str]:
-    """The channels whose noise estimate sits at the largest a sensor may have (white or wander part) and
-    would grow past it (``adequacy``'s deviance_beyond_sensor), as sentences: there the residual may hold a
-    model error of the noise's size that the data cannot tell from noise (one short log, a current against
-    metres of GPS wander)."""
+def at_bounds(noise: Noise, bounds: NoiseBounds, adequacy: dict | None = None) -> list[str]:
+    """The channels whose noise estimate sits at the largest a sensor may have (white or wander part) and,
+    given ``adequacy``, would grow past it (its deviance_beyond_sensor), as sentences: there the residual may
+    hold a model error of the noise's size that the data cannot tell from noise (one short log, a current
+    against metres of GPS wander). Without ``adequacy``: every part at its bound, binding or not."""
     out = []
     for c in CHANNELS:
         n = noise.of(c.name)
-        if n is None or (adequacy.get(c.name, {}).get("deviance_beyond_sensor") or 0.0) < BOUND_BINDING:
+        if n is None or (adequacy is not None
+                         and (adequacy.get(c.name, {}).get("deviance_beyond_sensor") or 0.0) < BOUND_BINDING):
             continue
         (_, w_hi), (_, g_hi), _ = bounds.channel(c.name)
         for part, value, hi in (("white", n.white, w_hi), ("wander", n.wander, g_hi)):

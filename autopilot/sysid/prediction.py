@@ -348,11 +348,13 @@ def measured_initial_state(m: Measured, *, window_s: float = 3.0) -> np.ndarray:
     """State at t = 0 from quadratic fits to the first seconds of the measurements.
 
     Only a start: noise makes the velocities rough (``fit.fit_model`` refines them). With 1 Hz
-    fixes the window grows until it holds six of them.
+    fixes the window grows until it holds six of them; so does the headings' when the compass starts late.
     """
     tp, th = m.t_pos_s, m.t_psi_s
+    # a compass that starts late (no heading in the first seconds) crashed np.polyfit on an empty window
     wp = max(window_s, float(tp[min(5, tp.size - 1)]) + 1e-6) if tp.size else window_s
-    ok, okh = tp <= wp, th <= window_s
+    wh = max(window_s, float(th[min(5, th.size - 1)]) + 1e-6) if th.size else window_s
+    ok, okh = tp <= wp, th <= wh
     deg = 2 if ok.sum() > 10 else 1
     pn = np.polyfit(tp[ok], m.north_m[ok], deg)
     pe = np.polyfit(tp[ok], m.east_m[ok], deg)

@@ -1,20 +1,6 @@
 """Measured trials for identification: CSV trial files (and, via mission_log.py, daemon mission logs).
 
-Trial CSV (one file per trial, header line, one row per sample, any order of
-columns, unknown columns ignored; empty cells, ``nan`` or text are gaps)::
-
-    t_s                              time (s), increasing
-    thrust_port_n, thrust_stbd_n     commanded thrust (N, negative = astern), or
-    pwm_port_pct, pwm_stbd_pct       signed duty (%, negative = reverse), converted
-                                     with autopilot.gnc.thrust_curve.ThrustCurve (SPEC 4)
-    north_m, east_m                  position (m, local frame), or
-    lat_deg, lon_deg                 position, converted around the first fix (autopilot.geo)
-    heading_deg                      heading from north, clockwise (deg)
-    position_time_s, heading_time_s  optional: when the row's position fix / heading was
-                                     measured (s, the clock of t_s)
-    sog_m_s, cog_deg                 optional: the receiver's speed (m/s) and course (deg) over
-                                     ground (RMC/VTG): the velocity channel (sysid/channels.py)
-    rot_deg_s                        optional: rate of turn
+Trial CSV: one file per trial, its columns in :data:`CSV_HELP` (what ``autopilot sysid --help`` shows).
 
 Measurements as they were taken (issue 12, "Build" 1; the rules agreed with
 ``review --export csv``): a trial holds only *new* measurements, each at the
@@ -34,7 +20,8 @@ time it was measured (``position_time_s`` / ``heading_time_s`` of the
 - a speed and course over ground are new where they change (a receiver sends them
   once an epoch, in RMC/VTG, often a sentence after the epoch's GGA: the row of a new
   fix may still hold the last epoch's), measured with the latest fix at or before
-  their row (one epoch, one solution); fewer than MIN_VELOCITIES: no velocity channel;
+  their row (one epoch, one solution), or, a whole epoch or more after that fix, in their own epoch
+  (its fix was lost: the latest fix's time plus whole epochs); fewer than MIN_VELOCITIES: no velocity channel;
 - rows the caller excludes (``make_trial(exclude=...)``: a mission log's
   failsafe stretches and the cycles after skipped deadlines) keep their
   commands (the motors had them) but contribute no measurement.
@@ -131,6 +118,12 @@ def _forward_fill(x: np.ndarray) -> np.ndarray:
 
 GAP_MIN_S = 5.0  # a step in t_s longer than this and than GAP_STEPS typical steps is a gap in the record
 GAP_STEPS = 10.0
+# rows a median interval outside these apart are not seconds: milliseconds (a 10 Hz log's rows 100 "s" apart,
+# which flew as an 'unexplained' trial of 13 hours) or Excel's serial days (rows 1e-6 "s" apart)
+ROW_INTERVAL_S = (1e-3, 10.0)
+# a commanded thrust beyond the thrust curve's largest by more than this share of it is a typo, not a measurement
+# (less may be another boat's thrusters, or a log's rounding)
+THRUST_SLACK = 0.5
 
 
 def check_times(t: np.ndarray, row_name) -> None:
@@ -152,13 +145,33 @@ def check_times(t: np.ndarray, row_name) -> None:
                               "of its own (a row written twice? delete one)")
         raise ConfigError(f"t_s goes back from {t[i]:g} s ({row_name(i)}) to {t[i + 1]:g} s ({row_name(i + 1)}): one "
                           "trial's rows in time order (two trials in one file? give each its own file)")
-    limit_s = max(GAP_MIN_S, GAP_STEPS * float(np.median(dt)))
+    median_s = float(np.median(dt))
+    if not ROW_INTERVAL_S[0] <= median_s <= ROW_INTERVAL_S[1]:
+        hint = ("milliseconds? divide by 1000" if median_s > ROW_INTERVAL_S[1] else
+                "days (a spreadsheet's date-time)? multiply by 86400, or export seconds")
+        raise ConfigError(f"t_s: the rows are a median {median_s:.3g} s apart ({row_name(0)} at {t[0]:.10g}, "
+                          f"{row_name(1)} at {t[1]:.10g}); t_s is in seconds, rows {ROW_INTERVAL_S[0]:g}-"
+                          f"{ROW_INTERVAL_S[1]:g} s apart: {hint}")
+    limit_s = max(GAP_MIN_S, GAP_STEPS * median_s)
     gaps = np.flatnonzero(dt > limit_s)
     if gaps.size:
         i = gaps[0]
         raise ConfigError(f"t_s jumps {dt[i]:.1f} s from {t[i]:g} s ({row_name(i)}) to {t[i + 1]:g} s "
                           f"({row_name(i + 1)}): a gap in the record (the logger stopped?); split the file there, "
                           "each part a trial of its own")
+
+
+def check_range(values: np.ndarray, column: str, lo: float, hi: float, unit: str, row_name, *, slack: float = 0.0,
+                why: str = "") -> None:
+    """ConfigError naming the first row whose ``column`` is outside [lo, hi] by more than ``slack`` (empty cells
+    are gaps, not errors). A typed 2000 N among thrusts of at most 32.5 N was replayed as given, 'unexplained',
+    and a latitude of 152 deg counted as two more fixes."""
+    bad = np.flatnonzero(np.isfinite(values) & ((values < lo - slack) | (values > hi + slack)))
+    if bad.size:
+        i = bad[0]
+        span = f"below {lo:g} {unit}" if math.isinf(hi) else f"outside {lo:g} to {hi:g} {unit}"
+        raise ConfigError(f"{row_name(i)}, {column}: {values[i]:g} {unit} is {span}{why}"
+                          + (f"; {bad.size} rows like it" if bad.size > 1 else ""))
 
 
 def _increasing_rows(t: np.ndarray) -> np.ndarray:
@@ -204,20 +217,31 @@ def new_headings(heading: np.ndarray, t_row_s: np.ndarray, heading_time_s: np.nd
     return is_new, np.where(is_new, t, np.nan)
 
 
-def new_velocities(sog: np.ndarray | None, cog: np.ndarray | None, fix_new: np.ndarray, fix_time_s: np.ndarray):
-    """(is_new, time_s) per row: a speed/course pair is new where it changes, measured with the latest fix
-    at or before its row (module docstring); none before the first fix."""
+def new_velocities(sog: np.ndarray | None, cog: np.ndarray | None, fix_new: np.ndarray, fix_time_s: np.ndarray,
+                   t_row_s: np.ndarray):
+    """(is_new, time_s) per row: a speed/course pair is new where it changes, measured in the epoch of the
+    latest fix at or before its row (module docstring); none before the first fix.
+
+    A pair that arrives a whole epoch (the median interval between fixes) or more after the latest fix is of a
+    later epoch whose fix was lost (a GGA garbled on the line, the RMC after it intact): it is dated on the
+    epochs' grid, the latest fix's time plus whole epochs. Given the lost fix's time, one course measured at
+    38.1 s was fitted as if at 37.1 s, a degree off in a turn, and the sensor delay came out 0.10 s for 0.14 s.
+    """
     n = fix_new.size
     is_new, times = np.zeros(n, dtype=bool), np.full(n, np.nan)
     if sog is None or cog is None:
         return is_new, times
+    fix_times = fix_time_s[fix_new]
+    epoch_s = float(np.median(np.diff(fix_times))) if fix_times.size >= 3 else math.inf
     last_fix_t = _forward_fill_after(np.where(fix_new, fix_time_s, np.nan))
     last = None
     for k in np.flatnonzero(np.isfinite(sog) & np.isfinite(cog) & np.isfinite(last_fix_t)):
         pair = (sog[k], cog[k])
         if pair == last:
             continue
-        is_new[k], times[k], last = True, last_fix_t[k], pair
+        epochs_later = math.floor((t_row_s[k] - last_fix_t[k]) / epoch_s) if epoch_s > 0.0 else 0
+        is_new[k], last = True, pair
+        times[k] = min(last_fix_t[k] + max(epochs_later, 0) * epoch_s, t_row_s[k])
     return is_new, times
 
 
@@ -265,6 +289,18 @@ def make_trial(
     def col(x):
         return None if x is None else np.asarray(x, dtype=float)[sel]
 
+    slack_n = THRUST_SLACK * max(curve.max_forward_n, curve.max_reverse_n)
+    thrusters = (" (the thrusters' thrust curve; refused beyond half as much again: a typo? a thrust column in "
+                 "other units?)")
+    for column, values, lo, hi, unit, slack, why in (
+            ("thrust_port_n", thrust_port_n, -curve.max_reverse_n, curve.max_forward_n, "N", slack_n, thrusters),
+            ("thrust_stbd_n", thrust_stbd_n, -curve.max_reverse_n, curve.max_forward_n, "N", slack_n, thrusters),
+            ("pwm_port_pct", pwm_port_pct, -100.0, 100.0, "%", 0.0, ""),
+            ("pwm_stbd_pct", pwm_stbd_pct, -100.0, 100.0, "%", 0.0, ""),
+            ("sog_m_s", sog_m_s, 0.0, math.inf, "m/s", 0.0, "")):
+        if values is not None:
+            check_range(np.asarray(values, dtype=float)[sel], column, lo, hi, unit, lambda i: row_name(sel[i]),
+                        slack=slack, why=why)
     tp, ts, dp, ds = _commands(name, col(thrust_port_n), col(thrust_stbd_n), col(pwm_port_pct), col(pwm_stbd_pct), curve)
     t_sel = t[sel]
     t0 = t_sel[0]
@@ -273,7 +309,7 @@ def make_trial(
     fix_new, fix_t = new_fixes(n, e, t_sel, col(position_time_s))
     hdg_new, hdg_t = new_headings(heading, t_sel, col(heading_time_s))
     sog, cog = col(sog_m_s), None if cog_deg is None else np.radians(col(cog_deg))
-    vel_new, vel_t = new_velocities(sog, cog, fix_new, fix_t)
+    vel_new, vel_t = new_velocities(sog, cog, fix_new, fix_t, t_sel)
     counts = _counts(n, e, heading, fix_new, hdg_new, drop)
     fix_new &= ~drop
     hdg_new &= ~drop
@@ -335,6 +371,8 @@ def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = Non
         lat, lon = get("lat_deg"), get("lon_deg")
         if lat is None or lon is None:
             raise ConfigError("needs north_m/east_m or lat_deg/lon_deg columns")
+        check_range(lat, "lat_deg", -90.0, 90.0, "deg", row_name)
+        check_range(lon, "lon_deg", -180.0, 180.0, "deg", row_name)
         ok = np.isfinite(lat) & np.isfinite(lon)
         if not ok.any():
             raise ConfigError("no valid lat_deg/lon_deg")
@@ -351,6 +389,19 @@ def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = Non
     )
 
 
+# the trial CSV's columns, once: ``autopilot sysid --help`` shows them (an installed user has no source to read)
+CSV_HELP = """trial CSV: a header line, one row per sample, any column order, unknown columns ignored,
+empty cells are gaps (Excel's ';' and decimal commas, a BOM, Windows-1252 are read too):
+  t_s                              time (s), increasing
+  thrust_port_n, thrust_stbd_n     commanded thrust (N, negative = astern), or
+  pwm_port_pct, pwm_stbd_pct       signed duty (%, negative = reverse)
+  north_m, east_m                  position (m, local frame), or
+  lat_deg, lon_deg                 position (deg)
+  heading_deg                      heading from north, clockwise (deg)
+  position_time_s, heading_time_s  optional: when the row's fix / heading was measured (s)
+  sog_m_s, cog_deg                 optional: speed (m/s) and course (deg) over ground
+  rot_deg_s                        optional: rate of turn (deg/s)
+`autopilot review LOG --export csv` writes a mission log in this form."""
 TRIAL_COLUMNS = ("t_s", "north_m", "east_m", "lat_deg", "lon_deg", "heading_deg", "thrust_port_n", "thrust_stbd_n",
                  "pwm_port_pct", "pwm_stbd_pct", "position_time_s", "heading_time_s", "sog_m_s", "cog_deg", "rot_deg_s")
 def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
@@ -390,15 +441,29 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
 
 
 def read_trial(path, *, curve: ThrustCurve | None = None) -> Trial:
-    """A trial CSV (``.csv``) or a mission log (``.jsonl``/``.json``, or either gzip-compressed: ``.jsonl.gz``)."""
+    """A trial CSV or a mission log (``.jsonl``/``.json``/``.log``, either gzip-compressed: ``.jsonl.gz``; or
+    whatever its name, a file whose first line is a JSON object)."""
     suffixes = [x.lower() for x in Path(path).suffixes]
     if suffixes[-1:] == [".gz"]:
         suffixes = suffixes[:-1]
-    if suffixes and suffixes[-1] in (".jsonl", ".json", ".log"):
+    if (suffixes and suffixes[-1] in (".jsonl", ".json", ".log")) or _starts_as_json(path):
         from autopilot.sysid.mission_log import read_mission_log
 
         return read_mission_log(path, curve=curve)
     return read_trial_csv(path, curve=curve)
+
+
+def _starts_as_json(path) -> bool:
+    """The file (gzip-compressed or not) begins with a JSON object: a mission log renamed, or saved without its
+    ``.jsonl`` (read as a CSV, it was refused with its whole first line as 'the header')."""
+    from autopilot.review.reader import open_log
+
+    try:
+        with open_log(Path(path)) as f:
+            head = f.read(256)
+    except (OSError, EOFError):
+        return False  # the CSV reader says what is wrong with it
+    return head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"{")
 
 
 def write_trial_csv(trial: Trial, path) -> None:
