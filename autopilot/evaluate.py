@@ -403,12 +403,23 @@ def _gnc_config(path):
     return load_yaml(GncConfig, path)
 
 
+def _mission_arg(given: str) -> Path:
+    """A --mission: a file, or a shipped mission by its name, as ``autopilot run`` takes it."""
+    from autopilot.resources import find_mission
+
+    try:
+        return find_mission(given)[0]
+    except ConfigError as exc:
+        raise ConfigError(f"--mission {exc}") from None
+
+
 def _cmd(args: argparse.Namespace) -> int:
     from autopilot.gnc import GUIDANCE_LAWS, GncConfig
     from autopilot.sim import default_params_path, load_params
 
     # each given once: a repeated --guidance flew every run twice and counted both in the summary
-    missions = list(dict.fromkeys(Path(p) for p in args.mission)) if args.mission else shipped_missions()
+    missions = (list(dict.fromkeys(_mission_arg(p) for p in args.mission)) if args.mission
+                else shipped_missions())
     laws = list(dict.fromkeys(args.guidance or GUIDANCE_LAWS))
     conds = list(dict.fromkeys(args.condition or CONDITION_NAMES))
     for law in laws:
@@ -509,7 +520,9 @@ def register(subparsers) -> None:
         ),
     )
     p.add_argument("--json", action="store_true", help="one JSON object per run")
-    p.add_argument("--mission", action="append", metavar="FILE", help="mission file (any supported format); default: config/missions/*.yaml")
+    p.add_argument("--mission", action="append", metavar="FILE",
+                   help="mission file (any supported format) or a shipped mission's name (pond-9.4); default: every "
+                        "shipped mission (`autopilot files`)")
     p.add_argument("--guidance", action="append", metavar="NAME", help="fuzzy, los, proportional (default: all)")
     p.add_argument("--condition", action="append", metavar="NAME", help=f"{', '.join(CONDITION_NAMES)} (default: all)")
     p.add_argument("--plot", metavar="DIR", help="draw the thesis figures of each run into DIR")

@@ -21,6 +21,7 @@ __all__ = [
     "missions_dir",
     "shipped_mission",
     "shipped_missions",
+    "find_mission",
     "campaigns_dir",
     "shipped_campaigns",
     "shipped_files",
@@ -71,6 +72,23 @@ def shipped_mission(name: str) -> Path | None:
         if name in (p.name, p.stem) and p.is_file():
             return p
     return None
+
+
+def find_mission(given: str, base_dir: Path | None = None) -> tuple[Path, bool]:
+    """(the file a mission argument means, whether it is a shipped one): a file (relative to ``base_dir`` when
+    given), else a shipped mission by its name (:func:`shipped_mission`); ConfigError listing the shipped ones.
+    One rule for ``run``, ``evaluate`` and campaign specs (evaluate took only files)."""
+    from autopilot.schema import ConfigError
+
+    path = Path(given) if base_dir is None else base_dir / given
+    if path.is_file():
+        return path, False
+    shipped = shipped_mission(given)
+    if shipped is not None:
+        return shipped, True
+    names = ", ".join(p.stem for p in shipped_missions())
+    raise ConfigError(f"{given}: no such file, nor a shipped mission ({names}; `autopilot files` lists them with "
+                      "their paths)")
 
 
 def campaigns_dir() -> Path:

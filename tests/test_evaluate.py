@@ -38,6 +38,16 @@ def test_current_from_the_east_still_completes(params):
     assert r.completed and max(r.closest_approach_m) < 2.5
 
 
+def test_a_shipped_mission_is_taken_by_its_name_as_run_takes_it(capsys):
+    """Found by a new-user audit: `autopilot run --mission pond-9.4` flies, `autopilot evaluate --mission
+    pond-9.4` said "unknown mission format '.4'"."""
+    assert main(["evaluate", "--json", "--mission", "pond-9.4", "--guidance", "fuzzy", "--condition", "calm"]) == 0
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["mission"] for r in rows] == ["pond-9.4"] and rows[0]["completed"] is True
+    assert main(["evaluate", "--mission", "pond-9.9", "--guidance", "fuzzy", "--condition", "calm"]) == 2
+    assert "--mission pond-9.9: no such file, nor a shipped mission (pond-9.1" in capsys.readouterr().err
+
+
 def test_cli_json_fields(capsys):
     # each option given twice (as pasted twice): the run was flown and printed twice
     rc = main(["evaluate", "--json", "--mission", str(MISSIONS / "pond-9.2.yaml"), "--guidance", "fuzzy", "--condition",

@@ -414,14 +414,12 @@ def load_spec(path: str | Path) -> CampaignSpec:
 
 def _mission(entry: str, base_dir: Path, i: int) -> MissionData:
     from autopilot.mission import load_mission
-    from autopilot.resources import missions_dir, shipped_missions
+    from autopilot.resources import find_mission
 
-    candidates = [base_dir / entry, missions_dir() / entry, missions_dir() / f"{entry}.yaml"]
-    path = next((p for p in candidates if p.is_file()), None)
-    if path is None:
-        shipped = ", ".join(p.stem for p in shipped_missions())
-        raise ConfigError(f"missions[{i}]: {entry!r} is neither a file (relative to the spec) nor a shipped mission "
-                          f"({shipped})")
+    try:
+        path, _ = find_mission(entry, base_dir)
+    except ConfigError as exc:
+        raise ConfigError(f"missions[{i}]: {exc} (a file relative to the spec, or a shipped name)") from None
     m = load_mission(path)
     return MissionData(m.name, tuple((float(n), float(e)) for n, e in m.waypoints_ne_m),
                        tuple(None if s is None else float(s) for s in m.speeds_m_s),

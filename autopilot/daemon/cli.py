@@ -74,7 +74,8 @@ def _run(args: argparse.Namespace) -> int:
 
     from autopilot.daemon.app import RunOptions, run_daemon
     from autopilot.daemon.config import load_config
-    from autopilot.resources import default_config_path, shipped_mission, shipped_missions
+    from autopilot.resources import default_config_path, find_mission
+    from autopilot.schema import ConfigError
 
     config = args.config
     if config is None:
@@ -87,11 +88,10 @@ def _run(args: argparse.Namespace) -> int:
     cfg = load_config(config)  # the configuration's errors first, as before a mission was found by its name
     mission = args.mission
     if not Path(mission).exists():
-        shipped = shipped_mission(mission)
-        if shipped is None:
-            names = ", ".join(p.stem for p in shipped_missions())
-            print(f"autopilot run: error: --mission {mission}: no such file, nor a shipped mission ({names}; "
-                  "`autopilot files` lists them with their paths)", file=sys.stderr)
+        try:
+            shipped, _ = find_mission(mission)
+        except ConfigError as exc:
+            print(f"autopilot run: error: --mission {exc}", file=sys.stderr)
             return 2
         print(f"note: --mission {mission}: the shipped mission {shipped}", file=sys.stderr)
         mission = str(shipped)
