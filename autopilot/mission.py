@@ -172,7 +172,8 @@ def _finish(
             n, e = a, b
         dist = math.hypot(n, e)
         if dist > max_range_m:
-            raise MissionError(f"{where}: {dist:.6g} m from the origin, farther than the allowed range {max_range_m:g} m")
+            raise MissionError(f"{where}: {dist:.6g} m from the origin, farther than the allowed range {max_range_m:g} m "
+                               "(the configuration's max_mission_range_m)")
         if ne and math.hypot(n - ne[-1][0], e - ne[-1][1]) < DUPLICATE_TOLERANCE_M:
             raise MissionError(f"{where}: same position as waypoint {k - 1} (duplicate consecutive waypoint)")
         speed = None

@@ -263,6 +263,8 @@ def output_dir(path: str | Path, *, what: str = "--out", files: tuple[str, ...] 
     error: IsADirectoryError' after the whole fit)."""
     import tempfile
 
+    if not str(path).strip():  # Path("") is the working directory: a campaign's results landed there unasked
+        raise ConfigError(f"{what}: empty; give a directory (. for this one)")
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise ConfigError(f"{what} {p}: is a file, not a directory")

@@ -676,3 +676,14 @@ def test_the_shipped_spec_is_found_by_its_name_and_its_readme_path_from_anywhere
     monkeypatch.chdir(tmp_path)
     for name in ("pond-robustness", "config/campaigns/pond-robustness.yaml"):
         assert load_campaign(name).spec.name == "pond-robustness"
+
+
+@pytest.mark.parametrize("out, message", [("", "--out: empty; give a directory (. for this one)"),
+                                          ("{tmp}/file.txt", "--out {tmp}/file.txt: is a file, not a directory")])
+def test_an_out_that_is_no_directory_is_refused_saying_so(tmp_path, capsys, out, message):
+    """Found by a new-user audit: `--out ''` wrote runs.csv, summary.json and report.html into the working
+    directory; `--out existing.txt` said 'cannot create the directory (File exists)'."""
+    (tmp_path / "file.txt").write_text("notes\n")
+    out = out.replace("{tmp}", str(tmp_path))
+    assert main(["campaign", str(ROOT_SPEC), "--runs", "3", "--jobs", "1", "--out", out, "--quiet"]) == 2
+    assert capsys.readouterr().err.strip() == f"autopilot campaign: error: {message.replace('{tmp}', str(tmp_path))}"

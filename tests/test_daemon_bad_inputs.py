@@ -45,6 +45,8 @@ CLI_CASES = [
      "autopilot run: error: log directory /proc/autopilot-logs: cannot create (No such file or directory)"),
     ("command line", "log directory is a file", GOOD_CONFIG, GOOD_MISSION, ["--log-dir", "{dir}/c.yaml"],
      "autopilot run: error: log directory {dir}/c.yaml: is a file, not a directory"),
+    ("command line", "runtime directory is a file", GOOD_CONFIG, GOOD_MISSION, ["--runtime-dir", "{dir}/c.yaml"],
+     "autopilot run: error: runtime directory {dir}/c.yaml: is a file, not a directory"),
     ("command line", "--mavlink not an endpoint", GOOD_CONFIG, GOOD_MISSION, ["--mavlink", "tcp:1.2.3.4:5760"],
      "autopilot run: error: --mavlink: 'tcp:1.2.3.4:5760': not an endpoint (udpout:HOST:PORT, udpin:ADDR:PORT or /dev/PATH:BAUD)"),
     ("configuration", "file missing", None, GOOD_MISSION, [],

@@ -36,11 +36,9 @@ def check_out_dir(out_dir, *, overwrite: bool = False) -> Path:
     """Make ``out_dir`` ready before anything is flown: created, writable, no earlier campaign's results in it
     (a new campaign beside an old summary.json and report.html looked complete, and --replay compared runs
     with the old runs.csv), or with ``overwrite`` those removed first. ConfigError naming what is wrong."""
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"--out {out}: cannot create the directory ({exc.strerror or exc})") from None
+    from autopilot.userfile import output_dir
+
+    out = output_dir(out_dir)
     old = _previous(out)
     if old and not overwrite:
         raise ConfigError(f"--out {out}: holds a campaign's results already ({', '.join(p.name for p in old[:4])}"

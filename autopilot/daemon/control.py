@@ -138,6 +138,8 @@ class ControlServer:
     async def start(self) -> None:
         """Bind the socket (0660). Refuses to start when another daemon answers on it (two daemons
         must never drive the same thrusters); a stale socket from a killed daemon is replaced."""
+        if self.path.parent.exists() and not self.path.parent.is_dir():  # mkdir said "cannot create (File exists)"
+            raise ConfigError(f"runtime directory {self.path.parent}: is a file, not a directory")
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True, mode=0o750)
         except OSError as exc:
