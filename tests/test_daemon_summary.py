@@ -8,24 +8,26 @@ import numpy as np
 
 from autopilot.daemon.app import end_summary
 from autopilot.daemon.loop import LoopState
+from autopilot.logschema import Mode
 
 
 def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_lost=0, log_failing=False,
-          stop_acknowledged=True):
-    st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [0],
+          stop_acknowledged=True, stop_signal=None, hold_zero=None):
+    st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [],
                    closest_m={0: 0.41, 1: 0.27, 2: float("nan")} if complete else {0: 0.41},
                    completed_t_s=38.0 if complete else None, failsafe_causes=list(failsafes),
-                   stop_acknowledged=stop_acknowledged)
+                   stop_acknowledged=stop_acknowledged, stop_signal=stop_signal)
     held = speedup * cycles / (cycles + skipped)  # the rate a loop at that speedup skipping so many deadlines keeps
     return SimpleNamespace(state=st, clock=SimpleNamespace(now_s=lambda: 45.0, speedup=speedup), t0_s=5.0,
                            mission=SimpleNamespace(waypoints_ne_m=np.zeros((3, 2))), speedup_held=lambda: held,
-                           log=SimpleNamespace(lines_lost=lines_lost, failing=log_failing))
+                           log=SimpleNamespace(lines_lost=lines_lost, failing=log_failing), hold_zero=hold_zero,
+                           ap=SimpleNamespace(mode=Mode.STOP if hold_zero else Mode.AUTO))
 
 
 def test_a_clean_run():
     lines = end_summary(_loop(cycles=400, skipped=0, speedup=10.0), "/l/m.jsonl", sim=True)
     assert lines[0] == "log: /l/m.jsonl"
-    assert lines[1] == "mission complete after 40.0 s: 3 of 3 waypoint(s) reached"
+    assert lines[1] == "mission complete after 40.0 s: 3 of 3 waypoint(s) reached; zero thrust acknowledged by the Mbed"
     assert "  W0: reached, closest approach 0.41 m" in lines and "  W2: reached, closest approach n/a" in lines
     assert "failsafes: 0" in lines
     assert not any("could not keep up" in ln for ln in lines)
@@ -41,7 +43,7 @@ def test_a_bench_run_that_could_not_keep_up_says_so():
 
 def test_an_unfinished_mission():
     lines = end_summary(_loop(cycles=100, skipped=0, complete=False), "x", sim=False)
-    assert lines[1].startswith("mission not complete") and "1 of 3 waypoint(s) reached" in lines[1]
+    assert lines[1].startswith("mission not complete") and "0 of 3 waypoint(s) reached" in lines[1]
     assert "  W1: not reached, closest approach n/a" in lines
 
 
@@ -54,3 +56,15 @@ def test_a_log_cut_short_and_an_unacknowledged_stop_are_said():
     assert lines[2].startswith("WARNING: the Mbed did not acknowledge the final zero thrust")
     clean = end_summary(_loop(cycles=400, skipped=0), "x", sim=False)
     assert not any("lost" in ln or "WARNING" in ln for ln in clean)
+
+
+def test_a_stop_by_signal_and_a_held_start_are_said():
+    """Found by a new-user audit: a run ended by SIGTERM said only "mission not complete" (the signal and the
+    acknowledged zero were in the JSON stop line), and one held at zero thrust by an interrupted mission's progress
+    never said why."""
+    lines = end_summary(_loop(cycles=95, skipped=0, complete=False, stop_signal="SIGTERM"), "x", sim=False)
+    assert lines[1] == ("mission not complete after 40.0 s: 0 of 3 waypoint(s) reached; stopped by SIGTERM; zero "
+                        "thrust acknowledged by the Mbed")
+    held = end_summary(_loop(cycles=95, skipped=0, complete=False, hold_zero="interrupted mission found"), "x",
+                       sim=True)
+    assert "  the boat waited at zero thrust from the start: interrupted mission found" in held

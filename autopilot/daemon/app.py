@@ -524,7 +524,9 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
         lines.append("WARNING: the Mbed did not acknowledge the final zero thrust: check that the thrusters stopped "
                      "(its own command timeout stops them)")
     done = "mission complete" if st.complete else "mission not complete"
-    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached")
+    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached"
+                 + (f"; stopped by {st.stop_signal}" if st.stop_signal and not st.complete else "")
+                 + ("; zero thrust acknowledged by the Mbed" if st.stop_acknowledged else ""))
     for i in range(n_wps):
         ca = st.closest_m.get(i)
         got = "reached" if i in reached else "not reached"
