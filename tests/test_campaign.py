@@ -680,9 +680,10 @@ def test_the_shipped_spec_is_found_by_its_name_and_its_readme_path_from_anywhere
 
 @pytest.mark.parametrize("out, message", [("", "--out: empty; give a directory (. for this one)"),
                                           ("{tmp}/file.txt", "--out {tmp}/file.txt: is a file, not a directory")])
-def test_an_out_that_is_no_directory_is_refused_saying_so(tmp_path, capsys, out, message):
+def test_an_out_that_is_no_directory_is_refused_saying_so(tmp_path, capsys, monkeypatch, out, message):
     """Found by a new-user audit: `--out ''` wrote runs.csv, summary.json and report.html into the working
     directory; `--out existing.txt` said 'cannot create the directory (File exists)'."""
+    monkeypatch.chdir(tmp_path)  # where an empty --out would write
     (tmp_path / "file.txt").write_text("notes\n")
     out = out.replace("{tmp}", str(tmp_path))
     assert main(["campaign", str(ROOT_SPEC), "--runs", "3", "--jobs", "1", "--out", out, "--quiet"]) == 2

@@ -288,11 +288,38 @@ def test_a_flat_battery_stops_and_battery_low_does_not_drive_it_on(tmp_path):
                          for c in ("battery_critical", "battery_low"))
             assert crit["action"] == "stop" and crit["t_s"] < low["t_s"]
             assert (low["action"], low["configured"]) == ("stop", "rtl"), low
-            assert low["fallback"] == "battery_critical took stop before: a milder action does not replace it"
+            assert low["fallback"] == "battery_critical took stop before: a failsafe does not drive a boat a failsafe stopped"
             assert [m[1:] for m in _modes(d)][-1] == ("stop", "failsafe battery_critical")
             after = [r for r in d.log() if r["event"] == "cycle" and r["t_s"] > crit["t_s"] + 0.5]
             assert len(after) > 50 and all(r["thrust_port_n"] == 0 and r["thrust_stbd_n"] == 0 for r in after)
             assert not d.rig.mbed.thrusting
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
+
+
+def test_a_failsafe_does_not_drive_a_boat_the_operator_stopped(tmp_path):
+    """Found by fault injection: `ctl stop`, then battery_low's rtl drove the boat (60 cycles of thrust)."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=25.0, laps=2), config={"failsafe": {"battery_low_s": 2.0}})
+        try:
+            await d.start()
+            await d.steady_thrust(3.0)
+            assert (await d.ctl("stop"))[0] == 0
+            await _wait_mode(d, "stop", 5.0)
+            t_stop = _last_cycle(d)["t_s"]
+            d.rig.mbed.battery.soc = 0.2  # ~11.8 V: below battery_low_v, above battery_critical_v
+            await d.wait(lambda: any(r["cause"] == "battery_low" for r in d.events("failsafe")), 30.0, "battery low")
+            await d.clock.sleep(3.0)
+            low = next(r for r in d.events("failsafe") if r["cause"] == "battery_low")
+            assert (low["action"], low["fallback"]) == (
+                "stop", "the stop in force (ctl stop) stands: a failsafe does not drive a stopped boat"), low
+            moving = [r for r in d.log() if r["event"] == "cycle" and r["t_s"] > t_stop + 0.5
+                      and (r["thrust_port_n"] or r["thrust_stbd_n"])]
+            assert moving == [] and _last_cycle(d)["mode"] == "stop"
             d.proc.send_signal(2)
             assert await d.finish(30.0) == 0
         finally:

@@ -146,10 +146,10 @@ def test_battery_stages_need_the_voltage_low_for_their_time():
     assert fs.update(good(t3 + 6.0, battery_v=None)).active[-2:] == ("battery_low", "battery_critical")  # latched
 
 
-def test_a_milder_latched_action_never_replaces_a_stronger_one():
+def test_a_later_failsafe_never_drives_a_boat_a_failsafe_stopped():
     """Found by a new-user audit: a flat battery (below both thresholds at once) tripped battery_critical after
     its 5 s and battery_low after its 10 s; low's rtl then replaced critical's stop and the boat drove on for
-    half an hour on an empty battery. Now the stop stands; a later stronger action still replaces a milder."""
+    half an hour on an empty battery. Now the stop stands; between hold and rtl the later one is taken."""
     cfg = dataclasses.replace(CFG, battery_low_v=12.0, battery_low_s=10.0, battery_critical_v=11.7,
                               battery_critical_s=5.0, actions=FailsafeActions(battery_low="rtl", geofence="hold"))
     fs = Failsafe(cfg)
@@ -157,7 +157,7 @@ def test_a_milder_latched_action_never_replaces_a_stronger_one():
     reqs = [r for k in range(120) for r in fs.update(good(t + 0.1 * k, battery_v=11.0)).requests]
     assert [(r.cause, r.action, r.overruled_by) for r in reqs] == [
         ("battery_critical", "stop", None), ("battery_low", "rtl", ("battery_critical", "stop"))]
-    assert reqs[1].fallback == "battery_critical took stop before: a milder action does not replace it"
+    assert reqs[1].fallback == "battery_critical took stop before: a failsafe does not drive a boat a failsafe stopped"
     assert fs.action_of("battery_low") == "rtl"  # what it asked: its own configured action, not taken
 
     fs = Failsafe(cfg, fence_ne_m=[(-10.0, -10.0), (-10.0, 10.0), (10.0, 10.0), (10.0, -10.0)])  # hold, then rtl
@@ -166,10 +166,12 @@ def test_a_milder_latched_action_never_replaces_a_stronger_one():
     assert [(r.cause, r.action, r.overruled_by) for r in first] == [("geofence", "hold", None)]
     reqs = [r for k in range(1, 120) for r in fs.update(good(t + 0.1 * k, north_m=20.0, east_m=0.0,
                                                                 battery_v=11.9)).requests]
-    assert [(r.cause, r.overruled_by) for r in reqs] == [("battery_low", ("geofence", "hold"))]  # hold > rtl
+    assert [(r.cause, r.action, r.overruled_by) for r in reqs] == [("battery_low", "rtl", None)]  # home on low
 
 
-def test_an_overruled_request_leaves_the_helm_as_it_is():
+def test_a_failsafe_leaves_a_stopped_helm_stopped_whoever_stopped_it():
+    """Found by fault injection: `ctl stop` (or the stop an interrupted mission holds at start), then battery_low's
+    rtl drove the boat, 60 cycles at up to full thrust."""
     from autopilot.daemon.cycle import answer_failsafe
     from autopilot.daemon.failsafe import Request
     from autopilot.gnc import Autopilot, GncConfig, NavInput
@@ -177,12 +179,16 @@ def test_an_overruled_request_leaves_the_helm_as_it_is():
     ap = Autopilot(GncConfig(), [(50.0, 0.0)])
     nav = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
     ap.step(nav, 0.1)
-    assert answer_failsafe(ap, Request("battery_critical", "stop", "stop"), nav, "") == ("stop", None)
+    ap.request("stop", None, cause="ctl stop")
+    assert answer_failsafe(ap, Request("battery_low", "rtl", "rtl"), nav, "") == (
+        "stop", "the stop in force (ctl stop) stands: a failsafe does not drive a stopped boat")
     assert ap.mode.value == "stop"
-    late = Request("battery_low", "rtl", "rtl", "battery_critical took stop before: a milder action does not replace "
-                   "it", overruled_by=("battery_critical", "stop"))
-    assert answer_failsafe(ap, late, nav, "") == ("stop", late.fallback)
-    assert ap.mode.value == "stop"
+    late = Request("battery_low", "rtl", "rtl", "battery_critical took stop before", overruled_by=("battery_critical",
+                                                                                                    "stop"))
+    ap.request("rtl", nav, cause="ctl rtl")  # the operator brings it home after the critical stop: kept
+    assert answer_failsafe(ap, late, nav, "") == ("stop", late.fallback) and ap.mode.value == "rtl"
+    ap.request("hold", nav, cause="ctl hold")  # not stopped: a failsafe's rtl is taken
+    assert answer_failsafe(ap, Request("geofence", "rtl", "rtl"), nav, "") == ("rtl", None) and ap.mode.value == "rtl"
 
 
 def test_resting_voltage_takes_out_the_sag_of_the_duties():

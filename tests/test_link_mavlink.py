@@ -726,3 +726,59 @@ def test_mission_planners_stream_rates_are_obeyed(tmp_path):
         assert 3 <= seen["HEARTBEAT"] <= 5, seen
     finally:
         assert boat.stop() == 0
+
+
+def _thrust_after(boat: Boat, t_s: float) -> list[tuple]:
+    return [(round(r["t_s"], 1), r["mode"], r["thrust_port_n"], r["thrust_stbd_n"])
+            for r in boat.cycles() if r["t_s"] > t_s and (r["thrust_port_n"] or r["thrust_stbd_n"])]
+
+
+def test_the_ground_station_lost_does_not_drive_a_boat_a_failsafe_stopped(tmp_path):
+    """Found by fault injection: a flat battery's critical stop, then the ground station lost with
+    gcs_lost_action rtl: the link's action came as an operator's command, and the boat drove home on the empty
+    battery (120 cycles of thrust)."""
+    boat = Boat(tmp_path, config={"sim": {"battery_initial_soc": 0.0, "battery_capacity_ah": 1.0},
+                                  "mavlink": {"gcs_timeout_s": 1.5, "gcs_lost_action": "rtl"}})
+    try:
+        crit = boat.wait_log(lambda r: r["event"] == "failsafe" and r["cause"] == "battery_critical", 40.0, "critical")
+        boat.mode_is("stop")
+        t_end = time.monotonic() + 1.0
+        while time.monotonic() < t_end:
+            boat.beat()
+            boat.gcs.recv_match(blocking=True, timeout=0.05)
+        boat.last_hb = math.inf  # the ground station goes quiet (out of radio range)
+        boat.wait_log(lambda r: r["event"] == "gcs" and r["state"] == "lost", 20.0, "gcs lost")
+        refused = boat.wait_log(lambda r: r["event"] == "command" and r["command"] == "rtl", 10.0, "the link's rtl")
+        time.sleep(2.0)
+    finally:
+        boat.stop()
+    assert refused["accepted"] is False and "the stop in force (failsafe battery_critical) stands" in refused["answer"]
+    assert _thrust_after(boat, crit["t_s"] + 0.5) == []
+
+
+def test_a_joystick_stream_does_not_undo_a_failsafe_stop(tmp_path):
+    """Found by fault injection: a planner streams MANUAL_CONTROL while its joystick is on; the packet after
+    battery_critical's stop took the boat back to manual, 26 N a side on the empty battery."""
+    boat = Boat(tmp_path, config={"sim": {"battery_initial_soc": 0.11, "battery_capacity_ah": 1.0},
+                                  "mavlink": {"manual_timeout_s": 0.5}})
+    try:
+        boat.mode_is("auto", 20.0)
+        crit = None
+        t_end = time.monotonic() + 40.0
+        while time.monotonic() < t_end and crit is None:  # driving by joystick at ~20 Hz until the battery trips
+            boat.gcs.mav.manual_control_send(1, 800, 0, 0, 0, 0)
+            boat.beat()
+            boat.gcs.recv_match(blocking=False)
+            time.sleep(0.05)
+            crit = next((r for r in boat.log() if r["event"] == "failsafe" and r["cause"] == "battery_critical"), None)
+        assert crit is not None, "battery_critical never tripped"
+        t_end = time.monotonic() + 2.0  # the hand stays on the stick
+        while time.monotonic() < t_end:
+            boat.gcs.mav.manual_control_send(1, 800, 0, 0, 0, 0)
+            boat.beat()
+            time.sleep(0.05)
+    finally:
+        boat.stop()
+    assert _thrust_after(boat, crit["t_s"] + 0.3) == []
+    refused = [r for r in boat.log() if r["event"] == "command" and r["command"] == "manual" and not r["accepted"]]
+    assert refused and "stick input does not undo it: choose the MANUAL mode to drive" in refused[0]["answer"]

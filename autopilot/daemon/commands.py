@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from autopilot.daemon.cycle import answer_failsafe
+from autopilot.daemon.cycle import answer_failsafe, stop_in_force
 from autopilot.logschema import Mode
 
 __all__ = ["apply", "failsafe_action", "replace_key"]
@@ -64,6 +64,11 @@ def waiting_note(decision, resume_valid_s: float) -> str:
 
 def _helm(loop, request, helm_nav, unavailable, cause):
     command = request["command"]
+    stopped = stop_in_force(loop.ap)
+    if request.get("failsafe") and stopped is not None and command != "stop":
+        # the link's own failsafe (ground station lost) drove a boat battery_critical had stopped, found by fault
+        # injection: a failsafe never replaces a stop in force, whoever's (cycle.answer_failsafe)
+        return False, f"{command} not taken: the stop in force ({stopped}) stands: a failsafe does not drive a stopped boat"
     latched = list(loop.failsafe.latched)
     if command == "resume" and latched:
         return False, (f"resume refused: {', '.join(latched)} latched (a failsafe took the boat; "
@@ -82,6 +87,12 @@ def _manual(loop, request, helm_nav, unavailable, cause):
     if loop.ap.mode is not Mode.MANUAL:
         if not loop.ap.armed:
             return False, "manual refused: disarmed (arm first)"
+        held = stop_in_force(loop.ap) or (loop.ap.mode_cause if loop.ap.mode_cause.startswith("failsafe") else None)
+        if held is not None and not request.get("explicit"):
+            # a planner streams MANUAL_CONTROL whenever a joystick is on, sticks centred or not: the packet after a
+            # failsafe's stop took the boat back to manual (found by fault injection); choosing MANUAL still does
+            return False, (f"manual refused: {loop.ap.mode.value} in force ({held}); stick input does not undo it: "
+                           "choose the MANUAL mode to drive")
         loop.ap.request("manual", None, cause=cause)
         loop.ap.set_sticks(request.get("forward_nd", 0.0), request.get("turn_nd", 0.0))
         return True, "manual"

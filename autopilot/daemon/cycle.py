@@ -22,7 +22,7 @@ from autopilot.gnc import ControlOutput, NavInput
 from autopilot.gnc.navigation import Navigation, NavRules
 from autopilot.logschema import CYCLE_KEYS, Mode
 
-__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "answer_failsafe", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
+__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "answer_failsafe", "stop_in_force", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
            "GNC_FIELDS"]
 
 MAX_STEP_DT_S = 1.0  # a GNC step after a long pause integrates at most this much
@@ -80,12 +80,23 @@ def arbitrate(decision: Decision, *, steerable: bool, manual: bool = False) -> t
     return None, True
 
 
+def stop_in_force(ap) -> str | None:
+    """Why the helm ``ap`` is stopped (its mode's cause: a failsafe's, the operator's, an interrupted mission's
+    at start), or None when it is not: a stop is latched until an operator commands otherwise, so neither a
+    failsafe's hold or rtl nor a stream of stick packets replaces it."""
+    return ap.mode_cause if ap.mode is Mode.STOP else None
+
+
 def answer_failsafe(ap, req, helm_nav: NavInput | None, unavailable: str) -> tuple[str, str | None]:
     """A latched fault's request to the helm ``ap``: (the action in force after it, why not the configured one).
-    Overruled (a stronger action a fault took before stands): the helm is left as it is; refused (rtl without a
-    launch point): stop."""
+    Overruled (a stop a fault took before stands), or the helm stopped for any other reason (``ctl stop``, an
+    interrupted mission held at start) and the action not a stop: the helm is left as it is. Refused (rtl without
+    a launch point): stop."""
     if req.overruled_by is not None:
         return req.overruled_by[1], req.fallback
+    stopped = stop_in_force(ap)
+    if stopped is not None and req.action != "stop":  # found by fault injection: ctl stop, then battery_low's rtl
+        return "stop", f"the stop in force ({stopped}) stands: a failsafe does not drive a stopped boat"
     ok, answer = ap.request(req.action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
     if ok:
         return req.action, req.fallback

@@ -18,9 +18,10 @@ Two kinds of fault:
   critical) never clear. Each asks once for its configured action
   (``failsafe.actions``: stop, hold or rtl; Mbed faults and battery_critical always
   stop) as a :class:`Request` for the helm; they do not themselves stop the GNC.
-  A milder action never replaces a stronger one a latched fault took before
-  (ACTION_STRENGTH): a flat battery trips battery_critical (5 s) before battery_low
-  (10 s), and battery_low's rtl drove the boat on after the critical stop.
+  A later fault's hold or rtl never replaces a stop a latched fault took before
+  (:meth:`Failsafe._stop_taken`): a flat battery trips battery_critical (5 s) before
+  battery_low (10 s), and battery_low's rtl drove the boat on after the critical stop.
+  (Nor one the helm is in for any other reason: :func:`autopilot.daemon.cycle.answer_failsafe`.)
 
 The guard (ArduPilot's ``requires_position()``): hold and rtl need a position and a
 heading. A position or heading fault never takes them, and a latched fault that
@@ -57,9 +58,6 @@ FAULT_CLASS: dict[str, str] = {
 }
 NAV_CLASSES = frozenset({"position", "heading"})  # faults of what hold and rtl need
 ALWAYS_STOP = frozenset({"mbed", "battery_critical"})
-# the latched faults' actions, mildest first: a later fault's milder action leaves a stronger one in force
-# (ArduPilot Rover's failsafe priorities, highest first: Terminate, Hold, RTL)
-ACTION_STRENGTH = ("rtl", "hold", "stop")
 
 
 @dataclass(frozen=True)
@@ -108,7 +106,7 @@ class Request:
     action: str  # the action to take: stop, hold or rtl (after the guard)
     configured: str  # the one configured for the cause
     fallback: str | None = None  # why the configured one is not taken
-    # (cause, action) of the stronger action a latched fault took before: it stays in force, this one is not taken
+    # (cause, "stop") of the stop a latched fault took before: it stays in force, this action is not taken
     overruled_by: tuple[str, str] | None = None
 
 
@@ -253,13 +251,10 @@ class Failsafe:
         """The action a latched cause took (None if it has not tripped)."""
         return self._actions.get(cause)
 
-    def _stronger_taken(self, action: str) -> tuple[str, str] | None:
-        """(cause, action) of the strongest action taken so far when it is stronger than ``action``."""
-        taken = [(ACTION_STRENGTH.index(a), c, a) for c, a in self._actions.items()]  # an overruled one is milder
-        if not taken:
-            return None
-        strength, cause, strongest = max(taken)
-        return (cause, strongest) if strength > ACTION_STRENGTH.index(action) else None
+    def _stop_taken(self) -> str | None:
+        """The first latched cause that took stop (ArduPilot Rover's failsafe priorities put Terminate and Hold,
+        its stop, above RTL: a later, milder failsafe action does not replace them)."""
+        return next((c for c in CAUSES if self._actions.get(c) == "stop"), None)
 
     def configured(self, cause: str) -> str:
         cls = FAULT_CLASS[cause]
@@ -315,11 +310,12 @@ class Failsafe:
                 self._latched[cause] = found[cause]
                 configured = self.configured(cause)
                 action, why = guarded_action(configured, FAULT_CLASS[cause], _nav_missing(found))
-                stronger = self._stronger_taken(action)
+                stop = self._stop_taken() if action != "stop" else None
                 self._actions[cause] = action
-                if stronger is not None:
-                    why = f"{stronger[0]} took {stronger[1]} before: a milder action does not replace it"
-                requests.append(Request(cause, action, configured, why, overruled_by=stronger))
+                if stop is not None:
+                    why = f"{stop} took stop before: a failsafe does not drive a boat a failsafe stopped"
+                requests.append(Request(cause, action, configured, why,
+                                        overruled_by=None if stop is None else (stop, "stop")))
         now = dict(found)
         now.update({c: d for c, d in self._latched.items() if c not in now})
         events: list[Event] = []

@@ -124,6 +124,7 @@ class Autopilot:
         self.mission_cleared = False  # MAVLink MISSION_CLEAR_ALL: no mission to resume until a new one
         self.armed = True
         self.current = self.auto
+        self.mode_cause = "start"  # why the helm is in its mode (a mode event's cause: "failsafe geofence", "ctl stop")
         self.paused_from = None  # the mode a pause interrupted (resume goes back to it)
         self.launch_ne_m = None if launch_ne_m is None else (float(launch_ne_m[0]), float(launch_ne_m[1]))
         self.pid = HeadingPid(config.pid)
@@ -262,6 +263,7 @@ class Autopilot:
         if new is self.auto and self.current is not self.auto:  # back to the mission: no stale "passed"
             self.auto.guidance.disarm_pass()
         self.current = new
+        self.mode_cause = cause
         self.reset_integrator()
         self._last_kind = None
         self._events.append(("mode", {"mode": new.mode.value, "from": old.value, "cause": cause}))

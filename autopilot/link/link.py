@@ -500,7 +500,7 @@ class MavlinkLink:
             self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
             return
         if command == "manual":  # the sticks come as MANUAL_CONTROL; without them the manual timeout holds
-            request = {"command": "manual", "forward_nd": 0.0, "turn_nd": 0.0}
+            request = {"command": "manual", "forward_nd": 0.0, "turn_nd": 0.0, "explicit": True}
         else:
             request = {"command": command}
         self._ask_loop(port, msg, request)
@@ -622,8 +622,8 @@ class MavlinkLink:
         action = live.gcs_lost_action
         self.loop.log_event("gcs", state="lost", silent_s=now_s - self.gcs_last_s, action=action)
         if action != "continue":
-            self.submit({"command": action, "source": "mavlink", "cause": "mavlink: ground station lost"},
-                        lambda reply: None)
+            self.submit({"command": action, "source": "mavlink", "cause": "mavlink: ground station lost",
+                         "failsafe": True}, lambda reply: None)
 
     async def _send_loop(self) -> None:
         while True:
