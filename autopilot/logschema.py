@@ -333,7 +333,7 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("feasible_heading_deg", "float", "deg", "(across) the direction of the disturbance: bow (or stern) this way holds the point (a hold without a heading faces it)"),
         _f("limit_deg", "float", "deg", "(across) the heading correction station keeping may use"),
     )),
-    EventSpec("launch", "the launch point was set: where the boat was when control first started (`rtl` returns there)", (
+    EventSpec("launch", "the launch point was set: where the boat was when control first started (`rtl` returns there; after a restart that carries on an interrupted run, that run's)", (
         _f("north_m", "float", "m", "local frame"),
         _f("east_m", "float", "m", "local frame"),
     )),

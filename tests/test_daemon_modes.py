@@ -424,3 +424,65 @@ def test_a_disarmed_boat_says_so_in_status_and_in_every_mode_answer(tmp_path):
     assert status[0] == 0 and "DISARMED: zero thrust whatever the mode (autopilot ctl arm)" in status[1].splitlines()[0]
     assert idle
     assert armed[0] == 0 and "disarmed" not in armed[1].lower()
+
+
+def test_a_restart_after_a_latched_failsafe_holds_and_goes_home_to_the_first_launch(tmp_path):
+    """Found by fault injection: a geofence's rtl brought the boat home, the daemon was killed (kill -9) and
+    restarted; the latched fault was forgotten (`ctl resume` drove back to the fence) and rtl's home became
+    wherever the boat was at the restart (once outside the fence, where the geofence's rtl was then refused)."""
+    fence = [[-8.0, -8.0], [-8.0, 12.0], [12.0, 12.0], [12.0, -8.0]]
+    cfg = {"geofence": {"frame": "local", "polygon": fence},
+           "failsafe": {"actions": {"geofence": "rtl"}, "allow_beyond_limits": True}}
+
+    async def scenario():
+        d = Daemon(tmp_path, {"name": "out", "frame": "local", "waypoints": [[40.0, 0.0], [0.0, 0.0]]}, config=cfg)
+        try:
+            await d.start()
+            await d.wait(lambda: d.events("failsafe"), 60.0, "geofence")
+            await _wait_mode(d, "rtl", 5.0)
+            await d.clock.sleep(3.0)  # on its way home, out near the fence
+            first_launch = d.events("launch")[0]
+            d.proc.kill()
+            await d.proc.wait()
+            await d.start(fresh=False)
+            await d.wait(lambda: d.events("launch"), 30.0, "the launch point")
+            await d.clock.sleep(2.0)
+            assert _modes(d)[0][1:] == ("stop", "start: an interrupted run of this mission had geofence latched (a "
+                                        "failsafe took the boat; resume is refused) (--fresh starts afresh)")
+            launch = d.events("launch")[0]
+            assert (launch["north_m"], launch["east_m"]) == (first_launch["north_m"], first_launch["east_m"])
+            code, text = await d.ctl("resume")
+            assert code == 1 and text.startswith("resume refused: geofence latched"), text
+            assert not d.rig.mbed.thrusting
+            assert (await d.ctl("rtl"))[0] == 0  # the operator may bring it home: the first run's home
+            await _wait_mode(d, "hold", 120.0)
+            n, e = _boat_ne(d)
+            assert math.hypot(n - first_launch["north_m"], e - first_launch["east_m"]) <= 3.0
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())
+
+
+def test_a_run_aborted_by_the_mission_time_is_not_flown_again_at_the_next_start(tmp_path):
+    """Found by fault injection: max_mission_time's stop ended the run ('aborted'); the next start (a reboot: the
+    unit starts at boot) flew the whole mission again from W0."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=30.0, laps=3), config={"failsafe": {"max_mission_time_s": 20.0}})
+        try:
+            await d.start()
+            assert await d.finish(60.0) == 0
+            assert [r["reason"] for r in d.events("stop")] == ["max_mission_time"]
+            await d.start(fresh=False)
+            await d.clock.sleep(10.0)
+            assert _modes(d)[0][1] == "stop" and "ended with max_mission_time latched" in _modes(d)[0][2]
+            cycles = [r for r in d.log() if r["event"] == "cycle"]
+            assert len(cycles) > 50 and all(r["thrust_port_n"] == 0 and r["thrust_stbd_n"] == 0 for r in cycles)
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())

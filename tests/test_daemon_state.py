@@ -66,3 +66,28 @@ def test_an_uploaded_mission_that_is_a_directory_is_not_continued(tmp_path):
     assert st.uploaded_to_continue() is None  # was IsADirectoryError: internal error, exit 1
     assert st.interrupted("configured-sha", 4)[1].startswith("an interrupted run of another mission")
 
+
+
+def test_a_restart_remembers_latched_faults_the_launch_point_and_an_aborted_run(tmp_path):
+    """Found by fault injection: the progress held only the waypoint and 'running'. A kill -9 after a geofence's
+    rtl, and the next start's `ctl resume` drove back to the fence, rtl's home wherever the boat then was; a run
+    aborted (max_mission_time, a crash the loop caught) flew again from W0 at the next start, unasked."""
+    st = StateStore(tmp_path)
+    st.save(Progress("m", "abc", 1, "running", latched=("geofence",), launch_ne_m=(1.5, -2.0)))
+    assert StateStore(tmp_path).load() == Progress("m", "abc", 1, "running", latched=("geofence",),
+                                                   launch_ne_m=(1.5, -2.0))
+    index, why = st.interrupted("abc", 4)
+    assert index is None and why.startswith("an interrupted run of this mission had geofence latched")
+    st.save(Progress("m", "abc", 1, "stopped", latched=("battery_low",)))  # a clean stop with a fault latched
+    assert "ended with battery_low latched" in st.interrupted("abc", 4)[1]
+    st.save(Progress("m", "abc", 0, "aborted", reason="error"))
+    assert st.interrupted("abc", 4) == (None, "the last run of this mission was aborted (error)")
+    assert st.interrupted("another", 4) == (None, None)  # another mission after it: a new run
+    st.save(Progress("m", "abc", 0, "stopped"))  # stopped cleanly, nothing latched: the next run is a new one
+    assert st.interrupted("abc", 4) == (None, None)
+    st.path.write_text(json.dumps({"mission": "m", "mission_sha256": "abc", "wp_index": 0, "status": "running",
+                                   "launch_ne_m": [1.0, "x"]}))
+    assert st.interrupted("abc", 4)[1].startswith(f"the saved progress {st.path} cannot be read")
+    old = {"mission": "m", "mission_sha256": "abc", "wp_index": 2, "status": "running"}  # an older daemon's file
+    st.path.write_text(json.dumps(old))
+    assert st.interrupted("abc", 4) == (2, None)

@@ -258,6 +258,16 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: s
     return 0, "interrupted mission found in the state directory and failsafe.resume_after_restart is false (--fresh starts afresh)"
 
 
+def _run_before(opts: RunOptions, store: StateStore, sha: str):
+    """The saved progress of this mission's last run when a restart carries it on (not --fresh; interrupted,
+    aborted, or ended with a failsafe latched: StateStore.interrupted): its launch point (rtl's home) and latched
+    faults are this run's too. A run that ended cleanly is not carried on: the next is a new one."""
+    saved = None if opts.fresh else store.load()
+    if saved is None or saved.mission_sha256 != sha:
+        return None
+    return saved if saved.status in ("running", "aborted") or saved.latched else None
+
+
 async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
     """The simulated SC-30 and Mbed behind pseudo-terminals, and the boat behind them (``--sim``)."""
     from autopilot.sim import Environment
@@ -360,12 +370,16 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
                                       on_compass_line=ais.receiver.feed_line if cfg.ais.on_compass_line else None)
         if lockstep:
             clock.set_quiet(lambda: rig.quiet(compass, thrusters) and (ais_driver is None or sim_traffic.quiet(ais_driver)))
+        before = _run_before(opts, store, sha)
         ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
-                       rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index)
+                       rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index,
+                       launch_ne_m=None if before is None else before.launch_ne_m)
         loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
                            compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
                            fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
                            t0_s=t0_s, ais=ais if (ais_driver is not None or cfg.ais.on_compass_line) else None)
+        if before is not None:
+            loop.failsafe.restore_latched(before.latched)
         holder["loop"] = loop
     except BaseException:  # the start failed before the loop ran: no stale socket, no empty log left behind
         await control.close()

@@ -236,6 +236,7 @@ class Failsafe:
         self._reported: set[str] = set()
         self._latched: dict[str, str] = {}
         self._actions: dict[str, str] = {}  # latched cause -> the action it took
+        self._restored: set[str] = set()  # latched before a restart (restore_latched)
         self._valid_since_s: float | None = None
         self._trip_cause: str | None = None
         self._low_since_s: dict[str, float] = {}
@@ -248,8 +249,18 @@ class Failsafe:
         return tuple(c for c in CAUSES if c in self._latched)
 
     def action_of(self, cause: str) -> str | None:
-        """The action a latched cause took (None if it has not tripped)."""
-        return self._actions.get(cause)
+        """The action a latched cause took in this run (None if it has not tripped, or tripped before a restart:
+        a max_mission_time restored must not end the restarted daemon at its first cycle)."""
+        return None if cause in self._restored else self._actions.get(cause)
+
+    def restore_latched(self, causes) -> None:
+        """Latched faults of the run before a restart (StateStore's progress): latched again, as having taken
+        stop (the restarted daemon holds zero thrust): resume stays refused, a later milder action overruled."""
+        for cause in causes:
+            if cause in LATCHED and cause not in self._latched:
+                self._latched[cause] = "latched before the restart"
+                self._actions[cause] = "stop"
+                self._restored.add(cause)
 
     def _stop_taken(self) -> str | None:
         """The first latched cause that took stop (ArduPilot Rover's failsafe priorities put Terminate and Hold,

@@ -100,6 +100,7 @@ class ControlLoop:
         self.failsafe = Failsafe(cfg.failsafe, fence_ne_m=fence_ne_m)
         self.rules = steps.nav_rules(cfg)
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
+        self._saved_running = False  # this run's progress is the saved one (a held start keeps the old until then)
         self.ais = ais  # autopilot.daemon.traffic.AisSource: other vessels for collision avoidance (None: no AIS)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
         self._numbered: Mission | None = None
@@ -144,6 +145,8 @@ class ControlLoop:
         helm_nav, unavailable = steps.helm_nav(nav, decision)
         for req in decision.requests:
             commands.failsafe_action(self, req, helm_nav, unavailable, t_s)
+        if decision.requests and self._saved_running:  # a latched fault is remembered across a restart
+            self._save("running")
         for _ in range(min(len(self.commands), COMMANDS_PER_CYCLE)):
             request, answer = self.commands.popleft()
             answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
@@ -184,7 +187,10 @@ class ControlLoop:
         dt_s = steps.step_dt_s(now_s, st.last_step_s, self.cfg.period_s)
         st.last_step_s, st.driving = now_s, True
         targets = () if self.ais is None else self.ais.targets(now_s)
+        launch_before = self.ap.launch_ne_m
         out = self.ap.step(steps.nav_input(nav) if nav.steerable else None, dt_s, targets=targets, t_s=t_s)
+        if self.ap.launch_ne_m != launch_before and self._saved_running:  # rtl's home, for a restart too
+            self._save("running")
         # saved before it is logged: a kill between the two must not leave a log that runs ahead of the state
         if out.reached_index is not None:
             st.reached.append(out.reached_index)
@@ -363,9 +369,15 @@ class ControlLoop:
             self.notifier.watchdog()
             st.last_watchdog_s = now_s
 
-    def _save(self, status: str) -> None:
+    def _save(self, status: str, reason: str = "") -> None:
+        launch = self.ap.launch_ne_m
+        if status == "running":
+            self._saved_running = True
         try:
-            self.store.save(Progress(self.mission_path, self.mission_sha256, int(self.ap.wp_index), status))
+            self.store.save(Progress(self.mission_path, self.mission_sha256, int(self.ap.wp_index), status,
+                                     latched=self.failsafe.latched,
+                                     launch_ne_m=None if launch is None else (float(launch[0]), float(launch[1])),
+                                     reason=reason))
         except OSError as exc:
             self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="state not saved", error=str(exc))
 
@@ -426,7 +438,7 @@ class ControlLoop:
         st.stop_acknowledged = ack
         status = {"complete": "complete", "signal": "stopped"}.get(reason, "aborted")
         if self.hold_zero is None or status != "stopped":
-            self._save(status)
+            self._save(status, reason if status == "aborted" else "")
         self.log.event(
             "stop", t_s=self.clock.now_s() - self.t0_s, reason=reason, signal=st.stop_signal, ack_received=ack,
             cycles=st.cycles, skipped_cycles=st.skipped, late_cycles=st.late_cycles,

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -31,6 +32,11 @@ class Progress:
     mission_sha256: str
     wp_index: int
     status: str  # "running", "complete", "stopped", "aborted"
+    # what a restart must not forget (found by fault injection: a kill -9 after a geofence's rtl, and the next
+    # start's `ctl resume` drove back to the fence, its rtl "home" wherever the boat was at the restart)
+    latched: tuple[str, ...] = ()  # the latched failsafe causes
+    launch_ne_m: tuple[float, float] | None = None  # rtl's home
+    reason: str = ""  # why an aborted run stopped (the stop line's reason: max_mission_time, error)
 
 
 class StateStore:
@@ -55,8 +61,17 @@ class StateStore:
             index = data["wp_index"]
             if type(index) is not int:  # not "3", 3.0, true, Infinity: a file no daemon wrote
                 raise ValueError(f"wp_index {index!r} is not a whole number")
+            latched = tuple(data.get("latched") or ())
+            if not all(isinstance(c, str) for c in latched):
+                raise ValueError(f"latched {data.get('latched')!r} is not a list of causes")
+            launch = data.get("launch_ne_m")
+            if launch is not None:
+                launch = tuple(float(v) for v in launch)
+                if len(launch) != 2 or not all(math.isfinite(v) for v in launch):
+                    raise ValueError(f"launch_ne_m {data.get('launch_ne_m')!r} is not a point")
             return Progress(mission=str(data["mission"]), mission_sha256=str(data["mission_sha256"]),
-                            wp_index=index, status=str(data["status"])), None
+                            wp_index=index, status=str(data["status"]), latched=latched, launch_ne_m=launch,
+                            reason=str(data.get("reason") or "")), None
         except (OSError, ValueError, KeyError, TypeError, AttributeError, OverflowError) as exc:
             return None, f"{type(exc).__name__}: {exc}"
 
@@ -83,14 +98,24 @@ class StateStore:
     def interrupted(self, mission_sha256: str, n_waypoints: int) -> tuple[int | None, str | None]:
         """After a start without --fresh: (the waypoint an interrupted run of this mission was at, None), or
         (None, why the boat must hold zero thrust: a run was, or may have been, interrupted and cannot be
-        continued as it was), or (None, None) when no run was interrupted. A run of another mission (an
+        continued as it was; or the last run of this mission was aborted, or ended with a failsafe latched),
+        or (None, None) when no run was interrupted. A run of another mission (an
         uploaded one since deleted or edited, or the mission file edited since) is not the one to continue,
         nor a reason to start this one from its first waypoint unasked."""
         saved, problem = self.read()
         if problem is not None:
             return None, f"the saved progress {self.path} cannot be read ({problem}): a run may have been interrupted"
+        if saved is not None and saved.mission_sha256 == mission_sha256 and saved.status in ("aborted", "stopped"):
+            if saved.latched:
+                return None, (f"the last run of this mission ended with {', '.join(saved.latched)} latched (a failsafe "
+                              "took the boat; resume is refused)")
+            if saved.status == "aborted":  # a crash caught by the loop, or max_mission_time: it flew again from W0
+                return None, f"the last run of this mission was aborted ({saved.reason or 'no reason saved'})"
         if saved is None or saved.status != "running":
             return None, None
+        if saved.latched and saved.mission_sha256 == mission_sha256:
+            return None, (f"an interrupted run of this mission had {', '.join(saved.latched)} latched (a failsafe "
+                          "took the boat; resume is refused)")
         if saved.mission_sha256 != mission_sha256:
             return None, (f"an interrupted run of another mission ({saved.mission}, or this file since edited) "
                           "is in the state directory")

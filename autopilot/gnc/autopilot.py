@@ -131,6 +131,8 @@ class Autopilot:
         self.allocator = Allocator(config.allocation, thrust_curve)
         self.speed_trim = SpeedTrim(config.speed)
         self._events: list[tuple[str, dict]] = []
+        if self.launch_ne_m is not None:  # given (a restart carrying on the run before): said as when it is set
+            self._events.append(("launch", {"north_m": self.launch_ne_m[0], "east_m": self.launch_ne_m[1]}))
         self._last_kind: str | None = None
         self.avoidance = Avoidance(config.avoidance)
         self._situations: dict[int, tuple[str, bool]] = {}  # target -> (situation, acting) last logged
