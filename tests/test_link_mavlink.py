@@ -229,9 +229,22 @@ def test_each_command_is_acknowledged_and_obeyed(tmp_path):
 
 
 def test_a_manual_session_and_its_timeout(tmp_path):
+    """Stick input drives a boat in MANUAL only and never changes the mode, as ArduPilot's (found by a GCS audit:
+    a planner streams MANUAL_CONTROL whenever its joystick is on, and the packet after every accepted RTL, AUTO or
+    LOITER took the boat back to manual); the ignored packets are said once a second, not 25 times."""
     boat = Boat(tmp_path, config={"mavlink": {"manual_timeout_s": 0.5, "manual_timeout_action": "hold"}})
     try:
         boat.mode_is("auto")
+        t_end = time.monotonic() + 2.5
+        while time.monotonic() < t_end:  # the joystick on, sticks centred, at 20 Hz
+            boat.gcs.mav.manual_control_send(1, 0, 0, 0, 0, 0)
+            boat.beat()
+            time.sleep(0.05)
+        assert not any(r["mode"] == "manual" for r in boat.cycles())
+        ignored = [r for r in boat.log() if r["event"] == "command" and r["command"] == "manual"]
+        assert 2 <= len(ignored) <= 4 and ignored[0]["answer"] == ("stick input ignored: mode auto (choose MANUAL to "
+                                                                   "drive by stick)"), ignored
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 0).result == mavlink.MAV_RESULT_ACCEPTED  # MANUAL
         t_end = time.monotonic() + 3.0
         while time.monotonic() < t_end:  # full ahead, a little to port, at 20 Hz like a joystick
             boat.gcs.mav.manual_control_send(1, 1000, 0, 0, -300, 0)
@@ -247,8 +260,8 @@ def test_a_manual_session_and_its_timeout(tmp_path):
         assert time.monotonic() - t_quiet < 3.0
     finally:
         assert boat.stop() == 0
-    commands = [r for r in boat.log() if r["event"] == "command" and r["command"] == "manual"]
-    assert len(commands) == 1  # the first input changes the mode; the stream itself is not logged line by line
+    commands = [r for r in boat.log() if r["event"] == "command" and r["command"] == "manual" and r["accepted"]]
+    assert len(commands) == 1  # the mode chosen; the stream itself is not logged line by line
 
 
 def test_parameters_read_set_and_a_bad_one_refused(tmp_path):
@@ -348,8 +361,9 @@ def test_a_flood_of_valid_commands_waits_or_is_refused_and_the_loop_carries_out_
             boat.gcs.mav.command_long_send(1, 1, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 0, 1, 0, 0, 0, 0, 0, 0)
         boat.wait_log(lambda r: r["event"] == "info" and r.get("message") == "commands refused: queue full",
                       what="the flood refused")
-        denied = boat.recv("COMMAND_ACK", pred=lambda m: m.result == mavlink.MAV_RESULT_DENIED)
-        assert denied.command == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT
+        # "busy, retry later", not DENIED (a planner takes that as final): found by a GCS audit
+        busy = boat.recv("COMMAND_ACK", pred=lambda m: m.result == mavlink.MAV_RESULT_TEMPORARILY_REJECTED)
+        assert busy.command == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT
         time.sleep(3.0)  # the queue drains at 5 a cycle
         assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 0).result == mavlink.MAV_RESULT_ACCEPTED
         boat.mode_is("paused")
@@ -678,7 +692,8 @@ def test_mode_changes_as_the_standard_says_a_broken_datagram_and_the_planners_sh
                              and abs(r["hold_north_m"] + 10.0) < 0.05, what="hold at the point")
         assert abs(held["hold_east_m"] - 8.0) < 0.05
         boat.gcs.mav.mission_clear_all_send(1, 1, mavlink.MAV_MISSION_TYPE_ALL)
-        assert boat.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
+        ack = boat.recv("MISSION_ACK")  # the request's type echoed, as ArduPilot (QGC ignored an ack of type 0)
+        assert (ack.type, ack.mission_type) == (mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_TYPE_ALL)
         boat.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
         assert boat.recv("MISSION_CURRENT", pred=lambda m: m.total == 65535).seq == 0  # no mission (MAVLink's word)
     finally:
@@ -763,6 +778,7 @@ def test_a_joystick_stream_does_not_undo_a_failsafe_stop(tmp_path):
                                   "mavlink": {"manual_timeout_s": 0.5}})
     try:
         boat.mode_is("auto", 20.0)
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 0).result == mavlink.MAV_RESULT_ACCEPTED  # MANUAL
         crit = None
         t_end = time.monotonic() + 40.0
         while time.monotonic() < t_end and crit is None:  # driving by joystick at ~20 Hz until the battery trips
@@ -781,4 +797,50 @@ def test_a_joystick_stream_does_not_undo_a_failsafe_stop(tmp_path):
         boat.stop()
     assert _thrust_after(boat, crit["t_s"] + 0.3) == []
     refused = [r for r in boat.log() if r["event"] == "command" and r["command"] == "manual" and not r["accepted"]]
-    assert refused and "stick input does not undo it: choose the MANUAL mode to drive" in refused[0]["answer"]
+    assert refused and refused[0]["answer"].startswith("stick input ignored: mode stop"), refused
+
+
+def test_with_signing_an_unsigned_heartbeat_does_not_keep_the_station_alive(tmp_path):
+    """Found by a GCS audit: with signing required, a second planner beating unsigned with the station's system
+    id (QGC and Mission Planner are both 255) kept the lost-station failsafe from firing; and a command to another
+    component of this system (target_component 99) was carried out by the autopilot."""
+    key = bytes(range(32))
+    key_file = tmp_path / "mavlink.key"
+    key_file.write_text(key.hex() + "\n")
+    key_file.chmod(0o600)
+    boat = Boat(tmp_path, config={"mavlink": {"signing_key_file": str(key_file), "gcs_timeout_s": 2.0,
+                                              "gcs_lost_action": "hold"}})
+    try:
+        boat.recv("HEARTBEAT")  # the planner's link is MAVLink 2 from the boat's first frame: signing from here
+        boat.sign_with(key)
+        boat.mode_is("auto")
+        time.sleep(1.0)
+        assert not [r for r in boat.log() if r["event"] == "gcs"]  # signed: the station counts as there
+        boat.gcs.mav.command_long_send(1, 99, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0)
+        time.sleep(0.5)
+        assert boat.cycles()[-1]["armed"] is True  # not for this component: not carried out
+        boat.sign_with(None)  # the station's heartbeats now come unsigned
+        lost = boat.wait_log(lambda r: r["event"] == "gcs" and r["state"] == "lost", 15.0, "gcs lost")
+        assert lost["action"] == "hold"
+        boat.mode_is("hold")
+    finally:
+        assert boat.stop() == 0
+
+
+def test_guided_is_reported_as_guided_so_a_planners_start_mission_goes_through(tmp_path):
+    """Found by a GCS audit: QGC's Start Mission on a Rover sets GUIDED, arms and sends MISSION_START; GUIDED was
+    acknowledged but the heartbeats said LOITER, and QGC gave up after three tries."""
+    boat = Boat(tmp_path)
+    try:
+        boat.mode_is("auto")
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 15).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1 and m.custom_mode == 15)
+        assert boat.command(mavlink.MAV_CMD_MISSION_START).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1 and m.custom_mode == 10)
+        for _ in range(20):  # Mission Planner's joystick: said once, not ignored without a word
+            boat.gcs.mav.rc_channels_override_send(1, 1, 1500, 1500, 1900, 1500, 0, 0, 0, 0)
+        said = boat.wait_log(lambda r: r["event"] == "command" and r["command"] == "rc_override", 10.0, "rc override")
+        assert said["answer"].startswith("RC_CHANNELS_OVERRIDE not supported: drive by MANUAL_CONTROL")
+    finally:
+        assert boat.stop() == 0
+    assert sum(1 for r in boat.log() if r["event"] == "command" and r["command"] == "rc_override") == 1

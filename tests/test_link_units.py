@@ -118,6 +118,10 @@ def test_heartbeat_says_mode_arming_and_state():
     off = T.heartbeat(MAV, {"mode": "hold", "armed": False})
     assert off.custom_mode == 5 and not off.base_mode & 128 and off.system_status == mavlink.MAV_STATE_STANDBY
     assert T.heartbeat(MAV, {"mode": "manual"}).base_mode & mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+    # a hold asked for as GUIDED (or a "go here") is GUIDED while it lasts: reported as LOITER, QGC's Start Mission
+    # (GUIDED, arm, MISSION_START) saw the mode change fail and gave up (found by a GCS audit)
+    assert T.heartbeat(MAV, {"mode": "hold", "mode_cause": "mavlink guided"}).custom_mode == 15
+    assert T.heartbeat(MAV, {"mode": "hold", "mode_cause": "mavlink hold"}).custom_mode == 5
 
 
 def test_sys_status_health_follows_the_failsafe():
@@ -137,6 +141,9 @@ def test_no_position_is_sent_before_the_first_fix_and_long_texts_are_chunked():
     assert (gp.lat, gp.lon, gp.vx, gp.vy, gp.hdg) == (521000000, 43000000, 0, 100, 35996)
     chunks = T.statustext(MAV, 4, "x" * 120)
     assert len(chunks) == 3 and len({c.id for c in chunks}) == 1 and [c.chunk_seq for c in chunks] == [0, 1, 2]
+    # a multiple of 50: the last chunk must end with a NUL, so an empty one follows (found by a GCS audit)
+    chunks = T.statustext(MAV, 4, "y" * 100)
+    assert [len(c.text) for c in chunks] == [50, 50, 0] and [c.chunk_seq for c in chunks] == [0, 1, 2]
 
 
 def test_a_position_jump_is_said_to_the_ground_station():

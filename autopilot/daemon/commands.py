@@ -42,7 +42,9 @@ def apply(loop, request: dict, helm_nav, unavailable: str, decision, t_s: float)
         ok, answer = handler(loop, request, helm_nav, unavailable, cause)
     except Exception as exc:  # noqa: BLE001 - a command that breaks is refused; the loop and the boat go on
         ok, answer = False, f"{command} failed: {type(exc).__name__}: {exc} (a bug: please report it)"
-    if command not in QUIET or not ok or answer != "manual (held)":
+    if command == "manual" and not ok and not request.get("explicit"):
+        _log_sticks_ignored(loop, source, answer, t_s)
+    elif command not in QUIET or not ok or answer != "manual (held)":
         loop.log.event("command", t_s=t_s, command=command, source=source, accepted=ok, answer=answer)
     reply = {"ok": ok, "answer": answer, "mode": loop.ap.mode.value}
     if ok and not loop.ap.armed and command not in ("disarm", "status"):
@@ -82,17 +84,28 @@ def _helm(loop, request, helm_nav, unavailable, cause):
                            heading_rad=None if heading is None else math.radians(float(heading)))
 
 
+def _log_sticks_ignored(loop, source: str, answer: str, t_s: float) -> None:
+    """Stick input outside MANUAL, logged (and so shown on the planner) once a second with how many were not: a
+    joystick's 25 packets a second were 25 command lines and 75 STATUSTEXT frames a second."""
+    st, now = loop.state, loop.clock.wall_elapsed_s()
+    if now - st.sticks_ignored_logged_wall_s < 1.0:
+        st.sticks_ignored_unlogged += 1
+        return
+    more = f" ({st.sticks_ignored_unlogged} more since the last said)" if st.sticks_ignored_unlogged else ""
+    loop.log.event("command", t_s=t_s, command="manual", source=source, accepted=False, answer=answer + more)
+    st.sticks_ignored_logged_wall_s, st.sticks_ignored_unlogged = now, 0
+
+
 def _manual(loop, request, helm_nav, unavailable, cause):
     loop.state.manual_input_wall_s = loop.clock.wall_elapsed_s()
     if loop.ap.mode is not Mode.MANUAL:
+        if not request.get("explicit"):
+            # stick input drives a boat in MANUAL only, never changes the mode (as ArduPilot's): a planner streams
+            # MANUAL_CONTROL whenever a joystick is on, sticks centred or not, and the packet after every mode change
+            # (rtl, auto, a failsafe's stop) took the boat back to manual (found by fault injection and a GCS audit)
+            return False, f"stick input ignored: mode {loop.ap.mode.value} (choose MANUAL to drive by stick)"
         if not loop.ap.armed:
             return False, "manual refused: disarmed (arm first)"
-        held = stop_in_force(loop.ap) or (loop.ap.mode_cause if loop.ap.mode_cause.startswith("failsafe") else None)
-        if held is not None and not request.get("explicit"):
-            # a planner streams MANUAL_CONTROL whenever a joystick is on, sticks centred or not: the packet after a
-            # failsafe's stop took the boat back to manual (found by fault injection); choosing MANUAL still does
-            return False, (f"manual refused: {loop.ap.mode.value} in force ({held}); stick input does not undo it: "
-                           "choose the MANUAL mode to drive")
         loop.ap.request("manual", None, cause=cause)
         loop.ap.set_sticks(request.get("forward_nd", 0.0), request.get("turn_nd", 0.0))
         return True, "manual"

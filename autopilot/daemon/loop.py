@@ -79,6 +79,8 @@ class LoopState:
     steered_error_rad: float | None = None  # the heading error the helm steered by last cycle (failsafe)
     stop_acknowledged: bool | None = None  # the Mbed acknowledged the zero thrust of the stop (None: not stopped yet)
     manual_input_wall_s: float = -math.inf  # wall time of the last manual input (a human's link runs on wall time)
+    sticks_ignored_logged_wall_s: float = -math.inf  # stick input outside MANUAL: logged once a second (commands.py)
+    sticks_ignored_unlogged: int = 0
     status: dict = field(default_factory=dict)  # the last cycle's, for `autopilot ctl status`
 
     @property
@@ -226,8 +228,9 @@ class ControlLoop:
                 self._flooded = True
                 self.log_event("info", message="commands refused: queue full", queued=len(self.commands),
                                source=str(request.get("source")))
-            answer({"ok": False, "answer": f"{request.get('command')} refused: {len(self.commands)} commands "
-                                           "already waiting (a flood?)", "mode": self.ap.mode.value})
+            answer({"ok": False, "busy": True, "answer": f"{request.get('command')} refused: {len(self.commands)} "
+                                                          "commands already waiting (a flood?)",
+                    "mode": self.ap.mode.value})
             return
         self.commands.append((request, answer))
 
@@ -303,7 +306,8 @@ class ControlLoop:
         n_items = numbers.count
         item = numbers.rtl if ap.mode is Mode.RTL and numbers.rtl is not None else numbers.waypoints[ap.wp_index]
         return {
-            "t_s": round(t_s, 2), "mode": mode.value, "helm_mode": ap.mode.value, "armed": ap.armed,
+            "t_s": round(t_s, 2), "mode": mode.value, "helm_mode": ap.mode.value, "mode_cause": ap.mode_cause,
+            "armed": ap.armed,
             "cycle": self.state.cycles, "wp_index": int(ap.wp_index), "wp_count": len(self.mission.waypoints_ne_m),
             "mission_complete": bool(ap.complete), "mission_cleared": ap.mission_cleared,
             "mission_item": 0 if ap.mission_cleared else item, "mission_items": 0 if ap.mission_cleared else n_items,

@@ -36,7 +36,7 @@ from autopilot.link import telemetry as T
 from autopilot.link.config import MavlinkConfig, MavlinkRates
 from autopilot.link.endpoint import Endpoint, open_endpoint, parse_endpoint
 from autopilot.link.missions import MissionProtocol
-from autopilot.link.modes import ROVER_MODES, command_for_rover_mode
+from autopilot.link.modes import GUIDED_CAUSE, ROVER_MODES, command_for_rover_mode
 from autopilot.schema import ConfigError
 
 __all__ = ["MavlinkLink", "load_signing_key", "rate_for_interval", "rates_for_stream", "READ_ONLY_MESSAGES"]
@@ -275,7 +275,7 @@ class MavlinkLink:
             self.refused("reposition", f"reposition refused: {math.hypot(n, e):.0f} m from the "
                          f"origin (max_mission_range_m {self.max_range_m():g} m)")
             return None
-        return {"command": "hold", "north_m": n, "east_m": e}
+        return {"command": "hold", "north_m": n, "east_m": e, "cause": GUIDED_CAUSE}  # ArduPilot: GUIDED
 
     def waypoint_of_item(self, seq: int, what: str) -> int | None:
         """The waypoint (index) a jump to mission item ``seq`` flies to; None (refused, logged, shown) when the
@@ -340,9 +340,11 @@ class MavlinkLink:
 
     def _for_us(self, msg) -> bool:
         # MANUAL_CONTROL names its addressee `target`, the others `target_system`: reading only the latter let
-        # a joystick meant for another boat on the same radio drive this one
+        # a joystick meant for another boat on the same radio drive this one; a command to another component of
+        # this system (a camera, a gimbal: target_component 99) disarmed the boat (MAVLink routing: ours or 0)
         target = getattr(msg, "target_system", getattr(msg, "target", 0))
-        return target in (0, self.cfg.system_id)
+        component = getattr(msg, "target_component", 0)
+        return target in (0, self.cfg.system_id) and component in (0, self.cfg.component_id)
 
     def _handle(self, port: _Port, msg) -> None:
         t = msg.get_type()
@@ -352,7 +354,10 @@ class MavlinkLink:
         if t == "HEARTBEAT":
             # only the configured station's (ArduPilot's SYSID_MYGCS): a second planner or a tablet's QGC on the
             # same network went on beating while the operator's station was gone, and the link never counted lost
-            if msg.get_srcSystem() == self.cfg.gcs_system_id:
+            # ... and, with signing required, only a signed one: an unsigned source with the station's id (a
+            # second planner: QGC and Mission Planner are both 255) kept the lost-station failsafe from firing
+            if msg.get_srcSystem() == self.cfg.gcs_system_id and (not self.cfg.signing_required or self.key is None
+                                                                  or getattr(msg, "_signed", False)):
                 self._gcs_seen()
             return
         if not self._for_us(msg):
@@ -375,6 +380,12 @@ class MavlinkLink:
             self.missions.handle(port, msg)
         elif t in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
             self._param(port, msg)
+        elif t == "RC_CHANNELS_OVERRIDE":  # Mission Planner's joystick: ignored without a word before (a GCS audit)
+            now = self.clock()
+            if now - self._refusals.get(t, -math.inf) >= 10.0:
+                self._refusals[t] = now
+                self.refused("rc_override", "RC_CHANNELS_OVERRIDE not supported: drive by MANUAL_CONTROL (QGroundControl's "
+                             "joystick) in MANUAL mode")
         elif t == "REQUEST_DATA_STREAM":  # unanswered, as ArduPilot: the new rate shows in the telemetry itself
             for mid, hz in rates_for_stream(self.cfg.rates, msg.req_stream_id, msg.req_message_rate,
                                             msg.start_stop).items():
@@ -396,7 +407,10 @@ class MavlinkLink:
 
     def _ask_loop(self, port: _Port, msg, request: dict) -> None:
         def answer(reply: dict) -> None:
-            self._ack(port, msg, mavlink.MAV_RESULT_ACCEPTED if reply["ok"] else mavlink.MAV_RESULT_DENIED)
+            # a full command queue is "busy, retry later" (TEMPORARILY_REJECTED): a planner takes DENIED as final
+            result = (mavlink.MAV_RESULT_ACCEPTED if reply["ok"] else
+                      mavlink.MAV_RESULT_TEMPORARILY_REJECTED if reply.get("busy") else mavlink.MAV_RESULT_DENIED)
+            self._ack(port, msg, result)
 
         self.submit({**request, "source": "mavlink"}, answer)
 
@@ -501,6 +515,8 @@ class MavlinkLink:
             return
         if command == "manual":  # the sticks come as MANUAL_CONTROL; without them the manual timeout holds
             request = {"command": "manual", "forward_nd": 0.0, "turn_nd": 0.0, "explicit": True}
+        elif int(custom_mode) == 15:  # GUIDED: a hold here, reported as GUIDED while it lasts (modes.GUIDED_CAUSE)
+            request = {"command": command, "cause": GUIDED_CAUSE}
         else:
             request = {"command": command}
         self._ask_loop(port, msg, request)

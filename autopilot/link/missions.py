@@ -130,7 +130,7 @@ class MissionProtocol:
             if mission_type not in (mavlink.MAV_MISSION_TYPE_MISSION, mavlink.MAV_MISSION_TYPE_ALL):
                 self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
                 return
-            self._clear(ep, peer)
+            self._clear(ep, peer, mission_type)
         elif t == "MISSION_SET_CURRENT":
             index = self.link.waypoint_of_item(int(msg.seq), "MISSION_SET_CURRENT")
             if index is None:
@@ -139,10 +139,11 @@ class MissionProtocol:
             self.link.submit({"command": "set_current", "index": index, "source": "mavlink"},
                              lambda reply: self.link.send_mission_current())
 
-    def _clear(self, ep, peer) -> None:
+    def _clear(self, ep, peer, mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION) -> None:
+        # the ack echoes the request's type, as ArduPilot does: QGC ignored one of type 0 for a clear of 255
         self.link.submit({"command": "mission_clear", "source": "mavlink"},
                          lambda reply: self._ack(ep, peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"]
-                                                 else mavlink.MAV_MISSION_DENIED))
+                                                 else mavlink.MAV_MISSION_DENIED, mission_type))
 
     def tick(self, now_s: float) -> None:
         """Re-ask a missing item; give up after ITEM_RETRIES (the running mission stays)."""

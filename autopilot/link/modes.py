@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from autopilot.logschema import Mode
 
-__all__ = ["ROVER_MODES", "rover_mode", "command_for_rover_mode"]
+__all__ = ["ROVER_MODES", "GUIDED_CAUSE", "rover_mode", "command_for_rover_mode"]
 
 ROVER_MODES = {0: "MANUAL", 1: "ACRO", 3: "STEERING", 4: "HOLD", 5: "LOITER", 6: "FOLLOW", 7: "SIMPLE",
                8: "DOCK", 9: "CIRCLE", 10: "AUTO", 11: "RTL", 12: "SMART_RTL", 15: "GUIDED", 16: "INITIALISING"}
@@ -37,7 +37,14 @@ _OURS_TO_ROVER = {
 _ROVER_TO_COMMAND = {10: "resume", 5: "hold", 11: "rtl", 4: "stop", 0: "manual", 15: "hold"}
 
 
-def rover_mode(mode: Mode | str) -> int:
+GUIDED_CAUSE = "mavlink guided"  # the helm's mode cause of a hold the planner asked for as GUIDED
+
+
+def rover_mode(mode: Mode | str, cause: str | None = None) -> int:
+    """The Rover mode number of ours; a hold asked for as GUIDED is GUIDED (15): reported as LOITER, QGC's Start
+    Mission (GUIDED, arm, MISSION_START) saw the mode change fail three times and gave up (found by a GCS audit)."""
+    if Mode(mode) is Mode.HOLD and cause == GUIDED_CAUSE:
+        return 15
     return _OURS_TO_ROVER[Mode(mode)]
 
 

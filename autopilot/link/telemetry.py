@@ -73,7 +73,7 @@ def heartbeat(mav, st: dict):
     else:
         state = mavlink.MAV_STATE_ACTIVE
     return mav.heartbeat_encode(mavlink.MAV_TYPE_SURFACE_BOAT, mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA, base,
-                                rover_mode(mode), state)
+                                rover_mode(mode, st.get("mode_cause")), state)
 
 
 def sys_status(mav, st: dict):
@@ -201,8 +201,10 @@ def statustext(mav, severity: int, text: str) -> list:
     if len(data) <= 50:
         return [mav.statustext_encode(severity, data)]
     statustext.counter = (getattr(statustext, "counter", 0) % 65535) + 1
-    return [mav.statustext_encode(severity, data[k:k + 50], statustext.counter, n)
-            for n, k in enumerate(range(0, len(data), 50))]
+    chunks = [data[k:k + 50] for k in range(0, len(data), 50)]
+    if len(chunks[-1]) == 50:  # the last chunk ends with a NUL: a text of 100 characters waited for a third
+        chunks.append(b"")
+    return [mav.statustext_encode(severity, chunk, statustext.counter, n) for n, chunk in enumerate(chunks)]
 
 
 def event_text(name: str, fields: dict) -> tuple[int, str] | None:
