@@ -117,6 +117,9 @@ class ThrusterLink(Protocol):
     @property
     def battery_v(self) -> float | None: ...  # the battery voltage the board reports (V), None if it does not
 
+    @property
+    def battery_load_pct(self) -> tuple[float, float] | None: ...  # (port, stbd) duty % it was measured under
+
     def send(self, command: ThrustCommand) -> int: ...  # the sequence number, -1 if it could not be written
 
     async def wait_ack(self, seq: int, timeout_s: float) -> bool: ...

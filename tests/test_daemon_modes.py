@@ -486,3 +486,32 @@ def test_a_run_aborted_by_the_mission_time_is_not_flown_again_at_the_next_start(
             await d.close()
 
     asyncio.run(scenario())
+
+
+def test_a_silent_board_s_last_voltage_under_load_is_not_taken_for_a_resting_one(tmp_path):
+    """Found by fault injection: the Mbed unplugged while the boat held station at up to full thrust; for the 2 s
+    its last voltage stays reported (11.57 V, under load) it was judged against the zero command sent since, as a
+    resting voltage, and with battery_critical_s 1 tripped battery_critical on a full battery, latched for good."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=25.0, laps=2),
+                   config={"failsafe": {"battery_low_s": 1.0, "battery_critical_s": 1.0,  # thresholds that a
+                                        "battery_low_v": 12.55, "battery_critical_v": 12.5}})  # load's sag crosses
+        try:
+            await d.start()
+            await d.steady_thrust(3.0)
+            loaded = [r for r in d.log() if r["event"] == "cycle" and r["battery_v"] is not None
+                      and r["pwm_port_pct"] + r["pwm_stbd_pct"] > 100.0]
+            assert loaded and min(r["battery_v"] for r in loaded) < 12.5 < min(r["battery_rest_v"] for r in loaded)
+            d.rig.mbed.unplug()
+            await d.clock.sleep(4.0)
+            d.rig.mbed.replug()
+            await d.clock.sleep(4.0)
+            causes = [r["cause"] for r in d.events("fault")]
+            assert "mbed_port_lost" in causes or "mbed_ack_missing" in causes, causes
+            assert not {"battery_low", "battery_critical"} & set(causes), causes
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())

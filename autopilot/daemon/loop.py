@@ -134,9 +134,9 @@ class ControlLoop:
                                origin_lat_deg=self.mission.origin_lat_deg, origin_lon_deg=self.mission.origin_lon_deg)
         if nav.jump is not None:
             self.log.event("position_jump", t_s=t_s, **nav.jump.log_fields())
-        battery_v = self.thrusters.battery_v  # under the last command's load
-        battery_rest_v = resting_voltage_v(battery_v, st.last_cmd.duty_port_pct, st.last_cmd.duty_stbd_pct,
-                                           self.cfg.failsafe.battery_sag_v)
+        battery_v = self.thrusters.battery_v  # under the load the board had applied when it measured it
+        load = self.thrusters.battery_load_pct or (st.last_cmd.duty_port_pct, st.last_cmd.duty_stbd_pct)
+        battery_rest_v = resting_voltage_v(battery_v, *load, self.cfg.failsafe.battery_sag_v)
         decision = self.failsafe.update(steps.observe(
             nav, mission_time_s=t_s, compass_connected=self.compass.connected,
             thrusters_connected=self.thrusters.connected, acks_missing_in_a_row=self.thrusters.consecutive_missing,

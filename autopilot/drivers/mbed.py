@@ -70,7 +70,7 @@ class MbedDriver(LineDevice):
         self.last_ack_seq: int | None = None
         self.last_ack: Ack | None = None
         self.last_ack_rx_s: float | None = None
-        self._battery: tuple[float, float] | None = None  # (volts, received at)
+        self._battery: tuple[float, float, float, float] | None = None  # (volts, received at, duties echoed, %)
         self.sent = 0
         self.send_failures = 0
         self.acks_ok = 0
@@ -211,7 +211,7 @@ class MbedDriver(LineDevice):
         # claiming 12.6 V once hid a battery at 10.5 V (and ones claiming 9 V stopped a mission)
         self.last_ack, self.last_ack_rx_s = ack, now_s
         if ack.battery_v is not None:
-            self._battery = (ack.battery_v, now_s)
+            self._battery = (ack.battery_v, now_s, float(ack.duty_port_pct or 0.0), float(ack.duty_stbd_pct or 0.0))
         self._late_run = self._unexpected_run = False
         applied = ack.ok
         if ack.ok and not self._echo_matches(ack, *self._pending[ack.seq][1:]):
@@ -284,6 +284,13 @@ class MbedDriver(LineDevice):
         if self._battery is None or self._clock.now_s() - self._battery[1] > BATTERY_STALE_S:
             return None
         return self._battery[0]
+
+    @property
+    def battery_load_pct(self) -> tuple[float, float] | None:
+        """(port, starboard) duty (%) the board had applied when it measured :attr:`battery_v`: the voltage's load.
+        Found by fault injection: with the board silent, its last voltage under full thrust was judged against
+        the zero command sent since, as a resting voltage, and tripped battery_critical on a full battery."""
+        return None if self.battery_v is None else (self._battery[2], self._battery[3])
 
     @property
     def disobeying(self) -> bool:
