@@ -125,6 +125,7 @@ class FakeThrusters:
     def __init__(self):
         self.connected, self.last_garbage_s, self.consecutive_missing, self.ack_missing = True, None, 0, 0
         self.answered, self.commands, self.battery_v, self.disobeying = True, [], 12.6, False
+        self.battery_load_pct = (0.0, 0.0)  # at rest when the voltage was read
 
     def send(self, command):
         self.commands.append(command)
