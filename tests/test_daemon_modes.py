@@ -460,6 +460,13 @@ def test_a_restart_after_a_latched_failsafe_holds_and_goes_home_to_the_first_lau
             assert math.hypot(n - first_launch["north_m"], e - first_launch["east_m"]) <= 3.0
             d.proc.send_signal(2)
             assert await d.finish(30.0) == 0
+            # stopped cleanly (the operator's choice): the next start is a new run, not held for ever (resume is
+            # refused with a fault latched, and only --fresh, which a systemd start does not pass, got out)
+            await d.start(fresh=False)
+            await _wait_mode(d, "auto", 30.0)
+            assert not any(m[1] == "stop" for m in _modes(d))
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
         finally:
             await d.close()
 

@@ -78,8 +78,10 @@ def test_a_restart_remembers_latched_faults_the_launch_point_and_an_aborted_run(
                                                    launch_ne_m=(1.5, -2.0))
     index, why = st.interrupted("abc", 4)
     assert index is None and why.startswith("an interrupted run of this mission had geofence latched")
-    st.save(Progress("m", "abc", 1, "stopped", latched=("battery_low",)))  # a clean stop with a fault latched
-    assert "ended with battery_low latched" in st.interrupted("abc", 4)[1]
+    st.save(Progress("m", "abc", 1, "stopped", latched=("battery_low",)))  # a clean stop: the operator's
+    assert st.interrupted("abc", 4) == (None, None)
+    st.save(Progress("m", "abc", 1, "aborted", reason="max_mission_time", latched=("max_mission_time",)))
+    assert "ended with max_mission_time latched" in st.interrupted("abc", 4)[1]
     st.save(Progress("m", "abc", 0, "aborted", reason="error"))
     assert st.interrupted("abc", 4) == (None, "the last run of this mission was aborted (error)")
     assert st.interrupted("another", 4) == (None, None)  # another mission after it: a new run

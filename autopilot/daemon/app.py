@@ -259,13 +259,13 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: s
 
 
 def _run_before(opts: RunOptions, store: StateStore, sha: str):
-    """The saved progress of this mission's last run when a restart carries it on (not --fresh; interrupted,
-    aborted, or ended with a failsafe latched: StateStore.interrupted): its launch point (rtl's home) and latched
-    faults are this run's too. A run that ended cleanly is not carried on: the next is a new one."""
+    """The saved progress of this mission's last run when a restart carries it on (not --fresh; interrupted or
+    aborted: StateStore.interrupted): its launch point (rtl's home) and latched faults are this run's too. A run
+    that ended cleanly (complete, or stopped by a signal) is not carried on: the next is a new one."""
     saved = None if opts.fresh else store.load()
     if saved is None or saved.mission_sha256 != sha:
         return None
-    return saved if saved.status in ("running", "aborted") or saved.latched else None
+    return saved if saved.status in ("running", "aborted") else None
 
 
 async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):

@@ -441,7 +441,10 @@ class ControlLoop:
             self._log_passes(self.passes.finish(), self.clock.now_s() - self.t0_s)
         st.stop_acknowledged = ack
         status = {"complete": "complete", "signal": "stopped"}.get(reason, "aborted")
-        if self.hold_zero is None or status != "stopped":
+        # a held start stopped cleanly keeps the interrupted run's progress (ctl resume may continue it later),
+        # unless that run had latched a failsafe: then resume is refused, and kept it left the boat held at every
+        # start until someone with a shell passed --fresh
+        if self.hold_zero is None or status != "stopped" or self.failsafe.latched:
             self._save(status, reason if status == "aborted" else "")
         self.log.event(
             "stop", t_s=self.clock.now_s() - self.t0_s, reason=reason, signal=st.stop_signal, ack_received=ack,

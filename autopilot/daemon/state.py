@@ -105,12 +105,13 @@ class StateStore:
         saved, problem = self.read()
         if problem is not None:
             return None, f"the saved progress {self.path} cannot be read ({problem}): a run may have been interrupted"
-        if saved is not None and saved.mission_sha256 == mission_sha256 and saved.status in ("aborted", "stopped"):
+        if saved is not None and saved.mission_sha256 == mission_sha256 and saved.status == "aborted":
+            # a crash caught by the loop, or max_mission_time: it flew again from W0 (a clean stop, a signal, is
+            # the operator's: the next start is a new run, its latched faults not carried over)
             if saved.latched:
                 return None, (f"the last run of this mission ended with {', '.join(saved.latched)} latched (a failsafe "
                               "took the boat; resume is refused)")
-            if saved.status == "aborted":  # a crash caught by the loop, or max_mission_time: it flew again from W0
-                return None, f"the last run of this mission was aborted ({saved.reason or 'no reason saved'})"
+            return None, f"the last run of this mission was aborted ({saved.reason or 'no reason saved'})"
         if saved is None or saved.status != "running":
             return None, None
         if saved.latched and saved.mission_sha256 == mission_sha256:
