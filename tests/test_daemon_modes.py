@@ -27,6 +27,11 @@ def _last_cycle(d: Daemon) -> dict:
     return cycles[-1] if cycles else {}
 
 
+def _thrust_cycles_after(d: Daemon, t_s: float) -> list[dict]:
+    """Cycle lines after ``t_s`` whose command was not zero thrust."""
+    return [r for r in d.log() if r["event"] == "cycle" and r["t_s"] > t_s and (r["thrust_port_n"] or r["thrust_stbd_n"])]
+
+
 def _boat_ne(d: Daemon) -> tuple[float, float]:
     x = d.rig.boat.state
     return float(x[0]), float(x[1])
@@ -291,7 +296,7 @@ def test_a_flat_battery_stops_and_battery_low_does_not_drive_it_on(tmp_path):
             assert low["fallback"] == "battery_critical took stop before: a failsafe does not drive a boat a failsafe stopped"
             assert [m[1:] for m in _modes(d)][-1] == ("stop", "failsafe battery_critical")
             after = [r for r in d.log() if r["event"] == "cycle" and r["t_s"] > crit["t_s"] + 0.5]
-            assert len(after) > 50 and all(r["thrust_port_n"] == 0 and r["thrust_stbd_n"] == 0 for r in after)
+            assert len(after) > 50 and _thrust_cycles_after(d, crit["t_s"] + 0.5) == []
             assert not d.rig.mbed.thrusting
             d.proc.send_signal(2)
             assert await d.finish(30.0) == 0
@@ -317,9 +322,7 @@ def test_a_failsafe_does_not_drive_a_boat_the_operator_stopped(tmp_path):
             low = next(r for r in d.events("failsafe") if r["cause"] == "battery_low")
             assert (low["action"], low["fallback"]) == (
                 "stop", "the stop in force (ctl stop) stands: a failsafe does not drive a stopped boat"), low
-            moving = [r for r in d.log() if r["event"] == "cycle" and r["t_s"] > t_stop + 0.5
-                      and (r["thrust_port_n"] or r["thrust_stbd_n"])]
-            assert moving == [] and _last_cycle(d)["mode"] == "stop"
+            assert _thrust_cycles_after(d, t_stop + 0.5) == [] and _last_cycle(d)["mode"] == "stop"
             d.proc.send_signal(2)
             assert await d.finish(30.0) == 0
         finally:
@@ -486,7 +489,7 @@ def test_a_run_aborted_by_the_mission_time_is_not_flown_again_at_the_next_start(
             await d.clock.sleep(10.0)
             assert _modes(d)[0][1] == "stop" and "ended with max_mission_time latched" in _modes(d)[0][2]
             cycles = [r for r in d.log() if r["event"] == "cycle"]
-            assert len(cycles) > 50 and all(r["thrust_port_n"] == 0 and r["thrust_stbd_n"] == 0 for r in cycles)
+            assert len(cycles) > 50 and _thrust_cycles_after(d, -1.0) == []
             d.proc.send_signal(2)
             assert await d.finish(30.0) == 0
         finally:

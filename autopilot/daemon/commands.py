@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from autopilot.daemon.cycle import answer_failsafe, stop_in_force
+from autopilot.daemon.cycle import answer_failsafe, stop_in_force, stop_stands
 from autopilot.logschema import Mode
 
 __all__ = ["apply", "failsafe_action", "replace_key"]
@@ -70,7 +70,7 @@ def _helm(loop, request, helm_nav, unavailable, cause):
     if request.get("failsafe") and stopped is not None and command != "stop":
         # the link's own failsafe (ground station lost) drove a boat battery_critical had stopped, found by fault
         # injection: a failsafe never replaces a stop in force, whoever's (cycle.answer_failsafe)
-        return False, f"{command} not taken: the stop in force ({stopped}) stands: a failsafe does not drive a stopped boat"
+        return False, f"{command} not taken: {stop_stands(stopped)}"
     latched = list(loop.failsafe.latched)
     if command == "resume" and latched:
         return False, (f"resume refused: {', '.join(latched)} latched (a failsafe took the boat; "

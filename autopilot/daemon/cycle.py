@@ -22,7 +22,7 @@ from autopilot.gnc import ControlOutput, NavInput
 from autopilot.gnc.navigation import Navigation, NavRules
 from autopilot.logschema import CYCLE_KEYS, Mode
 
-__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "answer_failsafe", "stop_in_force", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
+__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "answer_failsafe", "stop_in_force", "stop_stands", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
            "GNC_FIELDS"]
 
 MAX_STEP_DT_S = 1.0  # a GNC step after a long pause integrates at most this much
@@ -87,6 +87,11 @@ def stop_in_force(ap) -> str | None:
     return ap.mode_cause if ap.mode is Mode.STOP else None
 
 
+def stop_stands(stopped: str) -> str:
+    """Why a failsafe's hold or rtl was not taken: the stop in force (its cause, :func:`stop_in_force`)."""
+    return f"the stop in force ({stopped}) stands: a failsafe does not drive a stopped boat"
+
+
 def answer_failsafe(ap, req, helm_nav: NavInput | None, unavailable: str) -> tuple[str, str | None]:
     """A latched fault's request to the helm ``ap``: (the action in force after it, why not the configured one).
     Overruled (a stop a fault took before stands), or the helm stopped for any other reason (``ctl stop``, an
@@ -96,7 +101,7 @@ def answer_failsafe(ap, req, helm_nav: NavInput | None, unavailable: str) -> tup
         return req.overruled_by[1], req.fallback
     stopped = stop_in_force(ap)
     if stopped is not None and req.action != "stop":  # found by fault injection: ctl stop, then battery_low's rtl
-        return "stop", f"the stop in force ({stopped}) stands: a failsafe does not drive a stopped boat"
+        return "stop", stop_stands(stopped)
     ok, answer = ap.request(req.action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
     if ok:
         return req.action, req.fallback
