@@ -190,3 +190,25 @@ def test_a_block_of_lines_written_twice_does_not_add_to_the_distance(logs, tmp_p
     assert main(["review", str(tmp_path / "dup.jsonl"), "--out", str(tmp_path / "b"), "--no-plots"]) == 0
     a, b = (json.loads((tmp_path / x / "summary.json").read_text()) for x in "ab")
     assert b["distance_m"] == pytest.approx(a["distance_m"], rel=1e-9) and a["distance_m"] > 10.0
+
+
+def test_every_link_and_figure_of_a_report_resolves_whatever_the_log_is_called(tmp_path):
+    """Found by a review audit: a log named "trial #3.jsonl" was linked as href="1-trial #3/report.html", which
+    a browser reads as the page "1-trial " and a fragment (an error page); its export links likewise."""
+    import re
+    from urllib.parse import unquote, urlsplit
+
+    names = ["trial #3.jsonl", "run 100%.jsonl", "what?.jsonl"]
+    for name in names:
+        write_synthetic_log(tmp_path / name)
+    out = tmp_path / "out"
+    assert main(["review", *(str(tmp_path / n) for n in names), "--out", str(out), "--export", "gpx"]) == 0
+    pages = sorted(out.rglob("*.html"))
+    assert len(pages) == 4
+    seen = 0
+    for page in pages:
+        for ref in re.findall(r'(?:href|src)="([^"]+)"', page.read_text()):
+            target = page.parent / unquote(urlsplit(ref).path)  # as a browser resolves it
+            assert target.is_file(), (page.relative_to(out), ref)
+            seen += 1
+    assert seen >= 4 + 3 * 2  # the index's links and overlay; each page's figures and its export

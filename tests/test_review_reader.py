@@ -133,3 +133,47 @@ def test_many_blocks_are_assembled_in_order(tmp_path):
 def test_missing_file_is_a_config_error(tmp_path):
     with pytest.raises(ConfigError, match="cannot read log"):
         read_log(tmp_path / "nope.jsonl")
+
+
+def _start(**extra):
+    rec = {"event": "mission_start", "t_s": 0.0, "mission_name": "m", "waypoints": [[10.0, 0.0], [20.0, 5.0]],
+           "timestamp": "2024-05-21T09:30:00Z"}
+    rec.update(extra)
+    return rec
+
+
+def test_a_log_saved_with_a_byte_order_mark_keeps_its_mission_start(tmp_path):
+    """Found by a review audit: a log saved by a Windows editor (UTF-8 with a BOM) lost its first line, the
+    mission_start, as "not JSON", and the report said "waypoints and origin unknown" with exit 0."""
+    from autopilot.review.reader import check_mission_log
+
+    path = _write(tmp_path / "bom.jsonl", [_start(), _cycle(0), _cycle(1)])
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert check_mission_log(path) == path
+    log = read_log(path)
+    assert log.stats.skipped == 0 and log.start is not None
+    assert_allclose(log.waypoints_ne_m, [[10.0, 0.0], [20.0, 5.0]])
+
+
+def test_a_mission_start_longer_than_the_sniff_is_a_mission_log(tmp_path):
+    """Found by a review audit: a survey of 1400 waypoints wrote a 67 kB mission_start; the check looked at
+    the first 64 kB only and refused the log as "not a mission log" (exit 2)."""
+    from autopilot.review.reader import check_mission_log
+
+    wps = [[float(k), float(k % 7)] for k in range(1400)]
+    path = _write(tmp_path / "survey.jsonl", [_start(waypoints=wps, pad="x" * 70000), _cycle(0)])
+    assert path.stat().st_size > 65536 + 1000
+    assert check_mission_log(path) == path
+    assert len(read_log(path).waypoints_ne_m) == 1400
+
+
+def test_another_programs_json_log_is_not_a_mission_log(tmp_path):
+    """Found by a review audit: a structlog log of a web service (every line has an 'event') was reviewed as a
+    mission log with no cycles (exit 1) rather than refused (exit 2), as the README says of other files."""
+    from autopilot.review.reader import check_mission_log
+
+    path = _write(tmp_path / "web.jsonl", [{"event": "request", "path": "/", "status": 200},
+                                           {"event": "request served", "ms": 3}])
+    with pytest.raises(ConfigError, match=r"not a mission log") as e:
+        check_mission_log(path)
+    assert "request" in str(e.value)

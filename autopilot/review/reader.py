@@ -22,6 +22,7 @@ out of both. Logs written before traffic was logged simply have none.
 
 from __future__ import annotations
 
+import codecs
 import json
 import math
 import operator
@@ -429,6 +430,7 @@ def _block_to_array(rows: list, stats: ReadStats) -> np.ndarray:
 
 
 _SNIFF_BYTES = 65536
+_FIRST_LINE_MAX_BYTES = 64 * 1024 * 1024  # a first line longer than this is not a mission log's
 GZIP_MAGIC = b"\x1f\x8b"
 
 
@@ -445,36 +447,49 @@ def check_mission_log(path) -> Path:
     """``path`` if it can be a mission log; ConfigError naming the file when it plainly is not.
 
     An empty file passes (a daemon killed before its first line leaves one; the review says
-    so). A file with bytes in it must hold at least one JSON line with an ``event`` among its
-    first 64 kB: a README, a CSV or a binary file given by mistake is refused, not reviewed as
+    so). A file with bytes in it must hold at least one JSON line with an ``event`` the daemon
+    writes (docs/log-schema.md) among its first 64 kB (and its first line, however long): a README,
+    a CSV, a binary file or another program's JSON log given by mistake is refused, not reviewed as
     "0 cycles".
     """
     from autopilot.userfile import check_file, check_text_head
 
     p = check_file(path, what="mission log")
     head = b""
+    whole = False
     try:
         with open_log(p) as f:
-            while len(head) < _SNIFF_BYTES and (chunk := f.read(min(4096, _SNIFF_BYTES - len(head)))):
+            # the first line whole, however long: a survey's mission_start (1400 waypoints) is ~67 kB
+            while (len(head) < _SNIFF_BYTES or (b"\n" not in head and len(head) < _FIRST_LINE_MAX_BYTES)):
+                chunk = f.read(65536)
+                if not chunk:
+                    whole = True
+                    break
                 head += chunk
     except (OSError, EOFError) as exc:  # a compressed log cut short: what could be read is judged
         if not head:
             raise ConfigError(f"{p}: a gzip file that cannot be read ({exc})") from None
+        whole = True
     if not head.strip():
         return p
     check_text_head(p, head, what="mission log")
-    lines = head.splitlines()
-    if len(head) == _SNIFF_BYTES and len(lines) > 1:
+    lines = head.removeprefix(codecs.BOM_UTF8).splitlines()
+    if not whole and len(lines) > 1:
         lines = lines[:-1]  # the last one may be cut by the sniff
+    named = []
     for raw in lines:
         try:
             rec = json.loads(raw)
         except ValueError:
             continue
         if isinstance(rec, dict) and isinstance(rec.get("event"), str):
-            return p
+            if rec["event"] in EVENTS:
+                return p
+            named.append(rec["event"])
+    other = (f"; its lines' events ({', '.join(sorted(set(named))[:3])}) are none of the daemon's"
+             if named else "")
     raise ConfigError(f"{p}: no mission-log line in it (none of its first {len(lines)} line(s) is a JSON object "
-                      "with an 'event'): not a mission log (docs/log-schema.md)")
+                      f"with an 'event' the daemon writes{other}): not a mission log (docs/log-schema.md)")
 
 
 def _lines(f, stats: ReadStats):
@@ -523,6 +538,9 @@ def read_log(path) -> MissionLog:
 
     def loads(raw):  # bytes, as json.loads takes them (a bad byte: ValueError, a corrupt line)
         return decode(raw.decode("utf-8") if isinstance(raw, bytes) else raw)
+
+    def first_loads(raw):  # the first line: a byte-order mark (a log saved by a Windows editor) is not data
+        return loads(raw.removeprefix(codecs.BOM_UTF8) if isinstance(raw, bytes) else raw.removeprefix("\ufeff"))
     mode_codes, source_codes, situation_codes = _MODE_CODES, _SOURCE_CODES, _SITUATION_CODES
 
     def flush() -> None:
@@ -543,7 +561,7 @@ def read_log(path) -> MissionLog:
         for raw in _lines(f, stats):
             lineno += 1
             try:
-                rec = loads(raw)
+                rec = first_loads(raw) if lineno == 1 else loads(raw)
             except ValueError:  # JSONDecodeError and UnicodeDecodeError
                 if not raw.strip():
                     stats.blank += 1

@@ -98,6 +98,14 @@ class Review:
     overlay: Path | None = None
 
 
+def _href(name: str) -> str:
+    """A file name as a relative URL: '#', '%', '?' and spaces are a name's, not the URL's (a log named
+    "trial #3.jsonl" linked to "1-trial " and a fragment)."""
+    from urllib.parse import quote
+
+    return _e(quote(name))
+
+
 def _e(x) -> str:
     return html.escape(str(x))
 
@@ -231,7 +239,7 @@ def _single_html(r: LogReview) -> str:
     missing = []
     for name, caption, _fn in FIGURES:
         if r.figures.get(name):
-            parts.append(f"<figure><img src=\"{_e(name)}\" alt=\"{_e(caption)}\">"
+            parts.append(f"<figure><img src=\"{_href(name)}\" alt=\"{_e(caption)}\">"
                          f"<figcaption>{_e(caption)}</figcaption></figure>")
         else:
             missing.append(name)
@@ -239,7 +247,7 @@ def _single_html(r: LogReview) -> str:
         parts.append("<p>Not drawn (no data in the log" + ("" if r.figures else ", or plots disabled")
                      + "): " + _e(", ".join(missing)) + "</p>")
     if r.exports or r.export_errors:
-        items = [f"<li><a href=\"{_e(p.name)}\">{_e(p.name)}</a> ({_e(fmt)})</li>" for fmt, p in r.exports.items()]
+        items = [f"<li><a href=\"{_href(p.name)}\">{_e(p.name)}</a> ({_e(fmt)})</li>" for fmt, p in r.exports.items()]
         items += [f"<li class=\"warn\">{_e(fmt)}: {_e(msg)}</li>" for fmt, msg in r.export_errors.items()]
         parts.append("<h2>Exports</h2><ul>" + "".join(items) + "</ul>")
     parts.append("<p><a href=\"summary.json\">summary.json</a></p>")
@@ -249,12 +257,12 @@ def _single_html(r: LogReview) -> str:
 def _compare_html(results: list[LogReview], overlay: Path | None) -> str:
     parts = [f"<h1>Mission review: {len(results)} logs</h1>"]
     parts.append("<ol>" + "".join(
-        f"<li><a href=\"{_e(r.report.parent.name)}/report.html\">{_e(r.card.name)}</a> "
+        f"<li><a href=\"{_href(r.report.parent.name)}/report.html\">{_e(r.card.name)}</a> "
         f"(<code>{_e(r.card.path)}</code>)" + (f" <span class=\"warn\">{r.card.skipped_lines} lines skipped</span>"
                                                if r.card.skipped_lines else "") + "</li>"
         for r in results) + "</ol>")
     if overlay:
-        parts.append(f"<figure><img src=\"{_e(overlay.name)}\" alt=\"overlaid tracks\">"
+        parts.append(f"<figure><img src=\"{_href(overlay.name)}\" alt=\"overlaid tracks\">"
                      "<figcaption>Tracks overlaid.</figcaption></figure>")
     labels: list[str] = []  # every log's rows (a log with traffic has rows others lack), each after its predecessor
     for r in results:
