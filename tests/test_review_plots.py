@@ -101,3 +101,30 @@ def test_the_track_drawn_breaks_where_the_gps_was_lost_as_the_exports_do(tmp_pat
     assert len(breaks) == 2 and breaks[-1] == len(n) - 1  # one break inside, the end
     _, fix_t = log.fix_rows()
     assert fix_t[breaks[0] - 1] < 20.0 and fix_t[breaks[0]] >= 27.0  # across the outage, nothing drawn
+
+
+def test_the_overlay_of_several_logs_breaks_a_track_where_the_log_has_a_hole(tmp_path, monkeypatch):
+    """Found by a review audit: a daemon stopped for 2 s (SIGSTOP) left a 20-s hole in its log; the log's own
+    track broke there, the overlay of several logs drew a straight line across it (raw rows, not fixes)."""
+    import json
+
+    from autopilot.review import plots
+    from autopilot.review.report import review
+    from autopilot.review.synthetic import write_synthetic_log
+
+    a, b = tmp_path / "a.jsonl", tmp_path / "b.jsonl"
+    write_synthetic_log(a, duration_s=60.0, loop=True)
+    write_synthetic_log(b, duration_s=60.0, loop=True)
+    kept = [line for line in a.read_text().splitlines()
+            if not (json.loads(line).get("event") == "cycle" and 20.0 <= json.loads(line)["t_s"] < 40.0)]
+    a.write_text("\n".join(kept) + "\n")
+    drawn = {}
+    real = plots.plot_overlay
+    monkeypatch.setattr(plots, "plot_overlay", lambda tracks, path: drawn.setdefault("tracks", tracks) and real(tracks, path))
+    review([a, b], tmp_path / "out")
+    north = drawn["tracks"][0].north_m
+    assert np.isnan(north[:-1]).sum() == 1  # one break inside: across the hole
+    from autopilot.review.reader import read_log
+
+    n_own, _ = plots.track_line(read_log(a))  # the log's own chart
+    assert np.array_equal(np.isnan(north), np.isnan(n_own)) and np.array_equal(north[~np.isnan(north)], n_own[~np.isnan(n_own)])

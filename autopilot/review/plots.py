@@ -688,6 +688,12 @@ class Track:
     east_m: np.ndarray
     waypoints_ne_m: np.ndarray
 
+    @classmethod
+    def of(cls, log: MissionLog) -> Track:
+        """The log's track as its own chart draws it (:func:`track_line`: broken where fixes were lost)."""
+        n, e = track_points(*track_line(log))
+        return cls(log.name, n.copy(), e.copy(), log.waypoints_ne_m)
+
 
 def plot_overlay(tracks: list[Track], path: Path) -> Path | None:
     """Tracks of several missions on one chart, each with its waypoints."""

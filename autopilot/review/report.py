@@ -291,8 +291,7 @@ def review(paths, out_dir, *, formats=(), with_plots: bool = True) -> Review:
     results, tracks = [], []
     for k, p in enumerate(paths, start=1):
         one = review_one(read_log(p), out_dir / f"{k}-{p.stem}", formats=formats, with_plots=with_plots)
-        n, e = plots.track_points(one.log.col("north_m"), one.log.col("east_m"))
-        tracks.append(plots.Track(one.log.name, n.copy(), e.copy(), one.log.waypoints_ne_m))
+        tracks.append(plots.Track.of(one.log))
         one.log = None  # only the decimated track stays in memory between logs
         results.append(one)
     overlay = plots.plot_overlay(tracks, out_dir / "tracks.png") if with_plots else None
