@@ -84,8 +84,8 @@ def test_synthetic_mission_scorecard(tmp_path):
     fixes = truth["fix_rows"]
     assert_allclose(xte[fixes], truth["weave_m"][fixes], atol=0.05)
     assert_allclose(card.xte_max_m, np.max(np.abs(truth["weave_m"][fixes])), atol=0.05)
-    fn, fe = truth["north_m"][fixes], truth["east_m"][fixes]
-    assert_allclose(card.distance_m, np.sum(np.hypot(np.diff(fn), np.diff(fe))), rtol=1e-3)  # through the fixes
+    path_m = np.sum(np.hypot(np.diff(truth["north_m"]), np.diff(truth["east_m"])))  # the path the boat ran
+    assert_allclose(card.distance_m, path_m, rtol=0.02)  # speed over ground at 1 Hz, integrated
     for w, expect in zip(card.waypoints, truth["closest_approach_m"]):
         assert_allclose(w.closest_approach_m, expect, atol=2e-3)  # recomputed: the pass's closest fix
         assert_allclose(w.logged_closest_approach_m, expect, atol=2e-3)  # as logged in waypoint_pass
@@ -114,3 +114,88 @@ def test_empty_log_scorecard(tmp_path):
     assert card.cycles == 0 and math.isnan(card.distance_m) and math.isnan(card.thrust_energy_n_s)
     assert card.waypoints == [] and card.lateness_ms == {}
     json.dumps(card.to_dict(), allow_nan=False)  # NaN becomes null, never a number
+
+
+def _wandering_fixes(n_cycles: int, seed: int = 1, wander_m: float = 1.5, tau_s: float = 45.0):
+    """A boat at rest seen by a 1 Hz receiver: Gauss-Markov wander of its position (as the SC-30 model
+    and a real receiver show), each fix held on the 10 Hz cycle lines with its age, and the few cm/s of
+    speed-over-ground noise a receiver at rest reports."""
+    rng = np.random.default_rng(seed)
+    fixes = n_cycles // 10 + 1
+    a = math.exp(-1.0 / tau_s)
+    w = np.zeros((fixes, 2))
+    for k in range(1, fixes):
+        w[k] = a * w[k - 1] + wander_m * math.sqrt(1 - a * a) * rng.normal(size=2)
+    w += rng.normal(0.0, 0.3, size=w.shape)  # the white part
+    k = np.arange(n_cycles) // 10
+    return dict(north_m=w[k, 0], east_m=w[k, 1], position_age_s=np.round(0.1 * (np.arange(n_cycles) % 10), 3),
+                sog_m_s=np.abs(rng.normal(0.0, 0.05, fixes))[k], cog_deg=rng.uniform(0, 360, fixes)[k])
+
+
+def test_a_boat_at_rest_runs_no_distance_however_its_gps_wanders(tmp_path):
+    """Found by a review audit: the distance run summed the steps between fixes, GPS wander included: 638 m for
+    a boat held at its launch point for 20 min, 26 m for a held start that never moved."""
+    cols = _wandering_fixes(6000)  # 10 min
+    log = read_log(_write(tmp_path / "rest.jsonl", [START] + _cycles(6000, mode="hold", thrust_port_n=0.0,
+                                                                           thrust_stbd_n=0.0, **cols)))
+    n, e = cols["north_m"][::10], cols["east_m"][::10]
+    assert np.sum(np.hypot(np.diff(n), np.diff(e))) > 100.0  # what the fixes' steps add up to
+    assert score(log).distance_m == 0.0
+
+
+def test_a_held_start_has_no_tracking_score_and_a_hold_is_not_a_leg(tmp_path):
+    """Found by a review audit: a held restart (every cycle in `stop`) was scored 0.28 / 0.77 m of cross-track
+    error, as if it had tracked well (the every-cycle fallback is for logs that state no mode); and a 300-s
+    hold at a waypoint was scored as leg 0's cross-track error (the daemon logs none there)."""
+    cols = _wandering_fixes(600)
+    held = read_log(_write(tmp_path / "held.jsonl", [START] + _cycles(600, mode="stop", wp_index=0, **cols)))
+    card = score(held)
+    assert math.isnan(card.xte_rms_m) and math.isnan(card.xte_max_m)
+    # 20 s along leg 0 (due north, 0.5 m to starboard), then 60 s holding 3 m off W0's side of the leg
+    on_leg = _cycles(200, north_m=list(np.round(0.05 * np.arange(200), 3)), east_m=[0.0] + [0.5] * 199, wp_index=0)
+    hold = _cycles(600, north_m=10.0, east_m=3.0, wp_index=0, holding=True, hold_north_m=10.0, hold_east_m=0.0)
+    for k, r in enumerate(hold):
+        r["t_s"] = round(20.0 + 0.1 * k, 3)
+    card = score(read_log(_write(tmp_path / "hold.jsonl", [START] + on_leg + hold)))
+    assert_allclose([card.xte_rms_m, card.xte_max_m], [0.5 * math.sqrt(199 / 200), 0.5], atol=1e-9)  # the leg only
+    plain = score(read_log(_write(tmp_path / "plain.jsonl", [START] + _cycles(5, north_m=[0.0, 1, 2, 3, 4],
+                                                                             east_m=[0.0, 2, 2, 2, 2], wp_index=0,
+                                                                             mode=None))))
+    assert_allclose(plain.xte_max_m, 2.0)  # a log that states no mode: every cycle is judged, as before
+
+
+def test_stale_time_is_judged_by_the_daemons_own_limits(tmp_path):
+    """Found by a review audit: the review counted a heading older than 0.5 s stale (its own constant), the
+    daemon faults at failsafe.heading_stale_s = 1 s: 141.7 s "stale" beside 35 s of heading_stale faults."""
+    ages = np.tile(np.round(np.arange(10) * 0.1, 3), 20)  # the heading ages 0..0.9 s, again and again
+    recs = _cycles(200, heading_deg=10.0, heading_age_s=ages)
+    default = score(read_log(_write(tmp_path / "a.jsonl", [START] + recs)))
+    assert default.heading_stale_s == 0.0 and default.heading_stale_after_s == 1.0  # the daemon's default
+    strict = dict(START, config={"failsafe": {"heading_stale_s": 0.45, "position_stale_s": 2.5}})
+    card = score(read_log(_write(tmp_path / "b.jsonl", [strict] + recs)))
+    assert_allclose(card.heading_stale_s, 20 * 5 * 0.1, atol=1e-9)  # ages 0.5 .. 0.9 s
+    assert (card.heading_stale_after_s, card.position_stale_after_s) == (0.45, 2.5)
+    assert "heading lost / stale (older than 0.45 s)" in dict(card.table_rows())
+
+
+def test_mission_time_counts_from_mission_start_and_a_failsafes_rtl_is_time_in_failsafe(tmp_path):
+    """Found by a review audit: the mission time ran from the first cycle (49.1 s for the daemon's 51.2 s; 89 s
+    for a run the 90-s limit stopped), and "time in failsafe" counted the `failsafe` mode only: 0 s for a
+    battery_low rtl that then held at launch for 20 min."""
+    recs = _cycles(300, mode="auto")
+    for r in recs:
+        r["t_s"] = round(r["t_s"] + 1.2, 3)  # the first cycle once the sensors answer
+    for r in recs[100:150]:
+        r["mode"] = "rtl"
+    for r in recs[150:250]:
+        r["mode"] = "hold"
+    for r in recs[250:]:
+        r["mode"] = "manual"
+    events = [{"event": "failsafe", "t_s": recs[100]["t_s"], "cause": "battery_low", "action": "rtl"},
+              {"event": "mode", "t_s": recs[100]["t_s"], "mode": "rtl", "from": "auto", "cause": "failsafe battery_low"},
+              {"event": "mode", "t_s": recs[150]["t_s"], "mode": "hold", "from": "rtl", "cause": "rtl: at the launch point"},
+              {"event": "mode", "t_s": recs[250]["t_s"], "mode": "manual", "from": "hold", "cause": "ctl manual"}]
+    card = score(read_log(_write(tmp_path / "fs.jsonl", [START] + recs[:100] + events[:2] + recs[100:150] + events[2:3]
+                                 + recs[150:250] + events[3:] + recs[250:])))
+    assert_allclose(card.mission_time_s, recs[-1]["t_s"], atol=1e-9)
+    assert_allclose(card.failsafe_time_s, 15.0, atol=1e-6)  # rtl 5 s and its hold 10 s; not the operator's manual

@@ -41,8 +41,6 @@ from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog,
 from autopilot.traffic.score import score_target
 
 GAP_FACTOR = 5.0  # dt above this many nominal periods is a hole in the log
-STALE_HEADING_S = 0.5  # heading data older than this counts as stale (10 Hz source)
-STALE_POSITION_S = 2.0  # position older than this counts as stale (1 Hz GGA)
 LATENESS_PERCENTILES = (50.0, 90.0, 99.0, 99.9)
 HOLD_POINT_TOLERANCE_M = 1e-3  # logged hold points closer than this are one point (the daemon logs the target's own floats)
 HOLD_ERROR_PERCENTILE = 95.0  # the hold's achieved radius: this percentile of hold_error_m over its cycles
@@ -191,6 +189,8 @@ class Scorecard:
     avoidance_s: float = math.nan  # time avoidance changed the course or speed (NaN: avoidance not logged)
     gps_jumps_refused: int = 0  # position_jump lines: fixes refused as glitches
     gps_jumps_reanchored: int = 0  # and re-anchorings (two far fixes agreed)
+    heading_stale_after_s: float = math.nan  # the ages above which a sample counted stale (stale_limits_s)
+    position_stale_after_s: float = math.nan
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -212,8 +212,10 @@ class Scorecard:
              f"{_fmt(self.xte_rms_m, 'm', 2)} / {_fmt(self.xte_max_m, 'm', 2)}"),
             ("cross-track error RMS / max (logged xte_m)",
              f"{_fmt(self.logged_xte_rms_m, 'm', 2)} / {_fmt(self.logged_xte_max_m, 'm', 2)}"),
-            ("heading lost / stale", f"{_fmt(self.heading_lost_s, 's', 1)} / {_fmt(self.heading_stale_s, 's', 1)}"),
-            ("position lost / stale", f"{_fmt(self.position_lost_s, 's', 1)} / {_fmt(self.position_stale_s, 's', 1)}"),
+            (f"heading lost / stale{_older_than(self.heading_stale_after_s)}",
+             f"{_fmt(self.heading_lost_s, 's', 1)} / {_fmt(self.heading_stale_s, 's', 1)}"),
+            (f"position lost / stale{_older_than(self.position_stale_after_s)}",
+             f"{_fmt(self.position_lost_s, 's', 1)} / {_fmt(self.position_stale_s, 's', 1)}"),
             ("gaps in the log", _fmt(self.log_gap_s, "s", 1)),
             ("failsafes", f"{len(self.failsafes)}" + (
                 " (" + ", ".join(f"{c} at {t:.1f} s" for t, c in self.failsafes[:5])
@@ -285,6 +287,10 @@ def _fmt_holds(holds: list) -> str:
         text += "; p95 error " + ", ".join(f"hold {h.number}: {h.error_p95_m:.2f} m" for h in held[:5])
         text += ", ..." if len(held) > 5 else ""
     return text
+
+
+def _older_than(limit_s: float) -> str:
+    return f" (older than {limit_s:g} s)" if math.isfinite(limit_s) else ""
 
 
 def _fmt_count(x) -> str:
@@ -526,20 +532,86 @@ def _rms_max(x: np.ndarray) -> tuple[float, float]:
     return float(np.sqrt(np.mean(x * x))), float(np.max(np.abs(x)))
 
 
-def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
-          stale_position_s: float = STALE_POSITION_S) -> Scorecard:
+def stale_limits_s(log: MissionLog) -> tuple[float, float]:
+    """(heading, position) age (s) above which the scorecard counts a sample stale: the daemon's own
+    ``failsafe.heading_stale_s`` and ``position_stale_s`` as the log's configuration states them, else the
+    daemon's defaults (the review once used 0.5 s and 2 s of its own and told 141.7 s of stale heading
+    beside the daemon's 35 s of heading_stale faults)."""
+    from autopilot.daemon.config import FailsafeConfig
+
+    default = FailsafeConfig()
+    heading = log.config_number("failsafe", "heading_stale_s")
+    position = log.config_number("failsafe", "position_stale_s")
+    return (heading if heading is not None and heading > 0 else default.heading_stale_s,
+            position if position is not None and position > 0 else default.position_stale_s)
+
+
+def distance_run_m(log: MissionLog, position_ok: np.ndarray, later: np.ndarray) -> tuple[float, str | None]:
+    """The distance the boat ran (m) and, when it could not be measured so, how it was.
+
+    The speed over ground integrated between the receiver's new velocity samples, a speed below
+    :data:`autopilot.gnc.navigation.MIN_SOG_FOR_COG_M_S` counted as rest (a receiver at rest reports a
+    few cm/s of noise), never across a hole in the samples. Summing the steps between fixes added the
+    GPS's wander: 638 m for a boat held at its launch point for 20 min (89 m by speed over ground, all
+    of it creeping under 0.3 m/s), 44 m for a 36.6-m pond mission (36.7 m by speed over ground).
+    A log without speed over ground: through the fixes (``position_ok``, per row), said so. Only rows
+    ``later`` than every row before count (a block of lines written twice is not run twice).
+    """
+    from autopilot.gnc.navigation import MIN_SOG_FOR_COG_M_S
+    from autopilot.review.export import FIX_GAP_FACTOR
+
+    rows = log.velocity_rows()
+    rows = rows[later[rows] & position_ok[rows]]  # a receiver without a fix has no speed over ground either
+    if len(rows) >= 2:
+        t, sog = log.col("t_s")[rows], log.col("sog_m_s")[rows]
+        moving = np.where(sog >= MIN_SOG_FOR_COG_M_S, sog, 0.0)
+        dt = np.diff(t)
+        typical = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
+        joined = (dt > 0) & (dt <= FIX_GAP_FACTOR * typical)
+        return float(np.sum((0.5 * (moving[1:] + moving[:-1]) * dt)[joined])), None
+    n, e = log.col("north_m")[position_ok], log.col("east_m")[position_ok]
+    if len(n) < 2:
+        return (0.0 if len(n) else math.nan), None
+    return (float(np.sum(np.hypot(np.diff(n), np.diff(e)))),
+            "distance run through the fixes (no speed over ground logged): it includes the GPS's wander")
+
+
+def failsafe_cycles(log: MissionLog) -> np.ndarray:
+    """Per cycle: the boat was under a failsafe's action. The ``failsafe`` mode (a stop), and a mode a failsafe
+    took (``rtl``, ``hold``: its ``mode`` line's cause ``failsafe ...``) with the hand-overs of that action (rtl's
+    hold at the launch point), until a mode line of anyone else (the operator's, the link's). Counting only the
+    ``failsafe`` mode gave 0 s for a battery_low rtl that held at launch for 20 min."""
+    t = log.col("t_s")
+    under = log.mode == MODES.index("failsafe")
+    changes = sorted((float(ev["t_s"]), str(ev.get("cause") or "")) for ev in log.events_named("mode")
+                     if _is_number(ev.get("t_s")))
+    since = None
+    for when, cause in changes + [(math.inf, "")]:
+        if since is not None and (cause.startswith("rtl:") and when < math.inf):
+            continue  # the action's own hand-over: still the failsafe's
+        if since is not None:
+            under |= (t >= since) & (t < when)
+            since = None
+        if cause.startswith("failsafe"):
+            since = when
+    return under
+
+
+def score(log: MissionLog) -> Scorecard:
     """Compute the scorecard of one mission."""
+    stale_heading_s, stale_position_s = stale_limits_s(log)
     t = log.col("t_s")
     rate = (log.start or {}).get("rate_hz")
     nominal = 1.0 / rate if isinstance(rate, (int, float)) and not isinstance(rate, bool) and rate > 0 else None
     hold, gap_s = hold_durations_s(t, nominal)
     times = [float(ev["t_s"]) for ev in log.events if isinstance(ev.get("t_s"), (int, float))
              and not isinstance(ev.get("t_s"), bool) and math.isfinite(ev["t_s"])]
-    if len(t):
-        mission_time = float(t[-1] - t[0])
-        t_end = float(t[-1])
-    elif times:
-        mission_time, t_end = max(times) - min(times), max(times)
+    # t_s counts from mission_start (docs/log-schema.md): the mission's time runs from it, as the daemon's
+    # summary says it, to the last line (the first cycle comes a second or so later, once the sensors answer)
+    t_first = 0.0 if log.start is not None else (float(t[0]) if len(t) else (min(times) if times else math.nan))
+    if len(t) or times:
+        t_end = float(t[-1]) if len(t) else max(times)
+        mission_time = t_end - t_first
     else:
         mission_time, t_end = math.nan, 0.0
 
@@ -549,8 +621,7 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
     with np.errstate(invalid="ignore"):
         later = t > np.maximum.accumulate(np.r_[-np.inf, t[:-1]]) if len(t) else np.zeros(0, dtype=bool)
     ok = np.isfinite(n) & np.isfinite(e) & later
-    pn, pe = n[ok], e[ok]
-    distance = float(np.sum(np.hypot(np.diff(pn), np.diff(pe)))) if len(pn) > 1 else (0.0 if len(pn) else math.nan)
+    distance, distance_note = distance_run_m(log, ok, later)
 
     tp, ts = log.col("thrust_port_n"), log.col("thrust_stbd_n")
     known = np.isfinite(tp) & np.isfinite(ts)
@@ -566,13 +637,19 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
                           "overflow the sum (a corrupt log?)")
         energy = math.nan
     thrust_unknown = float(np.sum(hold[~known]))
+    if distance_note:
+        read_notes.append(distance_note)
 
+    # the legs are judged in auto, not at a hold item's point (station keeping, scored in its own rows; the
+    # daemon logs no xte_m there either); a log whose cycles state no mode at all: every cycle. A log with
+    # modes but never in auto (a held start) has no tracking to score.
     in_auto = log.mode == MODES.index("auto")
-    if not in_auto.any():
-        in_auto = np.ones(len(t), dtype=bool)  # mode not logged: judge every cycle
+    if not np.any(log.mode != UNKNOWN_CODE):
+        in_auto = np.ones(len(t), dtype=bool)
+    on_leg = in_auto & ~holding_proper(log)
     fix = np.zeros(len(t), dtype=bool)
     fix[log.fix_rows()[0]] = True  # recomputed from the measurements: each fix once
-    xte_rms, xte_max = _rms_max(cross_track_m(log)[in_auto & fix])
+    xte_rms, xte_max = _rms_max(cross_track_m(log)[on_leg & fix])
     lxte_rms, lxte_max = _rms_max(log.col("xte_m")[in_auto])
 
     heading = log.col("heading_deg")
@@ -607,7 +684,7 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
         position_lost_s=float(np.sum(hold[position_lost])),
         position_stale_s=float(np.sum(hold[position_stale])),
         log_gap_s=gap_s,
-        failsafe_time_s=float(np.sum(hold[log.mode == MODES.index("failsafe")])),
+        failsafe_time_s=float(np.sum(hold[failsafe_cycles(log)])),
         failsafes=failsafes, faults=_fault_times(log, t_end),
         nmea_dropped=_max_count(log, "nmea_dropped", "nmea_dropped"),
         ack_missing=_max_count(log, "ack_missing", "ack_missing"),
@@ -621,6 +698,7 @@ def score(log: MissionLog, *, stale_heading_s: float = STALE_HEADING_S,
         avoidance_s=float(np.sum(hold[log.col("avoid_active") > 0.5])) if avoidance_logged(log) else math.nan,
         gps_jumps_refused=sum(ev.get("accepted") is False for ev in log.events_named("position_jump")),
         gps_jumps_reanchored=sum(ev.get("accepted") is True for ev in log.events_named("position_jump")),
+        heading_stale_after_s=stale_heading_s, position_stale_after_s=stale_position_s,
     )
 
 
