@@ -847,3 +847,34 @@ def test_guided_is_reported_as_guided_so_a_planners_start_mission_goes_through(t
     finally:
         assert boat.stop() == 0
     assert sum(1 for r in boat.log() if r["event"] == "command" and r["command"] == "rc_override") == 1
+
+
+def test_a_review_scores_a_mission_uploaded_mid_run_against_its_own_waypoints(tmp_path):
+    """Found by a review audit: a mission uploaded from the ground station mid-run was ignored by the review,
+    which scored the whole log against mission_start's waypoints: "waypoints reached 1 of 1" and a closest
+    approach of 17.8 m beside the daemon's "4 of 4 reached", cross-track 8.8 m for the logged 1.25 m."""
+    from autopilot.review.metrics import score
+    from autopilot.review.reader import read_log
+
+    boat = Boat(tmp_path, mission={"name": "one", "frame": "local", "waypoints": [[40.0, -30.0]]}, speedup=10.0)
+    uploaded = [(-8.0, 8.0), (-16.0, 0.0), (-8.0, -8.0)]
+    try:
+        boat.mode_is("auto")
+        items = [(16, 0, 0, *ORIGIN)] + [(16, 3, 0, *local_to_latlon(n, e, *ORIGIN)) for n, e in uploaded]
+        assert _upload(boat, items) == mavlink.MAV_MISSION_ACCEPTED
+        boat.wait_log(lambda r: r["event"] == "mission_replaced", what="mission replaced")
+        boat.wait_log(lambda r: r["event"] == "stop", timeout_s=60.0, what="the mission's end")
+    finally:
+        boat.stop()
+    log = read_log(next((tmp_path / "logs").glob("mission-*.jsonl")))
+    assert [p.number for p in log.plans] == [1, 2] and log.plans[1].source == "mavlink"
+    card = score(log)
+    logged = {ev["wp_index"]: ev["closest_approach_m"] for ev in log.events_named("waypoint_pass")}
+    assert [w.label for w in card.waypoints] == ["M1 W0", "M2 W0", "M2 W1", "M2 W2"]
+    assert [w.reached for w in card.waypoints] == [False, True, True, True]
+    for w in card.waypoints[1:]:  # the same definition as the daemon's waypoint_pass, over the new mission's fixes
+        assert w.closest_approach_m == pytest.approx(logged[w.index], abs=0.05)
+        assert (w.north_m, w.east_m) == pytest.approx(uploaded[w.index], abs=0.01)
+    rows = dict(card.table_rows())
+    assert rows["waypoints reached"] == "3 of 4" and rows["missions"].startswith("M1: 1 waypoint(s) from mission_start; M2: 3")
+    assert card.xte_max_m < 3.0 * max(card.logged_xte_max_m, 0.5)  # judged on the legs the boat flew

@@ -109,13 +109,15 @@ def fix_stretches(rows: np.ndarray, fix_t: np.ndarray, has_position: np.ndarray)
     return list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
 
 
-def waypoints_latlon(log: MissionLog) -> np.ndarray:
-    """(N, 2) waypoint latitude/longitude; (0, 2) when the log has no origin."""
-    wps = log.waypoints_ne_m
-    if log.origin_deg is None or len(wps) == 0:
-        return np.zeros((0, 2))
+def waypoints_latlon(log: MissionLog) -> list[tuple[str, float, float]]:
+    """(label, lat, lon) of every waypoint of every plan (``MissionLog.all_waypoints``); empty when the log has
+    no origin."""
+    named = log.all_waypoints()
+    if log.origin_deg is None or not named:
+        return []
+    wps = np.array([(wn, we) for _, wn, we in named])
     lat, lon = local_to_latlon(wps[:, 0], wps[:, 1], *log.origin_deg)
-    return np.column_stack([np.atleast_1d(lat), np.atleast_1d(lon)])
+    return [(label, float(la), float(lo)) for (label, _, _), la, lo in zip(named, np.atleast_1d(lat), np.atleast_1d(lon))]
 
 
 def _start_time(log: MissionLog) -> _dt.datetime | None:
@@ -153,8 +155,8 @@ def write_gpx(log: MissionLog, path) -> Path:
         if t0 is not None:
             f.write(f"<time>{t0.strftime('%Y-%m-%dT%H:%M:%SZ')}</time>")
         f.write("</metadata>\n")
-        for i, (la, lo) in enumerate(waypoints_latlon(log)):
-            f.write(f'  <wpt lat="{la:.8f}" lon="{lo:.8f}"><name>W{i}</name></wpt>\n')
+        for label, la, lo in waypoints_latlon(log):
+            f.write(f'  <wpt lat="{la:.8f}" lon="{lo:.8f}"><name>{escape(label)}</name></wpt>\n')
         f.write(f"  <trk><name>{escape(log.name)}</name>\n")
         for a, b in segs:
             f.write("    <trkseg>\n")
@@ -185,8 +187,8 @@ def write_kml(log: MissionLog, path) -> Path:
         f.write('<?xml version="1.0" encoding="UTF-8"?>\n')
         f.write(f'<kml xmlns="{KML_NS}"><Document><name>{escape(log.name)}</name>\n')
         f.write('<Style id="track"><LineStyle><color>ffc06515</color><width>3</width></LineStyle></Style>\n')
-        for i, (la, lo) in enumerate(waypoints_latlon(log)):
-            f.write(f"<Placemark><name>W{i}</name><Point><coordinates>{lo:.8f},{la:.8f},0"
+        for label, la, lo in waypoints_latlon(log):
+            f.write(f"<Placemark><name>{escape(label)}</name><Point><coordinates>{lo:.8f},{la:.8f},0"
                     "</coordinates></Point></Placemark>\n")
         segs = [(a, b) for a, b in stretches if b - a >= 2]
         if segs:
@@ -217,12 +219,14 @@ def write_geojson(log: MissionLog, path) -> Path:
                     else {"type": "MultiLineString", "coordinates": lines})
         features.append({"type": "Feature", "geometry": geometry,
                          "properties": {"kind": "track", "name": log.name, "segments": len(lines)}})
-    scores = closest_approaches(log)
-    for i, (la, lo) in enumerate(waypoints_latlon(log)):
-        ca = scores[i].closest_approach_m if i < len(scores) else math.nan
+    scores = closest_approaches(log)  # one per waypoint of every plan, in the same order
+    for k, (label, la, lo) in enumerate(waypoints_latlon(log)):
+        w = scores[k] if k < len(scores) else None
+        ca = w.closest_approach_m if w is not None else math.nan
         features.append({"type": "Feature",
                          "geometry": {"type": "Point", "coordinates": [round(lo, 8), round(la, 8)]},
-                         "properties": {"kind": "waypoint", "index": i, "name": f"W{i}",
+                         "properties": {"kind": "waypoint", "index": w.index if w is not None else k, "name": label,
+                                        "mission": w.mission if w is not None else 1,
                                         "closest_approach_m": ca if math.isfinite(ca) else None}})
     path = Path(path)
     path.write_text(json.dumps({"type": "FeatureCollection", "features": features}), encoding="utf-8")

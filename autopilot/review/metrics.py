@@ -37,7 +37,7 @@ import numpy as np
 from autopilot.gnc.encounter import EncounterConfig
 from autopilot.gnc.passes import closest_per_pass
 from autopilot.logschema import Mode
-from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog, TargetTrack, _is_number
+from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog, Plan, TargetTrack, _is_number
 from autopilot.traffic.score import score_target
 
 GAP_FACTOR = 5.0  # dt above this many nominal periods is a hole in the log
@@ -59,6 +59,12 @@ class WaypointScore:
     closest_north_m: float
     closest_east_m: float
     logged_closest_approach_m: float  # from waypoint_reached (NaN if absent)
+    mission: int = 1  # the plan it belongs to (MissionLog.plans: 1 is mission_start's)
+    label: str = ""  # W3, or M2 W3 in a log of several missions
+
+    def __post_init__(self) -> None:
+        if not self.label:
+            self.label = f"W{self.index}"
 
 
 @dataclass
@@ -189,6 +195,7 @@ class Scorecard:
     avoidance_s: float = math.nan  # time avoidance changed the course or speed (NaN: avoidance not logged)
     gps_jumps_refused: int = 0  # position_jump lines: fixes refused as glitches
     gps_jumps_reanchored: int = 0  # and re-anchorings (two far fixes agreed)
+    missions: list = field(default_factory=list)  # one per plan when the mission was replaced: number, from_t_s, source, waypoints
     heading_stale_after_s: float = math.nan  # the ages above which a sample counted stale (stale_limits_s)
     position_stale_after_s: float = math.nan
 
@@ -206,6 +213,10 @@ class Scorecard:
             ("mission time", _fmt_duration(self.mission_time_s)),
             ("distance run", _fmt(self.distance_m, "m", 1)),
             ("thrust energy (|T_port|+|T_stbd|) dt", _fmt(self.thrust_energy_n_s, "N s", 0)),
+            *([("missions", "; ".join(
+                f"M{m['number']}: {m['waypoints']} waypoint(s) "
+                + ("from mission_start" if m["from_t_s"] is None else f"from {m['from_t_s']:.1f} s ({m['source'] or 'replaced'})")
+                for m in self.missions))] if len(self.missions) > 1 else []),
             ("waypoints reached", f"{wp_reached} of {len(self.waypoints)}"),
             ("closest approach, mean / max", (f"{np.mean(ca):.2f} / {np.max(ca):.2f} m" if ca else "n/a")),
             ("cross-track error RMS / max (recomputed)",
@@ -344,48 +355,55 @@ def hold_durations_s(t_s: np.ndarray, nominal_dt_s: float | None = None) -> tupl
     return hold, gap_s
 
 
-def leg_starts(log: MissionLog) -> np.ndarray:
-    """Start point of each leg: leg 0 from the first recorded position, leg i from W_{i-1}."""
-    wps = log.waypoints_ne_m
-    n, e = log.col("north_m"), log.col("east_m")
-    ok = np.isfinite(n) & np.isfinite(e)
-    first = (n[ok][0], e[ok][0]) if ok.any() else (0.0, 0.0)
-    return np.vstack([[first], wps[:-1]]) if len(wps) else np.zeros((0, 2))
+def leg_starts(wps: np.ndarray, first_ne_m) -> np.ndarray:
+    """Start point of each leg: leg 0 from ``first_ne_m`` (the first position recorded under the plan), leg i
+    from W_{i-1}."""
+    return np.vstack([[first_ne_m], wps[:-1]]) if len(wps) else np.zeros((0, 2))
 
 
 def cross_track_m(log: MissionLog) -> np.ndarray:
     """Signed cross-track error (+ = starboard of the leg) per row from positions and legs; NaN when unknown.
 
-    The scorecard takes it at the rows where a fix first appears (a held fix is not a new measurement).
+    Each row is judged on the legs of the plan in force then (:attr:`MissionLog.plans`); leg 0 of a plan runs
+    from the first position recorded under it. The scorecard takes it at the rows where a fix first appears
+    (a held fix is not a new measurement).
     """
-    wps = log.waypoints_ne_m
-    n, e = log.col("north_m"), log.col("east_m")
-    idx = log.col("wp_index")
+    t, n, e, idx = log.col("t_s"), log.col("north_m"), log.col("east_m"), log.col("wp_index")
     out = np.full(len(n), np.nan)
-    if len(wps) == 0:
-        return out
-    ok = np.isfinite(n) & np.isfinite(e) & np.isfinite(idx) & (idx >= 0) & (idx < len(wps))
-    i = idx[ok].astype(int)
-    a = leg_starts(log)[i]
-    b = wps[i]
-    d = b - a
-    length = np.hypot(d[:, 0], d[:, 1])
-    length = np.where(length > 1e-9, length, np.nan)  # a zero-length leg has no direction
-    pn, pe = n[ok] - a[:, 0], e[ok] - a[:, 1]
-    out[ok] = (d[:, 0] * pe - d[:, 1] * pn) / length
+    for plan in log.plans:
+        wps = plan.waypoints_ne_m
+        if len(wps) == 0:
+            continue
+        mine = plan.holds(t)
+        seen = mine & np.isfinite(n) & np.isfinite(e)
+        if not seen.any():
+            continue
+        k0 = int(np.argmax(seen))
+        ok = seen & np.isfinite(idx) & (idx >= 0) & (idx < len(wps))
+        i = idx[ok].astype(int)
+        a = leg_starts(wps, (n[k0], e[k0]))[i]
+        b = wps[i]
+        d = b - a
+        length = np.hypot(d[:, 0], d[:, 1])
+        length = np.where(length > 1e-9, length, np.nan)  # a zero-length leg has no direction
+        pn, pe = n[ok] - a[:, 0], e[ok] - a[:, 1]
+        out[ok] = (d[:, 0] * pe - d[:, 1] * pn) / length
     return out
 
 
-def _logged_passes(log: MissionLog) -> tuple[set, dict]:
-    """Waypoints the daemon reported reached, and the closest approach it logged per waypoint.
+def _logged_passes(log: MissionLog, plan: Plan) -> tuple[set, dict]:
+    """Waypoints of ``plan`` the daemon reported reached, and the closest approach it logged per waypoint.
 
     ``waypoint_pass`` events carry the closest approach over the pass; logs written before
     them carried a ``closest_approach_m`` in ``waypoint_reached`` (the guidance's own figure).
+    A replacement's passes close after the replacement (its ``mission_replaced`` line, then theirs).
     """
     reached, logged = set(), {}
     for ev in log.events_named("waypoint_reached", "waypoint_pass"):
         i = ev.get("wp_index")
         if not isinstance(i, int) or isinstance(i, bool):
+            continue
+        if _is_number(ev.get("t_s")) and not plan.holds(float(ev["t_s"])):
             continue
         if ev.get("event") == "waypoint_reached":
             reached.add(i)
@@ -396,27 +414,34 @@ def _logged_passes(log: MissionLog) -> tuple[set, dict]:
 
 
 def closest_approaches(log: MissionLog) -> list[WaypointScore]:
-    """Closest approach to each waypoint over its pass, from the logged fixes (autopilot.gnc.passes).
+    """Closest approach to each waypoint over its pass, from the logged fixes (autopilot.gnc.passes); every
+    plan's waypoints in order (:attr:`MissionLog.plans`), each over the fixes of its own time.
 
     The same definition the daemon logs in ``waypoint_pass``: fixes while steering to W_i
     and to W_{i+1}; the last waypoint's pass ends ``final_pass_s`` after mission_complete
-    (fixes up to the ``waypoint_pass`` event that closed it, else to the end of the log).
+    (fixes up to the ``waypoint_pass`` event that closed it, else to the end of the plan's time).
     """
-    wps = log.waypoints_ne_m
-    reached, logged = _logged_passes(log)
-    rows, fix_t = log.fix_rows()
+    several = len(log.plans) > 1
+    rows_all, fix_t_all = log.fix_rows()
     t, n, e, idx = log.col("t_s"), log.col("north_m"), log.col("east_m"), log.col("wp_index")
-    ok = np.isfinite(n[rows]) & np.isfinite(e[rows]) & np.isfinite(idx[rows])
-    ends = [ev.get("t_s") for ev in log.events_named("waypoint_pass")
-            if ev.get("wp_index") == len(wps) - 1 and isinstance(ev.get("t_s"), (int, float))]
-    if ends:  # the last pass was closed by the daemon: later fixes are not part of it
-        ok &= t[rows] <= float(ends[0])
-    rows, fix_t = rows[ok], fix_t[ok]
-    start = int(idx[rows[0]]) if len(rows) else 0
-    passes = closest_per_pass(fix_t, n[rows], e[rows], idx[rows].astype(int), wps, start_index=min(start, max(len(wps) - 1, 0)))
-    return [WaypointScore(i, float(wn), float(we), i in reached, p.closest_approach_m, p.t_s, p.north_m, p.east_m,
-                          logged.get(i, math.nan))
-            for i, ((wn, we), p) in enumerate(zip(wps, passes))]
+    out = []
+    for plan in log.plans:
+        wps = plan.waypoints_ne_m
+        reached, logged = _logged_passes(log, plan)
+        rows, fix_t = rows_all, fix_t_all
+        ok = np.isfinite(n[rows]) & np.isfinite(e[rows]) & np.isfinite(idx[rows]) & plan.holds(t[rows])
+        ends = [ev.get("t_s") for ev in log.events_named("waypoint_pass")
+                if ev.get("wp_index") == len(wps) - 1 and _is_number(ev.get("t_s")) and plan.holds(float(ev["t_s"]))]
+        if ends:  # the last pass was closed by the daemon: later fixes are not part of it
+            ok &= t[rows] <= float(ends[0])
+        rows, fix_t = rows[ok], fix_t[ok]
+        start = int(idx[rows[0]]) if len(rows) else 0
+        passes = closest_per_pass(fix_t, n[rows], e[rows], idx[rows].astype(int), wps,
+                                  start_index=min(start, max(len(wps) - 1, 0)))
+        out += [WaypointScore(i, float(wn), float(we), i in reached, p.closest_approach_m, p.t_s, p.north_m, p.east_m,
+                              logged.get(i, math.nan), mission=plan.number, label=plan.label(i, several))
+                for i, ((wn, we), p) in enumerate(zip(wps, passes))]
+    return out
 
 
 def _fault_times(log: MissionLog, t_end_s: float) -> dict:
@@ -449,14 +474,17 @@ def holding_proper(log: MissionLog) -> np.ndarray:
     mode = log.mode
     held = at_point & ((mode == MODES.index(Mode.HOLD.value)) | (mode == MODES.index(Mode.PAUSED.value)))
     in_auto = at_point & (mode == MODES.index(Mode.AUTO.value))
-    wps = log.waypoints_ne_m
-    reached = [(float(ev["t_s"]), ev["wp_index"]) for ev in log.events_named("waypoint_reached")
-               if _is_number(ev.get("t_s")) and isinstance(ev.get("wp_index"), int)
-               and not isinstance(ev.get("wp_index"), bool) and 0 <= ev["wp_index"] < len(wps)]
+    reached = []  # (when, north, east) of each waypoint reached, in the plan in force then
+    for ev in log.events_named("waypoint_reached"):
+        i = ev.get("wp_index")
+        if _is_number(ev.get("t_s")) and isinstance(i, int) and not isinstance(i, bool):
+            wps = log.plan_at(float(ev["t_s"])).waypoints_ne_m
+            if 0 <= i < len(wps):
+                reached.append((float(ev["t_s"]), *wps[i]))
     if in_auto.any() and reached:
         reached.sort()
         when = np.array([r[0] for r in reached])
-        where = wps[[r[1] for r in reached]]
+        where = np.array([r[1:] for r in reached])
         last = np.searchsorted(when, t, side="right") - 1  # the waypoint reached last, at or before each cycle
         ok = in_auto & (last >= 0)
         k = last[ok]
@@ -699,6 +727,8 @@ def score(log: MissionLog) -> Scorecard:
         gps_jumps_refused=sum(ev.get("accepted") is False for ev in log.events_named("position_jump")),
         gps_jumps_reanchored=sum(ev.get("accepted") is True for ev in log.events_named("position_jump")),
         heading_stale_after_s=stale_heading_s, position_stale_after_s=stale_position_s,
+        missions=[{"number": p.number, "from_t_s": p.from_t_s if math.isfinite(p.from_t_s) else None,
+                   "source": p.source, "waypoints": len(p.waypoints_ne_m)} for p in log.plans] if len(log.plans) > 1 else [],
     )
 
 

@@ -277,7 +277,7 @@ def track_line(log: MissionLog) -> tuple[np.ndarray, np.ndarray]:
 def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
     """Track in the local frame with waypoints, closest approaches, start, faults, failsafes, holds and launch."""
     n, e = log.col("north_m"), log.col("east_m")
-    wps = log.waypoints_ne_m
+    wps = np.array([(wn, we) for _, wn, we in log.all_waypoints()]).reshape(-1, 2)  # every plan's
     if not _has(n, e) and len(wps) == 0:
         return None
     plt = pyplot()
@@ -306,7 +306,7 @@ def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
                     label="closest approach")
         if labelled:  # one label per waypoint (two, at the waypoint and its closest fix, overlapped)
             for w in card.waypoints:
-                text = f"W{w.index}" + (f"  {w.closest_approach_m:.2f} m" if math.isfinite(w.closest_approach_m) else "")
+                text = w.label + (f"  {w.closest_approach_m:.2f} m" if math.isfinite(w.closest_approach_m) else "")
                 ax.annotate(text, (w.east_m, w.north_m), textcoords="offset points", xytext=(9, 4), fontsize=9,
                             bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.75})
     for name, marker, color in (("fault", "X", "#ef6c00"), ("failsafe", "*", "#d50000")):
@@ -692,7 +692,7 @@ class Track:
     def of(cls, log: MissionLog) -> Track:
         """The log's track as its own chart draws it (:func:`track_line`: broken where fixes were lost)."""
         n, e = track_points(*track_line(log))
-        return cls(log.name, n.copy(), e.copy(), log.waypoints_ne_m)
+        return cls(log.name, n.copy(), e.copy(), np.array([(wn, we) for _, wn, we in log.all_waypoints()]).reshape(-1, 2))
 
 
 def plot_overlay(tracks: list[Track], path: Path) -> Path | None:

@@ -104,6 +104,35 @@ class ReadStats:
         return out
 
 
+@dataclass(frozen=True)
+class Plan:
+    """A mission the boat was given in the log: ``mission_start``'s, then each ``mission_replaced`` (an upload
+    over the link, or a clear: no waypoints). The cycles from ``from_t_s`` until ``until_t_s`` steer by it and
+    their ``wp_index`` counts in it, as do the waypoint events of that time."""
+
+    number: int  # 1: mission_start's; 2, 3, ...: the replacements in order
+    from_t_s: float  # -inf for mission_start's
+    until_t_s: float  # +inf for the last
+    waypoints_ne_m: np.ndarray  # (N, 2)
+    source: str | None = None  # who replaced it (`mavlink`); None for mission_start's
+
+    def holds(self, t_s):
+        """Whether (each of) ``t_s`` falls in this plan's time."""
+        return (np.asarray(t_s) >= self.from_t_s) & (np.asarray(t_s) < self.until_t_s)
+
+    def label(self, index: int, several: bool) -> str:
+        """W3, or M2 W3 in a log of several missions."""
+        return f"M{self.number} W{index}" if several else f"W{index}"
+
+
+def _waypoint_array(value) -> np.ndarray:
+    try:
+        wps = np.asarray(value or [], dtype=float).reshape(-1, 2)
+    except (TypeError, ValueError):
+        return np.zeros((0, 2))
+    return wps[np.all(np.isfinite(wps), axis=1)]
+
+
 @dataclass
 class MissionLog:
     """One mission log in columns.
@@ -151,12 +180,31 @@ class MissionLog:
 
     @property
     def waypoints_ne_m(self) -> np.ndarray:
-        """(N, 2) waypoints from ``mission_start`` ((0, 2) when absent or malformed)."""
-        try:
-            wps = np.asarray((self.start or {}).get("waypoints") or [], dtype=float).reshape(-1, 2)
-        except (TypeError, ValueError):
-            return np.zeros((0, 2))
-        return wps[np.all(np.isfinite(wps), axis=1)]
+        """(N, 2) waypoints from ``mission_start`` ((0, 2) when absent or malformed); a log whose mission was
+        replaced has more (:attr:`plans`)."""
+        return _waypoint_array((self.start or {}).get("waypoints"))
+
+    @cached_property
+    def plans(self) -> list[Plan]:
+        """Every mission the boat was given, in order: ``mission_start``'s, then each ``mission_replaced``.
+        Reviewed against the first alone, a mission uploaded from QGroundControl mid-run was scored against
+        waypoints the boat no longer steered to ("1 of 1 reached" for the daemon's "4 of 4")."""
+        changes = sorted((float(ev["t_s"]), k, ev) for k, ev in enumerate(self.events_named("mission_replaced"))
+                         if _is_number(ev.get("t_s")) and isinstance(ev.get("waypoints"), list))
+        starts = [-math.inf] + [t for t, _, _ in changes]
+        ends = starts[1:] + [math.inf]
+        sources = [None] + [str(ev.get("source") or "") or None for _, _, ev in changes]
+        waypoints = [self.waypoints_ne_m] + [_waypoint_array(ev["waypoints"]) for _, _, ev in changes]
+        return [Plan(k + 1, a, b, w, src) for k, (a, b, w, src) in enumerate(zip(starts, ends, waypoints, sources))]
+
+    def plan_at(self, t_s: float) -> Plan:
+        """The plan in force at ``t_s``."""
+        return next(p for p in reversed(self.plans) if t_s >= p.from_t_s)
+
+    def all_waypoints(self) -> list[tuple[str, float, float]]:
+        """(label, north_m, east_m) of every plan's waypoints in order (W0 ..., or M1 W0 ..., M2 W0 ...)."""
+        several = len(self.plans) > 1
+        return [(p.label(i, several), float(n), float(e)) for p in self.plans for i, (n, e) in enumerate(p.waypoints_ne_m)]
 
     @property
     def origin_deg(self) -> tuple[float, float] | None:

@@ -133,7 +133,7 @@ def _num(x: float, digits: int = 2) -> str:
 def _waypoint_table(card: Scorecard) -> str:
     if not card.waypoints:
         return "<p>The log lists no waypoints.</p>"
-    rows = [[f"W{w.index}", _num(w.north_m, 1), _num(w.east_m, 1), "yes" if w.reached else "no",
+    rows = [[w.label, _num(w.north_m, 1), _num(w.east_m, 1), "yes" if w.reached else "no",
              _num(w.closest_approach_m), _num(w.logged_closest_approach_m), _num(w.closest_t_s, 1)]
             for w in card.waypoints[:MAX_WAYPOINT_ROWS]]
     more = (f"<p>... and {len(card.waypoints) - MAX_WAYPOINT_ROWS} more waypoints (see summary.json).</p>"
