@@ -17,20 +17,22 @@ from autopilot.geo import local_to_latlon
 from autopilot.gnc.navigation import NavMemory, NavRules, assemble
 
 ORIGIN = (52.0, 4.4)
-RULES = NavRules()  # position_jump_m 25 m, max_sog_m_s 10 m/s
+RULES = NavRules()  # position_jump_m 25 m, max_sog_m_s 10 m/s, jump_speed_margin_m_s 2 m/s
 
 
-def _sample(north_m: float, east_m: float, fix_t_s: float, now_s: float, valid: bool = True) -> NavSample:
+def _sample(north_m: float, east_m: float, fix_t_s: float, now_s: float, valid: bool = True,
+            sog_m_s: float | None = 1.5) -> NavSample:
     lat, lon = local_to_latlon(north_m, east_m, *ORIGIN)
     return NavSample(
         heading_rad=Stamped(0.0, now_s - 0.05, "HDT", True),
-        cog_rad=Stamped(0.0, fix_t_s, "RMC", True), sog_m_s=Stamped(1.5, fix_t_s, "RMC", True),
+        cog_rad=Stamped(0.0, fix_t_s, "RMC", True),
+        sog_m_s=None if sog_m_s is None else Stamped(sog_m_s, fix_t_s, "RMC", True),
         yaw_rate_rad_s=None, position=Stamped((lat, lon), fix_t_s, "GGA", valid),
         fix_quality=Stamped(1 if valid else 0, fix_t_s, "GGA", True),
     )
 
 
-def fly(fixes_ne_m, *, rules=RULES, cycles_per_fix=10, failsafe=None):
+def fly(fixes_ne_m, *, rules=RULES, cycles_per_fix=10, failsafe=None, sog_m_s: float | None = 1.5):
     """Each fix (north_m, east_m) or None (not received) held for a second of 10 Hz cycles; the navigations
     and the failsafe's active causes, one per cycle."""
     memory, navs, active = NavMemory(), [], []
@@ -44,7 +46,7 @@ def fly(fixes_ne_m, *, rules=RULES, cycles_per_fix=10, failsafe=None):
             if last_fix is None:
                 continue
             (n, e), t_s = last_fix
-            nav, memory = assemble(_sample(n, e, t_s, now), now, memory, rules,
+            nav, memory = assemble(_sample(n, e, t_s, now, sog_m_s=sog_m_s), now, memory, rules,
                                    origin_lat_deg=ORIGIN[0], origin_lon_deg=ORIGIN[1])
             navs.append(nav)
             if failsafe is not None:
@@ -65,7 +67,7 @@ def test_one_far_fix_is_refused_and_the_next_good_one_is_taken():
     jumps = [n.jump for n in navs if n.jump is not None]
     assert len(jumps) == 1 and not jumps[0].accepted
     assert jumps[0].distance_m == pytest.approx(math.hypot(600.0, 1.5), abs=0.5)
-    assert jumps[0].gate_m == pytest.approx(25.0 + 10.0 * 1.0)
+    assert jumps[0].gate_m == pytest.approx(25.0 + (1.5 + 2.0) * 1.0)  # the receiver's 1.5 m/s and the margin
     assert max(abs(n.east_m) for n in navs) < 1e-6  # the steered and judged position never went east
     during = navs[50:60]  # the refused second: the fix of t = 4 s goes on, ageing
     assert all(n.north_m == pytest.approx(6.0, abs=1e-6) for n in during)
@@ -234,3 +236,37 @@ def test_control_starts_on_a_confirmed_position_so_a_first_glitch_is_never_the_l
     assert t_good == pytest.approx(1.05) and (n, e) == (pytest.approx(1.5), pytest.approx(0.0, abs=1e-6))
     t_glitch, (n, e) = start_position([(0.0, 300.0)] + _track(6)[1:])
     assert t_glitch == pytest.approx(3.05) and e == pytest.approx(0.0, abs=1e-6)  # refused, re-anchored, confirmed
+
+
+def test_a_30_m_glitch_at_rest_is_refused_and_never_the_launch_point():
+    """Found by a review audit (daemon --sim with the simulator's 30-m, two-epoch outliers): the gate let a fix
+    have moved 25 m + 10 m/s x 1 s whatever the receiver's speed, so a 30-m glitch of a boat at rest passed as
+    a confirmed move; it came the second control started and became the launch point (rtl's home) 29 m
+    from the boat. The receiver's speed over ground (0.1 m/s) now bounds the gate: 25 m + 2.1 m."""
+    rest = [(0.0, 0.0), (0.2, -0.3), (-15.0, 26.0), (-15.2, 25.6), (0.1, -0.2), (0.0, 0.1), (0.2, 0.0), (0.1, 0.1)]
+    navs, active = fly(rest, sog_m_s=0.1, failsafe=Failsafe(FailsafeConfig(start_valid_s=1.0, max_distance_m=20.0)))
+    jumps = [n.jump for n in navs if n.jump is not None]
+    assert [j.accepted for j in jumps] == [False, True, False, True]  # refused; two agree; back, refused; agreed
+    assert jumps[0].gate_m == pytest.approx(25.0 + 2.1)
+    assert not any("max_distance" in a for a in active)  # 30 m from launch with a 20-m limit: never latched
+    assert not any(n.fix_confirmed and abs(n.east_m) > 1.0 for n in navs)  # the glitch is never a confirmed fix
+    # without a speed over ground the gate stays as wide as before (max_sog_m_s): the glitch passes as a move
+    navs, _ = fly(rest, sog_m_s=None)
+    assert all(n.jump is None for n in navs)
+
+
+def test_control_never_starts_on_a_30_m_glitch_at_rest():
+    """The launch point is where control starts (autopilot.gnc.Autopilot): a confirmed fix, now never the glitch."""
+    memory, fs = NavMemory(), Failsafe(FailsafeConfig(start_valid_s=1.0))
+    rest = [(0.0, 0.0), (0.2, -0.3), (-15.0, 26.0), (-15.2, 25.6), (0.1, -0.2), (0.0, 0.1), (0.2, 0.0), (0.1, 0.1)]
+    start = None
+    for k, (n, e) in enumerate(rest[1:], start=1):  # control could start at the first good fix's second
+        for c in range(10):
+            now = k + 0.05 + 0.1 * c
+            nav, memory = assemble(_sample(n, e, float(k), now, sog_m_s=0.1), now, memory, RULES,
+                                   origin_lat_deg=ORIGIN[0], origin_lon_deg=ORIGIN[1])
+            if start is None and fs.update(observe(nav, mission_time_s=now, compass_connected=True,
+                                                   thrusters_connected=True, acks_missing_in_a_row=0,
+                                                   compass_garbage_s=None, thruster_garbage_s=None)).mode == "auto":
+                start = (nav.north_m, nav.east_m)
+    assert start is not None and math.hypot(*start) < 1.0

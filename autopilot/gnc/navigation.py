@@ -32,7 +32,8 @@ one ROT at 9999 deg/min saturated the heading PID; such values are not used (``m
 
 A position jump (multipath, a receiver glitch) is refused as ArduPilot's EKF refuses a GPS
 glitch (``EK3_GLITCH_RAD``): a new fix farther from the last one used than ``position_jump_m``
-plus ``max_sog_m_s`` times the time between them is not used, and the last fix goes on ageing
+plus a speed bound times the time between them is not used (the bound: the receiver's speed over ground
+plus ``jump_speed_margin_m_s``, :func:`jump_speed_bound_m_s`), and the last fix goes on ageing
 (``position_stale`` fires if no good fix follows). One far fix once latched the geofence or the
 distance limit and ended the mission. A second new fix that agrees with the refused one (within
 the same gate of it) is believed: the boat or the receiver really moved, and the position is
@@ -72,7 +73,10 @@ class NavRules:
     # full opposite thrust spins it at ~1.6 rad/s (the model's extrapolation); above 2 rad/s the differenced
     # heading stands in, which serves as well if a real spin is faster
     max_yaw_rate_rad_s: float = 2.0
-    position_jump_m: float = 25.0  # ArduPilot's EK3_GLITCH_RAD default; plus max_sog_m_s per second between fixes
+    position_jump_m: float = 25.0  # ArduPilot's EK3_GLITCH_RAD default; plus a speed bound per second between fixes
+    # the speed bound of the gate: the receiver's own speed over ground plus this (its noise, a second's
+    # acceleration, the epoch between them); max_sog_m_s when it reports none
+    jump_speed_margin_m_s: float = 2.0
 
 
 @dataclass(frozen=True)
@@ -260,9 +264,20 @@ class Gated:
         return self.confirmed and self.used == self.fix  # equal, not the same object: a sample is rebuilt
 
 
-def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules) -> Gated:
+def jump_speed_bound_m_s(sog_m_s: float | None, rules: NavRules) -> float:
+    """How fast (m/s) the gate lets a fix have moved from the last: the speed over ground the receiver reports
+    (Doppler, independent of the position solution) plus ``jump_speed_margin_m_s``, never above
+    ``max_sog_m_s``; ``max_sog_m_s`` without one. With 10 m/s whatever the speed, a 30-m glitch at rest passed
+    as a move (25 m + 10 m/s x 1 s): the first fix of a run, it became the launch point, 30 m from the boat."""
+    if sog_m_s is None:
+        return rules.max_sog_m_s
+    return min(rules.max_sog_m_s, sog_m_s + rules.jump_speed_margin_m_s)
+
+
+def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules, sog_m_s: float | None = None) -> Gated:
     """Judge the sample's fix once (see the module docstring). An invalid fix is used as it is (the failsafe
-    judges it: no_fix) and leaves the gate's memory as it was."""
+    judges it: no_fix) and leaves the gate's memory as it was. ``sog_m_s``: the receiver's speed over ground
+    now (:func:`velocity_over_ground`; None: none to trust), which bounds how far the boat can have gone."""
     last, pending, judged, confirmed = memory.fix, memory.jump, memory.judged_t_s, memory.confirmed
     if pos is None or pos.value is None or not pos.valid:
         return Gated(pos, last, pending, judged, confirmed)
@@ -271,13 +286,14 @@ def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules) -> Gated:
         return Gated(last if refused else pos, last, pending, judged, confirmed)
     if last is None:  # the first fix: nothing to judge it by yet
         return Gated(pos, pos, None, pos.t_s, False)
-    gate_m = rules.position_jump_m + rules.max_sog_m_s * max(pos.t_s - last.t_s, 0.0)
+    speed_m_s = jump_speed_bound_m_s(sog_m_s, rules)
+    gate_m = rules.position_jump_m + speed_m_s * max(pos.t_s - last.t_s, 0.0)
     distance_m = _apart_m(pos, last)
     if distance_m <= gate_m:
         return Gated(pos, pos, None, pos.t_s, True)
     lat, lon = pos.value
     if pending is not None:
-        agree_m = rules.position_jump_m + rules.max_sog_m_s * max(pos.t_s - pending.t_s, 0.0)
+        agree_m = rules.position_jump_m + speed_m_s * max(pos.t_s - pending.t_s, 0.0)
         if _apart_m(pos, pending) <= agree_m:  # two fixes agree: the position really moved (or a long glitch)
             return Gated(pos, pos, None, pos.t_s, False,
                          PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=True))
@@ -296,11 +312,11 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
                                                      _rot(sample, now_s, rules), memory)
     still_since = still_t if still_anchor != memory.still_heading_rad else memory.still_since_s
     seen = sample.position
-    gated = gate_fix(seen, memory, rules)
+    sog, cog = velocity_over_ground(sample, now_s, rules)
+    gated = gate_fix(seen, memory, rules, sog)
     pos = gated.used
     latlon = _value(pos)
     lat = lon = north = east = est_n = est_e = None
-    sog, cog = velocity_over_ground(sample, now_s, rules)
     position_age = age_s(pos, now_s)
     if latlon is not None:
         lat, lon = latlon
