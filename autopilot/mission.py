@@ -26,8 +26,11 @@ Formats (chosen by file extension):
 
 Latitude/longitude are converted to local (north_m, east_m) around an
 origin: the file's home if it has one (the simulated boat starts there,
-heading north, at rest), else the file's ``origin``, else the origin given
-by the caller. A local-frame mission's origin is where the boat starts.
+heading north, at rest), else the origin given by the caller (the
+configuration's), else the file's ``origin``. A local-frame mission's
+waypoints are metres from its own ``origin`` or ``home`` (where the boat
+starts), else from the caller's origin; a file point and the caller's origin
+more than ``ORIGIN_AGREE_M`` apart are refused (the waypoints would move).
 
 Refused, with a message naming the file, the waypoint (1-based) and the
 problem: no waypoints, non-numbers or NaN, latitude outside +-90 or
@@ -54,6 +57,7 @@ from autopilot.userfile import csv_rows, parse_yaml, read_text, too_many_fields,
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
+ORIGIN_AGREE_M = 1.0  # a local-frame file's own origin (or home) and the configuration's: farther apart, refused
 NAV_WAYPOINT = 16
 NAV_LOITER_UNLIM = 17  # hold at the point until commanded
 NAV_LOITER_TIME = 19  # hold at the point for param1 seconds
@@ -158,6 +162,8 @@ def _finish(
         o_lat, o_lon = origin
         if home_ll is not None and (o_lat is None or o_lon is None):
             o_lat, o_lon = home_ll
+        elif home_ll is not None:
+            _frames_agree(path, "home", home_ll, (o_lat, o_lon))
     ne: list[tuple[float, float]] = []
     speeds: list[float | None] = []
     holds: list[float | None] = []
@@ -194,6 +200,19 @@ def _finish(
         holds_s=tuple(holds),
         rtl=bool(rtl),
     )
+
+
+def _frames_agree(path, key: str, file_ll: tuple[float, float], given_ll) -> None:
+    """MissionError when a local-frame file's own ``origin`` (or ``home``) is not the origin it is loaded with
+    (the configuration's origin_lat_deg/origin_lon_deg): its waypoints are metres from the file's point, and
+    taken from the configuration's they were silently moved by the distance between the two (170 m)."""
+    n, e = latlon_to_local(file_ll[0], file_ll[1], float(given_ll[0]), float(given_ll[1]))
+    apart_m = math.hypot(n, e)
+    if apart_m > ORIGIN_AGREE_M:
+        raise MissionError(
+            f"{path}: {key} ({file_ll[0]:.7f}, {file_ll[1]:.7f}) is {apart_m:.0f} m from the configuration's origin "
+            f"({float(given_ll[0]):.7f}, {float(given_ll[1]):.7f}); the waypoints are metres from the file's {key}: "
+            "make the two the same, or remove one of them")
 
 
 def _hold_s(where: str, hold: Any) -> float | None:
@@ -282,6 +301,9 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
     file_origin = _ll("origin")
     if file_origin is not None:
         o = (_num(f"{path}: origin", "latitude", file_origin[0]), _num(f"{path}: origin", "longitude", file_origin[1]))
+        if origin[0] is not None and not latlon:
+            _check_latlon(f"{path}: origin", *o)
+            _frames_agree(path, "origin", o, origin)
         origin = o if origin[0] is None else origin
     return _finish(path, str(data.get("name") or path.stem), points, latlon=latlon, home=home, origin=origin,
                    max_range_m=max_range_m, rtl=rtl)

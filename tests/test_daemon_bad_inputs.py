@@ -62,7 +62,20 @@ CLI_CASES = [
     ("configuration", "unknown key (typo)", "rate_hx: 10\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: rate_hx: unknown key (allowed: ais, boat_length_m, dead_reckon_max_s, failsafe, geofence, gnc, log_dir, mavlink, max_mission_range_m, origin_lat_deg, origin_lon_deg, rate_hz, ready_timeout_s, runtime_dir, serial, sim, state_dir, stop_ack_timeout_s)"),
     ("configuration", "rate out of range", "rate_hz: 100\n", GOOD_MISSION, [],
-     "autopilot run: error: {dir}/c.yaml: rate_hz: 100 is outside the allowed range [1, 50] Hz"),
+     "autopilot run: error: {dir}/c.yaml: rate_hz: 100 is outside the allowed range [4, 50] Hz"),
+    # found by an on-boat audit: at 1-2 Hz the Mbed's 0.5-s stop timeout cut the motors between every two commands
+    ("configuration", "a rate the Mbed's stop timeout cuts", GOOD_CONFIG + "rate_hz: 2\n", GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: rate_hz: 2 is outside the allowed range [4, 50] Hz"),
+    # found by an on-boat audit: the daemon retried "cannot open : no such device" for ever, naming no key
+    ("configuration", "an empty device port", "serial: {sc30_port: '', mbed_port: /nonexistent/mbed}\n", GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: serial.sc30_port: empty; the device's serial port, such as /dev/sc30 or /dev/serial/by-id/..."),
+    # found by an on-boat audit: the radio glued telemetry in front of the thrust commands (mbed_ack_missing)
+    ("command line", "a MAVLink radio on the Mbed's port", GOOD_CONFIG, GOOD_MISSION, ["--mavlink", "/nonexistent/mbed:57600"],
+     "autopilot run: error: --mavlink: /nonexistent/mbed:57600 is serial.mbed_port (/nonexistent/mbed): the radio needs its own port (ls -l /dev/serial/by-id/ names each adapter)"),
+    # found by an on-boat audit: the file's origin was replaced by the configuration's, the waypoints moved 200 m
+    ("mission", "a local mission's own origin far from the configuration's", GOOD_CONFIG,
+     "frame: local\norigin: {lat_deg: 52.0018, lon_deg: 4.4}\nwaypoints:\n  - [30.0, 0.0]\n", [],
+     "autopilot run: error: {dir}/m.yaml: origin (52.0018000, 4.4000000) is 200 m from the configuration's origin (52.0000000, 4.4000000); the waypoints are metres from the file's origin: make the two the same, or remove one of them"),
     ("configuration", "wrong type", "failsafe: {heading_stale_s: one}\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: failsafe.heading_stale_s: expected a number in [0.05, 10] s, got 'one'"),
     ("configuration", "NaN", "failsafe: {max_distance_m: .nan}\n", GOOD_MISSION, [],

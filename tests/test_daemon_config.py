@@ -22,9 +22,10 @@ def test_shipped_config_is_complete_and_equals_the_defaults():
 
 
 BAD = [
-    ({"rate_hz": 0.5}, "rate_hz: 0.5 is outside the allowed range [1, 50] Hz"),
-    ({"rate_hz": 51}, "rate_hz: 51 is outside the allowed range [1, 50] Hz"),
-    ({"rate_hz": "fast"}, "rate_hz: expected a number in [1, 50] Hz, got 'fast'"),
+    ({"rate_hz": 0.5}, "rate_hz: 0.5 is outside the allowed range [4, 50] Hz"),
+    ({"rate_hz": 2}, "rate_hz: 2 is outside the allowed range [4, 50] Hz"),  # the Mbed would cut the motors between commands
+    ({"rate_hz": 51}, "rate_hz: 51 is outside the allowed range [4, 50] Hz"),
+    ({"rate_hz": "fast"}, "rate_hz: expected a number in [4, 50] Hz, got 'fast'"),
     ({"rate_hz": float("nan")}, "rate_hz: nan is not a finite number"),
     ({"rate": 10}, "rate: unknown key (allowed: "),
     ({"serial": {"sc30_baud": 4801}}, "serial.sc30_baud: 4801 is not one of 4800, 9600, 19200, 38400"),
@@ -33,7 +34,7 @@ BAD = [
     ({"failsafe": {"heading_stale_s": 0}}, "failsafe.heading_stale_s: 0 is outside the allowed range [0.05, 10] s"),
     ({"failsafe": {"resume_after_restart": "yes"}}, "failsafe.resume_after_restart: expected true or false, got 'yes'"),
     ({"failsafe": {"ack_missing_n": 2.5}}, "failsafe.ack_missing_n: expected an integer in [1, 100] commands, got 2.5"),
-    ({"rate_hz": 1, "failsafe": {"heading_stale_s": 0.5}}, "failsafe.heading_stale_s: 0.5 s is shorter than one control period (1 s)"),
+    ({"rate_hz": 4, "failsafe": {"heading_stale_s": 0.1}}, "failsafe.heading_stale_s: 0.1 s is shorter than one control period (0.25 s)"),
     ({"geofence": {"frame": "utm"}}, "geofence.frame: 'utm' is not one of none, local, latlon"),
     ({"geofence": {"frame": "local", "polygon": [[0, 0], [1, 1]]}}, "geofence.polygon: needs at least 3 vertices"),
     ({"geofence": {"frame": "latlon", "polygon": [[95, 0], [0, 1], [1, 1]]}}, "geofence.polygon[0]: [95.0, 0.0] is not a latitude"),
@@ -68,7 +69,7 @@ def test_cli_refuses_a_bad_config_before_opening_any_port(tmp_path):
     mission.write_text("name: x\n")
     r = _run("run", "--config", str(cfg), "--mission", str(mission), "--log-dir", str(tmp_path / "logs"), cwd=tmp_path)
     assert r.returncode == 2
-    assert r.stderr.strip() == f"autopilot run: error: {cfg}: rate_hz: 80 is outside the allowed range [1, 50] Hz"
+    assert r.stderr.strip() == f"autopilot run: error: {cfg}: rate_hz: 80 is outside the allowed range [4, 50] Hz"
     assert not (tmp_path / "logs").exists()
 
 

@@ -878,3 +878,44 @@ def test_a_review_scores_a_mission_uploaded_mid_run_against_its_own_waypoints(tm
     rows = dict(card.table_rows())
     assert rows["waypoints reached"] == "3 of 4" and rows["missions"].startswith("M1: 1 waypoint(s) from mission_start; M2: 3")
     assert card.xte_max_m < 3.0 * max(card.logged_xte_max_m, 0.5)  # judged on the legs the boat flew
+
+
+def test_a_radio_missing_at_start_is_retried_and_the_daemon_flies_meanwhile(tmp_path):
+    """Found by an on-boat audit: a MAVLink endpoint that could not be opened at start (a radio not plugged in
+    yet, udpin on an address DHCP has not given yet) stopped the daemon with exit 2, which the unit never
+    restarts (RestartPreventExitStatus=2): the autopilot stayed down for the session. Now it flies and the
+    endpoint is retried; plugged in, the radio gets the telemetry."""
+    from autopilot.simdev import PtyEndpoint
+
+    radio_path = tmp_path / "radio"
+    cfg = yaml.safe_load((ROOT / "config" / "autopilot.yaml").read_text())
+    cfg["sim"]["origin_lat_deg"], cfg["sim"]["origin_lon_deg"] = ORIGIN
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", "1", "--config",
+                          str(tmp_path / "c.yaml"), "--mission", "pond-9.4", "--log-dir", str(tmp_path / "logs"),
+                          "--state-dir", str(tmp_path / "state"), "--runtime-dir", str(tmp_path / "run"),
+                          "--mavlink", f"{radio_path}:57600"], cwd=tmp_path, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True)
+    radio = None
+    try:
+        tail = LogTail(tmp_path / "logs")
+        t_end = time.monotonic() + 20.0
+        while time.monotonic() < t_end and not any(r["event"] == "cycle" and r["mode"] == "auto"
+                                                    for r in tail.lines(p.pid)):
+            assert p.poll() is None, p.stderr.read()
+            time.sleep(0.1)
+        assert p.poll() is None  # flying without its radio
+        radio = PtyEndpoint(tmp_path, "radio")  # plugged in
+        got, t_end = b"", time.monotonic() + 10.0
+        while time.monotonic() < t_end and b"\xfd" not in got and b"\xfe" not in got:
+            got += radio.read()
+            time.sleep(0.1)
+        assert b"\xfd" in got or b"\xfe" in got, got[:200]  # MAVLink frames on the radio
+        opened = [r.get("message") for r in tail.lines(p.pid) if r["event"] == "info"]
+        assert any("cannot open" in m and "retried every" in m for m in opened if m)
+        assert any(m == f"mavlink endpoint {radio_path}:57600: open" for m in opened if m)
+    finally:
+        p.terminate()
+        p.communicate(timeout=30)
+        if radio is not None:
+            radio.close()

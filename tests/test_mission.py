@@ -150,3 +150,22 @@ def test_a_mission_planner_change_speed_of_minus_one_keeps_the_speed(tmp_path):
     m = load_mission(tmp_path / "neg.waypoints")
     base = load_mission(REPO / "config" / "missions" / "examples" / "pond-9.4.waypoints")
     assert m.speeds_m_s == base.speeds_m_s and len(m.waypoints_ne_m) == len(base.waypoints_ne_m)
+
+
+def test_a_local_missions_own_origin_is_never_silently_replaced_by_the_configurations(tmp_path):
+    """Found by an on-boat audit: a local-frame mission with its own origin, loaded with the configuration's
+    origin 200 m away (as INSTALL asks to set it), kept its metres but took the configuration's origin: every
+    waypoint moved by the 200 m between the two, without a word."""
+    far = local_to_latlon(200.0, 0.0, *HOME)
+    p = tmp_path / "lake.yaml"
+    p.write_text(f"frame: local\norigin: {{lat_deg: {far[0]}, lon_deg: {far[1]}}}\nwaypoints:\n  - [30.0, 0.0]\n")
+    with pytest.raises(MissionError, match=r"origin \(.*\) is 200 m from the configuration's origin"):
+        load_mission(p, origin_lat_deg=HOME[0], origin_lon_deg=HOME[1])
+    same = load_mission(p, origin_lat_deg=far[0], origin_lon_deg=far[1] + 1e-7)  # the same point: flown as written
+    assert_allclose(same.waypoints_ne_m, [(30.0, 0.0)])
+    alone = load_mission(p)  # no configured origin: the file's
+    assert (alone.origin_lat_deg, alone.origin_lon_deg) == pytest.approx(far)
+    h = tmp_path / "home.yaml"
+    h.write_text(f"frame: local\nhome: {{lat_deg: {far[0]}, lon_deg: {far[1]}}}\nwaypoints:\n  - [30.0, 0.0]\n")
+    with pytest.raises(MissionError, match=r"home \(.*\) is 200 m from"):
+        load_mission(h, origin_lat_deg=HOME[0], origin_lon_deg=HOME[1])

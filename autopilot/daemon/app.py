@@ -169,13 +169,18 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
     if _answers(path):
         raise ConfigError(f"another autopilot daemon is running: it answers on {path} (autopilot ctl status); "
                           "stop it first, or give this one its own --runtime-dir")
-    for url in opts.mavlink:
-        from autopilot.link.endpoint import parse_endpoint
+    if not opts.sim:
+        _refuse_ports_of_another_daemon(cfg)
+    from autopilot.link.endpoint import parse_endpoint
 
+    for url in opts.mavlink:
         try:
             parse_endpoint(url)
         except ValueError as exc:
             raise ConfigError(f"--mavlink: {exc}") from None
+    if not opts.sim:
+        _refuse_radio_on_a_device_port(cfg, [("--mavlink", u) for u in opts.mavlink]
+                                       + [("mavlink.endpoints", u) for u in cfg.mavlink.endpoints])
     if cfg.mavlink.signing_key_file and (cfg.mavlink.endpoints or opts.mavlink):
         from autopilot.link.link import load_signing_key
 
@@ -191,6 +196,47 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
         except ConfigError:
             uploaded = None
     return mission, log_dir, state_dir, uploaded
+
+
+def _refuse_ports_of_another_daemon(cfg: DaemonConfig) -> None:
+    """ConfigError when another ``autopilot run`` holds one of this daemon's ports. Refused by its socket only,
+    a daemon started by hand with its own runtime directory beside the service waited for the ports and,
+    once the operator had stopped the service, drove the mission again from W0. Another program holding a
+    port (a terminal) is waited for, as before."""
+    from autopilot.drivers.serial_link import autopilot_daemon, lock_holders
+
+    ports = [("serial.sc30_port", cfg.serial.sc30_port), ("serial.mbed_port", cfg.serial.mbed_port),
+             ("ais.port", cfg.ais.port)]
+    for key, port in ports:
+        if not port:
+            continue
+        for pid in lock_holders(port):
+            cmd = autopilot_daemon(pid) if pid != os.getpid() else None
+            if cmd:
+                raise ConfigError(f"another autopilot daemon (pid {pid}: {cmd[:120]}) holds {key} {port}: two daemons "
+                                  "must never drive one boat; stop it first (autopilot ctl stop, then systemctl stop "
+                                  "wamv-autopilot or kill it)")
+
+
+def _refuse_radio_on_a_device_port(cfg: DaemonConfig, endpoints: list[tuple[str, str]]) -> None:
+    """ConfigError when a MAVLink radio is given a device's port: on the Mbed's it glued telemetry in front of
+    the thrust commands (the firmware drops such lines: mbed_ack_missing), on the SC-30's it wrote into the
+    compass line. The devices' ports are checked against each other in the configuration (DaemonConfig)."""
+    from autopilot.link.endpoint import parse_endpoint
+
+    devices = [("serial.sc30_port", cfg.serial.sc30_port), ("serial.mbed_port", cfg.serial.mbed_port),
+               ("ais.port", cfg.ais.port)]
+    for where, url in endpoints:
+        try:
+            spec = parse_endpoint(url)
+        except ValueError:
+            continue  # said where the endpoints are checked
+        if spec.kind != "serial":
+            continue
+        for key, port in devices:
+            if port and os.path.realpath(port) == os.path.realpath(spec.path):
+                raise ConfigError(f"{where}: {url} is {key} ({port}): the radio needs its own port "
+                                  "(ls -l /dev/serial/by-id/ names each adapter)")
 
 
 def control_socket(cfg: DaemonConfig, opts: RunOptions) -> Path:

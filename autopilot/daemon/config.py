@@ -237,7 +237,9 @@ class SimConfig:
 class DaemonConfig:
     """The whole ``autopilot run`` configuration."""
 
-    rate_hz: float = param(10.0, unit="Hz", lo=1.0, hi=50.0, doc="control loop rate (absolute deadlines)")
+    rate_hz: float = param(10.0, unit="Hz", lo=4.0, hi=50.0,
+                           doc="control loop rate (absolute deadlines); at least two commands inside the Mbed firmware's "
+                               "0.5-s stop timeout (docs/mbed-protocol.md): at 1-2 Hz it cut the motors between commands")
     origin_lat_deg: float | None = param(None, unit="deg", lo=-90.0, hi=90.0, doc="local-frame origin; null = the mission file's origin")
     origin_lon_deg: float | None = param(None, unit="deg", lo=-180.0, hi=180.0, doc="local-frame origin; null = the mission file's origin")
     max_mission_range_m: float = param(2000.0, unit="m", lo=1.0, hi=50000.0, doc="refuse missions with a waypoint farther than this from the origin")
@@ -263,6 +265,9 @@ class DaemonConfig:
         if (self.origin_lat_deg is None) != (self.origin_lon_deg is None):
             raise ConfigError("origin_lat_deg, origin_lon_deg: give both or neither")
         ports = [("serial.sc30_port", self.serial.sc30_port), ("serial.mbed_port", self.serial.mbed_port)]
+        for key, port in ports:
+            if not port.strip():  # the daemon retried "cannot open : no such device" for ever, naming no key
+                raise ConfigError(f"{key}: empty; the device's serial port, such as /dev/sc30 or /dev/serial/by-id/...")
         if self.ais.port:
             ports.append(("ais.port", self.ais.port))
         for k, (key, port) in enumerate(ports):

@@ -23,7 +23,10 @@ from dataclasses import dataclass
 
 from autopilot.drivers.framing import xor_checksum
 
+FIRMWARE_STOP_TIMEOUT_S = 0.5  # the firmware stops both motors this long after the last valid command (docs/mbed-protocol.md)
+
 __all__ = [
+    "FIRMWARE_STOP_TIMEOUT_S",
     "ProtocolError",
     "Command",
     "Ack",

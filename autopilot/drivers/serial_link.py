@@ -15,6 +15,7 @@ import asyncio
 import errno
 import os
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import serial
@@ -43,6 +44,38 @@ def open_port(path: str, baudrate: int, **kwargs) -> serial.Serial:
     ser.port = path
     ser.open()  # POSIX pyserial opens with O_NONBLOCK
     return ser
+
+
+def lock_holders(path: str) -> list[int]:
+    """The processes holding a flock on ``path`` (the lock :func:`open_port` takes), from Linux's /proc/locks;
+    empty where the file or the table cannot be read."""
+    try:
+        st = os.stat(path)
+        table = Path("/proc/locks").read_text()
+    except OSError:
+        return []
+    inode = f"{os.major(st.st_dev):02x}:{os.minor(st.st_dev):02x}:{st.st_ino}"
+    pids = []
+    for line in table.splitlines():
+        f = line.split()
+        if len(f) >= 6 and f[1] == "FLOCK" and f[5] == inode and f[4].isdigit():
+            pids.append(int(f[4]))
+    return pids
+
+
+def autopilot_daemon(pid: int) -> str | None:
+    """The command line of process ``pid`` when it is an ``autopilot run`` (console script or ``-m
+    autopilot``), else None."""
+    try:
+        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return None
+    args = [a.decode(errors="replace") for a in argv if a]
+    for k, a in enumerate(args[:-1]):
+        named = a == "autopilot" or a.endswith("/autopilot")
+        if named and args[k + 1] == "run":
+            return " ".join(args)
+    return None
 
 
 def open_problem(path: str, exc: BaseException) -> str:

@@ -167,6 +167,9 @@ class _Port:
             self.endpoint.tx_errors += 1
 
 
+ENDPOINT_RETRY_S = 2.0  # an endpoint that could not be opened at start is tried again this often
+
+
 class MavlinkLink:
     """The link of one daemon. ``start()``, then it runs until ``close()``."""
 
@@ -192,12 +195,17 @@ class MavlinkLink:
 
     # ---------------------------------------------------------------- lifecycle
     async def start(self) -> None:
+        closed = []
         for url in self.urls:
             ep = open_endpoint(parse_endpoint(url), self.cfg.rx_queue_bytes)
             try:
                 await ep.open()
-            except OSError as exc:
-                raise ConfigError(f"mavlink endpoint {url}: cannot open ({exc.strerror or exc})") from None
+            except (OSError, ValueError) as exc:  # pyserial: SerialException is an OSError; a bad path ValueError
+                # at boot the network (udpin's address) or a radio may not be there yet: refused, the service
+                # (RestartPreventExitStatus=2) stayed down for the session; the devices' ports are retried too
+                closed.append(ep)
+                self.loop.log_event("info", message=f"mavlink endpoint {url}: cannot open "
+                                    f"({getattr(exc, 'strerror', None) or exc}); retried every {ENDPOINT_RETRY_S:g} s")
             mav = mavlink.MAVLink(None, srcSystem=self.cfg.system_id, srcComponent=self.cfg.component_id)
             mav.robust_parsing = True
             if self.key is not None:
@@ -213,6 +221,18 @@ class MavlinkLink:
         self.loop.log.listeners.append(self.on_event)
         self._tasks = [asyncio.create_task(self._receive(p), name=f"mavlink-rx-{k}") for k, p in enumerate(self.ports)]
         self._tasks.append(asyncio.create_task(self._send_loop(), name="mavlink-tx"))
+        self._tasks += [asyncio.create_task(self._reopen(ep), name=f"mavlink-open-{ep.spec}") for ep in closed]
+
+    async def _reopen(self, ep) -> None:
+        """Retry an endpoint that could not be opened at start until it opens (then it is used as the others)."""
+        while True:
+            await asyncio.sleep(ENDPOINT_RETRY_S)
+            try:
+                await ep.open()
+            except (OSError, ValueError):
+                continue
+            self.loop.log_event("info", message=f"mavlink endpoint {ep.spec}: open")
+            return
 
     async def close(self) -> None:
         rx = {k: v for k, v in self.stats.items()}

@@ -25,6 +25,7 @@ import asyncio
 from autopilot.clock import Clock
 from autopilot.drivers.framing import LineFramer
 from autopilot.drivers.mbed_protocol import (
+    FIRMWARE_STOP_TIMEOUT_S,
     MAX_LINE_CHARS,
     ProtocolError,
     decode_command,
@@ -44,7 +45,7 @@ class SimulatedMbed:
         clock: Clock,
         *,
         directory,
-        stop_timeout_s: float = 0.5,
+        stop_timeout_s: float = FIRMWARE_STOP_TIMEOUT_S,
         name: str = "mbed",
         battery: BatteryConfig = BatteryConfig(),
     ) -> None:

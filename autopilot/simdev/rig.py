@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 
 from autopilot.clock import Clock
+from autopilot.drivers.mbed_protocol import FIRMWARE_STOP_TIMEOUT_S
 from autopilot.simdev.boat import SimBoat
 from autopilot.simdev.mbed import SimulatedMbed
 from autopilot.simdev.sc30 import SimulatedSC30
@@ -30,7 +31,7 @@ class SimRig:
         heading_noise_deg: float = 0.1,
         position_noise_m: float = 0.3,
         seed: int = 0,
-        stop_timeout_s: float = 0.5,
+        stop_timeout_s: float = FIRMWARE_STOP_TIMEOUT_S,
         advance_period_s: float = 0.05,
         sc30_options: dict | None = None,
         battery=None,
