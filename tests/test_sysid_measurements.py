@@ -206,6 +206,31 @@ def test_a_burst_of_outliers_is_found_and_the_clean_fixes_beside_it_are_not():
     assert set(np.flatnonzero(outliers(t, jumped, neighbours=4, window_s=4.0, floor=3.0))) - {30, 31, 32}  # old
 
 
+def test_a_glitch_at_either_end_of_a_trial_is_found_and_its_neighbours_kept():
+    """Found by a sysid audit on the daemon's own logs (3-fix bursts of 40 m, one at the start where the
+    daemon launched): the first and last fixes of a trial were never judged (their neighbours lie on one
+    side, beyond the window), and a glitch there bent its neighbours' fits: three or four good fixes were
+    flagged, the glitch kept, and one 40-m fix among 140 made a correct current model `unexplained`. The
+    ends are judged by a straight line through their one-sided neighbours (a quadratic extrapolated two
+    seconds amplified the noise 30-fold); a gap of a lost fix beside the glitch too."""
+    rng = np.random.default_rng(2)
+    t = np.arange(0.0, 60.0, 1.0) + 0.83
+    north = 1.5 * t + 0.5 * np.sin(t / 7.0) + 0.3 * rng.standard_normal(t.size)
+    for where, fixes, jump_m in ((0, 1, 40.0), (0, 2, 40.0), (-1, 1, 10.0), (0, 1, 10.0)):
+        jumped = north.copy()
+        idx = np.arange(fixes) if where == 0 else np.arange(t.size - fixes, t.size)
+        jumped[idx] += jump_m
+        found = np.flatnonzero(outliers(t, jumped, neighbours=4, window_s=4.0, floor=3.0, skip=1))
+        assert_allclose(found, idx, err_msg=f"{fixes} fix(es) of {jump_m} m at {where}")
+    gap = np.delete(np.arange(t.size), 1)  # the first fix a glitch, the second lost: its neighbours 2 s on
+    jumped = north[gap].copy()
+    jumped[0] += 28.0
+    assert_allclose(np.flatnonzero(outliers(t[gap], jumped, neighbours=4, window_s=4.0, floor=3.0, skip=1)), [0])
+    false = sum(int(outliers(t, 1.5 * t + 0.02 * (t - 30.0) ** 2 + 0.3 * rng.standard_normal(t.size), neighbours=4,
+                             window_s=4.0, floor=3.0, skip=1).sum()) for _ in range(100))
+    assert false == 0  # clean tracks: nothing flagged at the ends either
+
+
 def test_gps_outlier_bursts_hold_one_offset_in_both_generators():
     """A burst repeats its first fix's jump for outlier_fixes fixes (a new one starting inside it takes over);
     its starts are the single-fix outliers of the same seed, so a seed's other errors do not move."""

@@ -258,13 +258,15 @@ def outliers(t_s: np.ndarray, y: np.ndarray, *, neighbours: int, window_s: float
     while True:
         score = np.full(t.size, -np.inf)
         for gap, window in stencils:
-            err = _leave_one_out_errors(t, y, bad, neighbours, window, skip=gap)
+            err, gain = _leave_one_out_errors(t, y, bad, neighbours, window, skip=gap, with_gain=True)
             ok = np.isfinite(err)
             if ok.sum() < 5:
                 if gap == 0:
                     return bad
                 continue
             limit = max(k * 1.4826 * float(np.median(np.abs(err[ok]))), floor)
+            if gap == 0:
+                err, ok = _with_ends(t, y, bad, neighbours, window, err, gain, ok)
             score = np.where(ok, np.maximum(score, np.abs(np.where(ok, err, 0.0)) / limit), score)
         worst = int(np.argmax(score))
         if not score[worst] > 1.0:
@@ -272,7 +274,28 @@ def outliers(t_s: np.ndarray, y: np.ndarray, *, neighbours: int, window_s: float
         bad[worst] = True
 
 
-def _leave_one_out_errors(t, y, bad, neighbours: int, window_s: float, *, with_gain: bool = False, skip: int = 0):
+END_WINDOW_FACTOR = 2.0  # the ends' one-sided neighbours are looked for this much farther
+
+
+def _with_ends(t, y, bad, neighbours: int, window_s: float, err, gain, ok):
+    """``err`` with the samples it could not judge (the first and last of a series, one beside a gap: their
+    nearest neighbours lie on one side, beyond ``window_s``) judged by the straight line through neighbours
+    within ``END_WINDOW_FACTOR`` times it, extrapolated (a quadratic amplified the noise 30-fold two seconds
+    out), its error scaled to an interior sample's noise (by sqrt((1 + gain) / (1 + gain_end))). Unjudged, a 40-m
+    first fix of a trial bent its neighbours' fits instead: three good fixes were flagged, the glitch
+    kept, and a correct model was `unexplained`."""
+    far, far_gain = _leave_one_out_errors(t, y, bad, neighbours, window_s * END_WINDOW_FACTOR, with_gain=True,
+                                          degree=1)
+    ends = ~ok & np.isfinite(far)
+    if not ends.any():
+        return err, ok
+    inner_gain = float(np.median(gain[ok]))
+    scaled = far * np.sqrt((1.0 + inner_gain) / (1.0 + np.where(ends, far_gain, 0.0)))
+    return np.where(ends, scaled, err), ok | ends
+
+
+def _leave_one_out_errors(t, y, bad, neighbours: int, window_s: float, *, with_gain: bool = False, skip: int = 0,
+                          degree: int = 2):
     """Each sample minus the quadratic through its nearest valid neighbours at its time (NaN where too
     few within ``window_s``); with ``with_gain`` also sum(w^2) of the prediction's weights (the error's
     variance for white noise s^2 is s^2 (1 + sum w^2)). ``skip`` > 0: the neighbours beyond the ``skip``
@@ -297,8 +320,8 @@ def _leave_one_out_errors(t, y, bad, neighbours: int, window_s: float, *, with_g
             ok &= np.any(dtp < 0.0, axis=1) & np.any(dtp > 0.0, axis=1)
         if ok.any():
             d = dtp[ok]
-            vander = np.stack([d * d, d, np.ones_like(d)], axis=2)  # (m, neighbours, 3)
-            w = np.linalg.pinv(vander)[:, 2, :]  # weights of the fitted value at dt = 0
+            vander = np.stack([d ** p for p in range(degree, -1, -1)], axis=2)  # (m, neighbours, degree + 1)
+            w = np.linalg.pinv(vander)[:, degree, :]  # weights of the fitted value at dt = 0
             err[good[ok]] = yg[ok] - np.sum(w * yg[pick[ok]], axis=1)
             gain[good[ok]] = np.sum(w * w, axis=1)
     return (err, gain) if with_gain else err
