@@ -104,8 +104,13 @@ def csv_rows(text: str) -> list[list[str]]:
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         return []
+    declared = re.fullmatch(r"\s*\"?sep=(.)\"?[,;\t]*\s*", lines[0])  # Excel's "sep=;" line names the delimiter
+    if declared:
+        lines = lines[1:]
+        if not lines:
+            return []
     head = lines[0]
-    delimiter = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
+    delimiter = declared.group(1) if declared else "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
     rows = [[c.strip() for c in row] for row in csv.reader(io.StringIO("\n".join(lines)), delimiter=delimiter)]
     if delimiter != ",":
         rows = [[_point(c) for c in row] for row in rows]
@@ -145,6 +150,8 @@ def number_cell(text: str, row: int, column: str) -> float:
         hint = ""
         if _DECIMAL_COMMA.fullmatch(text):
             hint = " (a decimal comma: save the CSV with a point as the decimal separator)"
+        elif re.fullmatch(r"\d{1,2}:\d{2}(:\d{2}([.,]\d+)?)?", text):
+            hint = " (a clock time: give the time in seconds, such as seconds since the start; in Excel =(A2-$A$2)*86400)"
         raise ConfigError(f"data row {row}, {column}: {text!r} is not a number{hint}") from None
     if not math.isfinite(value):
         raise ConfigError(f"data row {row}, {column}: {text} is not a finite number (leave the cell empty if it has no value)")

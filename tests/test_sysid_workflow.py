@@ -241,6 +241,11 @@ def test_effect_outside_the_list_is_unexplained(request, identified):
     assert result.status == "unexplained" and result.verdict == ()
     assert result.nearest and all("adequacy" in c for c in result.nearest)
     assert any(not a["adequate"] for a in result.adequacy.values())
+    # the nearest are judged as the verdict is, the sensor-bound test included (found by a sysid audit: the
+    # table's cheap judgement left it out, and a nearest said "not adequate" on the terminal, "adequate" in
+    # summary.json): the best of them is the chosen fit, and so not adequate either
+    assert all(a["deviance_beyond_sensor"] is not None for c in result.nearest for a in c["adequacy"].values())
+    assert not all(a["adequate"] for a in result.nearest[0]["adequacy"].values())
 
 
 @pytest.mark.slow

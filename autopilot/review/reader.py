@@ -154,6 +154,7 @@ class MissionLog:
     first_timestamp: str | None = None
     last_timestamp: str | None = None
     avoid_situation: np.ndarray | None = None  # None: all UNKNOWN_CODE (a log built by hand)
+    line_numbers: np.ndarray | None = None  # each cycle's line in the file (1-based; None: a log built by hand)
 
     def __post_init__(self) -> None:
         if self.avoid_situation is None:
@@ -577,6 +578,7 @@ def read_log(path) -> MissionLog:
     modes: list = []
     sources: list = []
     situations: list = []
+    linenos: list = []
     first_ts = last_ts = None
     fields = CYCLE_FIELDS
     take = operator.itemgetter(*fields)
@@ -636,6 +638,7 @@ def read_log(path) -> MissionLog:
                 except KeyError:
                     rows.append([rec.get(k) for k in fields])
                 modes.append(rec.get("mode"))
+                linenos.append(lineno)
                 sources.append(rec.get("heading_source"))
                 situations.append(rec.get("avoid_situation"))
                 if len(rows) == _BLOCK_ROWS:
@@ -667,9 +670,11 @@ def read_log(path) -> MissionLog:
         flush()
     data = cols.buf[:, : cols.n]
     t = data[_INDEX["t_s"]]
+    line_numbers = np.asarray(linenos, dtype=np.int64)
     nan_t = np.isnan(t)  # t_s was NaN/Infinity in the file
     if nan_t.any():
         keep = ~nan_t
+        line_numbers = line_numbers[keep]
         stats.no_time += int(nan_t.sum())
         data, mode, source = data[:, keep], cols.mode[: cols.n][keep], cols.source[: cols.n][keep]
         situation = cols.situation[: cols.n][keep]
@@ -681,4 +686,4 @@ def read_log(path) -> MissionLog:
     stats.time_reversals = int(np.count_nonzero(np.diff(t) < 0))
     return MissionLog(path=path, start=start, events=events, data=data, mode=mode,
                       heading_source=source, stats=stats, first_timestamp=first_ts,
-                      last_timestamp=last_ts, avoid_situation=situation)
+                      last_timestamp=last_ts, avoid_situation=situation, line_numbers=line_numbers)

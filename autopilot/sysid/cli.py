@@ -90,6 +90,7 @@ def _run(args: argparse.Namespace, vessel, params_path: Path) -> int:
     bounds = _bounds(args)
     _distinct_files(args.trials)
     trials = [read_trial(p) for p in args.trials]
+    _distinct_trials(args.trials, trials)
     for path, trial in zip(args.trials, trials):
         for note in trial.read_notes:
             print(f"{path}: {note}", file=sys.stderr)
@@ -116,6 +117,28 @@ def _bounds(args):
             raise ConfigError(f"{opt}: {value!r} is outside the allowed range [{meta['lo']:g}, {meta['hi']:g}] {meta['unit']}")
         changes[name] = value
     return dataclasses.replace(NoiseBounds(), **changes)
+
+
+SAME_TRIAL_SHARE = 0.9  # two trials whose fixes coincide (to the centimetre) this often are one trial
+
+
+def _distinct_trials(paths, trials) -> None:
+    """The same trial in two files of different bytes (a log and its gzip copy beside it, a log and its CSV
+    export): fitted twice, it halved the intervals and each held-out trial had its twin in the fit. Told by
+    the fixes: GPS noise never repeats a run of positions to the centimetre."""
+    import numpy as np
+
+    seen: list[tuple[str, set]] = []
+    for p, tr in zip(paths, trials):
+        rows = tr.fix_rows
+        fixes = set(zip(np.round(tr.north_m[rows], 2).tolist(), np.round(tr.east_m[rows], 2).tolist()))
+        if len(fixes) < 10:
+            continue
+        for q, other in seen:
+            if len(fixes & other) >= SAME_TRIAL_SHARE * min(len(fixes), len(other)):
+                raise ConfigError(f"{p}: the same trial as {q} (its position fixes are the same, to the centimetre): "
+                                  "give each trial once")
+        seen.append((str(p), fixes))
 
 
 def _distinct_files(paths) -> None:
@@ -172,6 +195,17 @@ def _table(args, vessel, params_path, candidates, log) -> int:
     return 0
 
 
+def _why_not(a: dict) -> str:
+    """Why a channel whose chi-square passes is still not adequate (it said "chi-square 0.843: NOT adequate")."""
+    from autopilot.sysid.judge import ADEQUATE_CHI2, BEYOND_SENSOR_MAX
+
+    beyond = a.get("deviance_beyond_sensor")
+    if a.get("adequate") or a["chi2_per_measurement"] > ADEQUATE_CHI2 or beyond is None or beyond <= BEYOND_SENSOR_MAX:
+        return ""
+    return (f" (the noise model absorbs the residual only past the sensor's bounds: deviance {beyond:.3g} beyond "
+            f"them, {BEYOND_SENSOR_MAX:g} allowed)")
+
+
 def _print(summary: dict, out) -> None:
     from autopilot.sysid.channels import BY_NAME as CHANNEL_BY_NAME
 
@@ -180,13 +214,14 @@ def _print(summary: dict, out) -> None:
         c = CHANNEL_BY_NAME[ch]
         unit, k = c.unit, c.key_unit
         print(f"  {ch}: residual {a[f'residual_rms_{k}']:.3g} {unit} against noise {a[f'noise_rms_{k}']:.3g} {unit}, "
-              f"chi-square {a['chi2_per_measurement']:.3g} per measurement: {'adequate' if a['adequate'] else 'NOT adequate'}")
+              f"chi-square {a['chi2_per_measurement']:.3g} per measurement: {'adequate' if a['adequate'] else 'NOT adequate'}"
+              + _why_not(a))
     for name, eff in summary.get("effects", {}).items():
         for p in eff["params"]:
             print(f"  {name}.{p['name']} = {p['value']:.4g} {p['unit']}  (95 %: {p['ci95'][0]:.4g} .. {p['ci95'][1]:.4g})")
     for c in summary.get("nearest") or []:
-        worst = ", ".join(f"{ch} chi-square {a['chi2_per_measurement']:.3g}" for ch, a in (c.get("adequacy") or {}).items()
-                          if not a["adequate"])
+        worst = ", ".join(f"{ch} chi-square {a['chi2_per_measurement']:.3g}{_why_not(a)}"
+                          for ch, a in (c.get("adequacy") or {}).items() if not a["adequate"])
         print(f"  nearest: {c['effect']} (delta BIC {c['delta_bic']:+.0f}; still not adequate: {worst or 'see summary.json'})")
     if summary.get("not_excluded"):
         shown = ", ".join(f"{c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} {c['unit']}" for c in summary["not_excluded"][:6])

@@ -305,6 +305,9 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
                          "delay, sharp thrust steps tell them apart: a lag rounds the response, a delay shifts it)")
     cands = candidate_table(prep, vessel, fits, screen_cost, scores, s)
     nearest = [] if adequate else [c for c in cands if c.get("adequacy")][:3]
+    for c in nearest:  # judged as the verdict is (with the sensor-bound test): the table's cheap one said adequate
+        c["adequacy"] = judge.channels(prep, vessel, fits[tuple(c["effect"].split("+"))], s.bounds,
+                                       adequate_chi2=s.adequate_chi2)
     if not adequate:
         worst = [ch for ch, c in adequacy.items() if not c["adequate"]]
         notes.append(f"no listed effect brings the {' and '.join(worst)} residual down to the noise: verdict unexplained"

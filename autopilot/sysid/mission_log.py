@@ -92,13 +92,28 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
             position_time_s=(t - c(F_POSITION_AGE))[keep], heading_time_s=(t - c(F_HEADING_AGE))[keep],
             thrust_port_n=c(F_THRUST_PORT)[keep], thrust_stbd_n=c(F_THRUST_STBD)[keep],
             exclude=exclude, sog_m_s=c(F_SOG)[keep], cog_deg=c(F_COG)[keep], rot_deg_s=c(F_RATE)[keep],
-            curve=curve, commands_held=True, row_name=lambda i: f"cycle line {first + i + 1}",
+            curve=curve, commands_held=True, row_name=lambda i: _line_name(log, first + i),
         )
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
     trial.counts["cut_not_auto_rows"] = int(log.n_cycles - (last + 1 - first))
+    notes = []
     if log.stats.skipped:  # review said so of a damaged log; the identification said nothing
         trial.counts["log_lines_skipped"] = int(log.stats.skipped)
-        trial = dataclasses.replace(trial, read_notes=tuple(s for s in log.stats.describe()[1:]
-                                                            if "skipped" in s or s.startswith("first")))
+        notes += [s for s in log.stats.describe()[1:] if "skipped" in s or s.startswith("first")]
+    start = log.start or {}
+    if start.get("sim") is True and start.get("speedup") != "max":
+        # a Quick-start log (--speedup 10) on a loaded machine gave a spurious yaw_damping_quadratic, written into
+        # vessel-updated.yaml; the same mission at --speedup max gave fix_delay alone, the simulator's own
+        notes.append(f"flown by autopilot run --sim at --speedup {start.get('speedup')} (the wall clock): the "
+                     "simulator's timing jitter can be fitted as an effect; identify from --speedup max logs (lockstep)")
+    if notes:
+        trial = dataclasses.replace(trial, read_notes=tuple(notes))
     return trial
+
+
+def _line_name(log, row: int) -> str:
+    """A cycle row as an editor finds it: the file's line number (a count of cycle lines missed the header and
+    the event lines: "cycle line 200" was line 206)."""
+    lines = log.line_numbers
+    return f"line {int(lines[row])}" if lines is not None and row < len(lines) else f"cycle line {row + 1}"

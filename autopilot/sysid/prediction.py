@@ -41,6 +41,9 @@ SCALAR_MAX_RUNS = 24  # below this many runs the scalar loop beats numpy batchin
 # +-2 s, where a turning boat's track is still a quadratic to ~0.7 m), a heading against 6 (+-0.3 s; a heading
 # held on a row without its time, 0.1 s old at 0.3 rad/s, is 1.7 deg off), a velocity against 4 (a thrust
 # step changes the acceleration at once: a quadratic over +-2 s misses it by ~0.1 m/s)
+# the replay's step: the rows' interval, at most this (the daemon's period). Rows of a 1 Hz logger taken as the
+# step integrated the model a second at a time: NaN residuals and a "nearest: wind"; at 2-3 Hz spurious effects
+STEP_MAX_S = 0.1
 OUTLIER_POSITION_M = 3.0
 OUTLIER_HEADING_RAD = math.radians(1.0)
 OUTLIER_VELOCITY_M_S = 0.5
@@ -315,7 +318,7 @@ def prepare(trials, *, dt_s: float | None = None, noise: Noise | None = None, re
         raise ValueError("no trials")
     if dt_s is None:
         dt_s = float(np.median(np.concatenate([np.diff(t.t_s) for t in trials])))
-        dt_s = max(round(dt_s, 3), 0.01)
+        dt_s = min(max(round(dt_s, 3), 0.01), STEP_MAX_S)
     length = max(t.t_s[-1] for t in trials)
     g = np.arange(0.0, length + dt_s * 0.999, dt_s)
     cmds = np.array([_commands(tr, g, dt_s) for tr in trials])  # (N, 4, G)

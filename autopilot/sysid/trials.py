@@ -102,18 +102,13 @@ class Trial:
         return np.flatnonzero(np.isfinite(self.sog_m_s) & np.isfinite(self.cog_rad) & np.isfinite(self.velocity_time_s))
 
 
-def _forward_fill(x: np.ndarray) -> np.ndarray:
-    """Replace NaN by the last valid value (leading NaN by the first valid one)."""
-    x = np.asarray(x, dtype=float).copy()
-    ok = np.isfinite(x)
-    if not ok.any():
-        return np.zeros_like(x)
-    idx = np.where(ok, np.arange(x.size), 0)
-    np.maximum.accumulate(idx, out=idx)
-    x = x[idx]
-    first = np.flatnonzero(ok)[0]
-    x[:first] = x[first]
-    return x
+def _held_commands(x: np.ndarray) -> np.ndarray:
+    """A command column with its empty cells filled: each holds the command before it, and those before the
+    first command are zero (the firmware keeps the motors off until its first valid command,
+    docs/mbed-protocol.md). Filled with the first command instead, a logger that writes thrust only once
+    commanded gave 1.3 s of phantom thrust per trial and a current interval that missed the truth."""
+    x = np.asarray(x, dtype=float)
+    return np.nan_to_num(_forward_fill_after(x), nan=0.0)
 
 
 GAP_MIN_S = 5.0  # a step in t_s longer than this and than GAP_STEPS typical steps is a gap in the record
@@ -335,7 +330,24 @@ def make_trial(
         yaw_rate_rad_s=None if rot_deg_s is None else np.radians(col(rot_deg_s)),
         commands_held=commands_held,
         counts=counts,
+        read_notes=_coarse_rows_note(t_sel, heading_time_s is not None),
     )
+
+
+COARSE_ROWS_S = 0.15  # rows further apart than this (median) are coarser than the daemon's 10 Hz cycle
+
+
+def _coarse_rows_note(t_row_s: np.ndarray, heading_times: bool) -> tuple:
+    """A note when the rows are coarser than the control cycle: a 1 Hz logger's trials were `unexplained` or
+    gained a sensor_delay (subsampled 10 Hz logs), and the answer said nothing of why."""
+    dt = np.diff(t_row_s)
+    step = float(np.median(dt)) if dt.size else 0.0
+    if not step > COARSE_ROWS_S:
+        return ()
+    dated = "" if heading_times else (" and each heading is dated at its row (no heading_time_s column), up to a row "
+                                      "late: a sensor delay")
+    return (f"rows every {step:.2g} s: the commands are known only at the rows (the controller changes them every "
+            f"0.1 s){dated}; a trial this coarse can be `unexplained`, or show effects of its sampling",)
 
 
 def _counts(n, e, heading, fix_new, hdg_new, drop) -> dict:
@@ -353,10 +365,10 @@ def _counts(n, e, heading, fix_new, hdg_new, drop) -> dict:
 def _commands(name, tp, ts, dp, ds, curve: ThrustCurve):
     """(thrust_port_n, thrust_stbd_n, duty_port_pct, duty_stbd_pct), the missing ones from the thrust curve."""
     if tp is not None and ts is not None:
-        tp, ts = _forward_fill(tp), _forward_fill(ts)
+        tp, ts = _held_commands(tp), _held_commands(ts)
         return tp, ts, curve.signed_duty_pct(tp), curve.signed_duty_pct(ts)
     if dp is not None and ds is not None:
-        dp, ds = _forward_fill(dp), _forward_fill(ds)
+        dp, ds = _held_commands(dp), _held_commands(ds)
         return (np.asarray(curve.thrust_from_signed_duty_n(dp), dtype=float),
                 np.asarray(curve.thrust_from_signed_duty_n(ds), dtype=float), dp, ds)
     raise ConfigError(f"trial {name}: needs thrust_port_n/thrust_stbd_n or pwm_port_pct/pwm_stbd_pct")
@@ -394,7 +406,8 @@ CSV_HELP = """trial CSV: a header line, one row per sample, any column order, un
 empty cells are gaps (Excel's ';' and decimal commas, a BOM, Windows-1252 are read too):
   t_s                              time (s), increasing
   thrust_port_n, thrust_stbd_n     commanded thrust (N, negative = astern), or
-  pwm_port_pct, pwm_stbd_pct       signed duty (%, negative = reverse)
+  pwm_port_pct, pwm_stbd_pct       signed duty (%, negative = reverse); an empty cell holds the
+                                   command before it (before the first command: zero)
   north_m, east_m                  position (m, local frame), or
   lat_deg, lon_deg                 position (deg)
   heading_deg                      heading from north, clockwise (deg)
@@ -420,12 +433,15 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
     width = len(header)
+    units = len(table) > 1 and _units_row(table[1])  # a row of units under the header (s, m, deg, N): no data
     if len(table) > 1 and len(table[-1]) < width and not text.endswith(("\n", "\r")):
         raise ConfigError(f"{path}: data row {len(table) - 1} has {len(table[-1])} of {width} fields and the file does "
                           "not end with a new line: cut off mid-write? delete that row")
     data = np.full((len(table) - 1, width), np.nan)
     try:
         for i, r in enumerate(table[1:]):
+            if i == 0 and units:
+                continue  # left empty: dropped below with the empty rows, the rows keep their numbers
             problem = too_many_fields(r, width, i + 1)
             if problem:
                 raise ConfigError(problem)
@@ -438,6 +454,21 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
         return trial_from_columns(path.stem, cols, curve=curve, row_name=lambda i: f"data row {kept[i] + 1}")
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
+
+
+def _units_row(row: list[str]) -> bool:
+    """A first data row of words only, none a number (its units: s, m, deg, N; it was refused as "'s' is not a
+    number"). A row with any number in it is data."""
+    cells = [c for c in row if c]
+    if not cells:
+        return False
+    for c in cells:
+        try:
+            float(c)
+        except ValueError:
+            continue
+        return False
+    return True
 
 
 def read_trial(path, *, curve: ThrustCurve | None = None) -> Trial:
