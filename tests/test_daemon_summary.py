@@ -12,7 +12,7 @@ from autopilot.logschema import Mode
 
 
 def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_lost=0, log_failing=False,
-          stop_acknowledged=True, stop_signal=None, hold_zero=None):
+          stop_acknowledged=True, stop_signal=None, hold_zero=None, board_answered=True):
     st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [],
                    closest_m={0: 0.41, 1: 0.27, 2: float("nan")} if complete else {0: 0.41},
                    completed_t_s=38.0 if complete else None, failsafe_causes=list(failsafes),
@@ -21,7 +21,8 @@ def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_
     return SimpleNamespace(state=st, clock=SimpleNamespace(now_s=lambda: 45.0, speedup=speedup), t0_s=5.0,
                            mission=SimpleNamespace(waypoints_ne_m=np.zeros((3, 2))), speedup_held=lambda: held,
                            log=SimpleNamespace(lines_lost=lines_lost, failing=log_failing), hold_zero=hold_zero,
-                           ap=SimpleNamespace(mode=Mode.STOP if hold_zero else Mode.AUTO))
+                           ap=SimpleNamespace(mode=Mode.STOP if hold_zero else Mode.AUTO),
+                           thrusters=SimpleNamespace(answered=board_answered))
 
 
 def test_a_clean_run():
@@ -68,3 +69,12 @@ def test_a_stop_by_signal_and_a_held_start_are_said():
     held = end_summary(_loop(cycles=95, skipped=0, complete=False, hold_zero="interrupted mission found"), "x",
                        sim=True)
     assert "  the boat waited at zero thrust from the start: interrupted mission found" in held
+
+
+def test_a_board_that_never_answered_is_not_a_thruster_left_running():
+    """Found by an on-boat audit: a run whose Mbed port never opened ended with "WARNING: the Mbed did not
+    acknowledge the final zero thrust: check that the thrusters stopped", for thrusters that had never run."""
+    lines = end_summary(_loop(cycles=40, skipped=0, complete=False, stop_acknowledged=False, board_answered=False),
+                        "x", sim=False)
+    assert lines[1].startswith("the Mbed never acknowledged a command in this run")
+    assert not any("WARNING" in ln for ln in lines)

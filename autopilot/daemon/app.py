@@ -580,7 +580,12 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     if lost:  # the summary pointed at a log cut short (disk full) as if it were whole
         lines.append(f"  the log lost {lost} line(s): a write failed (disk full?); it is incomplete"
                      + (", without its stop line" if loop.log.failing else ""))
-    if st.stop_acknowledged is False:  # only a JSON field said so
+    if st.stop_acknowledged is False and not loop.thrusters.answered:
+        # the same WARNING for a board that never answered (its port never opened) sent an operator to check
+        # thrusters that had never run
+        lines.append("the Mbed never acknowledged a command in this run: its firmware never applied one (the motors "
+                     "stay off until its first valid command)")
+    elif st.stop_acknowledged is False:  # only a JSON field said so
         lines.append("WARNING: the Mbed did not acknowledge the final zero thrust: check that the thrusters stopped "
                      "(its own command timeout stops them)")
     done = "mission complete" if st.complete else "mission not complete"
