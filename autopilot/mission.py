@@ -28,9 +28,10 @@ Latitude/longitude are converted to local (north_m, east_m) around an
 origin: the file's home if it has one (the simulated boat starts there,
 heading north, at rest), else the origin given by the caller (the
 configuration's), else the file's ``origin``. A local-frame mission's
-waypoints are metres from its own ``origin`` or ``home`` (where the boat
-starts), else from the caller's origin; a file point and the caller's origin
-more than ``ORIGIN_AGREE_M`` apart are refused (the waypoints would move).
+waypoints are metres from its own ``origin``, else from the caller's origin,
+else from its ``home`` (where a simulated boat starts); its own origin and
+the caller's more than ``ORIGIN_AGREE_M`` apart are refused (the waypoints
+would move).
 
 Refused, with a message naming the file, the waypoint (1-based) and the
 problem: no waypoints, non-numbers or NaN, latitude outside +-90 or
@@ -57,7 +58,7 @@ from autopilot.userfile import csv_rows, parse_yaml, read_text, too_many_fields,
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
-ORIGIN_AGREE_M = 1.0  # a local-frame file's own origin (or home) and the configuration's: farther apart, refused
+ORIGIN_AGREE_M = 1.0  # a local-frame file's own origin and the configuration's: farther apart, refused
 NAV_WAYPOINT = 16
 NAV_LOITER_UNLIM = 17  # hold at the point until commanded
 NAV_LOITER_TIME = 19  # hold at the point for param1 seconds
@@ -162,8 +163,6 @@ def _finish(
         o_lat, o_lon = origin
         if home_ll is not None and (o_lat is None or o_lon is None):
             o_lat, o_lon = home_ll
-        elif home_ll is not None:
-            _frames_agree(path, "home", home_ll, (o_lat, o_lon))
     ne: list[tuple[float, float]] = []
     speeds: list[float | None] = []
     holds: list[float | None] = []
@@ -203,7 +202,7 @@ def _finish(
 
 
 def _frames_agree(path, key: str, file_ll: tuple[float, float], given_ll) -> None:
-    """MissionError when a local-frame file's own ``origin`` (or ``home``) is not the origin it is loaded with
+    """MissionError when a local-frame file's own ``origin`` is not the origin it is loaded with
     (the configuration's origin_lat_deg/origin_lon_deg): its waypoints are metres from the file's point, and
     taken from the configuration's they were silently moved by the distance between the two (170 m)."""
     n, e = latlon_to_local(file_ll[0], file_ll[1], float(given_ll[0]), float(given_ll[1]))
