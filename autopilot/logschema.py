@@ -323,7 +323,7 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("lat_deg", "float", "deg", "the fix as the receiver gave it"),
         _f("lon_deg", "float", "deg", "see `lat_deg`"),
         _f("distance_m", "float", "m", "its distance from the last fix used"),
-        _f("gate_m", "float", "m", "the farthest it could have been: `position_jump_m` + (speed over ground + 2 m/s, or 10 m/s without one) x the time between the two fixes"),
+        _f("gate_m", "float", "m", "the farthest it could have been: `position_jump_m` + the speed bound x the time between the two fixes (autopilot.gnc.navigation.jump_speed_bound_m_s: the receiver's speed over ground + a margin, or `max_sog_m_s` without one)"),
         _f("accepted", "bool", "-", "false: refused, the last fix is kept (and ages); true: a second fix agreed, the position moved there"),
         _f("repeated", "bool", "-", "refused while another refused fix was waiting: far fixes that do not agree (the ground station is told of the first only)"),
     )),

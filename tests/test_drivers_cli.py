@@ -191,3 +191,38 @@ def test_a_second_daemon_on_the_ports_of_a_running_one_is_refused_whatever_its_r
         first.communicate(timeout=30)
         sc30.close()
         mbed.close()
+
+
+def test_a_port_claimed_by_another_daemon_is_refused_where_proc_locks_is_hidden(tmp_path):
+    """Found by a review: the service's sandbox (ProcSubset=pid, ProtectProc=invisible) hides /proc/locks and
+    other processes, so the refusal above never ran in the shipped unit. Each daemon also claims its ports with
+    an abstract Unix socket, which the sandbox does not hide: here the claim alone (no flock, no autopilot
+    process to find) refuses the start; released, the same start goes ahead."""
+    from autopilot.drivers.serial_link import claim_port, lock_holders
+    from tests.conftest import REPO
+
+    sc30, mbed = PtyEndpoint(tmp_path, "sc30"), PtyEndpoint(tmp_path, "mbed")
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"origin_lat_deg: 52.0\norigin_lon_deg: 4.4\nserial:\n  sc30_port: {sc30.path}\n  mbed_port: {mbed.path}\n")
+    argv = [sys.executable, "-m", "autopilot", "run", "--config", str(cfg), "--mission",
+            str(REPO / "config" / "missions" / "pond-9.1.yaml"), "--log-dir", str(tmp_path / "logs"),
+            "--state-dir", str(tmp_path / "state"), "--runtime-dir", str(tmp_path / "run")]
+    claim = claim_port(mbed.path)
+    try:
+        assert claim and not lock_holders(mbed.path)
+        assert claim_port(mbed.path) is None  # held: a second claim fails
+        p = subprocess.run(argv, cwd=tmp_path, capture_output=True, text=True, timeout=60)
+        assert p.returncode == 2, p.stderr
+        assert p.stderr.strip() == (f"autopilot run: error: another autopilot daemon holds serial.mbed_port {mbed.path}: "
+                                    "two daemons must never drive one boat; stop it first (autopilot ctl stop, then "
+                                    "systemctl stop wamv-autopilot, or end the one started by hand)")
+        claim.close()
+        p = subprocess.Popen(argv, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        time.sleep(2.0)
+        assert p.poll() is None  # released: this start goes ahead (no devices answer: it waits at zero thrust)
+        p.terminate()
+        p.communicate(timeout=30)
+    finally:
+        claim.close()
+        sc30.close()
+        mbed.close()

@@ -919,3 +919,25 @@ def test_a_radio_missing_at_start_is_retried_and_the_daemon_flies_meanwhile(tmp_
         p.communicate(timeout=30)
         if radio is not None:
             radio.close()
+
+
+def test_an_endpoint_waiting_cannot_help_is_still_refused_at_start(tmp_path):
+    """Found by a review of the retry above: every open error was retried for ever, an address in use or a
+    permission the unit's DevicePolicy withholds too, with the boat flying without its ground station and one
+    line in the log. Those still refuse the start, naming the endpoint."""
+    taken = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    taken.bind(("127.0.0.1", 0))
+    port = taken.getsockname()[1]
+    cfg = yaml.safe_load((ROOT / "config" / "autopilot.yaml").read_text())
+    cfg["sim"]["origin_lat_deg"], cfg["sim"]["origin_lon_deg"] = ORIGIN
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    try:
+        p = subprocess.run([sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", "max", "--config",
+                            str(tmp_path / "c.yaml"), "--mission", "pond-9.4", "--log-dir", str(tmp_path / "logs"),
+                            "--state-dir", str(tmp_path / "state"), "--runtime-dir", str(tmp_path / "run"),
+                            "--mavlink", f"udpin:127.0.0.1:{port}"], cwd=tmp_path, capture_output=True, text=True,
+                           timeout=60)
+    finally:
+        taken.close()
+    assert p.returncode == 2, p.stderr[-1500:]
+    assert f"mavlink endpoint udpin:127.0.0.1:{port}: cannot open (" in p.stderr and "in use" in p.stderr, p.stderr[-1500:]

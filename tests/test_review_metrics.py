@@ -199,3 +199,33 @@ def test_mission_time_counts_from_mission_start_and_a_failsafes_rtl_is_time_in_f
                                  + recs[150:250] + events[3:] + recs[250:])))
     assert_allclose(card.mission_time_s, recs[-1]["t_s"], atol=1e-9)
     assert_allclose(card.failsafe_time_s, 15.0, atol=1e-6)  # rtl 5 s and its hold 10 s; not the operator's manual
+
+
+def test_the_distance_run_counts_a_receivers_repeated_speeds_and_needs_no_course(tmp_path):
+    """Found by a review: the first distance by speed over ground integrated only where the (speed, course) pair
+    changed: a receiver rounding to 0.1 kn and 1 deg at a steady 1.5 m/s repeats its pair, and 300 s ran 56 m
+    for 448; a speed without a course fell back to the fixes, saying "no speed over ground logged"."""
+    n = 3000  # 300 s at 10 Hz, a fix a second held on the cycle lines
+    t = np.round(0.1 * np.arange(n), 3)
+    north = np.round(1.5 * np.floor(t), 3)
+    knots = round(1.5 / 0.514444, 1)  # what the receiver says, every second
+    sog = np.full(n, knots * 0.514444)
+    for cog in (0.0, None):
+        recs = _cycles(n, north_m=north, east_m=0.0, position_age_s=np.round(t - np.floor(t), 3), sog_m_s=sog,
+                       cog_deg=cog if cog is not None else math.nan)
+        card = score(read_log(_write(tmp_path / f"steady-{cog}.jsonl", [START] + recs)))
+        assert card.distance_m == pytest.approx(1.5 * 300.0, rel=0.01), cog
+        assert not any("through the fixes" in note for note in card.read_notes)
+
+
+def test_an_undated_waypoint_line_counts_in_the_mission_it_was_written_under(tmp_path):
+    """Found by a review: a waypoint_reached without t_s counted as reached in every mission of a log whose
+    mission was replaced (M1 W0 and M2 W0 both reached for one line). Undated, a line belongs to the mission in
+    force where it stands in the file."""
+    recs = _cycles(200, north_m=list(np.round(0.1 * np.arange(200), 2)), east_m=0.0, wp_index=0)
+    replaced = {"event": "mission_replaced", "t_s": 10.0, "source": "mavlink", "waypoints": [[30.0, 0.0], [30.0, 10.0]]}
+    undated = {"event": "waypoint_reached", "wp_index": 0}
+    card = score(read_log(_write(tmp_path / "m.jsonl", [START] + recs[:50] + [undated] + recs[50:100] + [replaced]
+                                 + recs[100:])))
+    assert [(w.label, w.reached) for w in card.waypoints] == [("M1 W0", True), ("M1 W1", False), ("M2 W0", False),
+                                                              ("M2 W1", False)]

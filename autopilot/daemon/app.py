@@ -107,7 +107,7 @@ def sim_sentences(cfg: DaemonConfig) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return fast, slow
 
 
-def prepare(cfg: DaemonConfig, opts: RunOptions):
+def prepare(cfg: DaemonConfig, opts: RunOptions, claims: list | None = None):
     """Load and check the mission and the directories; no device is touched. Raises ConfigError."""
     from autopilot.mission import load_mission
 
@@ -170,7 +170,7 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
         raise ConfigError(f"another autopilot daemon is running: it answers on {path} (autopilot ctl status); "
                           "stop it first, or give this one its own --runtime-dir")
     if not opts.sim:
-        _refuse_ports_of_another_daemon(cfg)
+        _claim_ports(cfg, claims)
     from autopilot.link.endpoint import parse_endpoint
 
     for url in opts.mavlink:
@@ -198,24 +198,27 @@ def prepare(cfg: DaemonConfig, opts: RunOptions):
     return mission, log_dir, state_dir, uploaded
 
 
-def _refuse_ports_of_another_daemon(cfg: DaemonConfig) -> None:
-    """ConfigError when another ``autopilot run`` holds one of this daemon's ports. Refused by its socket only,
-    a daemon started by hand with its own runtime directory beside the service waited for the ports and,
-    once the operator had stopped the service, drove the mission again from W0. Another program holding a
-    port (a terminal) is waited for, as before."""
-    from autopilot.drivers.serial_link import autopilot_daemon, lock_holders
+def _claim_ports(cfg: DaemonConfig, claims: list | None) -> None:
+    """ConfigError when another ``autopilot run`` holds one of this daemon's ports; else they are claimed for
+    this run (``claims`` keeps the claims open until the run ends; None: only checked). Refused by its socket
+    only, a daemon started by hand with its own runtime directory beside the service waited for the ports and,
+    once the operator had stopped the service, drove the mission again from W0. Each daemon claims its ports
+    (:func:`autopilot.drivers.serial_link.claim_port`, which the service's sandbox does not hide); who holds
+    one is told when /proc says. Another program holding a port (a terminal) is waited for, as before."""
+    from autopilot.drivers.serial_link import autopilot_daemon, claim_port, lock_holders
 
-    ports = [("serial.sc30_port", cfg.serial.sc30_port), ("serial.mbed_port", cfg.serial.mbed_port),
-             ("ais.port", cfg.ais.port)]
-    for key, port in ports:
-        if not port:
-            continue
-        for pid in lock_holders(port):
-            cmd = autopilot_daemon(pid) if pid != os.getpid() else None
-            if cmd:
-                raise ConfigError(f"another autopilot daemon (pid {pid}: {cmd[:120]}) holds {key} {port}: two daemons "
-                                  "must never drive one boat; stop it first (autopilot ctl stop, then systemctl stop "
-                                  "wamv-autopilot or kill it)")
+    for key, port in cfg.device_ports():
+        claim = claim_port(port)
+        if claim is None:
+            held = [f"pid {pid}: {cmd[:120]}" for pid in lock_holders(port) if (cmd := autopilot_daemon(pid))]
+            raise ConfigError(f"another autopilot daemon{' (' + held[0] + ')' if held else ''} holds {key} {port}: "
+                              "two daemons must never drive one boat; stop it first (autopilot ctl stop, then "
+                              "systemctl stop wamv-autopilot, or end the one started by hand)")
+        if claim:
+            if claims is None:
+                claim.close()
+            else:
+                claims.append(claim)
 
 
 def _refuse_radio_on_a_device_port(cfg: DaemonConfig, endpoints: list[tuple[str, str]]) -> None:
@@ -224,8 +227,7 @@ def _refuse_radio_on_a_device_port(cfg: DaemonConfig, endpoints: list[tuple[str,
     compass line. The devices' ports are checked against each other in the configuration (DaemonConfig)."""
     from autopilot.link.endpoint import parse_endpoint
 
-    devices = [("serial.sc30_port", cfg.serial.sc30_port), ("serial.mbed_port", cfg.serial.mbed_port),
-               ("ais.port", cfg.ais.port)]
+    devices = cfg.device_ports()
     for where, url in endpoints:
         try:
             spec = parse_endpoint(url)
@@ -558,12 +560,17 @@ async def _shut_down(tasks, devices, rig, tmpdir, clock) -> None:
 
 def run_daemon(cfg: DaemonConfig, opts: RunOptions) -> int:
     """Check everything, then run until complete or signalled. Returns the process exit code."""
-    mission, log_dir, state_dir, uploaded = prepare(cfg, opts)
-    if uploaded is not None:
-        _console(f"continuing the mission uploaded over MAVLink ({uploaded}), not {opts.mission_path}; "
-                 "--fresh starts the configured one")
-        opts = dataclasses.replace(opts, mission_path=str(uploaded))
-    return asyncio.run(_main(cfg, opts, mission, log_dir, state_dir))
+    claims: list = []  # this run's claims on its ports (_claim_ports), released when it ends
+    try:
+        mission, log_dir, state_dir, uploaded = prepare(cfg, opts, claims)
+        if uploaded is not None:
+            _console(f"continuing the mission uploaded over MAVLink ({uploaded}), not {opts.mission_path}; "
+                     "--fresh starts the configured one")
+            opts = dataclasses.replace(opts, mission_path=str(uploaded))
+        return asyncio.run(_main(cfg, opts, mission, log_dir, state_dir))
+    finally:
+        for claim in claims:
+            claim.close()
 
 
 KEEP_UP_SKIPPED_SHARE = 0.01  # more deadlines skipped than this share: say the run could not keep up

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from autopilot.drivers.ais import AisConfig
+from autopilot.drivers.mbed_protocol import FIRMWARE_STOP_TIMEOUT_S
 from autopilot.drivers.sc30_output import SENTENCES as SC30_SENTENCES
 from autopilot.gnc import GncConfig
 from autopilot.link.config import MavlinkConfig
@@ -233,11 +234,15 @@ class SimConfig:
                                  white_deg=self.heading_noise_deg, loss_rate=self.heading_loss_rate)
 
 
+# two commands inside the Mbed firmware's stop timeout at least: at 1-2 Hz it cut the motors between commands
+MIN_RATE_HZ = 2.0 / FIRMWARE_STOP_TIMEOUT_S
+
+
 @dataclass(frozen=True)
 class DaemonConfig:
     """The whole ``autopilot run`` configuration."""
 
-    rate_hz: float = param(10.0, unit="Hz", lo=4.0, hi=50.0,
+    rate_hz: float = param(10.0, unit="Hz", lo=MIN_RATE_HZ, hi=50.0,
                            doc="control loop rate (absolute deadlines); at least two commands inside the Mbed firmware's "
                                "0.5-s stop timeout (docs/mbed-protocol.md): at 1-2 Hz it cut the motors between commands")
     origin_lat_deg: float | None = param(None, unit="deg", lo=-90.0, hi=90.0, doc="local-frame origin; null = the mission file's origin")
@@ -264,12 +269,10 @@ class DaemonConfig:
     def __post_init__(self) -> None:
         if (self.origin_lat_deg is None) != (self.origin_lon_deg is None):
             raise ConfigError("origin_lat_deg, origin_lon_deg: give both or neither")
-        ports = [("serial.sc30_port", self.serial.sc30_port), ("serial.mbed_port", self.serial.mbed_port)]
-        for key, port in ports:
+        for key, port in (("serial.sc30_port", self.serial.sc30_port), ("serial.mbed_port", self.serial.mbed_port)):
             if not port.strip():  # the daemon retried "cannot open : no such device" for ever, naming no key
                 raise ConfigError(f"{key}: empty; the device's serial port, such as /dev/sc30 or /dev/serial/by-id/...")
-        if self.ais.port:
-            ports.append(("ais.port", self.ais.port))
+        ports = self.device_ports()
         for k, (key, port) in enumerate(ports):
             for other, same in ports[:k]:
                 if os.path.realpath(port) == os.path.realpath(same):
@@ -283,6 +286,11 @@ class DaemonConfig:
     @property
     def period_s(self) -> float:
         return 1.0 / self.rate_hz
+
+    def device_ports(self) -> list[tuple[str, str]]:
+        """(key, path) of each serial device the daemon drives or reads (the AIS port when there is one)."""
+        ports = [("serial.sc30_port", self.serial.sc30_port), ("serial.mbed_port", self.serial.mbed_port)]
+        return ports + ([("ais.port", self.ais.port)] if self.ais.port else [])
 
 
 def load_config(path: str | Path) -> DaemonConfig:

@@ -46,6 +46,28 @@ def open_port(path: str, baudrate: int, **kwargs) -> serial.Serial:
     return ser
 
 
+CLAIM_PREFIX = "wamv-autopilot-port:"
+
+
+def claim_port(path: str):
+    """Claim a device port for this process: an abstract Unix socket (Linux) named after the port's real path,
+    released when the process exits however it ends. Returns the socket to keep open while the port is this
+    process's; None when another process holds the claim. Unlike /proc/locks (which the unit's ProcSubset=pid
+    hides) it is seen across users and mount namespaces; an error other than "in use" (no abstract
+    sockets here) returns False: nothing known, nothing refused."""
+    import hashlib
+    import socket
+
+    name = "\0" + CLAIM_PREFIX + hashlib.sha256(os.path.realpath(path).encode()).hexdigest()[:32]
+    claim = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        claim.bind(name)
+    except OSError as exc:
+        claim.close()
+        return None if exc.errno == errno.EADDRINUSE else False
+    return claim
+
+
 def lock_holders(path: str) -> list[int]:
     """The processes holding a flock on ``path`` (the lock :func:`open_port` takes), from Linux's /proc/locks;
     empty where the file or the table cannot be read."""

@@ -103,7 +103,7 @@ class PositionJump:
     lat_deg: float
     lon_deg: float
     distance_m: float  # from the last fix used
-    gate_m: float  # what it may be: position_jump_m + max_sog_m_s x the time between the two
+    gate_m: float  # what it may be: position_jump_m + jump_speed_bound_m_s x the time between the two
     accepted: bool  # False: refused, the last fix is kept; True: the position re-anchored here
     repeated: bool = False  # refused while another refused fix was waiting (far fixes that do not agree)
 

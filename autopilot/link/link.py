@@ -22,6 +22,7 @@ import asyncio
 import collections
 import contextlib
 import dataclasses
+import errno
 import math
 import os
 import stat
@@ -168,6 +169,9 @@ class _Port:
 
 
 ENDPOINT_RETRY_S = 2.0  # an endpoint that could not be opened at start is tried again this often
+# what an endpoint that is not there yet fails with (a radio not plugged in, an address not assigned yet)
+NOT_THERE_YET = frozenset({errno.ENOENT, errno.ENODEV, errno.ENXIO, errno.EADDRNOTAVAIL, errno.ENETUNREACH,
+                           errno.ENETDOWN})
 
 
 class MavlinkLink:
@@ -200,12 +204,14 @@ class MavlinkLink:
             ep = open_endpoint(parse_endpoint(url), self.cfg.rx_queue_bytes)
             try:
                 await ep.open()
-            except (OSError, ValueError) as exc:  # pyserial: SerialException is an OSError; a bad path ValueError
+            except OSError as exc:  # pyserial's SerialException is one
+                if getattr(exc, "errno", None) not in NOT_THERE_YET:  # permission, in use: waiting cannot help
+                    raise ConfigError(f"mavlink endpoint {url}: cannot open ({exc.strerror or exc})") from None
                 # at boot the network (udpin's address) or a radio may not be there yet: refused, the service
                 # (RestartPreventExitStatus=2) stayed down for the session; the devices' ports are retried too
                 closed.append(ep)
                 self.loop.log_event("info", message=f"mavlink endpoint {url}: cannot open "
-                                    f"({getattr(exc, 'strerror', None) or exc}); retried every {ENDPOINT_RETRY_S:g} s")
+                                    f"({exc.strerror or exc}); retried every {ENDPOINT_RETRY_S:g} s")
             mav = mavlink.MAVLink(None, srcSystem=self.cfg.system_id, srcComponent=self.cfg.component_id)
             mav.robust_parsing = True
             if self.key is not None:
@@ -229,7 +235,7 @@ class MavlinkLink:
             await asyncio.sleep(ENDPOINT_RETRY_S)
             try:
                 await ep.open()
-            except (OSError, ValueError):
+            except OSError:
                 continue
             self.loop.log_event("info", message=f"mavlink endpoint {ep.spec}: open")
             return

@@ -399,11 +399,18 @@ def _logged_passes(log: MissionLog, plan: Plan) -> tuple[set, dict]:
     A replacement's passes close after the replacement (its ``mission_replaced`` line, then theirs).
     """
     reached, logged = set(), {}
-    for ev in log.events_named("waypoint_reached", "waypoint_pass"):
+    replaced = 0  # mission_replaced lines so far in the file: where an undated line falls
+    for ev in log.events:
+        name = ev.get("event")
+        if name == "mission_replaced" and isinstance(ev.get("waypoints"), list):
+            replaced += 1
+        if name not in ("waypoint_reached", "waypoint_pass"):
+            continue
         i = ev.get("wp_index")
         if not isinstance(i, int) or isinstance(i, bool):
             continue
-        if _is_number(ev.get("t_s")) and not plan.holds(float(ev["t_s"])):
+        dated = _is_number(ev.get("t_s"))
+        if (dated and not plan.holds(float(ev["t_s"]))) or (not dated and replaced != plan.number - 1):
             continue
         if ev.get("event") == "waypoint_reached":
             reached.add(i)
@@ -574,29 +581,29 @@ def stale_limits_s(log: MissionLog) -> tuple[float, float]:
             position if position is not None and position > 0 else default.position_stale_s)
 
 
-def distance_run_m(log: MissionLog, position_ok: np.ndarray, later: np.ndarray) -> tuple[float, str | None]:
+def distance_run_m(log: MissionLog, position_ok: np.ndarray, later: np.ndarray,
+                   nominal_dt_s: float | None) -> tuple[float, str | None]:
     """The distance the boat ran (m) and, when it could not be measured so, how it was.
 
-    The speed over ground integrated between the receiver's new velocity samples, a speed below
-    :data:`autopilot.gnc.navigation.MIN_SOG_FOR_COG_M_S` counted as rest (a receiver at rest reports a
-    few cm/s of noise), never across a hole in the samples. Summing the steps between fixes added the
-    GPS's wander: 638 m for a boat held at its launch point for 20 min (89 m by speed over ground, all
-    of it creeping under 0.3 m/s), 44 m for a 36.6-m pond mission (36.7 m by speed over ground).
-    A log without speed over ground: through the fixes (``position_ok``, per row), said so. Only rows
-    ``later`` than every row before count (a block of lines written twice is not run twice).
+    The receiver's speed over ground as each cycle held it, integrated over the cycle's duration
+    (:func:`hold_durations_s` over the cycles ``later`` than every one before: not across a hole in the log,
+    and a block of lines written twice is not run twice), a speed below
+    :data:`autopilot.gnc.navigation.MIN_SOG_FOR_COG_M_S` counted as rest (a receiver at rest reports a few
+    cm/s of noise); only rows with a position (``position_ok``: a receiver without a fix has no speed
+    either). Summing the steps between fixes added the GPS's wander:
+    638 m for a boat held at its launch point for 20 min (89 m by speed over ground, all of it creeping under
+    0.3 m/s), 44 m for a 36.6-m pond mission (36.7 m by speed over ground). A log without speed over ground:
+    through the fixes, said so.
     """
     from autopilot.gnc.navigation import MIN_SOG_FOR_COG_M_S
-    from autopilot.review.export import FIX_GAP_FACTOR
 
-    rows = log.velocity_rows()
-    rows = rows[later[rows] & position_ok[rows]]  # a receiver without a fix has no speed over ground either
-    if len(rows) >= 2:
-        t, sog = log.col("t_s")[rows], log.col("sog_m_s")[rows]
-        moving = np.where(sog >= MIN_SOG_FOR_COG_M_S, sog, 0.0)
-        dt = np.diff(t)
-        typical = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
-        joined = (dt > 0) & (dt <= FIX_GAP_FACTOR * typical)
-        return float(np.sum((0.5 * (moving[1:] + moving[:-1]) * dt)[joined])), None
+    sog = log.col("sog_m_s")
+    held = position_ok & np.isfinite(sog)
+    if held.any():
+        cycle_s = np.zeros(len(sog))
+        cycle_s[later] = hold_durations_s(log.col("t_s")[later], nominal_dt_s)[0]
+        moving = np.where(sog[held] >= MIN_SOG_FOR_COG_M_S, sog[held], 0.0)
+        return float(np.sum(moving * cycle_s[held])), None
     n, e = log.col("north_m")[position_ok], log.col("east_m")[position_ok]
     if len(n) < 2:
         return (0.0 if len(n) else math.nan), None
@@ -649,7 +656,7 @@ def score(log: MissionLog) -> Scorecard:
     with np.errstate(invalid="ignore"):
         later = t > np.maximum.accumulate(np.r_[-np.inf, t[:-1]]) if len(t) else np.zeros(0, dtype=bool)
     ok = np.isfinite(n) & np.isfinite(e) & later
-    distance, distance_note = distance_run_m(log, ok, later)
+    distance, distance_note = distance_run_m(log, ok, later, nominal)
 
     tp, ts = log.col("thrust_port_n"), log.col("thrust_stbd_n")
     known = np.isfinite(tp) & np.isfinite(ts)

@@ -504,21 +504,24 @@ def check_mission_log(path) -> Path:
     from autopilot.userfile import check_file, check_text_head
 
     p = check_file(path, what="mission log")
-    head = b""
+    head = bytearray()
     whole = False
+    line_ended = False
     try:
         with open_log(p) as f:
             # the first line whole, however long: a survey's mission_start (1400 waypoints) is ~67 kB
-            while (len(head) < _SNIFF_BYTES or (b"\n" not in head and len(head) < _FIRST_LINE_MAX_BYTES)):
+            while len(head) < _SNIFF_BYTES or (not line_ended and len(head) < _FIRST_LINE_MAX_BYTES):
                 chunk = f.read(65536)
                 if not chunk:
                     whole = True
                     break
+                line_ended = line_ended or b"\n" in chunk  # only the new bytes looked at: linear, not quadratic
                 head += chunk
     except (OSError, EOFError) as exc:  # a compressed log cut short: what could be read is judged
         if not head:
             raise ConfigError(f"{p}: a gzip file that cannot be read ({exc})") from None
         whole = True
+    head = bytes(head)
     if not head.strip():
         return p
     check_text_head(p, head, what="mission log")

@@ -196,14 +196,8 @@ def _table(args, vessel, params_path, candidates, log) -> int:
 
 
 def _why_not(a: dict) -> str:
-    """Why a channel whose chi-square passes is still not adequate (it said "chi-square 0.843: NOT adequate")."""
-    from autopilot.sysid.judge import ADEQUATE_CHI2, BEYOND_SENSOR_MAX
-
-    beyond = a.get("deviance_beyond_sensor")
-    if a.get("adequate") or a["chi2_per_measurement"] > ADEQUATE_CHI2 or beyond is None or beyond <= BEYOND_SENSOR_MAX:
-        return ""
-    return (f" (the noise model absorbs the residual only past the sensor's bounds: deviance {beyond:.3g} beyond "
-            f"them, {BEYOND_SENSOR_MAX:g} allowed)")
+    """Why a channel whose chi-square passes is still not adequate (judge.channels says)."""
+    return f" ({a['why_not']})" if a.get("why_not") else ""
 
 
 def _print(summary: dict, out) -> None:

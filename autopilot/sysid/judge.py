@@ -206,12 +206,18 @@ def channels(prep: Prepared, vessel, fit: Fit, bounds: NoiseBounds, *, adequate_
     for c in prep.channels:
         cost, count = costs[c.name]
         c2 = cost / max(count, 1)
-        ok = c2 <= adequate_chi2 and beyond.get(c.name, 0.0) <= BEYOND_SENSOR_MAX
+        past_bounds = beyond.get(c.name, 0.0) > BEYOND_SENSOR_MAX
+        ok = c2 <= adequate_chi2 and not past_bounds
         k = c.key_unit
         out[c.name] = {"chi2_per_measurement": c2, "measurements": count, "adequate": bool(ok),
                        f"residual_rms_{k}": gap[f"{c.name}_{k}"], f"noise_rms_{k}": gap[f"{c.name}_noise_{k}"],
                        f"beyond_noise_{k}": gap[f"{c.name}_model_{k}"],
-                       "deviance_beyond_sensor": beyond.get(c.name)}
+                       "deviance_beyond_sensor": beyond.get(c.name),
+                       # why, in words, when the chi-square alone would have passed (the terminal said only
+                       # "chi-square 0.843: NOT adequate")
+                       "why_not": (f"the noise model absorbs the residual only past the sensor's bounds: deviance "
+                                   f"{beyond[c.name]:.3g} beyond them, {BEYOND_SENSOR_MAX:g} allowed")
+                       if past_bounds and c2 <= adequate_chi2 else None}
     return out
 
 
