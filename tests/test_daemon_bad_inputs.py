@@ -45,6 +45,9 @@ CLI_CASES = [
      "autopilot run: error: log directory /proc/autopilot-logs: cannot create (No such file or directory)"),
     ("command line", "log directory is a file", GOOD_CONFIG, GOOD_MISSION, ["--log-dir", "{dir}/c.yaml"],
      "autopilot run: error: log directory {dir}/c.yaml: is a file, not a directory"),
+    # found by an on-boat audit: "control socket .../control.sock: cannot create (None)"
+    ("command line", "a runtime directory too long for a socket", GOOD_CONFIG, GOOD_MISSION, ["--runtime-dir", "/tmp/" + "r" * 100],
+     "autopilot run: error: control socket /tmp/" + "r" * 100 + "/control.sock: its path is 118 bytes, longer than the 107 a Unix socket's may be; give a shorter runtime directory (--runtime-dir, runtime_dir)"),
     ("command line", "runtime directory is a file", GOOD_CONFIG, GOOD_MISSION, ["--runtime-dir", "{dir}/c.yaml"],
      "autopilot run: error: runtime directory {dir}/c.yaml: is a file, not a directory"),
     ("command line", "--mavlink not an endpoint", GOOD_CONFIG, GOOD_MISSION, ["--mavlink", "tcp:1.2.3.4:5760"],

@@ -23,6 +23,7 @@ from pathlib import Path
 
 from autopilot.clock import Clock, SimClock
 from autopilot.daemon.config import DaemonConfig
+from autopilot.daemon.control import check_socket_path
 from autopilot.daemon.loop import ControlLoop
 from autopilot.daemon.missionlog import MissionLog, log_path
 from autopilot.daemon.sd_notify import Notifier
@@ -153,6 +154,7 @@ def prepare(cfg: DaemonConfig, opts: RunOptions, claims: list | None = None):
     log_dir = Path(opts.log_dir or cfg.log_dir)
     state_dir = Path(opts.state_dir or cfg.state_dir)
     path = control_socket(cfg, opts)
+    check_socket_path(path)  # before anything starts (it was said only after the devices were set up)
     if private_sim_dir(path.parent) and opts.state_dir is None:
         # the running daemon's progress is not this bench run's: read as an interrupted mission, it held this run
         # at zero thrust for max_mission_time_s; written, it would have been the other's to resume after a crash

@@ -66,6 +66,17 @@ def socket_candidates(runtime_dir: str | None = None) -> list[Path]:
     return list(dict.fromkeys(out))
 
 
+SOCKET_PATH_MAX_BYTES = 107  # sun_path holds 108 bytes with its terminating NUL (Linux)
+
+
+def check_socket_path(path: Path) -> None:
+    """ConfigError when the socket's path is too long for a Unix socket (it said "cannot create (None)")."""
+    size = len(os.fsencode(str(path)))
+    if size > SOCKET_PATH_MAX_BYTES:
+        raise ConfigError(f"control socket {path}: its path is {size} bytes, longer than the {SOCKET_PATH_MAX_BYTES} a "
+                          "Unix socket's may be; give a shorter runtime directory (--runtime-dir, runtime_dir)")
+
+
 def check_request(req) -> str | None:
     """Why a request is refused (naming the field and what is allowed), or None."""
     if not isinstance(req, dict):
@@ -140,6 +151,7 @@ class ControlServer:
         must never drive the same thrusters); a stale socket from a killed daemon is replaced."""
         if self.path.parent.exists() and not self.path.parent.is_dir():  # mkdir said "cannot create (File exists)"
             raise ConfigError(f"runtime directory {self.path.parent}: is a file, not a directory")
+        check_socket_path(self.path)
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True, mode=0o750)
         except OSError as exc:
