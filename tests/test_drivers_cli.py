@@ -207,22 +207,50 @@ def test_a_port_claimed_by_another_daemon_is_refused_where_proc_locks_is_hidden(
     argv = [sys.executable, "-m", "autopilot", "run", "--config", str(cfg), "--mission",
             str(REPO / "config" / "missions" / "pond-9.1.yaml"), "--log-dir", str(tmp_path / "logs"),
             "--state-dir", str(tmp_path / "state"), "--runtime-dir", str(tmp_path / "run")]
-    claim = claim_port(mbed.path)
+    claims = claim_port(mbed.path)
     try:
-        assert claim and not lock_holders(mbed.path)
+        assert claims and not lock_holders(mbed.path)
         assert claim_port(mbed.path) is None  # held: a second claim fails
         p = subprocess.run(argv, cwd=tmp_path, capture_output=True, text=True, timeout=60)
         assert p.returncode == 2, p.stderr
         assert p.stderr.strip() == (f"autopilot run: error: another autopilot daemon holds serial.mbed_port {mbed.path}: "
                                     "two daemons must never drive one boat; stop it first (autopilot ctl stop, then "
                                     "systemctl stop wamv-autopilot, or end the one started by hand)")
-        claim.close()
+        for c in claims:
+            c.close()
         p = subprocess.Popen(argv, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         time.sleep(2.0)
         assert p.poll() is None  # released: this start goes ahead (no devices answer: it waits at zero thrust)
         p.terminate()
         p.communicate(timeout=30)
     finally:
-        claim.close()
+        for c in claims:
+            c.close()
         sc30.close()
         mbed.close()
+
+
+def test_a_port_claimed_under_its_name_stays_claimed_when_the_device_moves(tmp_path):
+    """Found by a verification: the claim was by the port's real path at start; after a USB re-enumeration
+    /dev/sc30 points at another tty, and a second daemon started then was not refused (it waited, then flew
+    the mission from W0 when the service stopped). The name as configured is claimed too."""
+    from autopilot.drivers.serial_link import claim_port
+
+    a, b = PtyEndpoint(tmp_path, "ttyA"), PtyEndpoint(tmp_path, "ttyB")
+    link = tmp_path / "sc30"
+    link.symlink_to(a.path)
+    try:
+        held = claim_port(str(link))
+        assert held
+        link.unlink()
+        link.symlink_to(b.path)  # re-enumerated: the same name, another device node
+        assert claim_port(str(link)) is None
+        for c in held:
+            c.close()
+        again = claim_port(str(link))
+        assert again
+        for c in again:
+            c.close()
+    finally:
+        a.close()
+        b.close()

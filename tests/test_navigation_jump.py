@@ -270,3 +270,26 @@ def test_control_never_starts_on_a_30_m_glitch_at_rest():
                                                    compass_garbage_s=None, thruster_garbage_s=None)).mode == "auto":
                 start = (nav.north_m, nav.east_m)
     assert start is not None and math.hypot(*start) < 1.0
+
+
+def test_a_two_epoch_glitch_is_not_confirmed_by_the_gate_growing_while_it_is_refused():
+    """Found by a verification on the auditors' bench (a receiver at 1.27 s a fix, speed over ground 0): the gate
+    grows with the time since the last fix used, so the glitch's second fix, 2.5 s after the last good one,
+    passed it (25 + 2 x 2.54 m > 30 m) as a confirmed move, and the launch point was set 30 m from the boat.
+    A fix that agrees with a refused one now re-anchors, unconfirmed, whatever the gate."""
+    memory, fs = NavMemory(), Failsafe(FailsafeConfig(start_valid_s=1.0))
+    fixes = [(0.0, 0.0), (0.1, -0.1), (30.0, 0.0), (30.05, 0.1), (0.0, 0.1), (0.1, 0.0), (0.0, -0.1), (0.1, 0.1)]
+    start, confirmed_far = None, False
+    for k, (n, e) in enumerate(fixes):
+        t_fix = 1.27 * k
+        for c in range(12):
+            now = t_fix + 0.05 + 0.1 * c
+            nav, memory = assemble(_sample(n, e, t_fix, now, sog_m_s=0.0), now, memory, RULES,
+                                   origin_lat_deg=ORIGIN[0], origin_lon_deg=ORIGIN[1])
+            confirmed_far |= nav.fix_confirmed and nav.north_m > 1.0
+            if start is None and fs.update(observe(nav, mission_time_s=now, compass_connected=True,
+                                                   thrusters_connected=True, acks_missing_in_a_row=0,
+                                                   compass_garbage_s=None, thruster_garbage_s=None)).mode == "auto":
+                start = (nav.north_m, nav.east_m)
+    assert not confirmed_far
+    assert start is not None and math.hypot(*start) < 1.0

@@ -395,8 +395,17 @@ def test_the_same_trial_in_another_format_is_refused(tmp_path):
                    + "\r\n").encode("cp1252"))
     proc = run_cli("sysid", str(a), str(b), "--out", str(tmp_path / "out"), "--no-report", check=False)
     assert proc.returncode == 2, proc.stderr
-    assert proc.stderr.strip() == (f"autopilot sysid: error: {b}: the same trial as {a} (its position fixes are the "
-                                   "same, to the centimetre): give each trial once")
+    assert proc.stderr.strip() == (f"autopilot sysid: error: {b}: the same trial as {a} (its position fixes move "
+                                   "alike, to the centimetre): give each trial once")
+    from autopilot.geo import local_to_latlon
+
+    ll = tmp_path / "ll.csv"  # found by a verification: the same trial as lat/lon only (metres from its own first fix)
+    cells = [r.split(",") for r in rows]
+    ll.write_text("t_s,lat_deg,lon_deg,heading_deg,thrust_port_n,thrust_stbd_n\n" + "\n".join(
+        "{},{:.8f},{:.8f},{},{},{}".format(c[0], *local_to_latlon(float(c[1]), float(c[2]), 59.0, 10.0), *c[3:])
+        for c in cells) + "\n")
+    proc = run_cli("sysid", str(a), str(ll), "--out", str(tmp_path / "out"), "--no-report", check=False)
+    assert proc.returncode == 2 and f"{ll}: the same trial as {a}" in proc.stderr, proc.stderr
     other = tmp_path / "d.csv"  # another trial of the same shape is not refused for it
     other.write_text(TRIAL_HEAD + "\n".join(f"{0.1 * k:.1f},{0.05 * k + rng.normal(0, 0.5):.3f},{rng.normal(0, 0.5):.3f},"
                                             "0.0,10.0,10.0" for k in range(400)) + "\n")

@@ -216,11 +216,11 @@ def _claim_ports(cfg: DaemonConfig, claims: list | None) -> None:
             raise ConfigError(f"another autopilot daemon{' (' + held[0] + ')' if held else ''} holds {key} {port}: "
                               "two daemons must never drive one boat; stop it first (autopilot ctl stop, then "
                               "systemctl stop wamv-autopilot, or end the one started by hand)")
-        if claim:
+        for c in claim:
             if claims is None:
-                claim.close()
+                c.close()
             else:
-                claims.append(claim)
+                claims.append(c)
 
 
 def _refuse_radio_on_a_device_port(cfg: DaemonConfig, endpoints: list[tuple[str, str]]) -> None:

@@ -50,22 +50,30 @@ CLAIM_PREFIX = "wamv-autopilot-port:"
 
 
 def claim_port(path: str):
-    """Claim a device port for this process: an abstract Unix socket (Linux) named after the port's real path,
-    released when the process exits however it ends. Returns the socket to keep open while the port is this
-    process's; None when another process holds the claim. Unlike /proc/locks (which the unit's ProcSubset=pid
-    hides) it is seen across users and mount namespaces; an error other than "in use" (no abstract
-    sockets here) returns False: nothing known, nothing refused."""
+    """Claim a device port for this process: abstract Unix sockets (Linux) named after the port's name as
+    configured and its real path now, released when the process exits however it ends. Returns the sockets
+    to keep open while the port is this process's; None when another process holds a claim. Unlike
+    /proc/locks (which the unit's ProcSubset=pid hides) they are seen across users and mount namespaces. The
+    name as configured because a USB re-enumeration moves /dev/sc30 to another ttyUSB: claimed by its real
+    path alone, a second daemon started after a hub reset was not refused. An error other than "in use" (no
+    abstract sockets here) returns []: nothing known, nothing refused."""
     import hashlib
     import socket
 
-    name = "\0" + CLAIM_PREFIX + hashlib.sha256(os.path.realpath(path).encode()).hexdigest()[:32]
-    claim = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    try:
-        claim.bind(name)
-    except OSError as exc:
-        claim.close()
-        return None if exc.errno == errno.EADDRINUSE else False
-    return claim
+    claims = []
+    for name in dict.fromkeys((os.path.abspath(path), os.path.realpath(path))):
+        claim = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            claim.bind("\0" + CLAIM_PREFIX + hashlib.sha256(name.encode()).hexdigest()[:32])
+        except OSError as exc:
+            claim.close()
+            if exc.errno == errno.EADDRINUSE:
+                for c in claims:
+                    c.close()
+                return None
+            continue
+        claims.append(claim)
+    return claims
 
 
 def lock_holders(path: str) -> list[int]:

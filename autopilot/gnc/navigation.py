@@ -289,14 +289,17 @@ def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules, sog_m_s: f
     speed_m_s = jump_speed_bound_m_s(sog_m_s, rules)
     gate_m = rules.position_jump_m + speed_m_s * max(pos.t_s - last.t_s, 0.0)
     distance_m = _apart_m(pos, last)
-    if distance_m <= gate_m:
-        return Gated(pos, pos, None, pos.t_s, True)
     lat, lon = pos.value
     if pending is not None:
         agree_m = rules.position_jump_m + speed_m_s * max(pos.t_s - pending.t_s, 0.0)
-        if _apart_m(pos, pending) <= agree_m:  # two fixes agree: the position really moved (or a long glitch)
+        # two fixes agree: the position really moved (or a long glitch). Judged before the gate: the gate grows
+        # with the time since the last fix used, and a glitch's second fix 2.5 s on passed it as a confirmed
+        # move (a bench receiver at 1.27 s a fix): the launch point 30 m off
+        if _apart_m(pos, pending) <= agree_m and _apart_m(pending, last) > agree_m:
             return Gated(pos, pos, None, pos.t_s, False,
                          PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=True))
+    if distance_m <= gate_m:
+        return Gated(pos, pos, None, pos.t_s, True)
     return Gated(last, last, pos, pos.t_s, confirmed,
                  PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=False, repeated=pending is not None))
 

@@ -41,6 +41,9 @@ from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog,
 from autopilot.traffic.score import score_target
 
 GAP_FACTOR = 5.0  # dt above this many nominal periods is a hole in the log
+# speed over ground below this is a receiver's noise at rest, not distance run: 0.05 m/s of velocity noise is
+# above it in 1 % of fixes; 0.3 m/s (the course's threshold) dropped a boat drifting 28 m at 0.28 m/s
+AT_REST_SOG_M_S = 0.15
 LATENESS_PERCENTILES = (50.0, 90.0, 99.0, 99.9)
 HOLD_POINT_TOLERANCE_M = 1e-3  # logged hold points closer than this are one point (the daemon logs the target's own floats)
 HOLD_ERROR_PERCENTILE = 95.0  # the hold's achieved radius: this percentile of hold_error_m over its cycles
@@ -587,22 +590,19 @@ def distance_run_m(log: MissionLog, position_ok: np.ndarray, later: np.ndarray,
 
     The receiver's speed over ground as each cycle held it, integrated over the cycle's duration
     (:func:`hold_durations_s` over the cycles ``later`` than every one before: not across a hole in the log,
-    and a block of lines written twice is not run twice), a speed below
-    :data:`autopilot.gnc.navigation.MIN_SOG_FOR_COG_M_S` counted as rest (a receiver at rest reports a few
-    cm/s of noise); only rows with a position (``position_ok``: a receiver without a fix has no speed
+    and a block of lines written twice is not run twice), a speed below :data:`AT_REST_SOG_M_S` counted as
+    rest (a receiver at rest reports a few cm/s of noise); only rows with a position (``position_ok``: a receiver without a fix has no speed
     either). Summing the steps between fixes added the GPS's wander:
     638 m for a boat held at its launch point for 20 min (89 m by speed over ground, all of it creeping under
     0.3 m/s), 44 m for a 36.6-m pond mission (36.7 m by speed over ground). A log without speed over ground:
     through the fixes, said so.
     """
-    from autopilot.gnc.navigation import MIN_SOG_FOR_COG_M_S
-
     sog = log.col("sog_m_s")
     held = position_ok & np.isfinite(sog)
     if held.any():
         cycle_s = np.zeros(len(sog))
         cycle_s[later] = hold_durations_s(log.col("t_s")[later], nominal_dt_s)[0]
-        moving = np.where(sog[held] >= MIN_SOG_FOR_COG_M_S, sog[held], 0.0)
+        moving = np.where(sog[held] >= AT_REST_SOG_M_S, sog[held], 0.0)
         return float(np.sum(moving * cycle_s[held])), None
     n, e = log.col("north_m")[position_ok], log.col("east_m")[position_ok]
     if len(n) < 2:

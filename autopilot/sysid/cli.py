@@ -125,18 +125,20 @@ SAME_TRIAL_SHARE = 0.9  # two trials whose fixes coincide (to the centimetre) th
 def _distinct_trials(paths, trials) -> None:
     """The same trial in two files of different bytes (a log and its gzip copy beside it, a log and its CSV
     export): fitted twice, it halved the intervals and each held-out trial had its twin in the fit. Told by
-    the fixes: GPS noise never repeats a run of positions to the centimetre."""
+    the fixes: GPS noise never repeats a run of steps between them to the centimetre."""
     import numpy as np
 
     seen: list[tuple[str, set]] = []
     for p, tr in zip(paths, trials):
         rows = tr.fix_rows
-        fixes = set(zip(np.round(tr.north_m[rows], 2).tolist(), np.round(tr.east_m[rows], 2).tolist()))
+        # each fix's step from the one before, to the centimetre: the same in any local frame (a lat/lon-only
+        # CSV of a log is in metres from its own first fix, and was fitted beside the log as another trial)
+        fixes = set(zip(np.round(np.diff(tr.north_m[rows]), 2).tolist(), np.round(np.diff(tr.east_m[rows]), 2).tolist()))
         if len(fixes) < 10:
             continue
         for q, other in seen:
             if len(fixes & other) >= SAME_TRIAL_SHARE * min(len(fixes), len(other)):
-                raise ConfigError(f"{p}: the same trial as {q} (its position fixes are the same, to the centimetre): "
+                raise ConfigError(f"{p}: the same trial as {q} (its position fixes move alike, to the centimetre): "
                                   "give each trial once")
         seen.append((str(p), fixes))
 
