@@ -20,7 +20,7 @@ from autopilot.devices import ZERO_THRUST, ThrustCommand
 from autopilot.geo import wrap_180, wrap_360
 from autopilot.gnc import ControlOutput, NavInput
 from autopilot.gnc.navigation import Navigation, NavRules
-from autopilot.logschema import CYCLE_KEYS, Mode
+from autopilot.logschema import CYCLE_KEYS, FAILSAFE_CAUSE_PREFIX, Mode
 
 __all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "answer_failsafe", "stop_in_force", "stop_stands", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
            "GNC_FIELDS"]
@@ -102,10 +102,10 @@ def answer_failsafe(ap, req, helm_nav: NavInput | None, unavailable: str) -> tup
     stopped = stop_in_force(ap)
     if stopped is not None and req.action != "stop":  # found by fault injection: ctl stop, then battery_low's rtl
         return "stop", stop_stands(stopped)
-    ok, answer = ap.request(req.action, helm_nav, cause=f"failsafe {req.cause}", unavailable=unavailable)
+    ok, answer = ap.request(req.action, helm_nav, cause=f"{FAILSAFE_CAUSE_PREFIX}{req.cause}", unavailable=unavailable)
     if ok:
         return req.action, req.fallback
-    ap.request("stop", None, cause=f"failsafe {req.cause}")
+    ap.request("stop", None, cause=f"{FAILSAFE_CAUSE_PREFIX}{req.cause}")
     return "stop", answer
 
 

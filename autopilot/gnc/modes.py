@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from autopilot.gnc.registry import make_guidance
 from autopilot.gnc.station_keeping import HoldOutput, StationKeeper
 from autopilot.gnc.waypoints import GuidanceOutput
-from autopilot.logschema import Mode
+from autopilot.logschema import RTL_ARRIVED_CAUSE, Mode
 
 __all__ = ["Steering", "Handover", "AutoMode", "HoldMode", "PausedMode", "RtlMode", "StopMode", "CompleteMode",
            "ManualMode"]
@@ -160,7 +160,7 @@ class RtlMode:
         if g.complete:
             self.arrived_keeper = self.closing.take(self.launch, nav)
             return Steering("off", psi_d_rad=nav.psi_rad, guidance=g,
-                            then=Handover(Mode.HOLD, "rtl: at the launch point", self.launch, self.arrived_keeper))
+                            then=Handover(Mode.HOLD, RTL_ARRIVED_CAUSE, self.launch, self.arrived_keeper))
         if self.closing.near(nav, self.launch):
             return keep_station(self.closing.keeper_for(self.launch, nav), nav, dt_s, guidance=g, holding=False)
         return Steering("course", psi_d_rad=g.psi_d_rad, speed_cmd_m_s=g.speed_cmd_m_s, guidance=g)

@@ -36,7 +36,7 @@ import numpy as np
 
 from autopilot.gnc.encounter import EncounterConfig
 from autopilot.gnc.passes import closest_per_pass
-from autopilot.logschema import Mode
+from autopilot.logschema import FAILSAFE_CAUSE_PREFIX, RTL_ARRIVED_CAUSE, Mode
 from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog, Plan, TargetTrack, _is_number
 from autopilot.traffic.score import score_target
 
@@ -405,8 +405,8 @@ def _logged_passes(log: MissionLog, plan: Plan) -> tuple[set, dict]:
     replaced = 0  # mission_replaced lines so far in the file: where an undated line falls
     for ev in log.events:
         name = ev.get("event")
-        if name == "mission_replaced" and isinstance(ev.get("waypoints"), list):
-            replaced += 1
+        if name == "mission_replaced" and isinstance(ev.get("waypoints"), list) and _is_number(ev.get("t_s")):
+            replaced += 1  # as MissionLog.plans counts them
         if name not in ("waypoint_reached", "waypoint_pass"):
             continue
         i = ev.get("wp_index")
@@ -622,12 +622,12 @@ def failsafe_cycles(log: MissionLog) -> np.ndarray:
                      if _is_number(ev.get("t_s")))
     since = None
     for when, cause in changes + [(math.inf, "")]:
-        if since is not None and (cause.startswith("rtl:") and when < math.inf):
+        if since is not None and cause == RTL_ARRIVED_CAUSE and when < math.inf:
             continue  # the action's own hand-over: still the failsafe's
         if since is not None:
             under |= (t >= since) & (t < when)
             since = None
-        if cause.startswith("failsafe"):
+        if cause.startswith(FAILSAFE_CAUSE_PREFIX):
             since = when
     return under
 
