@@ -46,7 +46,7 @@ def test_nmea_cli_replay_through_pty(tmp_path, capsys):
     try:
         proc = subprocess.Popen(
             [sys.executable, "-m", "autopilot", "nmea", pty.path, "--json", "--count", str(len(lines)),
-             "--timeout", "10"],
+             "--timeout", "2"],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
         )

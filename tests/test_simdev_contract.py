@@ -227,6 +227,31 @@ def test_an_ok_that_echoes_other_duties_than_sent_counts_as_not_obeyed(params, t
     assert len(mismatch) == 1 and mismatch[0]["sent_pct"] == [0.0, 0.0] and mismatch[0]["echoed_pct"] == [80.0, -79.9]
 
 
+def test_equal_duties_echoed_right_by_a_swapped_board_do_not_split_its_disobedience_in_two(params, tmp_path):
+    """Equal port and starboard duties echo right from a board with its channels swapped. One such command
+    (the helm's 56.7 %, 56.7 %) among a swapped board's first disobeyed ones ended that run, the next began a
+    second, and the board counted as having disobeyed twice before its first trip: the zero commands of the
+    failsafe's stop then cleared nothing (seen in CI: one trip, no resume, where the design resumes once)."""
+    async def main():
+        async with Bench(params, tmp_path) as b:
+            b.rig.mbed.swapped = True
+            answers = []
+            for port_pct, stbd_pct in [(60.0, 40.0)] * 3 + [(56.7, 56.7)] + [(60.0, 40.0)] * 2:
+                seq = b.mbed.send(cmd(port_pct, False, stbd_pct, False))
+                answers.append(await b.mbed.wait_ack(seq, 1.0))
+            missing_before_zeros = b.mbed.consecutive_missing
+            for _ in range(3):  # the failsafe's stop
+                seq = b.mbed.send(cmd(0.0, False, 0.0, False))
+                answers.append(await b.mbed.wait_ack(seq, 1.0))
+            return answers, missing_before_zeros, b.mbed.consecutive_missing, list(b.events)
+
+    answers, missing_before_zeros, missing_after_zeros, events = asyncio.run(main())
+    assert answers == [False] * 3 + [True] + [False] * 2 + [True] * 3
+    assert missing_before_zeros == 5  # one run of five: the equal pair neither counts nor clears
+    assert missing_after_zeros == 0  # a first run is cleared by the stop's zeros
+    assert len([f for n, f in events if n == "mbed_echo_mismatch"]) == 1
+
+
 def test_an_ack_for_no_command_waiting_is_not_believed_and_a_late_one_is_told_as_late(params, tmp_path):
     """Found by fault injection: OKs for sequence numbers never sent (a stray line, another program on the port)
     set the battery voltage: 12.6 V claimed hid a battery at 10.5 V, 9 V claimed stopped a mission at 12.7 V;

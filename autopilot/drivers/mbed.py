@@ -231,12 +231,17 @@ class MbedDriver(LineDevice):
             _, sent_port, sent_stbd = self._pending.pop(ack.seq)
             self.acks_ok += 1
             self.last_ack_seq = ack.seq
-            if not (self._mismatching and self._echo_runs >= ECHO_RUNS_DISTRUSTED and sent_port == sent_stbd == 0.0):
+            if not self._mismatching or sent_port != sent_stbd:
                 self._consecutive_missing = 0
                 self._mismatching = False
-            # else: a board that has disobeyed twice is not cleared by zero commands, which echo right even from a
-            # board with its channels swapped: it was judged healthy on zeros, resumed, drove the boat wrong for
-            # half a second and tripped again, every ~3 s for as long as it lasted
+            elif sent_port == 0.0 and self._echo_runs < ECHO_RUNS_DISTRUSTED:
+                self._consecutive_missing = 0  # a first run is forgiven on zeros: the failsafe's stop clears it
+                self._mismatching = False
+            # else: equal duties echo right even from a board with its channels swapped, so they prove nothing.
+            # A board that has disobeyed twice is not cleared by zero commands: it was judged healthy on zeros,
+            # resumed, drove the boat wrong for half a second and tripped again, every ~3 s for as long as it
+            # lasted. Nor does an equal pair end a run: one (56.7 %, 56.7 %) among a swapped board's first
+            # disobeyed commands made them two runs, and the first trip already held for good
         else:
             del self._pending[ack.seq]
             self.acks_rejected += 1
