@@ -180,11 +180,13 @@ def test_the_loop_on_a_stepped_clock_is_deterministic_and_stops_on_a_stale_headi
     assert cmds == cmds2  # the same commands, bit for bit
     assert len(cmds) == 100  # one per 0.1 s deadline, 0 to 9.9 s
     driving = [k for k, c in enumerate(cmds) if not c.is_zero]
-    assert driving[0] == 10  # control starts after failsafe.start_valid_s (1 s) of valid data
+    # control starts once the first fix has been confirmed by the fixes after it for failsafe.position_confirm_s
+    # (5 s; start_valid_s, 1 s, of valid data is met before)
+    assert driving[0] == 50
     # the last heading is from 6.0 s: stale once older than heading_stale_s (1 s), so zero thrust from
     # the cycle at 7.0 s (the deadline sum lands a hair past 7.0) or 7.1 s on, and it stays zero
     assert driving[-1] in (69, 70) and all(c.is_zero for c in cmds[71:])
-    assert driving == list(range(10, driving[-1] + 1))
+    assert driving == list(range(50, driving[-1] + 1))
     assert st.failsafe_causes == ["heading_stale"] and st.cycles == 100
 
 

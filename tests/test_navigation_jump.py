@@ -147,17 +147,18 @@ def _limits_failsafe():
 
 def test_a_first_fix_that_is_a_glitch_latches_nothing_and_the_good_fixes_take_over():
     """Found in review: the first fix is believed unjudged (nothing to judge it by); 600 m off it latched
-    max_distance on the first cycle. It is steered by but not confirmed until a fix agrees with it."""
-    fixes = [(0.0, 600.0)] + _track(6)[1:]
+    max_distance on the first cycle. It is steered by but not confirmed until fixes have agreed with the
+    one re-anchored to for fix_confirm_s (5 s)."""
+    fixes = [(0.0, 600.0)] + _track(10)[1:]
     navs, active = fly(fixes, failsafe=_limits_failsafe())
     assert not any("max_distance" in a for a in active)
     assert [n.jump.accepted for n in navs if n.jump is not None] == [False, True]  # good fix refused, then agreed
-    assert [n.fix_confirmed for n in navs[::10]] == [False, False, False, True, True, True]
+    assert [n.fix_confirmed for n in navs[::10]] == [False] * 7 + [True] * 3  # re-anchored at 2 s, confirmed at 7
     assert navs[-1].east_m == pytest.approx(0.0, abs=1e-6)
 
 
 def test_a_glitch_lasting_two_epochs_is_steered_by_for_a_while_but_latches_nothing():
-    fixes = _track(10)
+    fixes = _track(14)
     fixes[4], fixes[5] = (fixes[4][0], 600.0), (fixes[5][0], 600.0)
     navs, active = fly(fixes, failsafe=_limits_failsafe())
     assert [n.jump.accepted for n in navs if n.jump is not None] == [False, True, False, True]
@@ -232,10 +233,10 @@ def test_control_starts_on_a_confirmed_position_so_a_first_glitch_is_never_the_l
                     return now, (nav.north_m, nav.east_m)
         return None
 
-    t_good, (n, e) = start_position(_track(6))
-    assert t_good == pytest.approx(1.05) and (n, e) == (pytest.approx(1.5), pytest.approx(0.0, abs=1e-6))
-    t_glitch, (n, e) = start_position([(0.0, 300.0)] + _track(6)[1:])
-    assert t_glitch == pytest.approx(3.05) and e == pytest.approx(0.0, abs=1e-6)  # refused, re-anchored, confirmed
+    t_good, (n, e) = start_position(_track(8))
+    assert t_good == pytest.approx(5.05) and (n, e) == (pytest.approx(7.5), pytest.approx(0.0, abs=1e-6))
+    t_glitch, (n, e) = start_position([(0.0, 300.0)] + _track(10)[1:])
+    assert t_glitch == pytest.approx(7.05) and e == pytest.approx(0.0, abs=1e-6)  # refused, re-anchored, confirmed
 
 
 def test_a_30_m_glitch_at_rest_is_refused_and_never_the_launch_point():
@@ -258,7 +259,7 @@ def test_a_30_m_glitch_at_rest_is_refused_and_never_the_launch_point():
 def test_control_never_starts_on_a_30_m_glitch_at_rest():
     """The launch point is where control starts (autopilot.gnc.Autopilot): a confirmed fix, now never the glitch."""
     memory, fs = NavMemory(), Failsafe(FailsafeConfig(start_valid_s=1.0))
-    rest = [(0.0, 0.0), (0.2, -0.3), (-15.0, 26.0), (-15.2, 25.6), (0.1, -0.2), (0.0, 0.1), (0.2, 0.0), (0.1, 0.1)]
+    rest = [(0.0, 0.0), (0.2, -0.3), (-15.0, 26.0), (-15.2, 25.6)] + [(0.1, -0.2), (0.0, 0.1), (0.2, 0.0)] * 3
     start = None
     for k, (n, e) in enumerate(rest[1:], start=1):  # control could start at the first good fix's second
         for c in range(10):
@@ -278,7 +279,7 @@ def test_a_two_epoch_glitch_is_not_confirmed_by_the_gate_growing_while_it_is_ref
     passed it (25 + 2 x 2.54 m > 30 m) as a confirmed move, and the launch point was set 30 m from the boat.
     A fix that agrees with a refused one now re-anchors, unconfirmed, whatever the gate."""
     memory, fs = NavMemory(), Failsafe(FailsafeConfig(start_valid_s=1.0))
-    fixes = [(0.0, 0.0), (0.1, -0.1), (30.0, 0.0), (30.05, 0.1), (0.0, 0.1), (0.1, 0.0), (0.0, -0.1), (0.1, 0.1)]
+    fixes = [(0.0, 0.0), (0.1, -0.1), (30.0, 0.0), (30.05, 0.1)] + [(0.0, 0.1), (0.1, 0.0), (0.0, -0.1)] * 3
     start, confirmed_far = None, False
     for k, (n, e) in enumerate(fixes):
         t_fix = 1.27 * k
@@ -293,3 +294,35 @@ def test_a_two_epoch_glitch_is_not_confirmed_by_the_gate_growing_while_it_is_ref
                 start = (nav.north_m, nav.east_m)
     assert not confirmed_far
     assert start is not None and math.hypot(*start) < 1.0
+
+
+@pytest.mark.parametrize("epochs", [3, 4])
+def test_a_glitch_of_three_or_four_epochs_at_rest_is_never_confirmed_nor_the_launch_point(epochs):
+    """The two-fix rule believed a glitch lasting three epochs: its second fix re-anchored, its third passed the
+    gate from the second and was confirmed, so the geofence could latch on it and control start there (the
+    launch point, rtl's home, 30 m from the boat; README "What is still missed" until 2026-12-05). A chain is
+    now confirmed only once its fixes have agreed for fix_confirm_s (5 s)."""
+    def glitch_at(k0):
+        fixes = [(0.1 * (k % 3), -0.1 * (k % 2)) for k in range(20)]
+        for k in range(k0, k0 + epochs):
+            fixes[k] = (30.0 + 0.1 * k, 0.1)
+        return fixes
+
+    for k0 in (0, 2):  # from the receiver's first fix, and once good fixes came
+        fixes = glitch_at(k0)
+        memory, fs = NavMemory(), Failsafe(FailsafeConfig(start_valid_s=1.0, max_distance_m=20.0))
+        start, confirmed_far, active = None, False, []
+        for k, (n, e) in enumerate(fixes):
+            for c in range(10):
+                now = k + 0.05 + 0.1 * c
+                nav, memory = assemble(_sample(n, e, float(k), now, sog_m_s=0.05), now, memory, RULES,
+                                       origin_lat_deg=ORIGIN[0], origin_lon_deg=ORIGIN[1])
+                confirmed_far |= nav.fix_confirmed and nav.north_m > 1.0
+                decision = fs.update(observe(nav, mission_time_s=now, compass_connected=True, thrusters_connected=True,
+                                             acks_missing_in_a_row=0, compass_garbage_s=None, thruster_garbage_s=None))
+                active.append(decision.active)
+                if start is None and decision.mode == "auto":
+                    start = (nav.north_m, nav.east_m)
+        assert not confirmed_far, k0
+        assert not any("max_distance" in a for a in active), k0
+        assert start is not None and math.hypot(*start) < 1.0, (k0, start)

@@ -113,8 +113,15 @@ class FailsafeConfig:
     heading_stale_s: float = param(1.0, unit="s", lo=0.05, hi=10.0, doc="heading older than this is a fault (SC-30 sends it at 10 Hz)")
     position_stale_s: float = param(3.0, unit="s", lo=0.1, hi=30.0, doc="position older than this is a fault (GGA/RMC at 1 Hz)")
     position_jump_m: float = param(25.0, unit="m", lo=1.0, hi=10000.0, source="ArduPilot EK3_GLITCH_RAD",
-                                   doc="a new fix farther than this (plus the most a WAM-V can travel: 10 m/s x the time since) "
-                                       "from the last fix used is refused, until a second fix agrees with it")
+                                   doc="a new fix farther than this (plus the receiver's speed over ground + 2 m/s, or 10 m/s "
+                                       "without one, x the time since) from the last fix used is refused, until a second fix "
+                                       "agrees with it")
+    position_confirm_s: float = param(
+        5.0, unit="s", lo=0.0, hi=60.0, source="chosen: longer than the 3-4 epoch glitches the two-fix rule believed; "
+        "ArduPilot's EKF wants 10 s of passing GPS checks before it aligns",
+        doc="the first fix, or one the position re-anchored to after a jump, is steered by but confirmed only once "
+            "the fixes after it have agreed for this long: no geofence or distance limit latches on it and control "
+            "does not start on it (the launch point)")
     heading_frozen_deg: float = param(
         20.0, unit="deg", lo=5.0, hi=360.0, source="chosen: 4 x the heading PID's typical error; a stuck SC-30 spun the "
         "boat at 50 deg/s unnoticed", doc="the rate of turn (ROT) says the boat turned this much while the compass heading "

@@ -33,7 +33,8 @@ def nav_rules(cfg: DaemonConfig) -> NavRules:
     fs = cfg.failsafe
     return NavRules(heading_stale_s=fs.heading_stale_s, position_stale_s=fs.position_stale_s,
                     cog_fallback=fs.cog_fallback, cog_fallback_min_sog_m_s=fs.cog_fallback_min_sog_m_s,
-                    dead_reckon_max_s=cfg.dead_reckon_max_s, position_jump_m=fs.position_jump_m)
+                    dead_reckon_max_s=cfg.dead_reckon_max_s, position_jump_m=fs.position_jump_m,
+                    fix_confirm_s=fs.position_confirm_s)
 
 
 def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, thrusters_connected: bool,

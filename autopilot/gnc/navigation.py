@@ -38,9 +38,10 @@ plus ``jump_speed_margin_m_s``, :func:`jump_speed_bound_m_s`), and the last fix 
 distance limit and ended the mission. A second new fix that agrees with the refused one (within
 the same gate of it) is believed: the boat or the receiver really moved, and the position is
 re-anchored there, about a second later. Each refusal and each re-anchoring is reported in
-``Navigation.jump`` for the log. A fix that has not yet passed the gate from a fix before it (the
-first one, or one just re-anchored to: a glitch can last two epochs) is steered by but not
-``fix_confirmed``: the failsafe latches no geofence or distance limit on it.
+``Navigation.jump`` for the log. A chain of fixes (from the first, or from one re-anchored to: a
+glitch can last several epochs) is steered by but not ``fix_confirmed`` until its fixes have passed
+the gate from one another for ``fix_confirm_s``: the failsafe latches no geofence or distance limit
+on it, and control does not start on it (the launch point is set there).
 """
 
 from __future__ import annotations
@@ -77,6 +78,10 @@ class NavRules:
     # the speed bound of the gate: the receiver's own speed over ground plus this (its noise, a second's
     # acceleration, the epoch between them); max_sog_m_s when it reports none
     jump_speed_margin_m_s: float = 2.0
+    # a chain of fixes (the first, or one re-anchored to) is confirmed once its fixes have passed the gate from
+    # one another for this long: the two-fix rule alone believed a glitch lasting three epochs (ArduPilot's EKF
+    # wants 10 s of passing GPS checks before it aligns)
+    fix_confirm_s: float = 5.0
 
 
 @dataclass(frozen=True)
@@ -90,6 +95,7 @@ class NavMemory:
     jump: Stamped | None = None  # a refused fix waiting to be confirmed by the next one
     judged_t_s: float | None = None  # receive time of the last valid fix the gate judged
     confirmed: bool = False  # ``fix`` agrees with a fix before it (see Navigation.fix_confirmed)
+    anchored_t_s: float | None = None  # receive time of the first fix of ``fix``'s chain (NavRules.fix_confirm_s)
     still_heading_rad: float | None = None  # the compass heading the still_turn_rad sum started at
     still_turn_rad: float = 0.0  # the turn ROT reported since (Navigation.still_turn_rad)
     still_t_s: float | None = None  # the time of the compass heading sample last judged
@@ -257,6 +263,7 @@ class Gated:
     pending: Stamped | None  # NavMemory.jump
     judged_t_s: float | None  # NavMemory.judged_t_s
     confirmed: bool  # NavMemory.confirmed
+    anchored_t_s: float | None  # NavMemory.anchored_t_s
     jump: PositionJump | None = None  # to report this cycle
 
     @property
@@ -279,13 +286,14 @@ def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules, sog_m_s: f
     judges it: no_fix) and leaves the gate's memory as it was. ``sog_m_s``: the receiver's speed over ground
     now (:func:`velocity_over_ground`; None: none to trust), which bounds how far the boat can have gone."""
     last, pending, judged, confirmed = memory.fix, memory.jump, memory.judged_t_s, memory.confirmed
+    anchored = memory.anchored_t_s
     if pos is None or pos.value is None or not pos.valid:
-        return Gated(pos, last, pending, judged, confirmed)
+        return Gated(pos, last, pending, judged, confirmed, anchored)
     if pos.t_s == judged:  # the fix already judged: the judgement stands
         refused = pending is not None and pending.t_s == pos.t_s
-        return Gated(last if refused else pos, last, pending, judged, confirmed)
-    if last is None:  # the first fix: nothing to judge it by yet
-        return Gated(pos, pos, None, pos.t_s, False)
+        return Gated(last if refused else pos, last, pending, judged, confirmed, anchored)
+    if last is None or anchored is None:  # the first fix: nothing to judge it by yet
+        return Gated(pos, pos, None, pos.t_s, False, pos.t_s)
     speed_m_s = jump_speed_bound_m_s(sog_m_s, rules)
     gate_m = rules.position_jump_m + speed_m_s * max(pos.t_s - last.t_s, 0.0)
     distance_m = _apart_m(pos, last)
@@ -296,11 +304,11 @@ def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules, sog_m_s: f
         # with the time since the last fix used, and a glitch's second fix 2.5 s on passed it as a confirmed
         # move (a bench receiver at 1.27 s a fix): the launch point 30 m off
         if _apart_m(pos, pending) <= agree_m and _apart_m(pending, last) > agree_m:
-            return Gated(pos, pos, None, pos.t_s, False,
+            return Gated(pos, pos, None, pos.t_s, False, pos.t_s,
                          PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=True))
     if distance_m <= gate_m:
-        return Gated(pos, pos, None, pos.t_s, True)
-    return Gated(last, last, pos, pos.t_s, confirmed,
+        return Gated(pos, pos, None, pos.t_s, pos.t_s - anchored >= rules.fix_confirm_s, anchored)
+    return Gated(last, last, pos, pos.t_s, confirmed, anchored,
                  PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=False, repeated=pending is not None))
 
 
@@ -345,5 +353,6 @@ def assemble(sample: NavSample, now_s: float, memory: NavMemory, rules: NavRules
         heading_t, heading = memory.heading_t_s, memory.heading_rad
     return nav, NavMemory(heading_t_s=heading_t, heading_rad=heading, fix_t_s=seen_t, fix=gated.fix,
                           jump=gated.pending, judged_t_s=gated.judged_t_s, confirmed=gated.confirmed,
+                          anchored_t_s=gated.anchored_t_s,
                           still_heading_rad=still_anchor, still_turn_rad=still_turned, still_t_s=still_t,
                           still_since_s=still_since)
