@@ -92,4 +92,8 @@ def test_a_restart_remembers_latched_faults_the_launch_point_and_an_aborted_run(
     assert st.interrupted("abc", 4)[1].startswith(f"the saved progress {st.path} cannot be read")
     old = {"mission": "m", "mission_sha256": "abc", "wp_index": 2, "status": "running"}  # an older daemon's file
     st.path.write_text(json.dumps(old))
-    assert st.interrupted("abc", 4) == (2, None)
+    assert st.interrupted("abc", 4) == (2, None) and st.load().armed  # armed unless it says it was not
+    st.save(Progress("m", "abc", 1, "running", armed=False))  # the operator's disarm
+    assert StateStore(tmp_path).load().armed is False
+    st.path.write_text(json.dumps({**old, "armed": "no"}))  # not a file a daemon wrote: not trusted
+    assert st.interrupted("abc", 4)[1].startswith(f"the saved progress {st.path} cannot be read")

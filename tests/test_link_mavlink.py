@@ -534,6 +534,39 @@ def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart
         assert again.stop() == 0
 
 
+def test_a_disarmed_boat_stays_disarmed_after_a_crash_and_restart(tmp_path):
+    """Found by a link audit: a boat disarmed from the ground station, killed (kill -9) and restarted by systemd
+    (no --fresh, resume_after_restart) came back armed and flew the mission under thrust: the disarm was not
+    in the saved progress. Now it is: zero thrust whatever the mode until armed, said at the start."""
+    cfg = {"failsafe": {"resume_after_restart": True}}
+    boat = Boat(tmp_path, config=cfg)
+    try:
+        boat.mode_is("auto", 30.0)
+        assert boat.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.wait_log(lambda r: r["event"] == "cycle" and r["armed"] is False, what="disarmed")
+        progress = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+        assert progress["armed"] is False and progress["status"] == "running"
+        boat.proc.kill()  # a crash: no clean stop
+        boat.proc.wait(10)
+    finally:
+        boat.stop()
+    again = Boat(tmp_path, config=cfg, fresh=False)
+    try:
+        again.wait_log(lambda r: r["event"] == "cycle" and r["mode"] == "auto", 30.0, "auto after the restart")
+        t_end = time.monotonic() + 2.0
+        while time.monotonic() < t_end:
+            again.beat()
+            again.gcs.recv_match(blocking=True, timeout=0.05)
+        driven = [r for r in again.cycles() if r["thrust_port_n"] or r["thrust_stbd_n"]]
+        assert driven == [] and all(r["armed"] is False for r in again.cycles())
+        assert "disarmed before the restart" in again.stderr()
+        assert again.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == mavlink.MAV_RESULT_ACCEPTED
+        again.wait_log(lambda r: r["event"] == "cycle" and (r["thrust_port_n"] or r["thrust_stbd_n"]), 20.0,
+                       "thrust once armed")
+    finally:
+        assert again.stop() == 0
+
+
 def test_with_signing_unsigned_and_wrongly_signed_commands_are_refused_telemetry_flows(tmp_path):
     key = bytes(range(32))
     key_file = tmp_path / "mavlink.key"

@@ -423,7 +423,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         before = _run_before(opts, store, sha)
         ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
                        rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index,
-                       launch_ne_m=None if before is None else before.launch_ne_m)
+                       launch_ne_m=None if before is None else before.launch_ne_m,
+                       armed=True if before is None else before.armed)
         loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
                            compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
                            fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
@@ -444,6 +445,11 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         loop.request_stop(early[0])
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
+    if not ap.armed:
+        said = ("disarmed before the restart: zero thrust whatever the mode until armed (`autopilot ctl arm`, or "
+                "ARM from the ground station)")
+        log.event("info", t_s=0.0, message=said)
+        _console(said)
     link, reason, refused = None, "error", None
     try:
         link = await _start_link(cfg, opts, loop)

@@ -149,9 +149,12 @@ class ControlLoop:
             commands.failsafe_action(self, req, helm_nav, unavailable, t_s)
         if decision.requests and self._saved_running:  # a latched fault is remembered across a restart
             self._save("running")
+        armed_before = self.ap.armed
         for _ in range(min(len(self.commands), COMMANDS_PER_CYCLE)):
             request, answer = self.commands.popleft()
             answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
+        if self.ap.armed != armed_before and self._saved_running:  # a disarm is remembered across a restart
+            self._save("running")
         self._flooded = self._flooded and bool(self.commands)
         self._manual_timeout(helm_nav, unavailable, t_s)
         mode, drive = steps.arbitrate(decision, steerable=nav.steerable, manual=self.ap.mode is Mode.MANUAL)
@@ -381,7 +384,7 @@ class ControlLoop:
             self.store.save(Progress(self.mission_path, self.mission_sha256, int(self.ap.wp_index), status,
                                      latched=self.failsafe.latched,
                                      launch_ne_m=None if launch is None else (float(launch[0]), float(launch[1])),
-                                     reason=reason))
+                                     reason=reason, armed=bool(self.ap.armed)))
         except OSError as exc:
             self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="state not saved", error=str(exc))
 

@@ -37,6 +37,9 @@ class Progress:
     latched: tuple[str, ...] = ()  # the latched failsafe causes
     launch_ne_m: tuple[float, float] | None = None  # rtl's home
     reason: str = ""  # why an aborted run stopped (the stop line's reason: max_mission_time, error)
+    # the operator's disarm: zero thrust whatever the mode, until armed (found by a link audit: a kill -9 of a
+    # disarmed boat and a restart with resume_after_restart flew the mission under thrust)
+    armed: bool = True
 
 
 class StateStore:
@@ -64,6 +67,9 @@ class StateStore:
             latched = tuple(data.get("latched") or ())
             if not all(isinstance(c, str) for c in latched):
                 raise ValueError(f"latched {data.get('latched')!r} is not a list of causes")
+            armed = data.get("armed", True)
+            if type(armed) is not bool:
+                raise ValueError(f"armed {armed!r} is not true or false")
             launch = data.get("launch_ne_m")
             if launch is not None:
                 launch = tuple(float(v) for v in launch)
@@ -71,7 +77,7 @@ class StateStore:
                     raise ValueError(f"launch_ne_m {data.get('launch_ne_m')!r} is not a point")
             return Progress(mission=str(data["mission"]), mission_sha256=str(data["mission_sha256"]),
                             wp_index=index, status=str(data["status"]), latched=latched, launch_ne_m=launch,
-                            reason=str(data.get("reason") or "")), None
+                            reason=str(data.get("reason") or ""), armed=armed), None
         except (OSError, ValueError, KeyError, TypeError, AttributeError, OverflowError) as exc:
             return None, f"{type(exc).__name__}: {exc}"
 

@@ -115,6 +115,7 @@ class Autopilot:
         boat_length_m: float = HULL_LENGTH_M,
         thrust_curve: ThrustCurve = ThrustCurve(),
         start_index: int = 0,
+        armed: bool = True,
     ) -> None:
         self.config = config
         self.boat_length_m = float(boat_length_m)
@@ -122,7 +123,7 @@ class Autopilot:
                              boat_length_m=boat_length_m, start_index=start_index)
         self.guidance = self.auto.guidance  # the mission's route (wp_index, waypoints)
         self.mission_cleared = False  # MAVLink MISSION_CLEAR_ALL: no mission to resume until a new one
-        self.armed = True
+        self.armed = bool(armed)  # False: zero thrust whatever the mode asks, until armed
         self.current = self.auto
         self.mode_cause = "start"  # why the helm is in its mode (a mode event's cause: "failsafe geofence", "ctl stop")
         self.paused_from = None  # the mode a pause interrupted (resume goes back to it)
