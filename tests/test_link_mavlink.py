@@ -40,7 +40,7 @@ class Boat:
     """A daemon under --sim with a MAVLink endpoint, and a ground station talking to it."""
 
     def __init__(self, tmp: Path, *, mission: dict | None = None, config: dict | None = None,
-                 fresh: bool = True, speedup: float = SPEEDUP) -> None:
+                 fresh: bool = True, speedup: float = SPEEDUP, extra_args: tuple[str, ...] = ()) -> None:
         # no key here: mavutil's link starts in MAVLink 1 and turns 2 at the boat's first frame, and a key set
         # before that signed nothing (sign_with after the first HEARTBEAT)
         self.tmp, self.port = tmp, _free_udp_port()
@@ -63,7 +63,7 @@ class Boat:
         args = [sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", str(speedup), "--config",
                 str(tmp / "autopilot.yaml"), "--mission", str(tmp / "mission.yaml"), "--log-dir", str(tmp / "logs"),
                 "--state-dir", str(tmp / "state"), "--runtime-dir", str(tmp / "run"),
-                "--mavlink", f"udpout:127.0.0.1:{self.port}"]
+                "--mavlink", f"udpout:127.0.0.1:{self.port}", *extra_args]
         if fresh:
             args.append("--fresh")
         self.err = open(tmp / "stderr.txt", "w")  # noqa: SIM115 - closed in stop()
@@ -429,14 +429,19 @@ def test_a_second_ground_station_cannot_upload_into_another_ones_upload(tmp_path
     """Found by fault injection: station A began an upload, station B sent MISSION_COUNT, A's items then
     filled B's upload and B got MISSION_ACK ACCEPTED for a mission it never sent (uploads were keyed by
     endpoint and items never checked their sender). Now B is refused while A uploads, and items from a
-    station that is not uploading are ignored."""
+    station that is not uploading are ignored. Found by a link audit: QGC and Mission Planner are both
+    system 255, component 190, so a second planner on another endpoint (C) was not seen as another: both
+    uploads were acknowledged ACCEPTED and the first mission silently replaced."""
     from pymavlink.dialects.v20 import ardupilotmega as dialect
 
     a_items = [local_to_latlon(n, e, *ORIGIN) for n, e in ((0.0, 0.0), (-15.0, 10.0), (-25.0, 0.0))]
-    boat = Boat(tmp_path)
+    port_c = _free_udp_port()
+    boat = Boat(tmp_path, extra_args=("--mavlink", f"udpout:127.0.0.1:{port_c}"))
     b = dialect.MAVLink(boat.gcs, srcSystem=254, srcComponent=190)  # another planner on the same radio link
+    c = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port_c}", source_system=255, source_component=190)
     try:
         boat.mode_is("auto")
+        assert c.recv_match(type="HEARTBEAT", blocking=True, timeout=10) is not None  # C hears the boat
 
         def a_item(seq):
             lat, lon = a_items[seq]
@@ -450,6 +455,9 @@ def test_a_second_ground_station_cannot_upload_into_another_ones_upload(tmp_path
         b.mission_count_send(1, 1, 3)
         ack_b = boat.recv("MISSION_ACK", pred=lambda m: m.target_system == 254)
         assert ack_b.type == mavlink.MAV_MISSION_DENIED
+        c.mav.mission_count_send(1, 1, 2)
+        ack_c = c.recv_match(type="MISSION_ACK", blocking=True, timeout=10)
+        assert ack_c is not None and ack_c.type == mavlink.MAV_MISSION_DENIED
         lat, lon = local_to_latlon(80.0, 80.0, *ORIGIN)
         b.mission_item_int_send(1, 1, 2, 3, 16, 0, 1, 0, 0, 0, 0, round(lat * 1e7), round(lon * 1e7), 0)  # ignored
         boat.recv(["MISSION_REQUEST_INT", "MISSION_REQUEST"], pred=lambda m: m.seq == 2 and m.target_system == 255)
@@ -458,6 +466,7 @@ def test_a_second_ground_station_cannot_upload_into_another_ones_upload(tmp_path
         assert ack_a.type == mavlink.MAV_MISSION_ACCEPTED
         replaced = boat.wait_log(lambda r: r["event"] == "mission_replaced", what="mission replaced")
     finally:
+        c.close()
         assert boat.stop() == 0
     assert [[round(x, 1) for x in w] for w in replaced["waypoints"]] == [[-15.0, 10.0], [-25.0, 0.0]]
 

@@ -77,9 +77,13 @@ class MissionProtocol:
                 self.link.refused("mission", f"mission refused: {msg.count} items (1..{MAX_ITEMS})")
                 self._ack(ep, peer, mavlink.MAV_MISSION_NO_SPACE)
                 return
-            busy = [u.peer for e, u in self.uploads.items() if u.peer != peer]
-            if busy:  # one upload at a time: two stations' items once filled one mission, acked to the other
-                self.link.refused("mission", f"mission refused: system {busy[0][0]} is uploading one")
+            # one upload at a time: two stations' items once filled one mission, acked to the other; a station
+            # on another endpoint is another even with the same ids (QGC and Mission Planner are both 255/190)
+            busy = [(u.peer, e is not ep) for e, u in self.uploads.items() if e is not ep or u.peer != peer]
+            if busy:
+                (system, _), elsewhere = busy[0]
+                where = " on another link" if elsewhere else ""
+                self.link.refused("mission", f"mission refused: system {system}{where} is uploading one")
                 self._ack(ep, peer, mavlink.MAV_MISSION_DENIED)
                 return
             self.uploads[ep] = _Upload(peer, msg.count)
