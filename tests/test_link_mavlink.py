@@ -875,12 +875,14 @@ def test_with_signing_an_unsigned_heartbeat_does_not_keep_the_station_alive(tmp_
 
 def test_guided_is_reported_as_guided_so_a_planners_start_mission_goes_through(tmp_path):
     """Found by a GCS audit: QGC's Start Mission on a Rover sets GUIDED, arms and sends MISSION_START; GUIDED was
-    acknowledged but the heartbeats said LOITER, and QGC gave up after three tries."""
+    acknowledged but the heartbeats said LOITER, and QGC gave up after three tries. Found by a link audit: LOITER
+    after GUIDED (and GUIDED after LOITER) was acknowledged while the heartbeats kept the mode before."""
     boat = Boat(tmp_path)
     try:
         boat.mode_is("auto")
-        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 15).result == mavlink.MAV_RESULT_ACCEPTED
-        boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1 and m.custom_mode == 15)
+        for custom in (15, 5, 15):  # GUIDED, LOITER, GUIDED: each a hold where the boat is
+            assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, custom).result == mavlink.MAV_RESULT_ACCEPTED
+            boat.recv("HEARTBEAT", pred=lambda m, c=custom: m.get_srcSystem() == 1 and m.custom_mode == c)
         assert boat.command(mavlink.MAV_CMD_MISSION_START).result == mavlink.MAV_RESULT_ACCEPTED
         boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1 and m.custom_mode == 10)
         for _ in range(20):  # Mission Planner's joystick: said once, not ignored without a word

@@ -221,6 +221,10 @@ class Autopilot:
             return False, "rtl refused: no launch point yet (control has not started)"
         if mode is _MODE_OF_COMMAND[command] and not (command == "hold" and (heading_rad is not None or
                                                                              target_ne_m is not None)):
+            if cause != self.mode_cause:  # the same hold, asked for another reason: a planner's LOITER after its
+                # GUIDED is reported as LOITER from now on (it kept showing GUIDED, the change "failed")
+                self._events.append(("mode", {"mode": mode.value, "from": mode.value, "cause": cause}))
+                self.mode_cause = cause
             return True, mode.value
         here = self._stopping_point(nav)
         if command == "hold":
