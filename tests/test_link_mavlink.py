@@ -686,8 +686,15 @@ def test_a_mission_with_a_speed_item_keeps_the_planners_item_numbers(tmp_path):
         reached = boat.recv("MISSION_ITEM_REACHED", 60.0)
         assert reached.seq == 1
         boat.recv("MISSION_CURRENT", pred=lambda m: m.seq == 3)  # the waypoint after the speed item
+        # the answer to MISSION_SET_CURRENT is the new current item (a link audit: it carried the one before,
+        # the status of the cycle before the jump); the stream stopped so the only MISSION_CURRENT is that answer
+        assert boat.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT,
+                            -1).result == mavlink.MAV_RESULT_ACCEPTED
+        time.sleep(0.5)
+        while boat.gcs.recv_match(blocking=False) is not None:
+            pass
         boat.gcs.mav.mission_set_current_send(1, 1, 4)
-        boat.recv("MISSION_CURRENT", pred=lambda m: m.seq == 4)
+        assert boat.recv("MISSION_CURRENT").seq == 4
         jumped = boat.wait_log(lambda r: r["event"] == "command" and r["command"] == "set_current", what="the jump")
         assert jumped["accepted"] and jumped["answer"] == "waypoint 2"  # the third waypoint, item 4
         boat.gcs.mav.mission_set_current_send(1, 1, 0)

@@ -305,15 +305,13 @@ class ControlLoop:
             dist, brg = math.hypot(dn, de), math.degrees(math.atan2(de, dn)) % 360.0
         launch = ap.launch_ne_m
         launch_ll = (None, None) if launch is None else local_to_latlon(launch[0], launch[1], *origin)
-        numbers = self.item_numbers
-        n_items = numbers.count
-        item = numbers.rtl if ap.mode is Mode.RTL and numbers.rtl is not None else numbers.waypoints[ap.wp_index]
+        item, n_items = self.mission_item_now()
         return {
             "t_s": round(t_s, 2), "mode": mode.value, "helm_mode": ap.mode.value, "mode_cause": ap.mode_cause,
             "armed": ap.armed,
             "cycle": self.state.cycles, "wp_index": int(ap.wp_index), "wp_count": len(self.mission.waypoints_ne_m),
             "mission_complete": bool(ap.complete), "mission_cleared": ap.mission_cleared,
-            "mission_item": 0 if ap.mission_cleared else item, "mission_items": 0 if ap.mission_cleared else n_items,
+            "mission_item": item, "mission_items": n_items,
             "north_m": nav.north_m, "east_m": nav.east_m, "lat_deg": nav.lat_deg, "lon_deg": nav.lon_deg,
             "heading_deg": None if nav.heading_rad is None else round(math.degrees(nav.heading_rad) % 360.0, 1),
             "yaw_rate_deg_s": None if nav.yaw_rate_rad_s is None else math.degrees(nav.yaw_rate_rad_s),
@@ -332,6 +330,15 @@ class ControlLoop:
             "thrust_port_n": None if out is None else out.thrust_port_n,
             "thrust_stbd_n": None if out is None else out.thrust_stbd_n,
         }
+
+    def mission_item_now(self) -> tuple[int, int]:
+        """(the MAVLink item number the helm steers to now, the mission's item count), (0, 0) when cleared: from
+        the helm, not the last cycle's status (a MISSION_SET_CURRENT's answer is sent before the next cycle)."""
+        ap, numbers = self.ap, self.item_numbers
+        if ap.mission_cleared:
+            return 0, 0
+        item = numbers.rtl if ap.mode is Mode.RTL and numbers.rtl is not None else numbers.waypoints[ap.wp_index]
+        return int(item), int(numbers.count)
 
     def _track_pass(self, nav, t_s: float) -> None:
         """A new fix goes to the pass tracker (autopilot.gnc.passes), attributed to the waypoint steered

@@ -319,7 +319,8 @@ class MavlinkLink:
         return int(self.status().get("mission_item", 0))
 
     def send_mission_current(self) -> None:
-        st = self.status()
+        item, items = self.loop.mission_item_now()
+        st = {**self.status(), "mission_item": item, "mission_items": items}
         self.send_all(lambda mav: T.mission_current(mav, st))
 
     # ---------------------------------------------------------------- receive
