@@ -14,7 +14,8 @@ Formats (chosen by file extension):
 - ``.csv``: a header naming ``north_m,east_m`` or ``lat_deg,lon_deg``, plus
   optional ``speed_m_s``; ``#`` starts a comment line.
 - ``.waypoints``: Mission Planner's "QGC WPL 110" text format; row 0 is home;
-  MAV_CMD_NAV_WAYPOINT (16) rows are waypoints, MAV_CMD_DO_CHANGE_SPEED (178)
+  MAV_CMD_NAV_WAYPOINT (16) rows are waypoints (param1, if not 0, seconds to
+  hold there), MAV_CMD_DO_CHANGE_SPEED (178)
   sets the speed of the following legs, NAV_LOITER_TIME (19, param1 seconds)
   and NAV_LOITER_UNLIM (17) are waypoints with ``hold_s`` / ``hold: true`` (at
   latitude and longitude 0, "here": a hold at the waypoint before), and
@@ -62,6 +63,7 @@ ORIGIN_AGREE_M = 1.0  # a local-frame file's own origin and the configuration's:
 NAV_WAYPOINT = 16
 NAV_LOITER_UNLIM = 17  # hold at the point until commanded
 NAV_LOITER_TIME = 19  # hold at the point for param1 seconds
+LOITER_ITEMS = (NAV_LOITER_UNLIM, NAV_LOITER_TIME)  # at latitude and longitude 0: a hold at the waypoint before
 NAV_RETURN_TO_LAUNCH = 20
 DO_CHANGE_SPEED = 178
 NO_SPEED_CHANGE = -1.0  # DO_CHANGE_SPEED param2 -1: "no change" (MAVLink common.xml)
@@ -141,7 +143,10 @@ def _finish(
     origin: tuple[float | None, float | None],
     max_range_m: float,
     rtl: bool = False,
+    labels: list[str] | None = None,
 ) -> Mission:
+    """``labels``: what to call each point in an error (default "waypoint K"); a MissionError about a point
+    carries its index (from 1) as ``point``."""
     if not points:
         raise MissionError(f"{path}: the mission has no waypoints")
     home_ll = None
@@ -167,28 +172,15 @@ def _finish(
     speeds: list[float | None] = []
     holds: list[float | None] = []
     for k, p in enumerate(points, start=1):
-        where = f"{path}: waypoint {k}"
-        a = _num(where, "latitude" if latlon else "north_m", p.a)
-        b = _num(where, "longitude" if latlon else "east_m", p.b)
-        if latlon:
-            _check_latlon(where, a, b)
-            n, e = latlon_to_local(a, b, o_lat, o_lon)
-        else:
-            n, e = a, b
-        dist = math.hypot(n, e)
-        if dist > max_range_m:
-            raise MissionError(f"{where}: {dist:.6g} m from the origin, farther than the allowed range {max_range_m:g} m "
-                               "(the configuration's max_mission_range_m)")
-        if ne and math.hypot(n - ne[-1][0], e - ne[-1][1]) < DUPLICATE_TOLERANCE_M:
-            raise MissionError(f"{where}: same position as waypoint {k - 1} (duplicate consecutive waypoint)")
-        speed = None
-        if p.speed is not None:
-            speed = _num(where, "speed_m_s", p.speed)
-            if not 0.0 < speed <= MAX_SPEED_M_S:
-                raise MissionError(f"{where}: speed {speed:g} m/s outside (0, {MAX_SPEED_M_S:g}] m/s")
+        try:
+            n, e, speed, hold = _point(f"{path}: {labels[k - 1] if labels else f'waypoint {k}'}", p, k, latlon,
+                                       (o_lat, o_lon), max_range_m, ne)
+        except MissionError as exc:
+            exc.point = k
+            raise
         ne.append((n, e))
         speeds.append(speed)
-        holds.append(_hold_s(where, p.hold))
+        holds.append(hold)
     return Mission(
         name=name,
         waypoints_ne_m=np.asarray(ne, dtype=float),
@@ -199,6 +191,30 @@ def _finish(
         holds_s=tuple(holds),
         rtl=bool(rtl),
     )
+
+
+def _point(where: str, p: _RawPoint, k: int, latlon: bool, origin, max_range_m: float, before: list):
+    """One point checked: (north_m, east_m, its leg's speed or None, its hold or None)."""
+    o_lat, o_lon = origin
+    a = _num(where, "latitude" if latlon else "north_m", p.a)
+    b = _num(where, "longitude" if latlon else "east_m", p.b)
+    if latlon:
+        _check_latlon(where, a, b)
+        n, e = latlon_to_local(a, b, o_lat, o_lon)
+    else:
+        n, e = a, b
+    dist = math.hypot(n, e)
+    if dist > max_range_m:
+        raise MissionError(f"{where}: {dist:.6g} m from the origin, farther than the allowed range {max_range_m:g} m "
+                           "(the configuration's max_mission_range_m)")
+    if before and math.hypot(n - before[-1][0], e - before[-1][1]) < DUPLICATE_TOLERANCE_M:
+        raise MissionError(f"{where}: same position as waypoint {k - 1} (duplicate consecutive waypoint)")
+    speed = None
+    if p.speed is not None:
+        speed = _num(where, "speed_m_s", p.speed)
+        if not 0.0 < speed <= MAX_SPEED_M_S:
+            raise MissionError(f"{where}: speed {speed:g} m/s outside (0, {MAX_SPEED_M_S:g}] m/s")
+    return n, e, speed, _hold_s(where, p.hold)
 
 
 def _frames_agree(path, key: str, file_ll: tuple[float, float], given_ll) -> None:
@@ -352,11 +368,19 @@ def _global_frame(where: str, frame: Any) -> None:
 
 
 def _loiter(cmd: int, param1: Any):
-    """The hold of a MAVLink item: loiter time (19) holds param1 seconds, loiter unlimited (17) until commanded."""
+    """The hold of a MAVLink item: loiter time (19) holds param1 seconds, loiter unlimited (17) until commanded,
+    a waypoint (16) param1 seconds if not 0 (MAVLink's hold time, as ArduPilot Rover's delay at a waypoint: it was
+    ignored while the download showed it); a waypoint's NaN (unset) is no hold."""
     if cmd == NAV_LOITER_UNLIM:
         return math.inf
     if cmd == NAV_LOITER_TIME:
         return param1
+    if cmd == NAV_WAYPOINT:
+        try:
+            x = float(param1)
+        except (TypeError, ValueError):
+            return param1  # named by the hold's check
+        return None if x == 0.0 or math.isnan(x) else x
     return None
 
 
@@ -365,7 +389,7 @@ def _add_item(points: list, where: str, cmd: int, lat: Any, lon: Any, speed: Any
     waypoint before it, as Mission Planner and QGroundControl write it."""
     hold = _loiter(cmd, param1)
     try:
-        here = hold is not None and float(lat) == 0.0 and float(lon) == 0.0
+        here = cmd in LOITER_ITEMS and float(lat) == 0.0 and float(lon) == 0.0
     except (TypeError, ValueError):
         here = False
     if here:
@@ -383,6 +407,7 @@ def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
         raise MissionError(f"{path}: not a Mission Planner file (first line must be 'QGC WPL 110')")
     home = None
     points: list[_RawPoint] = []
+    rows: list[list[str]] = []
     speed = None
     rtl = False
     for row_no, ln in enumerate(lines[1:]):
@@ -396,6 +421,7 @@ def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
         if row_no == 0:
             home = (f[8], f[9])
             continue
+        rows.append(f)
         if rtl:
             raise MissionError(f"{path}: row {row_no}: nothing may follow return to launch (20)")
         if cmd in (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM):
@@ -407,7 +433,19 @@ def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
             rtl = True
         else:
             raise MissionError(f"{path}: row {row_no}: command {cmd} not supported ({_SUPPORTED})")
-    return _finish(path, path.stem, points, latlon=True, home=home, origin=origin, max_range_m=max_range_m, rtl=rtl)
+    mission = _finish(path, path.stem, points, latlon=True, home=home, origin=origin, max_range_m=max_range_m, rtl=rtl)
+    return dataclasses.replace(mission, mavlink_items=_wpl_items(rows))
+
+
+def _wpl_items(rows: list[list[str]]) -> tuple:
+    """The file's rows after home as the mission's MAVLink items, so the link numbers them as the file does (an
+    uploaded mission saved for a restart came back renumbered: a speed item of -1, "no change", and a repeated
+    one were dropped, and the planner's numbers no longer matched); () when a row's numbers cannot be read."""
+    try:
+        return tuple(dict(frame=int(float(f[2])), command=int(float(f[3])), param1=float(f[4]), param2=float(f[5]),
+                          lat_deg=float(f[8]), lon_deg=float(f[9])) for f in rows)
+    except ValueError:
+        return ()
 
 
 # ------------------------------------------------------------------------- QGroundControl
@@ -478,7 +516,7 @@ MAVLINK_MISSION_FRAME = 2  # MAV_FRAME_MISSION: items without a position (RTL, c
 
 class MissionItemError(MissionError):
     """A refused MAVLink mission item: ``seq`` (the item number) and ``field`` (``command``, ``frame``,
-    ``x``, ``y``, ``param1``, ``sequence`` or ``mission``) for the MISSION_ACK error code."""
+    ``x``, ``y``, ``param1``, ``param2``, ``sequence`` or ``mission``) for the MISSION_ACK error code."""
 
     def __init__(self, message: str, *, seq: int, field: str) -> None:
         super().__init__(message)
@@ -492,6 +530,7 @@ def mission_from_items(items, *, origin_lat_deg: float, origin_lon_deg: float, m
     checks as a mission file; MissionItemError names the item."""
     where = Path("uploaded mission")
     points: list[_RawPoint] = []
+    point_items: list[int] = []  # the item number of each point (a loiter "here" is part of the one before)
     speed = None
     rtl = False
     for k, it in enumerate(items):
@@ -512,29 +551,39 @@ def mission_from_items(items, *, origin_lat_deg: float, origin_lon_deg: float, m
             for what, v, lim, fld in (("latitude", lat, 90.0, "x"), ("longitude", lon, 180.0, "y")):
                 if not isinstance(v, (int, float)) or not math.isfinite(v) or abs(v) > lim:
                     raise MissionItemError(f"{here}: {what} {v!r} outside -{lim:g}..{lim:g} deg", seq=k, field=fld)
-            hold = it.get("param1") if cmd == NAV_LOITER_TIME else None
-            if hold is not None and not (math.isfinite(hold) and 0.0 <= hold <= MAX_HOLD_S):
-                raise MissionItemError(f"{here}: loiter time {hold:g} s outside [0, {MAX_HOLD_S:g}] s", seq=k,
+            hold = _loiter(cmd, it.get("param1"))
+            if hold is not None and not math.isinf(hold) and not (math.isfinite(hold) and 0.0 <= hold <= MAX_HOLD_S):
+                what = "loiter time" if cmd == NAV_LOITER_TIME else "hold time"
+                raise MissionItemError(f"{here}: {what} {hold:g} s outside [0, {MAX_HOLD_S:g}] s", seq=k,
                                        field="param1")
             try:
+                before = len(points)
                 _add_item(points, here, cmd, lat, lon, speed, it.get("param1"))
+                if len(points) > before:
+                    point_items.append(k)
             except MissionError as exc:
                 raise MissionItemError(str(exc), seq=k, field="mission") from None
         elif cmd == DO_CHANGE_SPEED:
             speed = _speed_change(speed, it.get("param2"))
+            if speed is not None and not (isinstance(speed, (int, float)) and 0.0 < speed <= MAX_SPEED_M_S):
+                raise MissionItemError(f"{here}: speed {speed!r} m/s outside (0, {MAX_SPEED_M_S:g}] m/s (-1: no "
+                                       "change)", seq=k, field="param2")
         elif cmd == NAV_RETURN_TO_LAUNCH:
             rtl = True
         else:
             raise MissionItemError(f"{here}: command {cmd} not supported ({_SUPPORTED})", seq=k, field="command")
     try:
         mission = _finish(where, name, points, latlon=True, home=None, origin=(origin_lat_deg, origin_lon_deg),
-                          max_range_m=max_range_m, rtl=rtl)
+                          max_range_m=max_range_m, rtl=rtl,
+                          labels=[f"item {seq} (waypoint {i + 1})" for i, seq in enumerate(point_items)])
         kept = ("frame", "command", "param1", "param2", "lat_deg", "lon_deg")
         return dataclasses.replace(mission, mavlink_items=tuple({k: it.get(k, 0.0) for k in kept} for it in items[1:]))
     except MissionItemError:
         raise
-    except MissionError as exc:
-        raise MissionItemError(str(exc), seq=len(items) - 1, field="mission") from None
+    except MissionError as exc:  # about a point: named by its item, as the planner numbers it
+        point = getattr(exc, "point", None)
+        seq = point_items[point - 1] if point is not None and point <= len(point_items) else len(items) - 1
+        raise MissionItemError(str(exc), seq=seq, field="mission") from None
 
 
 NAV_ITEMS = (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM)  # the items that are waypoints of the mission
@@ -583,7 +632,9 @@ class ItemNumbers:
     @classmethod
     def of(cls, mission: Mission) -> ItemNumbers:
         items = mission_to_items(mission)
-        return cls(tuple(it["seq"] for it in items[1:] if it["command"] in NAV_ITEMS),
+        # a loiter "here" is a hold at the waypoint before, not a waypoint: counted as one, every later
+        # waypoint's number was one off (MISSION_SET_CURRENT flew to the waypoint after the one asked)
+        return cls(tuple(it["seq"] for it in items[1:] if it["command"] in NAV_ITEMS and not _loiter_here(it)),
                      next((it["seq"] for it in items if it["command"] == NAV_RETURN_TO_LAUNCH), None), len(items))
 
     def waypoint_of(self, seq: int) -> int | None:
@@ -592,6 +643,10 @@ class ItemNumbers:
         if seq < 1:
             return None
         return next((i for i, s in enumerate(self.waypoints) if s >= seq), None)
+
+
+def _loiter_here(item: dict) -> bool:
+    return item["command"] in LOITER_ITEMS and float(item["lat_deg"]) == 0.0 and float(item["lon_deg"]) == 0.0
 
 
 def to_waypoints_text(mission: Mission) -> str:

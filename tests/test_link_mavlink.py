@@ -700,11 +700,14 @@ def test_a_mission_with_a_speed_item_keeps_the_planners_item_numbers(tmp_path):
         boat.gcs.mav.mission_set_current_send(1, 1, 0)
         assert "item 0 is home" in boat.recv("STATUSTEXT", pred=lambda m: "MISSION_SET_CURRENT" in m.text).text
         assert boat.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 9).result == mavlink.MAV_RESULT_DENIED
+        boat.gcs.mav.mission_write_partial_list_send(1, 1, 1, 2)  # unanswered once: the planner timed out
+        assert boat.recv("MISSION_ACK").type == mavlink.MAV_MISSION_UNSUPPORTED
     finally:
         assert boat.stop() == 0
     refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
-    assert refused == ["MISSION_SET_CURRENT refused: item 0 is home", "DO_SET_MISSION_CURRENT refused: item 9 is not a "
-                       "waypoint of the mission (waypoints are items 1..4)"]
+    assert refused[:2] == ["MISSION_SET_CURRENT refused: item 0 is home", "DO_SET_MISSION_CURRENT refused: item 9 is "
+                           "not a waypoint of the mission (waypoints are items 1..4)"]
+    assert refused[2].startswith("MISSION_WRITE_PARTIAL_LIST not supported: send the whole mission")
 
 
 def test_mode_changes_as_the_standard_says_a_broken_datagram_and_the_planners_shortcuts(tmp_path):

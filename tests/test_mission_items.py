@@ -82,3 +82,82 @@ def test_qgc_plan_loiter_time_and_rtl(tmp_path):
     p.write_text(json.dumps(plan), encoding="utf-8")
     m = load_mission(p)
     assert m.holds_s == (None, 120.0) and m.rtl
+
+
+# ---- uploaded missions: item numbers as the planner shows them (found by a link audit, 2026-12-05) ----
+def _item(seq, cmd, lat=0.0, lon=0.0, p1=0.0, p2=0.0, frame=3):
+    return dict(seq=seq, frame=frame, command=cmd, param1=p1, param2=p2, lat_deg=lat, lon_deg=lon)
+
+
+def _ll(north_m, east_m):
+    from autopilot.geo import local_to_latlon
+
+    return local_to_latlon(north_m, east_m, *HOME)
+
+
+def _upload(items):
+    from autopilot.mission import mission_from_items
+
+    return mission_from_items(items, origin_lat_deg=HOME[0], origin_lon_deg=HOME[1])
+
+
+def test_a_loiter_here_is_not_counted_as_a_waypoint_in_the_item_numbers():
+    """QGC's home, WP1, LOITER_TIME 10 s "here" (0, 0), WP2 (item 3), WP3 (item 4): the loiter was counted as a
+    waypoint, so MISSION_SET_CURRENT 3 flew to WP3 and 4 was refused as beyond the mission."""
+    from autopilot.mission import ItemNumbers
+
+    w = [_ll(30, 0), _ll(30, 30), _ll(0, 30)]
+    m = _upload([_item(0, 16, *HOME), _item(1, 16, *w[0]), _item(2, 19, p1=10.0), _item(3, 16, *w[1]),
+                 _item(4, 16, *w[2])])
+    numbers = ItemNumbers.of(m)
+    assert m.holds_s == (10.0, None, None) and numbers.waypoints == (1, 3, 4)
+    assert [numbers.waypoint_of(s) for s in (1, 2, 3, 4)] == [0, 1, 1, 2]  # a jump to the loiter: the next waypoint
+
+
+def test_an_uploaded_mission_keeps_its_item_numbers_after_a_restart(tmp_path):
+    """The uploaded mission is saved as a .waypoints file for a restart; read back, its items were generated anew:
+    a speed item of -1 ("no change") and a repeated speed were dropped, and QGC's numbers no longer matched
+    (MISSION_CURRENT 3 of 5 for 4 of 7; MISSION_SET_CURRENT 6 refused)."""
+    from autopilot.daemon.state import save_uploaded_mission
+    from autopilot.mission import ItemNumbers, mission_to_items
+
+    w = [_ll(30, 0), _ll(30, 30), _ll(0, 30)]
+    items = [_item(0, 16, *HOME), _item(1, 178, p1=1, p2=1.5, frame=2), _item(2, 16, *w[0]),
+             _item(3, 178, p1=1, p2=-1, frame=2), _item(4, 16, *w[1]), _item(5, 178, p1=1, p2=1.5, frame=2),
+             _item(6, 16, *w[2])]
+    live = _upload(items)
+    path, _ = save_uploaded_mission(tmp_path, live)
+    again = load_mission(path, origin_lat_deg=HOME[0], origin_lon_deg=HOME[1])
+    assert ItemNumbers.of(again) == ItemNumbers.of(live) and ItemNumbers.of(again).waypoints == (2, 4, 6)
+    assert [(it["seq"], it["command"], it["param2"]) for it in mission_to_items(again)] == [
+        (0, 16, 0.0), (1, 178, 1.5), (2, 16, 0.0), (3, 178, -1.0), (4, 16, 0.0), (5, 178, 1.5), (6, 16, 0.0)]
+    assert again.speeds_m_s == live.speeds_m_s == (1.5, 1.5, 1.5)
+
+
+def test_a_waypoints_hold_time_is_flown_not_only_shown():
+    """MAVLink's NAV_WAYPOINT param1 is the hold time at the waypoint (ArduPilot Rover's delay): it was ignored
+    while the download gave it back. NaN (unset) is no hold; a negative one is refused naming the item."""
+    from autopilot.mission import MissionItemError
+
+    w = [_ll(30, 0), _ll(30, 30)]
+    m = _upload([_item(0, 16, *HOME), _item(1, 16, *w[0], p1=20.0), _item(2, 16, *w[1], p1=math.nan)])
+    assert m.holds_s == (20.0, None)
+    with pytest.raises(MissionItemError, match=r"item 1: hold time -5 s outside \[0, 86400\] s") as exc:
+        _upload([_item(0, 16, *HOME), _item(1, 16, *w[0], p1=-5.0)])
+    assert (exc.value.seq, exc.value.field) == (1, "param1")
+
+
+def test_a_refused_upload_names_the_item_the_planner_shows():
+    """A DO_CHANGE_SPEED of 5 m/s at item 3 was refused as "waypoint 3: speed 5 m/s" (neither its number nor the
+    waypoint's); a waypoint too far is named by its item too."""
+    from autopilot.mission import MissionItemError
+
+    w = [_ll(30, 0), _ll(30, 30), _ll(0, 30)]
+    with pytest.raises(MissionItemError, match=r"item 3: speed 5\.0 m/s outside \(0, 3\.5\]") as exc:
+        _upload([_item(0, 16, *HOME), _item(1, 16, *w[0]), _item(2, 16, *w[1]), _item(3, 178, p2=5.0, frame=2),
+                 _item(4, 16, *w[2])])
+    assert (exc.value.seq, exc.value.field) == (3, "param2")
+    far = _ll(5000, 0)
+    with pytest.raises(MissionItemError, match=r"item 3 \(waypoint 2\): 5000 m from the origin") as exc:
+        _upload([_item(0, 16, *HOME), _item(1, 16, *w[0]), _item(2, 178, p2=1.0, frame=2), _item(3, 16, *far)])
+    assert exc.value.seq == 3

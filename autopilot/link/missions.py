@@ -31,7 +31,8 @@ MAX_ITEMS = 500
 _ERROR_CODE = {
     "command": mavlink.MAV_MISSION_UNSUPPORTED, "frame": mavlink.MAV_MISSION_UNSUPPORTED_FRAME,
     "x": mavlink.MAV_MISSION_INVALID_PARAM5_X, "y": mavlink.MAV_MISSION_INVALID_PARAM6_Y,
-    "param1": mavlink.MAV_MISSION_INVALID_PARAM1, "sequence": mavlink.MAV_MISSION_INVALID_SEQUENCE,
+    "param1": mavlink.MAV_MISSION_INVALID_PARAM1, "param2": mavlink.MAV_MISSION_INVALID_PARAM2,
+    "sequence": mavlink.MAV_MISSION_INVALID_SEQUENCE,
     "mission": mavlink.MAV_MISSION_INVALID,
 }
 
@@ -135,6 +136,11 @@ class MissionProtocol:
                 self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
                 return
             self._clear(ep, peer, mission_type)
+        elif t in ("MISSION_WRITE_PARTIAL_LIST", "MISSION_REQUEST_PARTIAL_LIST"):
+            # answered, not left to the planner's timeout (ArduPilot takes them; here a mission is whole)
+            self.link.refused("mission", f"{t} not supported: send the whole mission (MISSION_COUNT) or ask for "
+                                         "it whole (MISSION_REQUEST_LIST)")
+            self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
         elif t == "MISSION_SET_CURRENT":
             index = self.link.waypoint_of_item(int(msg.seq), "MISSION_SET_CURRENT")
             if index is None:
