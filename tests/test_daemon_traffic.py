@@ -103,6 +103,50 @@ def test_the_targets_reach_the_ground_station_as_ais_vessel(head_on):
     assert m.name == "FERRY ONE" and m.flags & mavlink.AIS_FLAGS_VALID_VELOCITY and m.velocity > 0
 
 
+def test_a_sim_run_with_a_real_ais_port_and_no_simulated_traffic_flies_and_stops_on_sigterm(tmp_path):
+    """Found by an AIS audit: `--sim --speedup max` with ais.port set (a receiver plugged in on the bench) and no
+    sim.traffic: the lockstep clock's quiet check asked the simulated traffic that was not there, the clock's task
+    died without a word at t = 0, and SIGTERM was ignored (the stop waited on that clock): kill -9 after 10 s."""
+    import signal
+    import time
+
+    from autopilot.simdev import PtyEndpoint
+
+    ais = PtyEndpoint(tmp_path, "ais")  # a receiver that says nothing
+    try:
+        cfg = yaml.safe_load((ROOT / "config" / "autopilot.yaml").read_text())
+        cfg["ais"]["port"] = ais.path
+        (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+        (tmp_path / "m.yaml").write_text(yaml.safe_dump({"name": "far", "frame": "local",
+                                                           "waypoints": [[400.0, 0.0]]}))
+        proc = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", "max", "--config",
+                                 str(tmp_path / "c.yaml"), "--mission", str(tmp_path / "m.yaml"), "--log-dir",
+                                 str(tmp_path / "logs"), "--state-dir", str(tmp_path / "state"), "--runtime-dir",
+                                 str(tmp_path / "run"), "--fresh"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        try:
+            t_end = time.monotonic() + 60.0
+            flown = 0.0
+            while time.monotonic() < t_end and flown < 30.0:
+                time.sleep(0.5)
+                paths = list((tmp_path / "logs").glob("mission-*.jsonl"))
+                lines = paths[0].read_text().splitlines() if paths else []
+                flown = max((json.loads(x)["t_s"] for x in lines[-20:] if x.endswith("}")), default=0.0)
+            proc.send_signal(signal.SIGTERM)
+            err = proc.communicate(timeout=30)[1].decode()
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+    finally:
+        ais.close()
+    assert flown >= 30.0  # simulated time went on
+    assert proc.returncode == 0, err[-2000:]
+    log = _log(tmp_path / "logs")
+    assert log[-1]["event"] == "stop" and log[-1]["reason"] == "signal"
+    assert any(r["event"] == "cycle" and r["thrust_port_n"] > 0 for r in log)
+    assert not [r for r in log if r.get("message", "").startswith("lockstep: the devices' quiet check failed")]
+
+
 def test_ais_interleaved_on_the_compass_line_is_seen(tmp_path):
     """ais.on_compass_line: !AIVDM among the SC-30's sentences, at its 4800 baud, reaches the avoidance."""
     lat, lon = local_to_latlon(120.0, 40.0, *ORIGIN)
