@@ -542,3 +542,32 @@ def test_a_report_without_a_position_keeps_the_vessel_where_it_was_last_seen():
     rx2 = AisReceiver()  # never placed: no position to keep, not a target to steer round
     rx2.feed_line(report(91.0, 181.0), 0.0)
     assert rx2.targets(1.0) == []
+
+
+def test_a_vessel_without_course_or_speed_moves_by_its_heading_or_its_track():
+    """Found by an AIS audit: course 360 or speed 102.3 kn ("not available") made a vessel at 3.9 kn a stopped one
+    in collision avoidance. With a speed, its heading is its course; otherwise its track between two reports."""
+    from autopilot.geo import local_to_latlon
+    from autopilot.gnc.encounter import TargetState
+
+    origin = (52.0, 5.0)
+    rx = AisReceiver()
+
+    def report(t_s, north_m, **fields):
+        lat, lon = local_to_latlon(north_m, 0.0, *origin)
+        rx.feed_line(encode_ais({"type": 1, "mmsi": 244000501, "lat": lat, "lon": lon, **fields},
+                                sentence_type="VDM")[0], t_s)
+        (t,) = rx.targets(t_s)
+        return t, TargetState.from_ais(t, origin_lat_deg=origin[0], origin_lon_deg=origin[1], now_s=t_s)
+
+    _, by_heading = report(0.0, 0.0, speed=3.9, course=360.0, heading=180)
+    assert by_heading.motion_known and by_heading.speed_m_s == pytest.approx(3.9 * 1852 / 3600)
+    assert by_heading.course_rad == pytest.approx(math.pi)
+    t, by_track = report(10.0, -20.0, speed=102.3, course=360.0, heading=511)  # 20 m south in 10 s
+    assert t.sog_m_s is None and t.cog_rad is None and t.track_ne_m_s == pytest.approx((-2.0, 0.0), abs=0.01)
+    assert by_track.motion_known and by_track.speed_m_s == pytest.approx(2.0, abs=0.01)
+    assert abs(by_track.course_rad) == pytest.approx(math.pi, abs=0.01)
+    _, twice = report(10.4, -20.0, speed=102.3, course=360.0, heading=511)  # the same report on the other channel
+    assert twice.speed_m_s == pytest.approx(2.0, abs=0.01)
+    _, unknown = report(300.0, -20.0, speed=102.3, course=360.0, heading=511)  # 290 s after the last: no track
+    assert not unknown.motion_known and unknown.speed_m_s == 0.0

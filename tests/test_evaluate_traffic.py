@@ -40,3 +40,26 @@ def test_a_bad_scenario_file_is_refused_naming_the_key(tmp_path, capsys, bad, wo
     assert main(["evaluate", "--traffic", str(p)]) == 2
     err = capsys.readouterr().err
     assert words in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("scenario, situation", [("overtaken", "overtaken"), ("crossing-starboard", "crossing-give-way")])
+@pytest.mark.parametrize("missing", ["course", "speed"])
+def test_a_vessel_reporting_its_course_or_speed_not_available_is_not_taken_as_stopped(tmp_path, capsys, scenario,
+                                                                                     situation, missing):
+    """Found by an AIS audit: a vessel at 3.9 kn whose reports say course 360 or speed 102.3 kn ("not available", as
+    many class B transponders send) was taken as stopped: judged overtaking either side, the boat turned to port
+    and the vessel passed 0.5-1.2 m off (20.8-23.8 m required). Now its heading is its course, or its track
+    between reports its motion."""
+    import yaml
+
+    from autopilot.resources import data_dir
+
+    d = yaml.safe_load((data_dir() / "traffic" / f"{scenario}.yaml").read_text())
+    for t in d["targets"]:
+        t["not_available"] = [missing]
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(d))
+    assert main(["evaluate", "--traffic", str(tmp_path / "s.yaml"), "--condition", "calm", "--json"]) == 0
+    (run,) = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    (t,) = run["targets"]
+    assert t["situation"] == situation and t["side"] == "starboard"
+    assert t["min_distance_m"] >= t["required_m"] and run["distance_kept"] and run["rules_followed"]

@@ -46,6 +46,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from autopilot.drivers.framing import LineFramer, checked_body, xor_checksum
+from autopilot.geo import latlon_to_local
 from autopilot.schema import param
 from autopilot.units import knots_to_m_s
 
@@ -590,6 +591,9 @@ class AisTarget:
     to_starboard_m: float | None = None
     static_t_s: float | None = None
     messages: int = 0
+    # velocity over ground (north, east; m/s) from its last two position reports, TRACK_MIN_S to TRACK_MAX_S apart:
+    # what moves it when its report says course or speed "not available" (None: no such pair)
+    track_ne_m_s: tuple[float, float] | None = None
 
     def age_s(self, now_s: float) -> float:
         """Seconds since the last position report (inf without one)."""
@@ -621,6 +625,21 @@ class AisTarget:
 
 
 _POSITION_FIELDS = ("lat_deg", "lon_deg", "sog_m_s", "cog_rad", "heading_rad")
+TRACK_MIN_S = 1.0  # closer reports (the same one on both channels) leave the track as it was
+TRACK_MAX_S = 180.0  # the longest nominal report interval (ITU-R M.1371-5 Annex 1 Tables 1-2)
+
+
+def _track(old: AisTarget, msg: AisMessage, now_s: float) -> tuple[float, float] | None:
+    """The velocity over ground between ``old``'s position and ``msg``'s (see AisTarget.track_ne_m_s)."""
+    if msg.lat_deg is None or msg.lon_deg is None or not old.has_position or old.position_t_s is None:
+        return None
+    dt = now_s - old.position_t_s
+    if dt < TRACK_MIN_S:
+        return old.track_ne_m_s
+    if dt > TRACK_MAX_S:
+        return None
+    north_m, east_m = latlon_to_local(msg.lat_deg, msg.lon_deg, old.lat_deg, old.lon_deg)
+    return north_m / dt, east_m / dt
 _STATIC_FIELDS = ("shipname", "callsign", "ship_type", "to_bow_m", "to_stern_m", "to_port_m", "to_starboard_m")
 
 
@@ -664,6 +683,7 @@ class TargetTable:
             if msg.lat_deg is not None or not old.has_position:
                 changes.update({k: getattr(msg, k) for k in _POSITION_FIELDS})
                 changes["position_t_s"] = now_s
+                changes["track_ne_m_s"] = _track(old, msg, now_s)
             changes["turn_rad_s"] = msg.turn_rad_s
             if msg.nav_status is not None:
                 changes["nav_status"] = msg.nav_status

@@ -97,6 +97,9 @@ class TargetSpec:
     max_turn_rate_deg_s: float = param(3.0, unit="deg/s", lo=0.1, hi=30.0, doc="gives_way: its rate of turn")
     report_interval_s: float | None = param(None, unit="s", lo=0.5, hi=600.0,
                                             doc="position report interval (None: ITU-R M.1371 Table 1/2 by speed)")
+    not_available: tuple[str, ...] = param((), choices=("course", "speed", "heading"),
+                                           doc="its position reports say these are not available (course 360, speed "
+                                               "102.3 kn, heading 511), as many class B transponders send them")
 
     def __post_init__(self) -> None:
         local = self.north_m is not None and self.east_m is not None
@@ -381,6 +384,8 @@ def encode_reports(scenario: TrafficScenario, spec: TargetSpec, kind: str, t_s: 
             data.update(type=1, status=0, turn=math.degrees(k.turn_rate_rad_s) * 60.0)
         else:
             data.update(type=18, cs=1)
+        data.update({key: value for what, key, value in (("course", "course", 360.0), ("speed", "speed", 102.3),
+                                                         ("heading", "heading", 511)) if what in spec.not_available})
         return encode_ais(data, talker=talker, sentence_type="VDM", channel=channel)
     if kind == "static":
         name = spec.name.upper()
