@@ -191,3 +191,27 @@ def test_the_ground_station_back_text_has_no_dangling_colon():
     """Found by a ground-station audit: 'ground station back:' (the action of a station's return is None)."""
     assert T.event_text("gcs", {"state": "back", "action": None})[1] == "ground station back"
     assert T.event_text("gcs", {"state": "lost", "action": "hold"})[1] == "ground station lost: hold"
+
+
+def test_ais_vessel_carries_status_zero_dimension_flags_and_the_turn_rate():
+    """Found by an AIS audit: navigational status 0 ("under way using engine") was sent as 15 (undefined), a 300-m
+    bow was flagged "larger than 511 m" (the flag was set above 255), and the turn rate was always 0, not valid."""
+    import math
+
+    from pymavlink.dialects.v20 import ardupilotmega as dialect
+
+    from autopilot.drivers.ais import AisTarget
+    from autopilot.link.telemetry import ais_vessel
+
+    mav = dialect.MAVLink(None)
+    t = AisTarget(mmsi=244000101, ais_class="A", last_t_s=0.0, lat_deg=52.0, lon_deg=4.4, sog_m_s=2.0, cog_rad=0.0,
+                  heading_rad=0.0, nav_status=0, to_bow_m=300.0, to_stern_m=511.0, to_port_m=20.0,
+                  to_starboard_m=63.0, turn_rad_s=math.radians(-1.5))
+    m = ais_vessel(mav, t, 1.0)
+    assert m.navigational_status == 0
+    assert (m.dimension_bow, m.dimension_stern, m.dimension_port, m.dimension_starboard) == (300, 511, 20, 63)
+    assert not m.flags & dialect.AIS_FLAGS_LARGE_BOW_DIMENSION and not m.flags & dialect.AIS_FLAGS_LARGE_PORT_DIMENSION
+    assert m.flags & dialect.AIS_FLAGS_LARGE_STERN_DIMENSION and m.flags & dialect.AIS_FLAGS_LARGE_STARBOARD_DIMENSION
+    assert m.flags & dialect.AIS_FLAGS_VALID_TURN_RATE and m.turn_rate == -15  # 0.1 deg/s
+    unknown = ais_vessel(mav, AisTarget(mmsi=1, ais_class="B", last_t_s=0.0, lat_deg=52.0, lon_deg=4.4), 1.0)
+    assert unknown.navigational_status == 15 and not unknown.flags & dialect.AIS_FLAGS_VALID_TURN_RATE

@@ -159,14 +159,15 @@ def ais_vessel(mav, target, now_s: float):
         return None
     flags = 0
 
-    def dim(v, big_flag):
+    def dim(v, big_flag, limit_m):
+        # AIS carries bow and stern up to 511 m, the sides up to 63 m, each "or more" at its limit: MAVLink's
+        # LARGE flags say exactly that (a 300-m bow was flagged larger than 511 m)
         nonlocal flags
         if v is None:
             return 0
-        if v > 255:
+        if v >= limit_m:
             flags |= big_flag
-        return int(min(max(v, 0.0), 511.0 if big_flag in (mavlink.AIS_FLAGS_LARGE_BOW_DIMENSION,
-                                                          mavlink.AIS_FLAGS_LARGE_STERN_DIMENSION) else 63.0))
+        return int(min(max(v, 0.0), limit_m))
 
     cog = 0
     if target.cog_rad is not None:
@@ -177,10 +178,14 @@ def ais_vessel(mav, target, now_s: float):
         flags |= mavlink.AIS_FLAGS_VALID_VELOCITY
         vel = int(min(round(target.sog_m_s * 100.0), 65534))
     heading = 36000 if target.heading_rad is None else int(round(math.degrees(target.heading_rad) % 360.0 * 100)) % 36000
-    dims = [dim(target.to_bow_m, mavlink.AIS_FLAGS_LARGE_BOW_DIMENSION),
-            dim(target.to_stern_m, mavlink.AIS_FLAGS_LARGE_STERN_DIMENSION),
-            dim(target.to_port_m, mavlink.AIS_FLAGS_LARGE_PORT_DIMENSION),
-            dim(target.to_starboard_m, mavlink.AIS_FLAGS_LARGE_STARBOARD_DIMENSION)]
+    dims = [dim(target.to_bow_m, mavlink.AIS_FLAGS_LARGE_BOW_DIMENSION, 511.0),
+            dim(target.to_stern_m, mavlink.AIS_FLAGS_LARGE_STERN_DIMENSION, 511.0),
+            dim(target.to_port_m, mavlink.AIS_FLAGS_LARGE_PORT_DIMENSION, 63.0),
+            dim(target.to_starboard_m, mavlink.AIS_FLAGS_LARGE_STARBOARD_DIMENSION, 63.0)]
+    turn = 0
+    if target.turn_rad_s is not None:  # 0.1 deg/s in an int8
+        flags |= mavlink.AIS_FLAGS_VALID_TURN_RATE
+        turn = int(max(-127, min(127, round(math.degrees(target.turn_rad_s) * 10.0))))
     if any(dims):
         flags |= mavlink.AIS_FLAGS_VALID_DIMENSIONS
     name = (target.shipname or "").encode("ascii", "replace")[:20]
@@ -190,9 +195,9 @@ def ais_vessel(mav, target, now_s: float):
     if call:
         flags |= mavlink.AIS_FLAGS_VALID_CALLSIGN
     tslc = int(min(max(now_s - target.last_t_s, 0.0), 65535))
-    return mav.ais_vessel_encode(int(target.mmsi), _e7(target.lat_deg), _e7(target.lon_deg), cog, heading, vel, 0,
-                                 int(target.nav_status or 15) % 256, int(target.ship_type or 0) % 256, *dims, call, name,
-                                 tslc, flags)
+    status = 15 if target.nav_status is None else int(target.nav_status)  # 0 is "under way using engine"
+    return mav.ais_vessel_encode(int(target.mmsi), _e7(target.lat_deg), _e7(target.lon_deg), cog, heading, vel, turn,
+                                 status % 256, int(target.ship_type or 0) % 256, *dims, call, name, tslc, flags)
 
 
 def statustext(mav, severity: int, text: str) -> list:
