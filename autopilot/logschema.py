@@ -231,7 +231,15 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("north_m", "float", "m", "the position the guidance used (as `est_north_m`)"),
         _f("east_m", "float", "m", "see `north_m`"),
         _f("distance_m", "float", "m", "distance to the waypoint at the switch"),
-        _f("how", "string", "-", "`capture` (within `capture_radius_m`) or `passed` (the law's own test: TCPA' < 0 for the fuzzy law)"),
+        _f("how", "string", "-", "`capture` (within `capture_radius_m`), `passed` (the law's own test: TCPA' < 0 for the fuzzy law) or `occupied` (a stopped vessel's safe distance covers it and the boat came as near as it may: `waypoint_occupied`)"),
+    )),
+    EventSpec("waypoint_occupied", "the waypoint lies inside a (nearly) stopped vessel's safe distance (plus its extent) and the boat came as near as the rules allow: counted reached (`how` `occupied`) and the mission goes on", (
+        _f("wp_index", "int", "-", "the waypoint"),
+        _f("target", "int", "-", "the vessel's MMSI"),
+        _f("name", "string", "-", "its name, if known"),
+        _f("distance_m", "float", "m", "the boat's distance to the waypoint then"),
+        _f("need_m", "float", "m", "the distance the rules keep from the vessel (safe distance + its extent)"),
+        _f("target_to_waypoint_m", "float", "m", "the vessel's distance to the waypoint"),
     )),
     EventSpec("waypoint_pass", "a waypoint's pass ended: its closest approach (autopilot.gnc.passes)", (
         _f("wp_index", "int", "-", "the waypoint"),

@@ -63,3 +63,17 @@ def test_a_vessel_reporting_its_course_or_speed_not_available_is_not_taken_as_st
     (t,) = run["targets"]
     assert t["situation"] == situation and t["side"] == "starboard"
     assert t["min_distance_m"] >= t["required_m"] and run["distance_kept"] and run["rules_followed"]
+
+
+def test_a_vessel_moored_on_the_waypoint_does_not_keep_the_boat_circling_it(tmp_path, capsys):
+    """Found by an AIS audit: the boat circled a stopped vessel on its only waypoint at 21-25 m until the time
+    limit; now the waypoint is counted reached at the vessel's safe distance and the mission completes."""
+    (tmp_path / "s.yaml").write_text(
+        "name: on-waypoint\nown: {north_m: 0.0, east_m: 0.0, course_deg: 0.0, speed_m_s: 1.0, goal_north_m: 300.0,"
+        " goal_east_m: 0.0}\ntargets:\n  - {mmsi: 244000902, name: ON WP, north_m: 300.0, east_m: 0.0,"
+        " course_deg: 90.0, speed_m_s: 0.0, length_m: 10.0, beam_m: 3.0}\n")
+    assert main(["evaluate", "--traffic", str(tmp_path / "s.yaml"), "--condition", "calm", "--json"]) == 0
+    (run,) = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    (t,) = run["targets"]
+    assert run["completed"] and run["distance_kept"] and t["min_distance_m"] >= t["required_m"]
+    assert run["extra_distance_m"] < 50.0  # not a circle (350 m more before)

@@ -299,3 +299,30 @@ def test_score_never_calls_a_pass_closer_than_a_boat_length_the_rules(situation)
     (ts,) = s.targets
     assert not ts.rule_followed and not s.rules_followed and "collision not avoided" in ts.note
     assert ("never seen at risk" in ts.note) == (situation == "safe")
+
+
+def test_a_waypoint_a_stopped_vessel_occupies_is_counted_reached_as_near_as_the_rules_allow():
+    """Found by an AIS audit: a moored vessel on the mission's waypoint kept the boat circling it at 21-25 m for 27
+    minutes, until max_mission_time stopped it in open water. The waypoint is now counted reached ("occupied")
+    once the boat is at the vessel's safe distance, said in a waypoint_occupied line; a moving vessel over it, or
+    one beside it, changes nothing."""
+    from autopilot.gnc import Autopilot, GncConfig
+    from autopilot.gnc.autopilot import NavInput
+
+    def first_step(target, at_ne=(10.0, 0.0)):
+        ap = Autopilot(GncConfig(), [(30.0, 0.0), (30.0, 60.0)])
+        nav = NavInput(north_m=at_ne[0], east_m=at_ne[1], psi_rad=0.0, speed_m_s=1.0, yaw_rate_rad_s=0.0,
+                       course_rad=0.0)
+        out = ap.step(nav, 0.1, targets=[target], t_s=0.0)
+        return out, [f for name, f in ap.pop_events() if name == "waypoint_occupied"]
+
+    moored = TargetState(target_id=244000902, north_m=30.0, east_m=0.0, course_rad=0.0, speed_m_s=0.0, extent_m=5.0)
+    out, said = first_step(moored)  # 20 m off the vessel on the waypoint: its 15.8 + 5 m cannot be entered
+    assert out.reached_index == 0 and out.reached_how == "occupied" and out.wp_index == 1
+    assert said == [{"wp_index": 0, "target": 244000902, "name": None, "distance_m": 20.0, "need_m": 20.8,
+                     "target_to_waypoint_m": 0.0}]
+    assert first_step(moored, at_ne=(-20.0, 0.0))[0].reached_index is None  # 50 m off: not yet as near as it may
+    moving = TargetState(target_id=1, north_m=30.0, east_m=0.0, course_rad=math.pi / 2, speed_m_s=2.0, extent_m=5.0)
+    assert first_step(moving)[0].reached_index is None  # it will be gone
+    beside = TargetState(target_id=2, north_m=30.0, east_m=25.0, course_rad=0.0, speed_m_s=0.0, extent_m=5.0)
+    assert first_step(beside)[0].reached_index is None  # the waypoint is outside its safe distance

@@ -375,8 +375,14 @@ class Autopilot:
         if self.launch_ne_m is None:
             self.launch_ne_m = (nav.north_m, nav.east_m)
             self._events.append(("launch", {"north_m": nav.north_m, "east_m": nav.east_m}))
+        occupied = self._occupied(nav, targets)
         s = self.current.update(nav, dt_s)
         reached = s.guidance if self.current is self.auto else None  # rtl's own arrival is not a mission waypoint
+        if occupied is not None and reached is not None and reached.reached_how == "occupied":
+            self._events.append(("waypoint_occupied", {
+                "wp_index": reached.reached_index, "target": occupied.target.target_id, "name": occupied.target.name,
+                "distance_m": round(reached.reached_distance_m, 1), "need_m": round(occupied.need_m, 1),
+                "target_to_waypoint_m": round(occupied.target_to_point_m, 1)}))
         for _ in range(3):  # a hand-over steers with the new mode in the same cycle (rtl -> hold, auto -> rtl)
             if s.then is None:
                 break
@@ -386,6 +392,16 @@ class Autopilot:
         s, avoid = self._avoid(nav, s, targets, t_s)
         out = self._inner(nav, dt_s, s, reached)
         return out if avoid is None else dataclasses.replace(out, avoidance=avoid)
+
+    def _occupied(self, nav: NavInput, targets):
+        """Tell the mission's guidance whether its waypoint is occupied (Avoidance.occupying), this cycle."""
+        g = self.auto.guidance
+        occ = None
+        if targets and self.current is self.auto and not g.complete:
+            own = OwnShip(nav.north_m, nav.east_m, nav.course_rad, max(nav.speed_m_s, 0.0), nav.psi_rad)
+            occ = self.avoidance.occupying(own, g.waypoints[g.index], targets)
+        g.occupied_reach_m = None if occ is None else occ.reach_m
+        return occ
 
     def _check_hold_heading(self, s: Steering) -> None:
         """Say when a hold's given heading cannot be kept on the point (the current or wind across it), and when

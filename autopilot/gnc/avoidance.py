@@ -283,6 +283,16 @@ class AvoidanceOutput:
 MAX_ASSESSED = 48  # safe targets assessed a cycle at most (the soonest able to come near): the loop's time
 
 
+@dataclass(frozen=True)
+class Occupied:
+    """A waypoint inside a (nearly) stopped vessel's safe distance, with the boat as near as the rules allow."""
+
+    target: TargetState
+    need_m: float  # the safe distance plus the vessel's extent
+    target_to_point_m: float
+    reach_m: float  # the boat within this of the point has come as near as it may
+
+
 @dataclass
 class Avoidance:
     """COLREGs collision avoidance composed with the mission's course and speed (the module docstring)."""
@@ -337,6 +347,22 @@ class Avoidance:
             candidates.append((not at_risk, soonest_s, tid, tgt))
         candidates.sort(key=lambda c: c[:3])
         return keep + [c[3] for c in candidates[: max(0, MAX_ASSESSED - len(keep))]]
+
+    def occupying(self, own: OwnShip, point_ne_m, targets) -> Occupied | None:
+        """The stopped vessel whose safe distance covers ``point_ne_m`` (a waypoint), when own ship is at that
+        distance from it (within ``resume_margin`` x): the waypoint cannot be reached by the rules, and the boat
+        is as near as it may come. A moored vessel on the mission's waypoint kept the boat circling it at 21-25 m
+        for 27 minutes, until max_mission_time stopped it in open water (found by an AIS audit)."""
+        cfg = self.config
+        for tgt in targets:
+            if tgt.speed_m_s >= cfg.encounter.stationary_speed_m_s:
+                continue  # a moving vessel leaves the point
+            need = cfg.safe_distance_m + tgt.extent_m
+            to_point = math.hypot(point_ne_m[0] - tgt.north_m, point_ne_m[1] - tgt.east_m)
+            from_own = math.hypot(own.north_m - tgt.north_m, own.east_m - tgt.east_m)
+            if to_point < need and from_own <= cfg.resume_margin * need:
+                return Occupied(tgt, need, to_point, cfg.resume_margin * need + to_point)
+        return None
 
     def step(self, own: OwnShip, targets: list[TargetState], psi_d_rad: float, speed_cmd_m_s: float,
              t_s: float) -> AvoidanceOutput:

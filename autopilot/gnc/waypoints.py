@@ -103,6 +103,9 @@ class WaypointGuidance:
             wps[start_index - 1] if start_index > 0 else None
         )
         self._armed = False  # laws that switch on "passed abeam" only do so once the target was ahead
+        # set by the helm each cycle: the current waypoint lies inside a stopped vessel's safe distance, and the
+        # boat is as near as the rules allow within this distance of it (m): counted reached, "occupied"
+        self.occupied_reach_m: float | None = None
         self.reset()
 
     def disarm_pass(self) -> None:
@@ -154,8 +157,9 @@ class WaypointGuidance:
         xte = self._xte_m(nav.north_m, nav.east_m, i)
         steer = self._steer(nav, dt_s, i)
         captured = d_m <= self.config.capture_radius_m
-        if captured or steer.passed:
-            how = "capture" if captured else "passed"
+        occupied = self.occupied_reach_m is not None and d_m <= self.occupied_reach_m
+        if captured or steer.passed or occupied:
+            how = "capture" if captured else "passed" if steer.passed else "occupied"
             self._armed = False
             self._leg_start = self.waypoints[i]
             self.reset()

@@ -233,6 +233,9 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
     if name == "gcs":
         action = f.get("action")
         return mavlink.MAV_SEVERITY_WARNING, f"ground station {f.get('state')}" + (f": {action}" if action else "")
+    if name == "waypoint_occupied":
+        return mavlink.MAV_SEVERITY_WARNING, (f"waypoint {f.get('wp_index')} occupied by vessel {f.get('target')}: "
+                                              f"passed at {f.get('distance_m')} m")
     if name == "mission_replaced":
         return mavlink.MAV_SEVERITY_INFO, f"mission: {len(f.get('waypoints') or [])} waypoint(s)"
     if name == "param":
