@@ -170,5 +170,9 @@ def test_ais_interleaved_on_the_compass_line_is_seen(tmp_path):
             assert await d.finish(30.0) == 0
         finally:
             await d.close()
+        return d
 
-    asyncio.run(scenario())
+    d = asyncio.run(scenario())
+    # the line's share is said at the start (an AIS audit: 5 moored vessels at 4800 baud tripped heading_stale)
+    said = [r["message"] for r in d.log() if r["event"] == "info" and r["message"].startswith("ais.on_compass_line")]
+    assert said and "take 434 of the 480 characters a second at 4800 baud, leaving 46 for AIS" in said[0]

@@ -446,6 +446,10 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         loop.request_stop(early[0])
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
+    if cfg.ais.on_compass_line:
+        said = _compass_line_share(cfg.serial.sc30_baud)
+        log.event("info", t_s=0.0, message=said)
+        _console(said)
     if not ap.armed:
         said = ("disarmed before the restart: zero thrust whatever the mode until armed (`autopilot ctl arm`, or "
                 "ARM from the ground station)")
@@ -495,6 +499,19 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     if refused is not None:
         raise refused
     return code
+
+
+def _compass_line_share(baud: int) -> str:
+    """What AIS on the SC-30's line (ais.on_compass_line) has left of it: said at the start, as the line is
+    physics (an AIS audit: 5 moored vessels' reports at 4800 baud held the headings up into heading_stale)."""
+    from autopilot.drivers.sc30_output import default_sentences, line_load_cps
+
+    capacity_cps = baud / 10.0
+    load_cps = line_load_cps(*default_sentences(baud))
+    return (f"ais.on_compass_line: the SC-30's sentences (docs/sc30.md) take {load_cps:.0f} of the {capacity_cps:.0f} "
+            f"characters a second at {baud} baud, leaving {max(capacity_cps - load_cps, 0.0):.0f} for AIS (a position "
+            "report is ~50): more delays the headings into heading_stale (benchmarks/ais_compass_line.py: 5 moored "
+            "vessels at 4800 baud); a receiver on its own port (ais.port) has no such limit")
 
 
 def _quiet_check(log, clock, t0_s: float, quiet):
