@@ -155,7 +155,11 @@ def _quantiles(values) -> dict:
     if v.size == 0:
         return {"n": 0}
     fin = v[np.isfinite(v)]
-    q = np.percentile(fin, [5, 25, 50, 75, 95]) if fin.size else [math.nan] * 5
+    # over every run, the infinite ones (a waypoint never reached) included: left out while n counted them, a
+    # campaign's p95 closest approach read 2.22 m where it was 2.57 m (an audit); no interpolation into infinity
+    top = float(fin.max()) if fin.size else 0.0
+    q = np.percentile(np.where(np.isposinf(v), top + 1.0, np.where(np.isneginf(v), -np.inf, v)), [5, 25, 50, 75, 95])
+    q = np.where(q > top, np.inf, q)  # reaching into the infinite runs
     return {"n": int(v.size), "infinite": int(v.size - fin.size), "p5": float(q[0]), "p25": float(q[1]),
             "median": float(q[2]), "p75": float(q[3]), "p95": float(q[4]),
             "max": float(v.max()), "mean": float(fin.mean()) if fin.size else math.nan}
