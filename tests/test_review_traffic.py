@@ -295,3 +295,5 @@ def test_a_target_that_went_silent_while_closing_is_said_to_have_an_unknown_clos
                      r"close it came after that is not in the log", ferry.note), ferry.note
     (whole,) = score(read_log(traffic_log)).targets
     assert "reports stopped" not in (whole.note or "") and whole.closest_m < ferry.closest_m
+    # nor is the distance called kept (an AIS audit: "distance_kept": true of a pass it did not see)
+    assert ferry.distance_kept is None and whole.distance_kept is True

@@ -807,12 +807,15 @@ def target_review(log: MissionLog, track: TargetTrack) -> TargetReview:
     silent = _silent_while_closing(log, track, fix_t, n, e, tn, te)
     if silent:
         note = f"{note}; {silent}" if note else silent
+    kept = sc.distance_kept if math.isfinite(required) else None
+    if silent and kept:  # kept while it reported; how close it came after is not known (an audit: "kept" said)
+        kept = None
     return TargetReview(
         **common, situations=_situations_met(log, track.target, list(sc.situations)), situation=sc.situation,
         closest_m=sc.min_distance_m, closest_t_s=t_min,
         own_north_m=float(np.interp(t_min, fix_t, n)), own_east_m=float(np.interp(t_min, fix_t, e)),
         target_north_m=float(ptn[0]), target_east_m=float(pte[0]),
-        distance_kept=sc.distance_kept if math.isfinite(required) else None,
+        distance_kept=kept,
         acted=sc.acted or first_act is not None, first_action_t_s=first_act if first_act is not None else sc.first_action_t_s,
         side=sc.side, max_alteration_deg=sc.max_alteration_deg, rule_followed=sc.rule_followed, note=note,
     )

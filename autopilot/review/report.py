@@ -164,7 +164,7 @@ def _target_table(card: Scorecard) -> str:
             f"{t.side} (up to {_num(t.max_alteration_deg, 0)} deg)" if t.side else "speed only")
 
     def kept(t):
-        return "n/a" if t.distance_kept is None else ("yes" if t.distance_kept else "NO")
+        return "unknown" if t.distance_kept is None else ("yes" if t.distance_kept else "NO")
 
     rows = [[t.label + (f" ({t.target})" if t.name else ""), " > ".join(t.situations) or "-", side(t),
              ("yes" if t.rule_followed else "NO") + (f": {t.note}" if t.note else ""), kept(t),
