@@ -706,3 +706,13 @@ def test_distribution_percentiles_count_the_runs_that_never_reached_their_waypoi
     assert q["p95"] > np.percentile(finite, 95)
     assert _quantiles(finite + [math.inf] * 10)["p95"] == math.inf  # the 95th run never got there
     assert _quantiles([1.0, 2.0, 3.0, 4.0])["p95"] == pytest.approx(3.85)  # all finite: as before
+
+
+@pytest.mark.parametrize("text", ["", "# a spec to write\n\n"])
+def test_an_empty_spec_is_said_empty_not_missing_its_missions(tmp_path, capsys, text):
+    """Found by a campaign audit: an empty file was answered "missions: name at least one mission"."""
+    spec = tmp_path / "empty.yaml"
+    spec.write_text(text, encoding="utf-8")
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"{spec}: the file is empty (or comments only)" in err and "Traceback" not in err

@@ -406,6 +406,9 @@ def load_spec(path: str | Path) -> CampaignSpec:
         data = parse_yaml(text)
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: not valid YAML ({yaml_problem(exc)})") from exc
+    if data is None:  # it said "missions: name at least one mission", as if a key were missing
+        raise ConfigError(f"{path}: the file is empty (or comments only): a campaign spec names its missions, "
+                          "laws and conditions (see the shipped one: autopilot files)")
     try:
         return _load_spec(data)
     except ConfigError as exc:
