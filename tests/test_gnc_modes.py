@@ -344,3 +344,27 @@ def test_the_hold_smooths_a_fixs_jump_but_follows_the_boats_own_motion_without_l
     for _ in range(int(5 * cfg.position_smoothing_s / 0.1)):
         out = sk.step(n - 1.0, 0.0, 0.0, 0.0, 0.0, 0.1)
     assert out.error_m == pytest.approx(before.error_m + 1.0, abs=0.01)  # and all of it in a few time constants
+
+
+def test_a_plain_hold_while_holding_a_given_heading_lets_the_heading_go():
+    """Found by a modes audit: `ctl hold` during `ctl hold --heading 0` was answered "hold" and ignored: the boat
+    kept the heading across a current it could not hold at, 10 m off the point, and only resume-then-hold (refused
+    after a latched failsafe) got out of it. The plain hold now holds the same point at the least-effort heading,
+    with what was learned of the current; a plain hold while holding least effort changes nothing."""
+    ap = helm()
+    ap.step(HERE, 0.1)
+    assert ap.request("hold", HERE, cause="ctl hold", heading_rad=0.0) == (True, "hold")
+    given = ap.current.keeper
+    assert given.heading_rad == 0.0
+    for _ in range(300):  # pushed west of the point: it learns the current
+        ap.step(dataclasses.replace(HERE, east_m=given.target[1] - 1.0), 0.1)
+    learned = given.disturbance_ne_n
+    assert math.hypot(*learned) > 1.0
+    ap.pop_events()
+    turned = dataclasses.replace(HERE, psi_rad=math.radians(40.0))
+    assert ap.request("hold", turned, cause="ctl hold") == (True, "hold")
+    free = ap.current.keeper
+    assert free is not given and free.heading_rad is None and free.target == given.target
+    assert free.disturbance_ne_n == learned
+    assert [(f["from"], f["mode"]) for n, f in ap.pop_events() if n == "mode"] == [("hold", "hold")]
+    assert ap.request("hold", turned, cause="ctl hold") == (True, "hold") and ap.current.keeper is free

@@ -219,6 +219,15 @@ class Autopilot:
             return False, f"pause refused: mode {mode.value} (pause holds a running mission or return)"
         if command == "rtl" and self.launch_ne_m is None:
             return False, "rtl refused: no launch point yet (control has not started)"
+        given = getattr(getattr(self.current, "keeper", None), "heading_rad", None)
+        if (command == "hold" and mode is Mode.HOLD and heading_rad is None and target_ne_m is None
+                and given is not None):
+            # a plain hold while holding a given heading: the heading is no longer given (it was answered "hold"
+            # and ignored, the boat held across a current it could not, 10 m off; a modes audit)
+            self._switch(HoldMode(self.config.hold, self.current.keeper.target, heading_rad=None,
+                                  initial_heading_rad=nav.psi_rad,
+                                  keeper=self.current.keeper.least_effort(nav.psi_rad)), cause)
+            return True, Mode.HOLD.value
         if mode is _MODE_OF_COMMAND[command] and not (command == "hold" and (heading_rad is not None or
                                                                              target_ne_m is not None)):
             if cause != self.mode_cause:  # the same hold, asked for another reason: a planner's LOITER after its

@@ -154,6 +154,13 @@ class StationKeeper:
     def disturbance_ne_n(self) -> tuple[float, float]:
         return self._d_n
 
+    def least_effort(self, psi_rad: float) -> StationKeeper:
+        """The same point and what was learned of the disturbance (north/east, whatever the heading), the heading
+        no longer given: the least-effort one from ``psi_rad`` (the boat's now)."""
+        keeper = StationKeeper(self.config, self.target, heading_rad=None, initial_heading_rad=psi_rad)
+        keeper._d_n = self._d_n
+        return keeper
+
     def step(self, north_m: float, east_m: float, psi_rad: float, sog_m_s: float, cog_rad: float,
              dt_s: float) -> HoldOutput:
         cfg = self.config
