@@ -53,6 +53,20 @@ def test_autopilot_tau_com_is_table_plus_trim():
     assert fast.tau_com_trim_n < 0.0 and fast.tau_com_n < common_thrust_n(fast.speed_cmd_m_s)
 
 
+def test_a_boat_blown_astern_is_too_slow_not_too_fast():
+    """Found by a modes audit: the trim compared the wanted speed with the size of the speed over ground, so a boat
+    heading home while blown backwards at 2.3 m/s read as too fast, and its forward thrust was floored at zero for
+    25 minutes of rtl. The speed made along the heading is what the common thrust drives: astern is negative."""
+    import dataclasses
+
+    astern = dataclasses.replace(nav(2.3), course_rad=math.pi)  # heading north, going south
+    out = Autopilot(GncConfig(), [(100.0, 0.0)]).step(astern, 0.1)
+    assert out.tau_com_trim_n > 0.0 and out.tau_com_n > common_thrust_n(out.speed_cmd_m_s)
+    crabbing = dataclasses.replace(nav(1.0), course_rad=math.radians(60.0))  # 1 m/s over ground, 0.5 along
+    out = Autopilot(GncConfig(), [(100.0, 0.0)]).step(crabbing, 0.1)
+    assert out.tau_com_trim_n > 0.0  # half the speed along the hull: more thrust
+
+
 def test_trim_never_asks_astern_and_disabled_is_the_thesis():
     out = Autopilot(GncConfig(), [(100.0, 0.0)]).step(nav(3.4), 0.1)  # far too fast
     assert out.tau_com_n >= 0.0

@@ -37,7 +37,7 @@ from autopilot.gnc.modes import (
     StopMode,
 )
 from autopilot.gnc.pid import HeadingPid
-from autopilot.gnc.speed import SpeedTrim
+from autopilot.gnc.speed import SpeedTrim, along_heading_m_s
 from autopilot.gnc.thrust_curve import ThrustCurve
 from autopilot.logschema import Mode
 from autopilot.measured import HULL_LENGTH_M
@@ -482,7 +482,7 @@ class Autopilot:
             p_n, i_n, d_n = terms.p_n, terms.i_n, terms.d_n
             floor = False
             if s.kind == "course":
-                speed_n = nav.speed_m_s if math.isfinite(nav.speed_m_s) else s.speed_cmd_m_s  # no speed: table only
+                speed_n = along_heading_m_s(nav) if math.isfinite(nav.speed_m_s) else s.speed_cmd_m_s  # none: table only
                 trim_n = self.speed_trim.terms(s.speed_cmd_m_s, speed_n).trim_n
                 tau_com = common_thrust_n(s.speed_cmd_m_s) + trim_n
                 floor = tau_com <= 0.0

@@ -9,7 +9,8 @@ headwind puts ~20 N of drag on the WAM-V at 1 m/s (model ``wind_cx`` x frontal
 area), more than the table's 2 x 9.4 N for that speed, and the boat stalls
 or drifts astern; a following current makes it overshoot the speed and every
 turn radius grows. The trim closes the loop on the speed over ground the
-GPS gives (NavInput.speed_m_s), so the table stays the feed-forward (it
+GPS gives, made along the heading (:func:`along_heading_m_s`: a boat going
+astern is slower than stopped, not faster), so the table stays the feed-forward (it
 carries the steady thrust, the trim only the disturbance) and the trim can be
 small and slow.
 
@@ -35,6 +36,7 @@ Pure: speed, wanted speed, dt in; newtons out.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from autopilot.mathutil import clamp
@@ -64,6 +66,13 @@ class SpeedTrimTerms:
     p_n: float
     i_n: float
     trim_n: float
+
+
+def along_heading_m_s(nav) -> float:
+    """The speed over ground made along the heading (m/s; negative: the boat goes astern), what the common thrust
+    drives: the size of the speed over ground took a boat blown backwards at 2.3 m/s for one too fast, and the
+    trim floored its forward thrust at zero (found by a modes audit: an rtl in a gale drifted 3.8 km)."""
+    return nav.speed_m_s * math.cos(nav.course_rad - nav.psi_rad)
 
 
 class SpeedTrim:
