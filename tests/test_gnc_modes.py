@@ -368,3 +368,18 @@ def test_a_plain_hold_while_holding_a_given_heading_lets_the_heading_go():
     assert free.disturbance_ne_n == learned
     assert [(f["from"], f["mode"]) for n, f in ap.pop_events() if n == "mode"] == [("hold", "hold")]
     assert ap.request("hold", turned, cause="ctl hold") == (True, "hold") and ap.current.keeper is free
+
+
+def test_a_hold_taken_at_speed_turns_towards_its_point_while_braking():
+    """Found by a modes audit: a hold commanded at 2 m/s braked astern while the boat still ran ahead, and the
+    heading correction followed the thrust's sign: it turned away from the point (6 m ahead, 2 m to port: 21.8 deg
+    to starboard), the boat overshot and the disturbance estimate wound up to 27 N in calm water. With way on, the
+    correction follows the motion; at rest, the thrust it is about to give."""
+    ahead_port = (6.0, -2.0)
+    braking = StationKeeper(HoldConfig(), ahead_port, initial_heading_rad=0.0).step(0.0, 0.0, 0.0, 2.0, 0.0, 0.1)
+    assert braking.tau_com_n < 0.0 and braking.psi_d_rad < 0.0  # astern thrust, bow to port: towards the point
+    at_rest = StationKeeper(HoldConfig(), ahead_port, initial_heading_rad=0.0).step(0.0, 0.0, 0.0, 0.0, 0.0, 0.1)
+    assert at_rest.tau_com_n > 0.0 and at_rest.psi_d_rad < 0.0
+    behind_port = (-6.0, -2.0)  # going astern towards a point astern and to port: the stern swings to port
+    backing = StationKeeper(HoldConfig(), behind_port, initial_heading_rad=0.0).step(0.0, 0.0, 0.0, 0.5, math.pi, 0.1)
+    assert backing.psi_d_rad > 0.0

@@ -125,6 +125,9 @@ class HoldOutput:
     feasible_heading_rad: float | None = None
 
 
+LEAD_BY_MOTION_M_S = 0.2  # with this much way on along the hull, the motion's sign steers the correction
+
+
 def sqrt_controller(error: float, gain: float, accel: float) -> float:
     """Rate for an error: ``gain * error`` near zero, ``sqrt(2 accel |error|)`` farther out (continuous at the
     knee ``accel / gain^2``), so closing at that rate can always be stopped at ``accel``."""
@@ -200,7 +203,11 @@ class StationKeeper:
             return self._out(self._psi_ref, tau_com, 0.0, False, False, d)
         e_l = -en * math.sin(self._psi_ref) + ee * math.cos(self._psi_ref)
         limit = math.radians(cfg.max_correction_deg)
-        lead = 1.0 if tau_com >= 0.0 else -1.0  # astern, turning the other way moves the boat the same way
+        # astern, turning the other way moves the boat the same way; the way the boat moves, not the thrust, while
+        # it has way on: braking astern at 2 m/s ahead, the thrust's sign turned it away from the point, and the
+        # overshoot that followed wound the disturbance estimate up to its limit in calm water (a modes audit)
+        moving = v_a if abs(v_a) >= LEAD_BY_MOTION_M_S else tau_com
+        lead = 1.0 if moving >= 0.0 else -1.0
         psi_d = self._psi_ref + clamp(math.atan2(lead * e_l, cfg.lookahead_m), -limit, limit)
         return self._out(wrap_pi(psi_d), tau_com, 0.0, False, False, d)
 
