@@ -344,6 +344,13 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("feasible_heading_deg", "float", "deg", "(across) the direction of the disturbance: bow (or stern) this way holds the point (a hold without a heading faces it)"),
         _f("limit_deg", "float", "deg", "(across) the heading correction station keeping may use"),
     )),
+    EventSpec("hold_off", "a hold (station keeping: `hold`, a pause, a mission's hold, rtl's arrival) has been farther than `gnc.hold.off_warn_m` from its point for `gnc.hold.off_warn_s`: it is not keeping it (a current or wind it cannot stem or settle against); or it is back within that distance, or the hold ended", (
+        _f("off", "bool", "-", "true: off its point; false: back (or the hold ended)"),
+        _f("error_m", "float", "m", "the distance from the point now (absent when the hold ended)"),
+        _f("for_s", "float", "s", "(off) how long it has been that far"),
+        _f("limit_m", "float", "m", "`gnc.hold.off_warn_m`"),
+        _f("disturbance_n", "float", "N", "(off) station keeping's estimate of the thrust per thruster the current and wind take"),
+    )),
     EventSpec("launch", "the launch point was set: where the boat was when control first started (`rtl` returns there; after a restart that carries on an interrupted run, that run's)", (
         _f("north_m", "float", "m", "local frame"),
         _f("east_m", "float", "m", "local frame"),

@@ -383,3 +383,29 @@ def test_a_hold_taken_at_speed_turns_towards_its_point_while_braking():
     behind_port = (-6.0, -2.0)  # going astern towards a point astern and to port: the stern swings to port
     backing = StationKeeper(HoldConfig(), behind_port, initial_heading_rad=0.0).step(0.0, 0.0, 0.0, 0.5, math.pi, 0.1)
     assert backing.psi_d_rad > 0.0
+
+
+def test_a_hold_swept_off_its_point_is_said_once_and_its_return_too():
+    """Found by a modes audit: in a strong current a hold swept the boat 18 m off its point and back every 80 s for
+    500 s, the disturbance estimate at its limit, and nothing said it: status gave the error, faults none. Now a
+    hold farther than gnc.hold.off_warn_m (5 m) for off_warn_s (30 s) is a hold_off event (a STATUSTEXT on the
+    link), and its return another; a shorter excursion says nothing."""
+    ap = helm()
+    ap.step(HERE, 0.1)
+    assert ap.request("hold", HERE, cause="ctl hold") == (True, "hold")
+    point = ap.current.keeper.target
+    off = dataclasses.replace(HERE, north_m=point[0] - 10.0, east_m=point[1])
+
+    def hold_for(nav, seconds):
+        for _ in range(int(round(seconds / 0.1))):
+            ap.step(nav, 0.1)
+        return [f for n, f in ap.pop_events() if n == "hold_off"]
+
+    ap.pop_events()
+    assert hold_for(off, 20.0) == []  # 20 s off: not yet
+    assert hold_for(HERE, 5.0) == []  # back: the count starts again
+    said = hold_for(off, 40.0)
+    assert len(said) == 1 and said[0]["off"] is True and said[0]["error_m"] == pytest.approx(10.0, abs=0.5)
+    assert said[0]["for_s"] == pytest.approx(30.0, abs=0.2) and said[0]["limit_m"] == 5.0
+    back = hold_for(dataclasses.replace(HERE, north_m=point[0], east_m=point[1]), 5.0)
+    assert [b["off"] for b in back] == [False]

@@ -138,6 +138,8 @@ class Autopilot:
         self.avoidance = Avoidance(config.avoidance)
         self._situations: dict[int, tuple[str, bool]] = {}  # target -> (situation, acting) last logged
         self._hold_across = False  # the last hold_heading event said the given heading cannot be kept
+        self._hold_off_s = 0.0  # how long the hold has been farther than hold.off_warn_m from its point
+        self._hold_off_said = False
 
     # ---------------------------------------------------------------- state
     @property
@@ -398,6 +400,7 @@ class Autopilot:
             self._hand_over(s.then, nav)
             s = self.current.update(nav, dt_s)
         self._check_hold_heading(s)
+        self._check_hold_off(s, dt_s)
         s, avoid = self._avoid(nav, s, targets, t_s)
         out = self._inner(nav, dt_s, s, reached)
         return out if avoid is None else dataclasses.replace(out, avoidance=avoid)
@@ -411,6 +414,25 @@ class Autopilot:
             occ = self.avoidance.occupying(own, g.waypoints[g.index], targets)
         g.occupied_reach_m = None if occ is None else occ.reach_m
         return occ
+
+    def _check_hold_off(self, s: Steering, dt_s: float) -> None:
+        """Say when a hold has been off its point by more than hold.off_warn_m for hold.off_warn_s (a current or wind
+        it cannot stem, or cannot settle against: one swept the boat 18 m off and back every 80 s for 500 s, status
+        saying only the error; found by a modes audit), and when it is back within that distance."""
+        cfg = self.config.hold
+        off = s.hold is not None and math.isfinite(s.hold.error_m) and s.hold.error_m > cfg.off_warn_m
+        self._hold_off_s = self._hold_off_s + dt_s if off else 0.0
+        if off and not self._hold_off_said and self._hold_off_s >= cfg.off_warn_s:
+            self._hold_off_said = True
+            self._events.append(("hold_off", {"off": True, "error_m": round(s.hold.error_m, 1),
+                                              "for_s": round(self._hold_off_s, 1), "limit_m": cfg.off_warn_m,
+                                              "disturbance_n": round(s.hold.disturbance_n, 1)}))
+        elif self._hold_off_said and (s.hold is None or not off):
+            self._hold_off_said = False
+            fields = {"off": False, "limit_m": cfg.off_warn_m}
+            if s.hold is not None:
+                fields["error_m"] = round(s.hold.error_m, 1)
+            self._events.append(("hold_off", fields))
 
     def _check_hold_heading(self, s: Steering) -> None:
         """Say when a hold's given heading cannot be kept on the point (the current or wind across it), and when

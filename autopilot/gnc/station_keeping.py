@@ -87,6 +87,11 @@ class HoldConfig:
                                  doc="at most this much error drives the estimate (a large error is a transient)")
     integral_limit_n: float = param(28.0, unit="N", lo=0.0, hi=100.0, source="below the 32.5 N of a thruster",
                                     doc="largest disturbance estimate (per thruster)")
+    off_warn_m: float = param(5.0, unit="m", lo=0.5, hi=1000.0, source="chosen: 5x the hold's error in 0.2 m/s of "
+                              "current (README, Modes); a modes audit's hold swept 18 m off and back every 80 s unsaid",
+                              doc="a hold this far off its point for off_warn_s is said (hold_off: it is not keeping it)")
+    off_warn_s: float = param(30.0, unit="s", lo=1.0, hi=3600.0, source="chosen: longer than an approach or a "
+                              "failsafe's resume takes", doc="see off_warn_m")
     disturbance_min_n: float = param(1.0, unit="N", lo=0.0, hi=30.0, source="chosen",
                                      doc="below this estimate the heading held so far is kept (no resultant to face)")
     heading_rate_deg_s: float = param(9.0, unit="deg/s", lo=0.1, hi=90.0, source="chosen",

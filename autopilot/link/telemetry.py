@@ -233,6 +233,11 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
     if name == "gcs":
         action = f.get("action")
         return mavlink.MAV_SEVERITY_WARNING, f"ground station {f.get('state')}" + (f": {action}" if action else "")
+    if name == "hold_off":
+        if f.get("off"):
+            return mavlink.MAV_SEVERITY_WARNING, (f"hold: {f.get('error_m')} m off the point for {f.get('for_s')} s "
+                                                  f"(estimated disturbance {f.get('disturbance_n')} N a thruster)")
+        return mavlink.MAV_SEVERITY_INFO, "hold: back near the point"
     if name == "waypoint_occupied":
         return mavlink.MAV_SEVERITY_WARNING, (f"waypoint {f.get('wp_index')} occupied by vessel {f.get('target')}: "
                                               f"passed at {f.get('distance_m')} m")
