@@ -384,15 +384,19 @@ def _loiter(cmd: int, param1: Any):
     return None
 
 
+def _loiter_here(cmd: int, lat: Any, lon: Any) -> bool:
+    """A loiter item at latitude and longitude 0: MAVLink's "here", a hold at the waypoint before it."""
+    try:
+        return cmd in LOITER_ITEMS and float(lat) == 0.0 and float(lon) == 0.0
+    except (TypeError, ValueError):
+        return False
+
+
 def _add_item(points: list, where: str, cmd: int, lat: Any, lon: Any, speed: Any, param1: Any) -> None:
     """A waypoint or loiter item. A loiter at latitude and longitude 0 (MAVLink: "here") holds at the
     waypoint before it, as Mission Planner and QGroundControl write it."""
     hold = _loiter(cmd, param1)
-    try:
-        here = cmd in LOITER_ITEMS and float(lat) == 0.0 and float(lon) == 0.0
-    except (TypeError, ValueError):
-        here = False
-    if here:
+    if _loiter_here(cmd, lat, lon):
         if not points:
             raise MissionError(f"{where}: a loiter at the current position (latitude and longitude 0) needs a "
                                "waypoint before it")
@@ -634,7 +638,8 @@ class ItemNumbers:
         items = mission_to_items(mission)
         # a loiter "here" is a hold at the waypoint before, not a waypoint: counted as one, every later
         # waypoint's number was one off (MISSION_SET_CURRENT flew to the waypoint after the one asked)
-        return cls(tuple(it["seq"] for it in items[1:] if it["command"] in NAV_ITEMS and not _loiter_here(it)),
+        return cls(tuple(it["seq"] for it in items[1:]
+                         if it["command"] in NAV_ITEMS and not _loiter_here(it["command"], it["lat_deg"], it["lon_deg"])),
                      next((it["seq"] for it in items if it["command"] == NAV_RETURN_TO_LAUNCH), None), len(items))
 
     def waypoint_of(self, seq: int) -> int | None:
@@ -645,8 +650,6 @@ class ItemNumbers:
         return next((i for i, s in enumerate(self.waypoints) if s >= seq), None)
 
 
-def _loiter_here(item: dict) -> bool:
-    return item["command"] in LOITER_ITEMS and float(item["lat_deg"]) == 0.0 and float(item["lon_deg"]) == 0.0
 
 
 def to_waypoints_text(mission: Mission) -> str:

@@ -40,6 +40,9 @@ FAILSAFE = {
     "garbage_hold_s": 1.0,
     "resume_valid_s": 2.0,
     "start_valid_s": 1.0,
+    # control starts a second after the first fix, as before the shipped 5 s (the rig's tests are about faults
+    # after the start; the 5 s itself: tests/test_navigation_jump.py, and test_daemon_e2e.py's shipped config)
+    "position_confirm_s": 1.0,
 }
 ACK_TIMEOUT_S = 0.3
 STOP_TIMEOUT_S = 0.5  # the simulated firmware's own stop (docs/mbed-protocol.md)

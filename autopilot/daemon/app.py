@@ -446,15 +446,15 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         loop.request_stop(early[0])
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
+    said: list[str] = []
     if cfg.ais.on_compass_line:
-        said = _compass_line_share(cfg.serial.sc30_baud)
-        log.event("info", t_s=0.0, message=said)
-        _console(said)
+        said.append(_compass_line_share(cfg.serial.sc30_baud))
     if not ap.armed:
-        said = ("disarmed before the restart: zero thrust whatever the mode until armed (`autopilot ctl arm`, or "
-                "ARM from the ground station)")
-        log.event("info", t_s=0.0, message=said)
-        _console(said)
+        said.append("disarmed before the restart: zero thrust whatever the mode until armed (`autopilot ctl arm`, "
+                    "or ARM from the ground station)")
+    for text in said:  # in the log and on the console (the journal) alike
+        log.event("info", t_s=0.0, message=text)
+        _console(text)
     link, reason, refused = None, "error", None
     try:
         link = await _start_link(cfg, opts, loop)

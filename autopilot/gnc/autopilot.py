@@ -100,6 +100,11 @@ class ControlOutput:
 _MODE_OF_COMMAND = {"hold": Mode.HOLD, "pause": Mode.PAUSED, "rtl": Mode.RTL, "stop": Mode.STOP}
 
 
+def _own_ship(nav: NavInput) -> OwnShip:
+    """Own ship for the encounter assessment, from the helm's navigation."""
+    return OwnShip(nav.north_m, nav.east_m, nav.course_rad, max(nav.speed_m_s, 0.0), nav.psi_rad)
+
+
 class Autopilot:
     """The helm for one mission: modes, then PID and allocation. ``step`` once per control cycle."""
 
@@ -410,8 +415,7 @@ class Autopilot:
         g = self.auto.guidance
         occ = None
         if targets and self.current is self.auto and not g.complete:
-            own = OwnShip(nav.north_m, nav.east_m, nav.course_rad, max(nav.speed_m_s, 0.0), nav.psi_rad)
-            occ = self.avoidance.occupying(own, g.waypoints[g.index], targets)
+            occ = self.avoidance.occupying(_own_ship(nav), g.waypoints[g.index], targets)
         g.occupied_reach_m = None if occ is None else occ.reach_m
         return occ
 
@@ -455,7 +459,7 @@ class Autopilot:
         course and station keeping brings it back."""
         if s.kind not in ("course", "force") or (not targets and not self._situations):
             return s, None
-        own = OwnShip(nav.north_m, nav.east_m, nav.course_rad, max(nav.speed_m_s, 0.0), nav.psi_rad)
+        own = _own_ship(nav)
         if s.kind == "course":
             a = self.avoidance.step(own, list(targets), s.psi_d_rad, s.speed_cmd_m_s, t_s)
             if a.active:

@@ -237,7 +237,9 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
         if f.get("off"):
             return mavlink.MAV_SEVERITY_WARNING, (f"hold: {f.get('error_m')} m off the point for {f.get('for_s')} s "
                                                   f"(estimated disturbance {f.get('disturbance_n')} N a thruster)")
-        return mavlink.MAV_SEVERITY_INFO, "hold: back near the point"
+        if f.get("error_m") is None:
+            return mavlink.MAV_SEVERITY_INFO, "hold ended off its point"
+        return mavlink.MAV_SEVERITY_INFO, f"hold: back within {f.get('limit_m')} m of the point"
     if name == "waypoint_occupied":
         return mavlink.MAV_SEVERITY_WARNING, (f"waypoint {f.get('wp_index')} occupied by vessel {f.get('target')}: "
                                               f"passed at {f.get('distance_m')} m")
