@@ -304,6 +304,7 @@ def test_a_second_bench_run_keeps_its_own_progress_and_a_held_start_is_said(tmp_
     work.mkdir()
     cfg = yaml.safe_load(CONFIG.read_text())
     cfg.setdefault("failsafe", {})["max_mission_time_s"] = 120.0
+    cfg["failsafe"]["position_confirm_s"] = 1.0  # the first run (real time) starts a second after its first fix
     (work / "c.yaml").write_text(yaml.safe_dump(cfg))
 
     def run(speedup: str, **kw):

@@ -946,6 +946,7 @@ def test_a_radio_missing_at_start_is_retried_and_the_daemon_flies_meanwhile(tmp_
     radio_path = tmp_path / "radio"
     cfg = yaml.safe_load((ROOT / "config" / "autopilot.yaml").read_text())
     cfg["sim"]["origin_lat_deg"], cfg["sim"]["origin_lon_deg"] = ORIGIN
+    cfg["failsafe"]["position_confirm_s"] = 1.0  # real time: it starts a second after its first fix
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
     p = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", "1", "--config",
                           str(tmp_path / "c.yaml"), "--mission", "pond-9.4", "--log-dir", str(tmp_path / "logs"),

@@ -315,7 +315,7 @@ def test_closed_loop_wind_is_named_wind(tmp_path):
     from autopilot.sysid import read_trial
     from autopilot.sysid.closed_loop import fly_pond_logs
 
-    logs = fly_pond_logs(tmp_path, 20261205, n_logs=4, wind_speed_m_s=5.0, wind_from_deg=90.0, speedup=3.0)
+    logs = fly_pond_logs(tmp_path, 20261205, n_logs=4, wind_speed_m_s=5.0, wind_from_deg=90.0, speedup=4.0)
     result = identify([read_trial(p) for p in logs], VESSEL)
     print(f"  {result.status} {result.verdict} {result.chosen.values()} {result.notes}")
     assert result.status == "effects" and result.verdict == ("wind",), result.notes
