@@ -97,3 +97,19 @@ def test_a_restart_remembers_latched_faults_the_launch_point_and_an_aborted_run(
     assert StateStore(tmp_path).load().armed is False
     st.path.write_text(json.dumps({**old, "armed": "no"}))  # not a file a daemon wrote: not trusted
     assert st.interrupted("abc", 4)[1].startswith(f"the saved progress {st.path} cannot be read")
+
+
+def test_a_disarm_is_kept_for_the_next_start_however_the_last_run_ended(tmp_path):
+    """A disarm is the operator's "no thrust" for the boat: after a crash (status running), a clean stop (systemctl
+    restart: status stopped) or a completed run, the next start is disarmed until armed; --fresh starts armed."""
+    from autopilot.daemon.app import RunOptions, _armed_at_start
+
+    st = StateStore(tmp_path)
+    opts, fresh = RunOptions(mission_path="m.yaml"), RunOptions(mission_path="m.yaml", fresh=True)
+    assert _armed_at_start(opts, st)  # no progress: armed
+    for status in ("running", "stopped", "complete", "aborted"):
+        st.save(Progress("m", "abc", 1, status, armed=False))
+        assert not _armed_at_start(opts, st), status
+        assert _armed_at_start(fresh, st)
+    st.save(Progress("other", "def", 0, "stopped"))
+    assert _armed_at_start(opts, st)

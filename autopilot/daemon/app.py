@@ -308,6 +308,13 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: s
     return 0, "interrupted mission found in the state directory and failsafe.resume_after_restart is false (--fresh starts afresh)"
 
 
+def _armed_at_start(opts: RunOptions, store: StateStore) -> bool:
+    """False when the last run ended disarmed, however it ended (a crash, systemctl restart) and whatever its
+    mission: a disarm is the operator's "no thrust" for the boat, kept until armed; --fresh starts armed."""
+    saved = None if opts.fresh else store.load()
+    return True if saved is None else saved.armed
+
+
 def _run_before(opts: RunOptions, store: StateStore, sha: str):
     """The saved progress of this mission's last run when a restart carries it on (not --fresh; interrupted or
     aborted: StateStore.interrupted): its launch point (rtl's home) and latched faults are this run's too. A run
@@ -425,7 +432,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
                        rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index,
                        launch_ne_m=None if before is None else before.launch_ne_m,
-                       armed=True if before is None else before.armed)
+                       armed=_armed_at_start(opts, store))
         loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
                            compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
                            fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
@@ -450,8 +457,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     if cfg.ais.on_compass_line:
         said.append(_compass_line_share(cfg.serial.sc30_baud))
     if not ap.armed:
-        said.append("disarmed before the restart: zero thrust whatever the mode until armed (`autopilot ctl arm`, "
-                    "or ARM from the ground station)")
+        said.append("disarmed when the last run ended: zero thrust whatever the mode until armed (`autopilot ctl "
+                    "arm`, or ARM from the ground station; --fresh starts armed)")
     for text in said:  # in the log and on the console (the journal) alike
         log.event("info", t_s=0.0, message=text)
         _console(text)
