@@ -176,3 +176,23 @@ def test_ais_interleaved_on_the_compass_line_is_seen(tmp_path):
     # the line's share is said at the start (an AIS audit: 5 moored vessels at 4800 baud tripped heading_stale)
     said = [r["message"] for r in d.log() if r["event"] == "info" and r["message"].startswith("ais.on_compass_line")]
     assert said and "take 434 of the 480 characters a second at 4800 baud, leaving 46 for AIS" in said[0]
+
+
+def test_the_lockstep_quiet_check_never_raises_and_says_its_failure_once():
+    """The wrapper behind the fix above: any check that raises is taken as quiet (time goes on), said once."""
+    import types
+
+    from autopilot.daemon.app import _quiet_check
+
+    said = []
+    log = types.SimpleNamespace(event=lambda name, **f: said.append((name, f)))
+    clock = types.SimpleNamespace(now_s=lambda: 12.5)
+
+    def broken():
+        raise AttributeError("'NoneType' object has no attribute 'quiet'")
+
+    check = _quiet_check(log, clock, 2.5, broken)
+    assert check() is True and check() is True
+    assert len(said) == 1 and said[0][1]["t_s"] == 10.0
+    assert "AttributeError" in said[0][1]["error"] and said[0][1]["message"].startswith("lockstep:")
+    assert _quiet_check(log, clock, 2.5, lambda: False)() is False

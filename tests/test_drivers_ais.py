@@ -571,3 +571,27 @@ def test_a_vessel_without_course_or_speed_moves_by_its_heading_or_its_track():
     assert twice.speed_m_s == pytest.approx(2.0, abs=0.01)
     _, unknown = report(300.0, -20.0, speed=102.3, course=360.0, heading=511)  # 290 s after the last: no track
     assert not unknown.motion_known and unknown.speed_m_s == 0.0
+
+
+def test_a_relayed_copy_of_a_report_is_not_a_new_position():
+    """Found by a review: a repeater's copy (repeat indicator 1) of a report already heard, 2.5 s later, made a
+    vessel moving at 2 m/s "known stopped" (its track 0) and its next real report 2.6 m/s (a short interval)."""
+    from autopilot.geo import local_to_latlon
+
+    origin = (52.0, 5.0)
+    rx = AisReceiver()
+
+    def report(t_s, north_m, repeat=0):
+        lat, lon = local_to_latlon(north_m, 0.0, *origin)
+        rx.feed_line(encode_ais({"type": 18, "mmsi": 244000501, "repeat": repeat, "lat": lat, "lon": lon,
+                                 "speed": 102.3, "course": 360.0, "heading": 511}, sentence_type="VDM")[0], t_s)
+        (t,) = rx.targets(t_s)
+        return t
+
+    report(0.0, 0.0)
+    assert report(30.0, 60.0).track_ne_m_s == pytest.approx((2.0, 0.0), abs=0.05)
+    copy = report(32.5, 60.0, repeat=1)
+    assert copy.track_ne_m_s == pytest.approx((2.0, 0.0), abs=0.05) and copy.position_t_s == 30.0
+    assert report(40.0, 80.0).track_ne_m_s == pytest.approx((2.0, 0.0), abs=0.05)
+    moved = report(50.0, 100.0, repeat=1)  # a relayed report of a position not heard: the best there is
+    assert moved.position_t_s == 50.0

@@ -394,7 +394,7 @@ def test_a_hold_swept_off_its_point_is_said_once_and_its_return_too():
     ap.step(HERE, 0.1)
     assert ap.request("hold", HERE, cause="ctl hold") == (True, "hold")
     point = ap.current.keeper.target
-    off = dataclasses.replace(HERE, north_m=point[0] - 10.0, east_m=point[1])
+    off = dataclasses.replace(HERE, north_m=point[0] - 6.0, east_m=point[1])  # within approach_m (8): holding
 
     def hold_for(nav, seconds):
         for _ in range(int(round(seconds / 0.1))):
@@ -405,7 +405,19 @@ def test_a_hold_swept_off_its_point_is_said_once_and_its_return_too():
     assert hold_for(off, 20.0) == []  # 20 s off: not yet
     assert hold_for(HERE, 5.0) == []  # back: the count starts again
     said = hold_for(off, 40.0)
-    assert len(said) == 1 and said[0]["off"] is True and said[0]["error_m"] == pytest.approx(10.0, abs=0.5)
+    assert len(said) == 1 and said[0]["off"] is True and said[0]["error_m"] == pytest.approx(6.0, abs=0.5)
     assert said[0]["for_s"] == pytest.approx(30.0, abs=0.2) and said[0]["limit_m"] == 5.0
     back = hold_for(dataclasses.replace(HERE, north_m=point[0], east_m=point[1]), 5.0)
     assert [b["off"] for b in back] == [False]
+
+
+def test_a_hold_closing_on_a_far_point_is_not_said_off():
+    """Found by a review: hold_off counted the approach to a point 100 m away (a planner's "go here") as a hold
+    that failed, and warned after 30 s while the boat closed on it at 1 m/s."""
+    ap = helm()
+    ap.step(HERE, 0.1)
+    assert ap.request("hold", HERE, cause="mavlink reposition", target_ne_m=(100.0, 0.0)) == (True, "hold")
+    ap.pop_events()
+    for k in range(400):  # 40 s closing at 1 m/s
+        ap.step(dataclasses.replace(HERE, north_m=0.1 * k, speed_m_s=1.0), 0.1)
+    assert [f for n, f in ap.pop_events() if n == "hold_off"] == []

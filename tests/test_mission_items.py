@@ -161,3 +161,28 @@ def test_a_refused_upload_names_the_item_the_planner_shows():
     with pytest.raises(MissionItemError, match=r"item 3 \(waypoint 2\): 5000 m from the origin") as exc:
         _upload([_item(0, 16, *HOME), _item(1, 16, *w[0]), _item(2, 178, p2=1.0, frame=2), _item(3, 16, *far)])
     assert exc.value.seq == 3
+
+
+def test_mission_current_names_the_rtl_item_only_once_the_mission_came_to_it():
+    """Found by a review: while returning (an rtl commanded mid-mission), MISSION_SET_CURRENT's answer named the
+    mission's RTL item, not the item jumped to, and the planner took the jump as refused. The RTL item is current
+    once the mission has come to it, as ArduPilot reports the mission's own current item in any mode."""
+    import types
+
+    from autopilot.daemon.loop import ControlLoop
+    from autopilot.gnc import Autopilot, GncConfig
+    from autopilot.gnc.autopilot import NavInput
+    from autopilot.mission import ItemNumbers
+
+    m = _upload([_item(0, 16, *HOME), _item(1, 16, *_ll(30, 0)), _item(2, 16, *_ll(30, 30)), _item(3, 16, *_ll(0, 30)),
+                 _item(4, 20, frame=2)])
+    ap = Autopilot(GncConfig(), m.waypoints_ne_m, rtl=m.rtl)
+    nav = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    ap.step(nav, 0.1)
+    loop = types.SimpleNamespace(ap=ap, item_numbers=ItemNumbers.of(m))
+    assert ap.request("rtl", nav, cause="mavlink")[0]
+    assert ControlLoop.mission_item_now(loop) == (1, 5)  # returning mid-mission: the mission's item
+    assert ap.set_current(1, cause="mavlink")[0]
+    assert ControlLoop.mission_item_now(loop) == (2, 5)  # the jump, answered as made
+    ap.guidance.complete = True  # the mission came to its RTL item
+    assert ControlLoop.mission_item_now(loop) == (4, 5)

@@ -326,3 +326,18 @@ def test_a_glitch_of_three_or_four_epochs_at_rest_is_never_confirmed_nor_the_lau
         assert not confirmed_far, k0
         assert not any("max_distance" in a for a in active), k0
         assert start is not None and math.hypot(*start) < 1.0, (k0, start)
+
+
+def test_a_chain_broken_by_a_gap_in_the_fixes_starts_anew():
+    """Found by a review: the 5 s counted from the chain's first fix, not over fixes that agreed, so a glitch
+    as the first fix, four lost epochs and the same glitch again was confirmed at once and became the launch
+    point; mid-run, one far fix after a 20-s outage passed the grown gate confirmed and latched max_distance."""
+    fixes = [(30.0, 0.0)] + [None] * 4 + [(30.1, 0.0)] + [(0.1 * (k % 2), 0.0) for k in range(12)]
+    navs, active = fly(fixes, sog_m_s=0.05,
+                       failsafe=Failsafe(FailsafeConfig(start_valid_s=1.0, max_distance_m=20.0)))
+    assert not any(n.fix_confirmed and n.north_m > 1.0 for n in navs)
+    assert not any("max_distance" in a for a in active)
+    outage = [(0.1 * (k % 2), 0.0) for k in range(8)] + [None] * 20 + [(55.0, 0.0)] + [(0.0, 0.1)] * 8
+    navs, active = fly(outage, sog_m_s=2.0, failsafe=Failsafe(FailsafeConfig(start_valid_s=1.0, max_distance_m=50.0)))
+    assert not any(n.fix_confirmed and n.north_m > 1.0 for n in navs)
+    assert not any("max_distance" in a for a in active)

@@ -337,7 +337,11 @@ class ControlLoop:
         ap, numbers = self.ap, self.item_numbers
         if ap.mission_cleared:
             return 0, 0
-        item = numbers.rtl if ap.mode is Mode.RTL and numbers.rtl is not None else numbers.waypoints[ap.wp_index]
+        # the RTL item once the mission has come to it; an rtl mid-mission, or a jump while returning, leaves the
+        # mission's own current item (as ArduPilot reports it): a MISSION_SET_CURRENT answered with the RTL item
+        # looked refused to the planner (a review)
+        returning = ap.mode is Mode.RTL and numbers.rtl is not None and ap.guidance.complete
+        item = numbers.rtl if returning else numbers.waypoints[ap.wp_index]
         return int(item), int(numbers.count)
 
     def _track_pass(self, nav, t_s: float) -> None:

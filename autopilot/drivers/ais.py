@@ -244,6 +244,7 @@ class AisMessage:
     own_ship: bool
     ais_class: str  # "A" (types 1-3, 5) or "B" (18, 19, 24)
     channel: str = ""
+    repeat: int = 0  # the repeat indicator: > 0, a copy a repeater relayed
     lat_deg: float | None = None
     lon_deg: float | None = None
     sog_m_s: float | None = None
@@ -354,7 +355,7 @@ def decode_fragments(fragments: list[AisFragment]) -> AisMessage:
     if mmsi is None or not 0 < mmsi <= 999_999_999:
         raise AisDecodeError(f"MMSI {getattr(msg, 'mmsi', None)!r}")
     common = dict(msg_type=kind, mmsi=mmsi, own_ship=fragments[0].own_ship, channel=fragments[0].channel,
-                  ais_class="A" if kind in CLASS_A_TYPES else "B")
+                  ais_class="A" if kind in CLASS_A_TYPES else "B", repeat=_int(getattr(msg, "repeat", 0)) or 0)
     if kind in (1, 2, 3, 18, 19):
         lat, lon = _position(msg)
         sog, cog, heading = _motion(msg)
@@ -680,7 +681,11 @@ class TargetTable:
         if msg.msg_type in (1, 2, 3, 18, 19):
             # "position not available" (lat 91, lon 181) from a vessel already placed made it vanish from collision
             # avoidance at once; its last position and motion stay, dead-reckoned and ageing until it is stale
-            if msg.lat_deg is not None or not old.has_position:
+            relayed = (msg.repeat > 0 and old.has_position and msg.lat_deg == old.lat_deg
+                       and msg.lon_deg == old.lon_deg)
+            # a repeater's copy of a report already heard is no new position: taken as one, 2.5 s after the
+            # original it made a moving vessel's track "stopped", and the next report's speed too high
+            if not relayed and (msg.lat_deg is not None or not old.has_position):
                 changes.update({k: getattr(msg, k) for k in _POSITION_FIELDS})
                 changes["position_t_s"] = now_s
                 changes["track_ne_m_s"] = _track(old, msg, now_s)

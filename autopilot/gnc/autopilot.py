@@ -289,6 +289,7 @@ class Autopilot:
         self.mode_cause = cause
         self.reset_integrator()
         self._last_kind = None
+        self._hold_off_s = 0.0  # a new hold's time off its point counts afresh
         self._events.append(("mode", {"mode": new.mode.value, "from": old.value, "cause": cause}))
 
     def _hand_over(self, h: Handover, nav: NavInput) -> None:
@@ -424,7 +425,9 @@ class Autopilot:
         it cannot stem, or cannot settle against: one swept the boat 18 m off and back every 80 s for 500 s, status
         saying only the error; found by a modes audit), and when it is back within that distance."""
         cfg = self.config.hold
-        off = s.hold is not None and math.isfinite(s.hold.error_m) and s.hold.error_m > cfg.off_warn_m
+        # holding, not closing on the point from afar (a "go here" 100 m off is no hold that failed)
+        off = (s.hold is not None and not s.hold.approach and math.isfinite(s.hold.error_m)
+               and s.hold.error_m > cfg.off_warn_m)
         self._hold_off_s = self._hold_off_s + dt_s if off else 0.0
         if off and not self._hold_off_said and self._hold_off_s >= cfg.off_warn_s:
             self._hold_off_said = True

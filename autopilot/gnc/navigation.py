@@ -307,6 +307,9 @@ def gate_fix(pos: Stamped | None, memory: NavMemory, rules: NavRules, sog_m_s: f
             return Gated(pos, pos, None, pos.t_s, False, pos.t_s,
                          PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=True))
     if distance_m <= gate_m:
+        # a chain is fixes that agree one after another: after a gap longer than position_stale_s it starts
+        # anew (a glitch before four lost epochs and again after them was confirmed at once, the gate grown)
+        anchored = pos.t_s if pos.t_s - last.t_s > rules.position_stale_s else anchored
         return Gated(pos, pos, None, pos.t_s, pos.t_s - anchored >= rules.fix_confirm_s, anchored)
     return Gated(last, last, pos, pos.t_s, confirmed, anchored,
                  PositionJump(float(lat), float(lon), distance_m, gate_m, accepted=False, repeated=pending is not None))

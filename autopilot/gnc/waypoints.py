@@ -160,6 +160,7 @@ class WaypointGuidance:
         occupied = self.occupied_reach_m is not None and d_m <= self.occupied_reach_m
         if captured or steer.passed or occupied:
             how = "capture" if captured else "passed" if steer.passed else "occupied"
+            self.occupied_reach_m = None  # it was this waypoint's: the next one is judged on its own
             self._armed = False
             self._leg_start = self.waypoints[i]
             self.reset()
