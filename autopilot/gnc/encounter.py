@@ -87,10 +87,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import TYPE_CHECKING
 
 from autopilot.geo import latlon_to_local, wrap_pi
 from autopilot.measured import HULL_LENGTH_M
 from autopilot.schema import param
+
+if TYPE_CHECKING:  # the record it is read from; gnc/ imports no driver at run time
+    from autopilot.drivers.ais import AisTarget
 
 __all__ = [
     "OwnShip",
@@ -139,7 +143,7 @@ class TargetState:
     motion_known: bool = True
 
     @classmethod
-    def from_ais(cls, target, *, origin_lat_deg: float, origin_lon_deg: float, now_s: float,
+    def from_ais(cls, target: AisTarget, *, origin_lat_deg: float, origin_lon_deg: float, now_s: float,
                  max_extrapolation_s: float = 180.0) -> TargetState:
         """From an :class:`autopilot.drivers.ais.AisTarget` (with a position): to the local frame, dead
         reckoned along its course for its age (at most ``max_extrapolation_s``, default the longest
@@ -150,7 +154,7 @@ class TargetState:
         transponders do) was taken as stopped: judged overtaking, avoided to port, passed at 0.6 m."""
         north_m, east_m = latlon_to_local(target.lat_deg, target.lon_deg, origin_lat_deg, origin_lon_deg)
         sog, cog, heading = target.sog_m_s, target.cog_rad, target.heading_rad
-        track = getattr(target, "track_ne_m_s", None)
+        track = target.track_ne_m_s
         known = True
         if sog is not None and cog is not None:
             speed, course = sog, cog
