@@ -277,7 +277,7 @@ class DaemonConfig:
     def __post_init__(self) -> None:
         if (self.origin_lat_deg is None) != (self.origin_lon_deg is None):
             raise ConfigError("origin_lat_deg, origin_lon_deg: give both or neither")
-        for key, port in (("serial.sc30_port", self.serial.sc30_port), ("serial.mbed_port", self.serial.mbed_port)):
+        for key, port in self.device_ports():
             if not port.strip():  # the daemon retried "cannot open : no such device" for ever, naming no key
                 raise ConfigError(f"{key}: empty; the device's serial port, such as /dev/sc30 or /dev/serial/by-id/...")
         ports = self.device_ports()
