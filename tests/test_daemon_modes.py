@@ -429,6 +429,45 @@ def test_a_disarmed_boat_says_so_in_status_and_in_every_mode_answer(tmp_path):
     assert armed[0] == 0 and "disarmed" not in armed[1].lower()
 
 
+def test_a_disarm_in_a_held_start_is_kept_across_a_crash(tmp_path):
+    """Found by a link audit (left in stop 40's note): a disarm given while a start held zero over an interrupted
+    run was not saved until the run saved its progress; a crash then brought back the armed state the file had.
+    Now only the file's ``armed`` changes: the interrupted run is still there to resume, disarmed."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=25.0))
+        try:
+            await d.start()
+            await _wait_mode(d, "auto")
+            await d.steady_thrust()
+            d.proc.kill()  # a crash mid-mission: the next start holds zero over the interrupted run
+            await d.proc.wait()
+            await d.start(fresh=False)
+            await d.wait(lambda: _modes(d), 30.0, "the held start")
+            assert _modes(d)[0][1] == "stop" and "interrupted" in _modes(d)[0][2], _modes(d)
+            before = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+            assert (await d.ctl("disarm"))[0] == 0
+            await d.wait(lambda: any(r["event"] == "cycle" and r["armed"] is False for r in d.log()), 5.0, "disarmed")
+            saved = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+            d.proc.kill()  # a crash before the held run saved anything of its own
+            await d.proc.wait()
+            await d.start(fresh=False)
+            await d.wait(lambda: any(r["event"] == "cycle" for r in d.log()), 30.0, "cycles after the second restart")
+            await d.clock.sleep(1.0)
+            armed = [r["armed"] for r in d.log() if r["event"] == "cycle"]
+            resumed = await d.ctl("resume")
+            await d.clock.sleep(2.0)
+            idle = not d.rig.mbed.thrusting
+        finally:
+            await d.close()
+        return before, saved, armed, resumed, idle
+
+    before, saved, armed, resumed, idle = asyncio.run(scenario())
+    assert saved == {**before, "armed": False}  # the interrupted run kept as it was, only disarmed
+    assert armed and not any(armed), armed
+    assert resumed[0] == 0 and "disarmed" in resumed[1], resumed
+    assert idle
+
+
 def test_a_restart_after_a_latched_failsafe_holds_and_goes_home_to_the_first_launch(tmp_path):
     """Found by fault injection: a geofence's rtl brought the boat home, the daemon was killed (kill -9) and
     restarted; the latched fault was forgotten (`ctl resume` drove back to the fence) and rtl's home became

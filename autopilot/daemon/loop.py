@@ -21,7 +21,7 @@ import asyncio
 import collections
 import math
 import signal
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from autopilot.daemon import commands
 from autopilot.daemon import cycle as steps
@@ -153,8 +153,8 @@ class ControlLoop:
         for _ in range(min(len(self.commands), COMMANDS_PER_CYCLE)):
             request, answer = self.commands.popleft()
             answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
-        if self.ap.armed != armed_before and self._saved_running:  # a disarm is remembered across a restart
-            self._save("running")
+        if self.ap.armed != armed_before:  # a disarm is remembered across a restart
+            self._save_armed()
         self._flooded = self._flooded and bool(self.commands)
         self._manual_timeout(helm_nav, unavailable, t_s)
         mode, drive = steps.arbitrate(decision, steerable=nav.steerable, manual=self.ap.mode is Mode.MANUAL)
@@ -396,6 +396,21 @@ class ControlLoop:
                                      latched=self.failsafe.latched,
                                      launch_ne_m=None if launch is None else (float(launch[0]), float(launch[1])),
                                      reason=reason, armed=bool(self.ap.armed)))
+        except OSError as exc:
+            self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="state not saved", error=str(exc))
+
+    def _save_armed(self) -> None:
+        """The operator's arm or disarm, saved now. In a held start the file is still the interrupted run's
+        (kept for a resume): only its ``armed`` changes, or a crash before this run saves would bring back
+        the armed state the file had."""
+        if self._saved_running:
+            self._save("running")
+            return
+        saved = self.store.load()
+        if saved is None:  # unreadable, kept as it is: the next start holds zero thrust again over it
+            return
+        try:
+            self.store.save(replace(saved, armed=bool(self.ap.armed)))
         except OSError as exc:
             self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="state not saved", error=str(exc))
 
