@@ -578,6 +578,26 @@ def test_a_fault_due_after_the_run_ended_is_not_counted_for_that_fault(tmp_path)
     assert by_fault["gnss_lost"]["runs"] == 8 and by_fault["not reached"]["runs"] == 8
 
 
+def test_a_fault_too_near_the_end_for_the_failsafe_to_notice_is_not_counted_for_it():
+    """Found by a campaign audit (left in stop 40's note): a battery_low due 0.5 s before a run completed counted
+    as a success under battery_low (100 %), though the failsafe needs battery_low_s (10 s) below the threshold
+    to notice it; a lost GNSS is noticed when the last fix is position_stale_s old."""
+    from autopilot.campaign.draw import Fault
+    from autopilot.campaign.results import _fault_kind
+    from autopilot.daemon.config import FailsafeConfig
+
+    fs = FailsafeConfig()
+    battery = Fault("battery_low", at_s=40.0, duration_s=0.0, battery_rest_v=11.0)
+    assert _fault_kind([battery], 40.5, fs) == "not reached"
+    assert _fault_kind([battery], 40.0 + fs.battery_low_s - 0.1, fs) == "not reached"
+    assert _fault_kind([battery], 40.0 + fs.battery_low_s + 0.1, fs) == "battery_low"
+    gnss = Fault("gnss_lost", at_s=40.0, duration_s=5.0)
+    assert _fault_kind([gnss], 42.0, fs) == "not reached"
+    assert _fault_kind([gnss], 44.0, fs) == "gnss_lost"
+    assert _fault_kind([Fault("mbed_lost", at_s=40.0, duration_s=2.0)], 40.2, fs) == "mbed_lost"  # at once
+    assert _fault_kind([], 40.0, fs) == ""
+
+
 def test_a_scheduler_address_that_is_not_one_is_refused_at_once_and_a_silent_port_in_time(tmp_path):
     """Found by a new-user audit: 'nonsense', 'http://x' or an SSH port as --scheduler gave 'internal error:
     MemoryError: Unable to allocate 2.82 EiB', a 40 s wait and a traceback; a port that accepted and stayed
