@@ -1,5 +1,6 @@
 """Speed-over-ground trim on tau_com (SPEC 8: tau_com keeps the speed; Eq 8.5-8.6 feed-forward)."""
 
+import dataclasses
 import math
 
 import pytest
@@ -124,3 +125,30 @@ def test_the_integral_does_not_wind_up_while_the_boat_gets_going_but_learns_a_st
     assert trim.integral_n == shipped.integral_limit_n
     trim.reset()
     assert trim.integral_n == 0.0 and trim.reference_m_s is None
+
+
+def test_a_boat_losing_ground_with_the_trim_at_its_limit_is_said():
+    """Found by a modes audit (left in stop 40's note): in 0.4 m/s of current and 8 m/s of headwind `auto` held the
+    forward thrust at 29.4 N (the table's 9.4 N and the trim's 20 N limit) while the boat lost 0.11 m/s, and
+    nothing said it. Now the trim at its limit for speed.short_warn_s (30 s) is a speed_short event (a STATUSTEXT
+    on the link), and its end another; a boat getting going from rest (trim briefly at its limit) says nothing."""
+    from autopilot.link.telemetry import event_text
+
+    ap = Autopilot(GncConfig(), [(300.0, 0.0)])
+    astern = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.11, yaw_rate_rad_s=0.0, course_rad=math.pi)
+
+    def steer(nav, seconds):
+        outs = [ap.step(nav, 0.1) for _ in range(int(round(seconds / 0.1)))]
+        return outs, [f for n, f in ap.pop_events() if n == "speed_short"]
+
+    outs, said = steer(dataclasses.replace(astern, speed_m_s=0.0, course_rad=0.0), 12.0)  # from rest: not yet
+    assert said == []
+    outs, said = steer(astern, 40.0)
+    assert outs[-1].tau_com_trim_n == pytest.approx(20.0)  # the trim's bound stays; it is said, not lifted
+    assert len(said) == 1 and said[0]["short"] is True and said[0]["speed_m_s"] == -0.11
+    assert said[0]["wanted_m_s"] > 0.5 and said[0]["for_s"] == pytest.approx(30.0, abs=0.2)
+    assert said[0]["limit_n"] == 20.0 and said[0]["thrusters_full"] is False
+    text = event_text("speed_short", said[0])[1]
+    assert text.startswith("speed -0.11 of") and "trim at its 20.0 N limit" in text
+    _, back = steer(dataclasses.replace(astern, speed_m_s=1.5, course_rad=0.0), 3.0)  # making way again
+    assert [b["short"] for b in back] == [False]

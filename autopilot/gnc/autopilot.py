@@ -37,7 +37,7 @@ from autopilot.gnc.modes import (
     StopMode,
 )
 from autopilot.gnc.pid import HeadingPid
-from autopilot.gnc.speed import SpeedTrim, along_heading_m_s
+from autopilot.gnc.speed import SpeedShort, SpeedTrim, along_heading_m_s
 from autopilot.gnc.thrust_curve import ThrustCurve
 from autopilot.logschema import Mode
 from autopilot.measured import HULL_LENGTH_M
@@ -136,6 +136,7 @@ class Autopilot:
         self.pid = HeadingPid(config.pid)
         self.allocator = Allocator(config.allocation, thrust_curve)
         self.speed_trim = SpeedTrim(config.speed)
+        self.speed_short = SpeedShort(config.speed)
         self._events: list[tuple[str, dict]] = []
         if self.launch_ne_m is not None:  # given (a restart carrying on the run before): said as when it is set
             self._events.append(("launch", {"north_m": self.launch_ne_m[0], "east_m": self.launch_ne_m[1]}))
@@ -358,7 +359,7 @@ class Autopilot:
     def set_config(self, config: GncConfig) -> None:
         """New gains and limits, from the next step on (a parameter set between cycles)."""
         self.config = config
-        self.pid.config, self.speed_trim.config = config.pid, config.speed
+        self.pid.config, self.speed_trim.config, self.speed_short.config = config.pid, config.speed, config.speed
         self.allocator = Allocator(config.allocation, self.allocator.curve)
         for mode in (self.auto, self.current, self.paused_from):
             if mode is None:
@@ -525,6 +526,10 @@ class Autopilot:
             if s.kind == "course":  # the allocator cut the common mode: more speed cannot be delivered
                 self.speed_trim.integrate(s.speed_cmd_m_s, speed_n, dt_s, block_up=alloc.common_limit > 0,
                                           block_down=floor)
+        short = (self.speed_short.update(trim_n, s.speed_cmd_m_s, speed_n, dt_s, thrusters_full=alloc.common_limit > 0)
+                 if s.kind == "course" else self.speed_short.update(None, 0.0, 0.0, dt_s, thrusters_full=False))
+        if short is not None:
+            self._events.append(("speed_short", short))
         g, h = s.guidance, s.hold
         return ControlOutput(
             mode=self.current.mode,

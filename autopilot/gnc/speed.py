@@ -57,6 +57,10 @@ class SpeedTrimConfig:
         doc="the integral learns from the speed the boat should have by now, the wanted speed through a first-order "
             "lag of this time constant, not from the wanted speed itself (from rest it wound up over the ~10 s the "
             "boat takes to get going, and the boat then ran 40 % over its speed); 0 = from the wanted speed")
+    short_warn_s: float = param(
+        30.0, unit="s", lo=1.0, hi=3600.0, source="chosen: longer than the boat takes to get going from rest (~10 s)",
+        doc="the trim at its limit this long is said (speed_short: the boat does not make its speed; a headwind or "
+            "current more than trim_limit_n stems: found by a modes audit, a boat losing ground at 29.4 N unsaid)")
 
 
 @dataclass(frozen=True)
@@ -120,3 +124,29 @@ class SpeedTrim:
         new = self.integral_n + inc
         lim = cfg.integral_limit_n
         self.integral_n = clamp(new, -lim, lim)
+
+
+class SpeedShort:
+    """Says when the trim has sat at its limit for ``short_warn_s`` (the boat does not make its speed: a headwind or
+    a current more than the trim may stem), and when it no longer does. The trim's bound stays (the feed-forward
+    carries the steady thrust); the operator learns that it binds, and whether the thrusters had more to give."""
+
+    def __init__(self, config: SpeedTrimConfig = SpeedTrimConfig()) -> None:
+        self.config = config
+        self.for_s = 0.0
+        self.said = False
+
+    def update(self, trim_n: float | None, speed_cmd_m_s: float, speed_m_s: float, dt_s: float, *,
+               thrusters_full: bool) -> dict | None:
+        """One cycle (``trim_n`` None: not on a course); the fields of a ``speed_short`` event when one is due."""
+        cfg = self.config
+        short = trim_n is not None and cfg.enabled and speed_cmd_m_s > 0.0 and trim_n >= cfg.trim_limit_n - 1e-9
+        self.for_s = self.for_s + dt_s if short else 0.0
+        if short and not self.said and self.for_s >= cfg.short_warn_s:
+            self.said = True
+            return {"short": True, "speed_m_s": round(speed_m_s, 2), "wanted_m_s": round(speed_cmd_m_s, 2),
+                    "for_s": round(self.for_s, 1), "limit_n": cfg.trim_limit_n, "thrusters_full": bool(thrusters_full)}
+        if self.said and not short:
+            self.said = False
+            return {"short": False, "limit_n": cfg.trim_limit_n}
+        return None

@@ -240,6 +240,12 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
         if f.get("error_m") is None:
             return mavlink.MAV_SEVERITY_INFO, "hold ended off its point"
         return mavlink.MAV_SEVERITY_INFO, f"hold: back within {f.get('limit_m')} m of the point"
+    if name == "speed_short":
+        if f.get("short"):
+            more = "thrusters at full" if f.get("thrusters_full") else f"speed trim at its {f.get('limit_n')} N limit"
+            return mavlink.MAV_SEVERITY_WARNING, (f"speed {f.get('speed_m_s')} of {f.get('wanted_m_s')} m/s for "
+                                                  f"{f.get('for_s')} s ({more})")
+        return mavlink.MAV_SEVERITY_INFO, "speed: trim off its limit"
     if name == "waypoint_occupied":
         return mavlink.MAV_SEVERITY_WARNING, (f"waypoint {f.get('wp_index')} occupied by vessel {f.get('target')}: "
                                               f"passed at {f.get('distance_m')} m")
