@@ -12,7 +12,7 @@ from autopilot.schema import ConfigError
 
 
 def register(subparsers) -> None:
-    from autopilot.sysid.trials import CSV_HELP
+    from autopilot.sysid.trials import CSV_HELP, LONG_TRIAL_S, PIECE_MAX_S
 
     p = subparsers.add_parser(
         "sysid",
@@ -21,7 +21,8 @@ def register(subparsers) -> None:
             "Replay measured trials (CSV files, one per trial, columns below) or daemon mission logs (.jsonl) "
             "through the simulator, fit every candidate effect, choose by BIC confirmed on held-out "
             "trials, and write DIR/summary.json, DIR/report.html, DIR/vessel-updated.yaml, DIR/effects.yaml. "
-            "With --table, examine a steady-state table (SPEC 6) instead."
+            f"A trial longer than {LONG_TRIAL_S:g} s is cut into pieces of at most {PIECE_MAX_S:g} s, each replayed "
+            "from its own state. With --table, examine a steady-state table (SPEC 6) instead."
         ),
         epilog=CSV_HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -51,6 +51,7 @@ from autopilot.sysid.holdout import (
 from autopilot.sysid.intervals import WINDOW_S, curvature_holds, with_windows
 from autopilot.sysid.noise import NoiseBounds
 from autopilot.sysid.prediction import Prepared, initial_states, prepare
+from autopilot.sysid.trials import cut_long
 
 BIC_MARGIN = 2.0  # "positive" evidence on the Kass-Raftery scale; held-out, size and z gates follow
 MIN_HOLDOUT_GAIN = 0.05
@@ -105,6 +106,9 @@ def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: in
     s = Settings(top_k=top_k, pair_k=pair_k, bic_margin=bic_margin, min_holdout_gain=min_holdout_gain,
                  max_retries=max_retries, bounds=bounds or NoiseBounds())
     say = log or (lambda msg: None)
+    trials, cut = cut_long(trials)
+    for note in cut:
+        say(note)
     prep = prepare(trials, dt_s=dt_s)
     x0_init = initial_states(prep)
     prep, base = baseline(prep, vessel, x0_init, s, say)
@@ -116,7 +120,7 @@ def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: in
     search.polish_and_retry(prep, vessel, fits, x0_init, retries, say, fits[()])
     chosen, single = choose(prep, vessel, fits, scores, candidates, x0_init, retries, s, say)
     prep, fits, chosen, notes, cv = confirm(prep, vessel, fits, chosen, single, x0_init, scores, s, say)
-    return verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s)
+    return verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, cut + notes, s)
 
 
 def baseline(prep: Prepared, vessel, x0_init, s: Settings, say) -> tuple[Prepared, Fit]:

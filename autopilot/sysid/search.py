@@ -31,6 +31,7 @@ from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY
 from autopilot.sysid.fit import Fit, fit_model
 from autopilot.sysid.prediction import Prepared, initial_states, prepare
 from autopilot.sysid.screen import screen
+from autopilot.sysid.trials import window
 
 # growing fit horizons from the first-seconds states: a 10 s first step from a rough start (0.8 m
 # noise, a hard turn at 6 s) fell into a wrong basin, 5 s did not (seed 1711974792 of the tests)
@@ -152,28 +153,6 @@ def screen_subset(prep, vessel, fit: Fit, candidates) -> dict:
     return out
 
 
-def _window(tr, start: float, window_s: float):
-    """The rows of ``tr`` in [start, start + window_s), on a time base starting at 0, or None
-    when it holds too little (3 positions and headings in its first 3 s, 6 positions in all)."""
-    sel = (tr.t_s >= start) & (tr.t_s < start + window_s)
-    first = sel & (tr.t_s < start + 3.0)
-    fixes = np.isfinite(tr.position_time_s) & (tr.position_time_s >= start)
-    heads = np.isfinite(tr.heading_time_s) & (tr.heading_time_s >= start)
-    if sel.sum() < 20 or (fixes & sel).sum() < 6 or (fixes & first).sum() < 2 or (heads & first).sum() < 3:
-        return None
-    fields = {f.name: getattr(tr, f.name)[sel] for f in dataclasses.fields(tr)
-              if isinstance(getattr(tr, f.name), np.ndarray) and getattr(tr, f.name).shape == tr.t_s.shape}
-    fields["north_m"] = np.where(fixes[sel], fields["north_m"], np.nan)
-    fields["heading_rad"] = np.where(heads[sel], fields["heading_rad"], np.nan)
-    times = ["t_s", "position_time_s", "heading_time_s"]
-    if tr.velocity_time_s is not None:
-        fields["velocity_time_s"] = np.where(fields["velocity_time_s"] >= start, fields["velocity_time_s"], np.nan)
-        times.append("velocity_time_s")
-    for name in times:
-        fields[name] = fields[name] - start
-    return dataclasses.replace(tr, name=f"{tr.name}@{start - tr.t_s[0]:.0f}s", **fields)
-
-
 def screening_windows(prep: Prepared, window_s: float = SCREEN_WINDOW_S, max_windows: int | None = None) -> Prepared | None:
     """The trials cut into windows of ``window_s``, each replayed from its own initial state.
 
@@ -189,7 +168,7 @@ def screening_windows(prep: Prepared, window_s: float = SCREEN_WINDOW_S, max_win
     for tr in prep.trials:
         start = float(tr.t_s[0])
         while start + 0.5 * window_s < tr.t_s[-1] or start == tr.t_s[0]:
-            w = _window(tr, start, window_s)
+            w = window(tr, start, window_s)
             if w is not None:
                 windows.append(w)
             start += window_s

@@ -34,6 +34,7 @@ command (the motors hold their last command). What was dropped is counted in
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -522,3 +523,61 @@ def write_trial_csv(trial: Trial, path) -> None:
         for row in data:
             w.writerow(["" if not math.isfinite(v) else f"{v:.9g}" for v in row])
 
+
+def window(tr: Trial, start: float, window_s: float) -> Trial | None:
+    """The rows of ``tr`` in [start, start + window_s), on a time base starting at 0, or None
+    when it holds too little (3 positions and headings in its first 3 s, 6 positions in all)."""
+    sel = (tr.t_s >= start) & (tr.t_s < start + window_s)
+    first = sel & (tr.t_s < start + 3.0)
+    fixes = np.isfinite(tr.position_time_s) & (tr.position_time_s >= start)
+    heads = np.isfinite(tr.heading_time_s) & (tr.heading_time_s >= start)
+    if sel.sum() < 20 or (fixes & sel).sum() < 6 or (fixes & first).sum() < 2 or (heads & first).sum() < 3:
+        return None
+    fields = {f.name: getattr(tr, f.name)[sel] for f in dataclasses.fields(tr)
+              if isinstance(getattr(tr, f.name), np.ndarray) and getattr(tr, f.name).shape == tr.t_s.shape}
+    fields["north_m"] = np.where(fixes[sel], fields["north_m"], np.nan)
+    fields["heading_rad"] = np.where(heads[sel], fields["heading_rad"], np.nan)
+    times = ["t_s", "position_time_s", "heading_time_s"]
+    if tr.velocity_time_s is not None:
+        fields["velocity_time_s"] = np.where(fields["velocity_time_s"] >= start, fields["velocity_time_s"], np.nan)
+        times.append("velocity_time_s")
+    for name in times:
+        fields[name] = fields[name] - start
+    return dataclasses.replace(tr, name=f"{tr.name}@{start - tr.t_s[0]:.0f}s", **fields)
+
+
+LONG_TRIAL_S = 150.0  # a trial longer than this is cut into pieces (cut_long)
+PIECE_MAX_S = 75.0
+
+
+def cut_long(trials) -> tuple[list[Trial], list[str]]:
+    """The trials, each longer than LONG_TRIAL_S cut into even pieces of at most PIECE_MAX_S, each replayed from
+    its own initial state; and a note per trial cut.
+
+    A replay holds the logged thrusts open loop from the trial's first state: over minutes of a closed-loop
+    mission (the helm turning all the while) a small error of the wind's yaw moment grows into degrees of
+    heading, and a 4-minute zigzag-003 log in 6 m/s of wind came out ``unexplained`` (a sysid audit,
+    2026-12-05), its nearest candidate wind within 0.2 m/s of the truth, while the same log cut into ~60-s
+    pieces was named wind. The pieces are trials of their own: held out in turn, and their jackknife widens
+    the intervals. Their counts stay on the first piece (the summary adds them up)."""
+    out, notes = [], []
+    for tr in trials:
+        span = float(tr.t_s[-1] - tr.t_s[0])
+        if span <= LONG_TRIAL_S:
+            out.append(tr)
+            continue
+        n = math.ceil(span / PIECE_MAX_S)
+        piece_s = span / n
+        starts = [float(tr.t_s[0]) + k * piece_s for k in range(n)]
+        pieces = [w for w in (window(tr, a, piece_s + (1.0 if k == n - 1 else 0.0)) for k, a in enumerate(starts))
+                  if w is not None]
+        if len(pieces) < 2:  # too little in the pieces to fit them: the whole trial, as it is
+            out.append(tr)
+            continue
+        pieces = [dataclasses.replace(p, counts={**tr.counts, "long_trial_pieces": len(pieces)}) if k == 0
+                  else dataclasses.replace(p, counts={}, read_notes=()) for k, p in enumerate(pieces)]
+        out += pieces
+        left = f"; {n - len(pieces)} of {n} without enough measurements left out" if len(pieces) < n else ""
+        notes.append(f"{tr.name} ({span:.0f} s) cut into {len(pieces)} pieces of {piece_s:.0f} s, each replayed from "
+                     f"its own state (a replay of logged thrusts over minutes drifts; longer than {LONG_TRIAL_S:g} s{left})")
+    return out, notes
