@@ -333,3 +333,32 @@ def test_a_waypoint_a_stopped_vessel_occupies_is_counted_reached_as_near_as_the_
     out = ap.step(NavInput(north_m=10.0, east_m=0.0, psi_rad=0.0, speed_m_s=1.0, yaw_rate_rad_s=0.0, course_rad=0.0),
                   0.1, targets=[moored], t_s=0.0)
     assert out.reached_index == 0 and out.reached_how == "occupied" and out.wp_index == 1
+
+
+@pytest.mark.parametrize("held", ["item", "mission end"])
+def test_a_hold_at_a_waypoint_a_stopped_vessel_occupies_is_kept_where_the_boat_was_counted_there(held):
+    """Found by an AIS audit (left in stop 40's note): a mission's hold at a waypoint a moored vessel occupied was
+    counted reached at the vessel's safe distance, then held at the waypoint itself: for the whole hold the boat
+    left on avoidance's clearing course and came back (in a 120-s hold, 103 m of path, avoidance acting all the
+    while). Now the hold is kept on the boat's side of the vessel where avoidance lets go of it (23 m of path,
+    acting 16 % of the hold, calm); what station keeping learned while closing is kept."""
+    import dataclasses
+
+    from autopilot.gnc import Autopilot, GncConfig
+    from autopilot.gnc.autopilot import NavInput
+
+    wps = [(30.0, 0.0), (30.0, 60.0)] if held == "item" else [(-30.0, 0.0), (30.0, 0.0)]
+    cfg = GncConfig()
+    cfg = dataclasses.replace(cfg, guidance=dataclasses.replace(cfg.guidance, final_action="hold"))
+    ap = Autopilot(cfg, wps, holds_s=[20.0, None] if held == "item" else None,
+                   **({} if held == "item" else {"start_index": 1}))
+    moored = TargetState(target_id=244000902, north_m=30.0, east_m=0.0, course_rad=0.0, speed_m_s=0.0, extent_m=5.0)
+    at = NavInput(north_m=9.5, east_m=0.4, psi_rad=0.0, speed_m_s=0.3, yaw_rate_rad_s=0.0, course_rad=0.0)
+    out = ap.step(at, 0.1, targets=[moored], t_s=0.0)
+    assert out.reached_index == (0 if held == "item" else 1) and out.reached_how == "occupied"
+    outs = [ap.step(at, 0.1, targets=[moored], t_s=0.1 * k) for k in range(1, 30)]
+    (hold,) = {o.hold_target_ne_m for o in outs}  # not the waypoint (30, 0), inside the vessel's safe distance
+    need = AvoidanceConfig().safe_distance_m + 5.0
+    assert math.hypot(hold[0] - 30.0, hold[1]) == pytest.approx(AvoidanceConfig().resume_margin * need)
+    assert math.atan2(hold[1], hold[0] - 30.0) == pytest.approx(math.atan2(0.4, 9.5 - 30.0))  # on the boat's side
+    assert all(o.mode.value == ("auto" if held == "item" else "hold") for o in outs)

@@ -419,6 +419,7 @@ class Autopilot:
         if targets and self.current is self.auto and not g.complete:
             occ = self.avoidance.occupying(_own_ship(nav), g.waypoints[g.index], targets)
         g.occupied_reach_m = None if occ is None else occ.reach_m
+        self.auto.occupied_hold_ne_m = None if occ is None else occ.hold_ne_m
         return occ
 
     def _check_hold_off(self, s: Steering, dt_s: float) -> None:

@@ -291,6 +291,7 @@ class Occupied:
     need_m: float  # the safe distance plus the vessel's extent
     target_to_point_m: float
     reach_m: float  # the boat within this of the point has come as near as it may
+    hold_ne_m: tuple[float, float]  # where a hold at the point is kept: the boat's side of it, clear of the vessel
 
 
 @dataclass
@@ -361,7 +362,12 @@ class Avoidance:
             to_point = math.hypot(point_ne_m[0] - tgt.north_m, point_ne_m[1] - tgt.east_m)
             from_own = math.hypot(own.north_m - tgt.north_m, own.east_m - tgt.east_m)
             if to_point < need and from_own <= cfg.resume_margin * need:
-                return Occupied(tgt, need, to_point, cfg.resume_margin * need + to_point)
+                # held inside the safe distance, every move toward it set avoidance acting again: kept where
+                # avoidance lets go (resume_margin x), on the boat's bearing from the vessel
+                off = cfg.resume_margin * need / from_own if from_own > 0.0 else 0.0
+                hold = (tgt.north_m + (own.north_m - tgt.north_m) * max(off, 1.0),
+                        tgt.east_m + (own.east_m - tgt.east_m) * max(off, 1.0))
+                return Occupied(tgt, need, to_point, cfg.resume_margin * need + to_point, hold)
         return None
 
     def step(self, own: OwnShip, targets: list[TargetState], psi_d_rad: float, speed_cmd_m_s: float,

@@ -184,6 +184,8 @@ class AutoMode:
         self.item_keeper: StationKeeper | None = None  # holding at a waypoint of the mission
         self.item_left_s = 0.0
         self.item_index: int | None = None
+        self.occupied_at: dict[int, tuple[float, float]] = {}  # waypoint reached "occupied" -> where it is held
+        self.occupied_hold_ne_m: tuple[float, float] | None = None  # this cycle's (Avoidance.occupying), set by the helm
 
     def end_item_hold(self) -> bool:
         """Resume: end a hold item early (True if there was one)."""
@@ -205,9 +207,13 @@ class AutoMode:
             return self._end(nav)
         g = self.guidance.update(nav, dt_s)
         i = g.reached_index
+        if i is not None and g.reached_how == "occupied":
+            self.occupied_at[i] = self.occupied_hold_ne_m or (nav.north_m, nav.east_m)
+        elif i is not None:  # reached as any other (a mission set back to it, the vessel gone)
+            self.occupied_at.pop(i, None)
         if i is not None and self._hold_s(i) is not None:
             self.item_index, self.item_left_s = i, self._hold_s(i)
-            self.item_keeper = self.closing.take(self.guidance.waypoints[i], nav)
+            self.item_keeper = self._keeper_at(i, nav)
             return keep_station(self.item_keeper, nav, dt_s, guidance=g)
         if g.complete:
             return self._end(nav, g)
@@ -216,17 +222,26 @@ class AutoMode:
             return keep_station(self.closing.keeper_for(target, nav), nav, dt_s, guidance=g, holding=False)
         return Steering("course", psi_d_rad=g.psi_d_rad, speed_cmd_m_s=g.speed_cmd_m_s, guidance=g)
 
+    def _keeper_at(self, i: int, nav) -> StationKeeper:
+        """The keeper of a hold at waypoint ``i``, reached. One a stopped vessel occupied (reached "occupied", as
+        near as the rules allow) is held on the boat's side of it, where avoidance lets go of the vessel
+        (Occupied.hold_ne_m): held at the waypoint, the boat left and came back at the vessel's safe distance for
+        the whole hold (found by an AIS audit)."""
+        keeper = self.closing.take(self.guidance.waypoints[i], nav)
+        off = self.occupied_at.get(i)
+        return keeper if off is None else keeper.least_effort(nav.psi_rad, target_ne_m=off)
+
     def _stops_at(self, i: int) -> bool:
         """The boat holds at waypoint i: a hold item, or the last waypoint when the mission ends holding."""
         last = i == len(self.guidance.waypoints) - 1
         return self._hold_s(i) is not None or (last and not self.rtl and self.config.guidance.final_action == "hold")
 
     def _end(self, nav, g: GuidanceOutput | None = None) -> Steering:
-        last = self.guidance.waypoints[-1]
         if self.rtl:
             then = Handover(Mode.RTL, "mission: return to launch")
         elif self.config.guidance.final_action == "hold":
-            then = Handover(Mode.HOLD, "mission end: hold at the last waypoint", last, self.closing.take(last, nav))
+            keeper = self._keeper_at(len(self.guidance.waypoints) - 1, nav)
+            then = Handover(Mode.HOLD, "mission end: hold at the last waypoint", keeper.target, keeper)
         else:
             then = Handover(Mode.COMPLETE, "mission end: stop")
         return Steering("off", psi_d_rad=nav.psi_rad, guidance=g, then=then)

@@ -162,10 +162,11 @@ class StationKeeper:
     def disturbance_ne_n(self) -> tuple[float, float]:
         return self._d_n
 
-    def least_effort(self, psi_rad: float) -> StationKeeper:
-        """The same point and what was learned of the disturbance (north/east, whatever the heading), the heading
-        no longer given: the least-effort one from ``psi_rad`` (the boat's now)."""
-        keeper = StationKeeper(self.config, self.target, heading_rad=None, initial_heading_rad=psi_rad)
+    def least_effort(self, psi_rad: float, *, target_ne_m: tuple[float, float] | None = None) -> StationKeeper:
+        """The same point (or ``target_ne_m``) and what was learned of the disturbance (north/east, whatever the
+        heading), the heading no longer given: the least-effort one from ``psi_rad`` (the boat's now)."""
+        keeper = StationKeeper(self.config, self.target if target_ne_m is None else target_ne_m, heading_rad=None,
+                               initial_heading_rad=psi_rad)
         keeper._d_n = self._d_n
         return keeper
 
