@@ -351,11 +351,11 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("limit_m", "float", "m", "`gnc.hold.off_warn_m`"),
         _f("disturbance_n", "float", "N", "(off) station keeping's estimate of the thrust per thruster the current and wind take"),
     )),
-    EventSpec("speed_short", "on a course (`auto`, `rtl`, `guided`), the speed trim has sat at its limit `gnc.speed.trim_limit_n` for `gnc.speed.short_warn_s`: the boat does not make its wanted speed (a headwind or current more than the trim may stem; it may be losing ground); or it makes it again, or the course ended. With `thrusters_full` false the thrusters had more to give: a larger `trim_limit_n` (and `integral_limit_n`) would use it", (
-        _f("short", "bool", "-", "true: short of its speed; false: the trim is off its limit again (or the course ended)"),
+    EventSpec("speed_short", "on a course (`auto`, `rtl`, `guided`), the boat has been slower than its wanted speed by more than `gnc.speed.short_margin_m_s` for `gnc.speed.short_warn_s` with nothing more to give: the speed trim or its integral at its bound (`trim_limit_n`, `integral_limit_n`), or the thrusters at full (a headwind or current more than it may stem; it may be losing ground); or it makes its speed again (within half the margin), or the course ended. With `thrusters_full` false the thrusters had more to give: larger `trim_limit_n` and `integral_limit_n` would use it", (
+        _f("short", "bool", "-", "true: short of its speed; false: it makes it again (or the course ended)"),
         _f("speed_m_s", "float", "m/s", "(short) the speed over ground made along the heading (negative: going astern)"),
         _f("wanted_m_s", "float", "m/s", "(short) the speed the guidance asks for"),
-        _f("for_s", "float", "s", "(short) how long the trim has been at its limit"),
+        _f("for_s", "float", "s", "(short) how long it has been short with nothing more to give"),
         _f("limit_n", "float", "N", "`gnc.speed.trim_limit_n`"),
         _f("thrusters_full", "bool", "-", "(short) the allocator cut the common thrust: the thrusters give all they have"),
     )),

@@ -113,3 +113,15 @@ def test_a_disarm_is_kept_for_the_next_start_however_the_last_run_ended(tmp_path
         assert _armed_at_start(fresh, st)
     st.save(Progress("other", "def", 0, "stopped"))
     assert _armed_at_start(opts, st)
+
+
+def test_a_progress_file_that_cannot_be_read_starts_disarmed(tmp_path):
+    """Found by a review: a start held over an unreadable progress file could not save a disarm given in it (the
+    file is kept as it is), and the next start came up armed: a `resume` then drove a boat the operator had
+    disarmed. An unreadable file may have said disarmed: the start is disarmed too; --fresh starts armed."""
+    from autopilot.daemon.app import RunOptions, _armed_at_start
+
+    st = StateStore(tmp_path)
+    st.path.write_text('{"mission": "m", "mission_sha256": "abc", "wp_index": "3", "status": "running"}\n')
+    assert not _armed_at_start(RunOptions(mission_path="m.yaml"), st)
+    assert _armed_at_start(RunOptions(mission_path="m.yaml", fresh=True), st)

@@ -1,6 +1,5 @@
 """Speed-over-ground trim on tau_com (SPEC 8: tau_com keeps the speed; Eq 8.5-8.6 feed-forward)."""
 
-import dataclasses
 import math
 
 import pytest
@@ -130,25 +129,43 @@ def test_the_integral_does_not_wind_up_while_the_boat_gets_going_but_learns_a_st
 def test_a_boat_losing_ground_with_the_trim_at_its_limit_is_said():
     """Found by a modes audit (left in stop 40's note): in 0.4 m/s of current and 8 m/s of headwind `auto` held the
     forward thrust at 29.4 N (the table's 9.4 N and the trim's 20 N limit) while the boat lost 0.11 m/s, and
-    nothing said it. Now the trim at its limit for speed.short_warn_s (30 s) is a speed_short event (a STATUSTEXT
-    on the link), and its end another; a boat getting going from rest (trim briefly at its limit) says nothing."""
+    nothing said it. Now a boat short of its speed by more than speed.short_margin_m_s for speed.short_warn_s
+    (30 s) with nothing more to give is a speed_short event (a STATUSTEXT on the link), and its end another; a
+    boat getting going from rest says nothing. A review found the first version (the trim at its limit alone)
+    silent for a boat at half its speed (the integral at its 15 N bound, the trim 19 N) and for one going astern
+    at full thrust (the allocator's cut holds the integral): both are said now."""
     from autopilot.link.telemetry import event_text
 
-    ap = Autopilot(GncConfig(), [(300.0, 0.0)])
-    astern = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.11, yaw_rate_rad_s=0.0, course_rad=math.pi)
-
-    def steer(nav, seconds):
+    def steer(ap, nav, seconds):
         outs = [ap.step(nav, 0.1) for _ in range(int(round(seconds / 0.1)))]
         return outs, [f for n, f in ap.pop_events() if n == "speed_short"]
 
-    outs, said = steer(dataclasses.replace(astern, speed_m_s=0.0, course_rad=0.0), 12.0)  # from rest: not yet
+    def going(speed_m_s):
+        return NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=abs(speed_m_s), yaw_rate_rad_s=0.0,
+                        course_rad=0.0 if speed_m_s >= 0.0 else math.pi)
+
+    ap = Autopilot(GncConfig(), [(3000.0, 0.0)])
+    outs, said = steer(ap, going(0.0), 12.0)  # from rest: not yet
     assert said == []
-    outs, said = steer(astern, 40.0)
+    outs, said = steer(ap, going(-0.11), 40.0)
     assert outs[-1].tau_com_trim_n == pytest.approx(20.0)  # the trim's bound stays; it is said, not lifted
     assert len(said) == 1 and said[0]["short"] is True and said[0]["speed_m_s"] == -0.11
     assert said[0]["wanted_m_s"] > 0.5 and said[0]["for_s"] == pytest.approx(30.0, abs=0.2)
     assert said[0]["limit_n"] == 20.0 and said[0]["thrusters_full"] is False
     text = event_text("speed_short", said[0])[1]
     assert text.startswith("speed -0.11 of") and "trim at its 20.0 N limit" in text
-    _, back = steer(dataclasses.replace(astern, speed_m_s=1.5, course_rad=0.0), 3.0)  # making way again
+    _, back = steer(ap, going(0.85), 3.0)  # within the margin, not yet within half of it: still short
+    assert back == []
+    _, back = steer(ap, going(1.5), 3.0)  # making way again
     assert [b["short"] for b in back] == [False]
+
+    half = Autopilot(GncConfig(), [(3000.0, 0.0)])  # half its speed: the integral at its bound, the trim 19 N
+    outs, said = steer(half, going(0.5), 60.0)
+    assert outs[-1].tau_com_trim_n < 20.0 and [s["speed_m_s"] for s in said] == [0.5]
+    full = Autopilot(GncConfig(), [(3000.0, 0.0)], speeds_m_s=[1.5])  # astern at full thrust: the allocator cuts
+    outs, said = steer(full, going(-0.3), 60.0)
+    assert outs[-1].common_limit and outs[-1].tau_com_trim_n < 20.0
+    assert len(said) == 1 and said[0]["thrusters_full"] is True
+    assert "thrusters at full" in event_text("speed_short", said[0])[1]
+    steady = Autopilot(GncConfig(), [(3000.0, 0.0)])  # a little slow, the trim making it up: nothing said
+    assert steer(steady, going(0.9), 60.0)[1] == []

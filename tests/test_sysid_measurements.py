@@ -406,3 +406,22 @@ def test_a_long_trial_is_cut_into_pieces_each_on_its_own_time_base():
     assert long.counts == {"dropped_rows": 2}  # the trial read is not changed
     assert notes == [f"zigzag (200 s) cut into 3 pieces of 67 s, each replayed from its own state (a replay of "
                      f"logged thrusts over minutes drifts; longer than {LONG_TRIAL_S:g} s)"]
+
+
+def test_a_dropout_at_a_cut_moves_the_piece_start_and_loses_no_other_fix():
+    """Found by a review: a 2-s GNSS dropout just after a cut failed the piece's start test (fixes and headings in
+    its first 3 s), and the whole 67-s piece was left out (133 of 198 fixes used). The piece now begins at the
+    first second that passes; the rows before it go to the piece before."""
+    from autopilot.sim import default_params_path, load_params
+    from autopilot.sysid.realistic import make_realistic_trials
+    from autopilot.sysid.trials import cut_long
+
+    tr, = make_realistic_trials(load_params(default_params_path()), {}, 3, n_trials=1, duration_s=200.0)
+    lost = (tr.position_time_s >= 67.0) & (tr.position_time_s < 68.5)
+    gap = dataclasses.replace(tr, name="gap", north_m=np.where(lost, np.nan, tr.north_m),
+                              east_m=np.where(lost, np.nan, tr.east_m),
+                              position_time_s=np.where(lost, np.nan, tr.position_time_s))
+    out, notes = cut_long([gap])
+    assert len(out) == 3 and "left out" not in notes[0]
+    assert sum(len(p.fix_rows) for p in out) >= len(gap.fix_rows) - len(out)
+    assert sum(len(p.t_s) for p in out) == len(gap.t_s)

@@ -310,8 +310,14 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: s
 
 def _armed_at_start(opts: RunOptions, store: StateStore) -> bool:
     """False when the last run ended disarmed, however it ended (a crash, systemctl restart) and whatever its
-    mission: a disarm is the operator's "no thrust" for the boat, kept until armed; --fresh starts armed."""
-    saved = None if opts.fresh else store.load()
+    mission: a disarm is the operator's "no thrust" for the boat, kept until armed; --fresh starts armed. A
+    progress file that is there but cannot be read may have said disarmed: disarmed too (a review: a disarm
+    given in the start it held could not be saved over it, and the next start came up armed)."""
+    if opts.fresh:
+        return True
+    saved, problem = store.read()
+    if problem is not None:
+        return False
     return True if saved is None else saved.armed
 
 
@@ -457,8 +463,10 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     if cfg.ais.on_compass_line:
         said.append(_compass_line_share(cfg.serial.sc30_baud))
     if not ap.armed:
-        said.append("disarmed when the last run ended: zero thrust whatever the mode until armed (`autopilot ctl "
-                    "arm`, or ARM from the ground station; --fresh starts armed)")
+        why = ("the saved progress cannot be read (it may have said disarmed)" if store.read()[1] is not None
+               else "disarmed when the last run ended")
+        said.append(f"{why}: zero thrust whatever the mode until armed (`autopilot ctl arm`, or ARM from the ground "
+                    "station; --fresh starts armed)")
     for text in said:  # in the log and on the console (the journal) alike
         log.event("info", t_s=0.0, message=text)
         _console(text)

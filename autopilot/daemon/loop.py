@@ -407,7 +407,7 @@ class ControlLoop:
             self._save("running")
             return
         saved = self.store.load()
-        if saved is None:  # unreadable, kept as it is: the next start holds zero thrust again over it
+        if saved is None:  # unreadable, kept as it is: the next start holds zero over it, disarmed (app._armed_at_start)
             return
         try:
             self.store.save(replace(saved, armed=bool(self.ap.armed)))

@@ -187,6 +187,7 @@ class Autopilot:
         meanwhile: a fix lost 4.5 m short of a waypoint came back with the boat coasted past it, and the waypoint
         was logged reached ("passed", 10 m off) though the boat never came near it under control."""
         self.reset_integrator()
+        self.speed_short.for_s = 0.0  # the time short of speed counts only while the helm drives
         for g in (self.guidance, getattr(self.current, "guidance", None)):
             if g is not None:
                 g.disarm_pass()
@@ -527,8 +528,9 @@ class Autopilot:
             if s.kind == "course":  # the allocator cut the common mode: more speed cannot be delivered
                 self.speed_trim.integrate(s.speed_cmd_m_s, speed_n, dt_s, block_up=alloc.common_limit > 0,
                                           block_down=floor)
-        short = (self.speed_short.update(trim_n, s.speed_cmd_m_s, speed_n, dt_s, thrusters_full=alloc.common_limit > 0)
-                 if s.kind == "course" else self.speed_short.update(None, 0.0, 0.0, dt_s, thrusters_full=False))
+        short = (self.speed_short.update(s.speed_cmd_m_s, speed_n, dt_s, trim_n=trim_n,
+                                         integral_n=self.speed_trim.integral_n, thrusters_full=alloc.common_limit > 0)
+                 if s.kind == "course" else self.speed_short.update(None, 0.0, dt_s))
         if short is not None:
             self._events.append(("speed_short", short))
         g, h = s.guidance, s.hold

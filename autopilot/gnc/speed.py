@@ -59,8 +59,10 @@ class SpeedTrimConfig:
             "boat takes to get going, and the boat then ran 40 % over its speed); 0 = from the wanted speed")
     short_warn_s: float = param(
         30.0, unit="s", lo=1.0, hi=3600.0, source="chosen: longer than the boat takes to get going from rest (~10 s)",
-        doc="the trim at its limit this long is said (speed_short: the boat does not make its speed; a headwind or "
-            "current more than trim_limit_n stems: found by a modes audit, a boat losing ground at 29.4 N unsaid)")
+        doc="short of the wanted speed by short_margin_m_s this long with the trim, its integral or the thrusters at "
+            "their bound is said (speed_short: found by a modes audit, a boat losing ground at 29.4 N unsaid)")
+    short_margin_m_s: float = param(0.2, unit="m/s", lo=0.01, hi=5.0, source="chosen: a fifth of the cruise speed",
+                                    doc="see short_warn_s (said again made within half of it)")
 
 
 @dataclass(frozen=True)
@@ -127,26 +129,31 @@ class SpeedTrim:
 
 
 class SpeedShort:
-    """Says when the trim has sat at its limit for ``short_warn_s`` (the boat does not make its speed: a headwind or
-    a current more than the trim may stem), and when it no longer does. The trim's bound stays (the feed-forward
-    carries the steady thrust); the operator learns that it binds, and whether the thrusters had more to give."""
+    """Says when the boat has been short of its wanted speed by more than ``short_margin_m_s`` for ``short_warn_s``
+    with nothing more to give: the trim or its integral at its bound, or the thrusters at full (a headwind or a
+    current more than the trim may stem, or than the boat can), and when it makes its speed again (within half
+    the margin) or the course ends. The bounds stay (the feed-forward carries the steady thrust); the operator
+    learns that they bind, and whether the thrusters had more to give."""
 
     def __init__(self, config: SpeedTrimConfig = SpeedTrimConfig()) -> None:
         self.config = config
         self.for_s = 0.0
         self.said = False
 
-    def update(self, trim_n: float | None, speed_cmd_m_s: float, speed_m_s: float, dt_s: float, *,
-               thrusters_full: bool) -> dict | None:
-        """One cycle (``trim_n`` None: not on a course); the fields of a ``speed_short`` event when one is due."""
+    def update(self, speed_cmd_m_s: float | None, speed_m_s: float, dt_s: float, *, trim_n: float = 0.0,
+               integral_n: float = 0.0, thrusters_full: bool = False) -> dict | None:
+        """One cycle (``speed_cmd_m_s`` None: not on a course); the fields of a ``speed_short`` event when one is
+        due. A boat going astern makes a negative ``speed_m_s`` (along_heading_m_s)."""
         cfg = self.config
-        short = trim_n is not None and cfg.enabled and speed_cmd_m_s > 0.0 and trim_n >= cfg.trim_limit_n - 1e-9
+        on = speed_cmd_m_s is not None and cfg.enabled and speed_cmd_m_s > 0.0
+        pinned = (trim_n >= cfg.trim_limit_n - 1e-9 or integral_n >= cfg.integral_limit_n - 1e-9 or thrusters_full)
+        short = on and pinned and speed_m_s < speed_cmd_m_s - cfg.short_margin_m_s
         self.for_s = self.for_s + dt_s if short else 0.0
         if short and not self.said and self.for_s >= cfg.short_warn_s:
             self.said = True
             return {"short": True, "speed_m_s": round(speed_m_s, 2), "wanted_m_s": round(speed_cmd_m_s, 2),
                     "for_s": round(self.for_s, 1), "limit_n": cfg.trim_limit_n, "thrusters_full": bool(thrusters_full)}
-        if self.said and not short:
+        if self.said and (not on or speed_m_s >= speed_cmd_m_s - 0.5 * cfg.short_margin_m_s):
             self.said = False
             return {"short": False, "limit_n": cfg.trim_limit_n}
         return None

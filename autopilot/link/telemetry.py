@@ -245,7 +245,7 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
             more = "thrusters at full" if f.get("thrusters_full") else f"speed trim at its {f.get('limit_n')} N limit"
             return mavlink.MAV_SEVERITY_WARNING, (f"speed {f.get('speed_m_s')} of {f.get('wanted_m_s')} m/s for "
                                                   f"{f.get('for_s')} s ({more})")
-        return mavlink.MAV_SEVERITY_INFO, "speed: trim off its limit"
+        return mavlink.MAV_SEVERITY_INFO, "speed: no longer short (made, or the course ended)"
     if name == "waypoint_occupied":
         return mavlink.MAV_SEVERITY_WARNING, (f"waypoint {f.get('wp_index')} occupied by vessel {f.get('target')}: "
                                               f"passed at {f.get('distance_m')} m")

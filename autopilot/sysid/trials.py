@@ -548,6 +548,7 @@ def window(tr: Trial, start: float, window_s: float) -> Trial | None:
 
 LONG_TRIAL_S = 150.0  # a trial longer than this is cut into pieces (cut_long)
 PIECE_MAX_S = 75.0
+PIECE_MIN_S = 20.0  # a piece's start moves past a dropout at most until this is left of it
 
 
 def cut_long(trials) -> tuple[list[Trial], list[str]]:
@@ -568,9 +569,19 @@ def cut_long(trials) -> tuple[list[Trial], list[str]]:
             continue
         n = math.ceil(span / PIECE_MAX_S)
         piece_s = span / n
-        starts = [float(tr.t_s[0]) + k * piece_s for k in range(n)]
-        pieces = [w for w in (window(tr, a, piece_s + (1.0 if k == n - 1 else 0.0)) for k, a in enumerate(starts))
-                  if w is not None]
+        end_s = float(tr.t_s[-1]) + 1.0
+        edges = [float(tr.t_s[0]) + k * piece_s for k in range(n)] + [end_s]
+        starts = []
+        for a, b in zip(edges[:-1], edges[1:]):
+            # a piece must begin with fixes and headings (window): after a dropout at its edge it begins at the
+            # first second that does, the rows before it going to the piece before (a review: a 2-s outage at
+            # a cut threw the whole 67-s piece away)
+            s = a
+            while window(tr, s, b - s) is None and s + PIECE_MIN_S < b:
+                s += 1.0
+            if window(tr, s, b - s) is not None:
+                starts.append(s)
+        pieces = [window(tr, a, b - a) for a, b in zip(starts, starts[1:] + [end_s])]
         if len(pieces) < 2:  # too little in the pieces to fit them: the whole trial, as it is
             out.append(tr)
             continue
