@@ -402,7 +402,8 @@ def test_a_long_trial_is_cut_into_pieces_each_on_its_own_time_base():
     fixes = sum(len(p.fix_rows) for p in pieces)
     assert len(long.fix_rows) - len(pieces) <= fixes <= len(long.fix_rows)  # none twice, at most one per cut lost
     assert sum(len(p.t_s) for p in pieces) == len(long.t_s)  # every command row in exactly one piece
-    assert pieces[0].counts == {"dropped_rows": 2, "long_trial_pieces": 3} and all(p.counts == {} for p in pieces[1:])
+    assert pieces[0].counts == {"dropped_rows": 2, "long_trial_pieces": 3, "long_trial_fixes_left_out": 0}
+    assert all(p.counts == {} for p in pieces[1:])
     assert long.counts == {"dropped_rows": 2}  # the trial read is not changed
     assert notes == [f"zigzag (200 s) cut into 3 pieces of 67 s, each replayed from its own state (a replay of "
                      f"logged thrusts over minutes drifts; longer than {LONG_TRIAL_S:g} s)"]
@@ -423,5 +424,5 @@ def test_a_dropout_at_a_cut_moves_the_piece_start_and_loses_no_other_fix():
                               position_time_s=np.where(lost, np.nan, tr.position_time_s))
     out, notes = cut_long([gap])
     assert len(out) == 3 and "left out" not in notes[0]
-    assert sum(len(p.fix_rows) for p in out) >= len(gap.fix_rows) - len(out)
+    assert sum(len(p.fix_rows) for p in out) == len(gap.fix_rows) and out[0].counts["long_trial_fixes_left_out"] == 0
     assert sum(len(p.t_s) for p in out) == len(gap.t_s)

@@ -585,10 +585,13 @@ def cut_long(trials) -> tuple[list[Trial], list[str]]:
         if len(pieces) < 2:  # too little in the pieces to fit them: the whole trial, as it is
             out.append(tr)
             continue
-        pieces = [dataclasses.replace(p, counts={**tr.counts, "long_trial_pieces": len(pieces)}) if k == 0
+        fixes_out = len(tr.fix_rows) - sum(len(p.fix_rows) for p in pieces)  # before a piece's moved start
+        pieces = [dataclasses.replace(p, counts={**tr.counts, "long_trial_pieces": len(pieces),
+                                                 "long_trial_fixes_left_out": fixes_out}) if k == 0
                   else dataclasses.replace(p, counts={}, read_notes=()) for k, p in enumerate(pieces)]
         out += pieces
-        left = f"; {n - len(pieces)} of {n} without enough measurements left out" if len(pieces) < n else ""
+        left = (f"; {n - len(pieces)} of {n} without fixes and headings at its start left out" if len(pieces) < n
+                else "") + (f"; {fixes_out} fixes left out" if fixes_out > 0 else "")
         notes.append(f"{tr.name} ({span:.0f} s) cut into {len(pieces)} pieces of {piece_s:.0f} s, each replayed from "
                      f"its own state (a replay of logged thrusts over minutes drifts; longer than {LONG_TRIAL_S:g} s{left})")
     return out, notes
