@@ -426,3 +426,21 @@ def test_a_dropout_at_a_cut_moves_the_piece_start_and_loses_no_other_fix():
     assert len(out) == 3 and "left out" not in notes[0]
     assert sum(len(p.fix_rows) for p in out) == len(gap.fix_rows) and out[0].counts["long_trial_fixes_left_out"] == 0
     assert sum(len(p.t_s) for p in out) == len(gap.t_s)
+
+
+def test_trials_from_files_of_one_name_are_named_by_their_paths(tmp_path):
+    """Found by a sysid audit: day1/zigzag.jsonl and day2/zigzag.jsonl, each cut into three pieces, gave six
+    pieces named zigzag@0s, zigzag@75s, ... twice over in the notes, the folds and the report."""
+    from autopilot.sim import default_params_path, load_params
+    from autopilot.sysid.cli import _named_apart
+    from autopilot.sysid.realistic import make_realistic_trials, write_columns_csv
+
+    a, b, c = make_realistic_trials(load_params(default_params_path()), {}, 5, n_trials=3, duration_s=30.0)
+    paths = [tmp_path / "day1" / "zigzag.csv", tmp_path / "day2" / "zigzag.csv", tmp_path / "pond.csv"]
+    for p, tr in zip(paths, (a, b, c)):
+        p.parent.mkdir(exist_ok=True)
+        cols = {"t_s": tr.t_s, "thrust_port_n": tr.thrust_port_n, "thrust_stbd_n": tr.thrust_stbd_n,
+                "north_m": tr.north_m, "east_m": tr.east_m, "heading_deg": np.degrees(tr.heading_rad)}
+        write_columns_csv(cols, p)
+    named = _named_apart([str(p) for p in paths], [read_trial(p) for p in paths])
+    assert [t.name for t in named] == [str(paths[0]), str(paths[1]), "pond"]

@@ -90,7 +90,7 @@ def _run(args: argparse.Namespace, vessel, params_path: Path) -> int:
 
     bounds = _bounds(args)
     _distinct_files(args.trials)
-    trials = [read_trial(p) for p in args.trials]
+    trials = _named_apart(args.trials, [read_trial(p) for p in args.trials])
     _distinct_trials(args.trials, trials)
     for path, trial in zip(args.trials, trials):
         for note in trial.read_notes:
@@ -118,6 +118,19 @@ def _bounds(args):
             raise ConfigError(f"{opt}: {value!r} is outside the allowed range [{meta['lo']:g}, {meta['hi']:g}] {meta['unit']}")
         changes[name] = value
     return dataclasses.replace(NoiseBounds(), **changes)
+
+
+def _named_apart(paths, trials) -> list:
+    """Trials named by their files' stems, those sharing one (day1/zigzag.jsonl, day2/zigzag.jsonl) by their paths as
+    given:
+    cut into pieces, two logs of one name gave six pieces named alike in the notes, the folds and the report
+    (a sysid audit)."""
+    import collections
+    import dataclasses
+
+    count = collections.Counter(t.name for t in trials)
+    return [dataclasses.replace(t, name=str(p)) if count[t.name] > 1 else t
+            for p, t in zip(paths, trials)]
 
 
 SAME_TRIAL_SHARE = 0.9  # two trials whose fixes coincide (to the centimetre) this often are one trial
