@@ -362,3 +362,24 @@ def test_a_hold_at_a_waypoint_a_stopped_vessel_occupies_is_kept_where_the_boat_w
     assert math.hypot(hold[0] - 30.0, hold[1]) == pytest.approx(AvoidanceConfig().resume_margin * need)
     assert math.atan2(hold[1], hold[0] - 30.0) == pytest.approx(math.atan2(0.4, 9.5 - 30.0))  # on the boat's side
     assert all(o.mode.value == ("auto" if held == "item" else "hold") for o in outs)
+
+
+def test_an_occupied_hold_is_not_kept_by_another_vessel_nor_on_the_vessel():
+    """Found by a review: the hold off an occupied waypoint was pushed out from the one vessel there, whatever
+    else lay there: next to a second moored vessel (16.4 m off it, 20.8 m needed); and with the boat on the
+    vessel's own position it was the vessel's position. Both hold at the waypoint now, as before (avoidance
+    keeps the boat off it)."""
+    from autopilot.gnc.autopilot import NavInput, _own_ship
+
+    av = Avoidance(AvoidanceConfig())
+    moored = TargetState(target_id=1, north_m=30.0, east_m=0.0, course_rad=0.0, speed_m_s=0.0, extent_m=5.0)
+    behind = TargetState(target_id=2, north_m=-12.5, east_m=0.0, course_rad=0.0, speed_m_s=0.0, extent_m=5.0)
+
+    def own(north_m):
+        return _own_ship(NavInput(north_m=north_m, east_m=0.0, psi_rad=0.0, speed_m_s=0.3, yaw_rate_rad_s=0.0,
+                                  course_rad=0.0))
+
+    alone = av.occupying(own(9.5), (30.0, 0.0), [moored])
+    assert alone.hold_ne_m[0] < 9.5  # pushed out, away from the vessel
+    assert av.occupying(own(9.5), (30.0, 0.0), [moored, behind]).hold_ne_m == (30.0, 0.0)
+    assert av.occupying(own(30.0), (31.0, 0.0), [moored]).hold_ne_m == (31.0, 0.0)

@@ -169,3 +169,6 @@ def test_a_boat_losing_ground_with_the_trim_at_its_limit_is_said():
     assert "thrusters at full" in event_text("speed_short", said[0])[1]
     steady = Autopilot(GncConfig(), [(3000.0, 0.0)])  # a little slow, the trim making it up: nothing said
     assert steer(steady, going(0.9), 60.0)[1] == []
+    # a review: a bound of 0 (allowed: no integral) is no bound reached; 0.7 m/s with the trim at 2.4 N was said
+    no_i = GncConfig(speed=SpeedTrimConfig(integral_limit_n=0.0))
+    assert steer(Autopilot(no_i, [(3000.0, 0.0)]), going(0.7), 60.0)[1] == []

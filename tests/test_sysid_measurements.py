@@ -409,6 +409,14 @@ def test_a_long_trial_is_cut_into_pieces_each_on_its_own_time_base():
                      f"logged thrusts over minutes drifts; longer than {LONG_TRIAL_S:g} s)"]
 
 
+def _without_fixes(tr, lo_s: float, hi_s: float, name: str):
+    """``tr`` with the fixes measured in [lo_s, hi_s) lost (a GNSS dropout), renamed ``name``."""
+    lost = (tr.position_time_s >= lo_s) & (tr.position_time_s < hi_s)
+    return dataclasses.replace(tr, name=name, north_m=np.where(lost, np.nan, tr.north_m),
+                               east_m=np.where(lost, np.nan, tr.east_m),
+                               position_time_s=np.where(lost, np.nan, tr.position_time_s))
+
+
 def test_a_dropout_at_a_cut_moves_the_piece_start_and_loses_no_other_fix():
     """Found by a review: a 2-s GNSS dropout just after a cut failed the piece's start test (fixes and headings in
     its first 3 s), and the whole 67-s piece was left out (133 of 198 fixes used). The piece now begins at the
@@ -418,10 +426,7 @@ def test_a_dropout_at_a_cut_moves_the_piece_start_and_loses_no_other_fix():
     from autopilot.sysid.trials import cut_long
 
     tr, = make_realistic_trials(load_params(default_params_path()), {}, 3, n_trials=1, duration_s=200.0)
-    lost = (tr.position_time_s >= 67.0) & (tr.position_time_s < 68.5)
-    gap = dataclasses.replace(tr, name="gap", north_m=np.where(lost, np.nan, tr.north_m),
-                              east_m=np.where(lost, np.nan, tr.east_m),
-                              position_time_s=np.where(lost, np.nan, tr.position_time_s))
+    gap = _without_fixes(tr, 67.0, 68.5, "gap")
     out, notes = cut_long([gap])
     assert len(out) == 3 and "left out" not in notes[0]
     assert sum(len(p.fix_rows) for p in out) == len(gap.fix_rows) and out[0].counts["long_trial_fixes_left_out"] == 0
@@ -444,3 +449,22 @@ def test_trials_from_files_of_one_name_are_named_by_their_paths(tmp_path):
         write_columns_csv(cols, p)
     named = _named_apart([str(p) for p in paths], [read_trial(p) for p in paths])
     assert [t.name for t in named] == [str(paths[0]), str(paths[1]), "pond"]
+    # a review: a path given may be another trial's name (a .jsonl.gz log is named zigzag.jsonl)
+    again = _named_apart(["zigzag.jsonl", "day2/zigzag.csv", "zigzag.jsonl.gz"],
+                         [dataclasses.replace(a, name=n) for n in ("zigzag", "zigzag", "zigzag.jsonl")])
+    assert [t.name for t in again] == ["zigzag.jsonl", "day2/zigzag.csv", "zigzag.jsonl.gz"]
+
+
+def test_a_piece_left_out_does_not_lengthen_the_one_before_it():
+    """Found by a review: with the middle piece of three left out (GNSS lost for 58 s), the first piece ran on to
+    the third's start, 133 s replayed open loop, as long as the cut is there to prevent."""
+    from autopilot.sim import default_params_path, load_params
+    from autopilot.sysid.realistic import make_realistic_trials
+    from autopilot.sysid.trials import PIECE_MAX_S, cut_long
+
+    tr, = make_realistic_trials(load_params(default_params_path()), {}, 3, n_trials=1, duration_s=200.0)
+    outage = _without_fixes(tr, 67.0, 125.0, "outage")
+    out, notes = cut_long([outage])
+    assert [p.name for p in out] == ["outage@0s", "outage@133s"]
+    assert all(p.t_s[-1] - p.t_s[0] <= PIECE_MAX_S for p in out)
+    assert out[0].counts["long_trial_fixes_left_out"] == 9 and "1 of 3 without fixes and headings" in notes[0]

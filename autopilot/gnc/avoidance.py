@@ -362,13 +362,24 @@ class Avoidance:
             to_point = math.hypot(point_ne_m[0] - tgt.north_m, point_ne_m[1] - tgt.east_m)
             from_own = math.hypot(own.north_m - tgt.north_m, own.east_m - tgt.east_m)
             if to_point < need and from_own <= cfg.resume_margin * need:
-                # held inside the safe distance, every move toward it set avoidance acting again: kept where
-                # avoidance lets go (resume_margin x), on the boat's bearing from the vessel
-                off = cfg.resume_margin * need / from_own if from_own > 0.0 else 0.0
-                hold = (tgt.north_m + (own.north_m - tgt.north_m) * max(off, 1.0),
-                        tgt.east_m + (own.east_m - tgt.east_m) * max(off, 1.0))
-                return Occupied(tgt, need, to_point, cfg.resume_margin * need + to_point, hold)
+                return Occupied(tgt, need, to_point, cfg.resume_margin * need + to_point,
+                                self._hold_off(own, tgt, need, from_own, point_ne_m, targets))
         return None
+
+    def _hold_off(self, own: OwnShip, tgt: TargetState, need_m: float, from_own_m: float, point_ne_m, targets):
+        """Where a hold at an occupied point is kept: held inside the safe distance, every move toward the point set
+        avoidance acting again, so on the boat's bearing from the vessel where avoidance lets go (resume_margin x).
+        The point itself (avoidance then keeps the boat off, as before) when that spot is inside another vessel's
+        safe distance (a review: next to a second moored vessel), or the boat is on the vessel's own position."""
+        if from_own_m <= 1e-6:
+            return (float(point_ne_m[0]), float(point_ne_m[1]))
+        k = max(self.config.resume_margin * need_m / from_own_m, 1.0)
+        hold = (tgt.north_m + (own.north_m - tgt.north_m) * k, tgt.east_m + (own.east_m - tgt.east_m) * k)
+        for other in targets:
+            if other is not tgt and math.hypot(hold[0] - other.north_m, hold[1] - other.east_m) < (
+                    self.config.resume_margin * (self.config.safe_distance_m + other.extent_m)):
+                return (float(point_ne_m[0]), float(point_ne_m[1]))
+        return hold
 
     def step(self, own: OwnShip, targets: list[TargetState], psi_d_rad: float, speed_cmd_m_s: float,
              t_s: float) -> AvoidanceOutput:

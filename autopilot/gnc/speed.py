@@ -146,7 +146,8 @@ class SpeedShort:
         due. A boat going astern makes a negative ``speed_m_s`` (along_heading_m_s)."""
         cfg = self.config
         on = speed_cmd_m_s is not None and cfg.enabled and speed_cmd_m_s > 0.0
-        pinned = (trim_n >= cfg.trim_limit_n - 1e-9 or integral_n >= cfg.integral_limit_n - 1e-9 or thrusters_full)
+        pinned = ((cfg.trim_limit_n > 0.0 and trim_n >= cfg.trim_limit_n - 1e-9) or thrusters_full
+                  or (cfg.integral_limit_n > 0.0 and integral_n >= cfg.integral_limit_n - 1e-9))  # 0: no such bound
         short = on and pinned and speed_m_s < speed_cmd_m_s - cfg.short_margin_m_s
         self.for_s = self.for_s + dt_s if short else 0.0
         if short and not self.said and self.for_s >= cfg.short_warn_s:

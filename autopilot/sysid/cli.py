@@ -128,9 +128,11 @@ def _named_apart(paths, trials) -> list:
     import collections
     import dataclasses
 
-    count = collections.Counter(t.name for t in trials)
-    return [dataclasses.replace(t, name=str(p)) if count[t.name] > 1 else t
-            for p, t in zip(paths, trials)]
+    named = list(trials)
+    for _ in range(3):  # a path given may be another trial's name (zigzag.jsonl.gz is named zigzag.jsonl): again
+        count = collections.Counter(t.name for t in named)
+        named = [dataclasses.replace(t, name=str(p)) if count[t.name] > 1 else t for p, t in zip(paths, named)]
+    return named
 
 
 SAME_TRIAL_SHARE = 0.9  # two trials whose fixes coincide (to the centimetre) this often are one trial

@@ -580,8 +580,11 @@ def cut_long(trials) -> tuple[list[Trial], list[str]]:
             while window(tr, s, b - s) is None and s + PIECE_MIN_S < b:
                 s += 1.0
             if window(tr, s, b - s) is not None:
-                starts.append(s)
-        pieces = [window(tr, a, b - a) for a, b in zip(starts, starts[1:] + [end_s])]
+                starts.append((a, s, b))
+        # a piece ends where the next begins, or at its own edge when the next was left out (replayed open loop
+        # over both, it was as long as the cut is there to prevent: a review)
+        ends = [nxt[1] if nxt[0] == b else b for (_, _, b), nxt in zip(starts, starts[1:] + [(end_s, end_s, end_s)])]
+        pieces = [window(tr, s, e - s) for (_, s, _), e in zip(starts, ends)]
         if len(pieces) < 2:  # too little in the pieces to fit them: the whole trial, as it is
             out.append(tr)
             continue
