@@ -371,15 +371,14 @@ class Avoidance:
         avoidance acting again, so on the boat's bearing from the vessel where avoidance lets go (resume_margin x).
         The point itself (avoidance then keeps the boat off, as before) when that spot is inside another vessel's
         safe distance (a review: next to a second moored vessel), or the boat is on the vessel's own position."""
+        at_point = (float(point_ne_m[0]), float(point_ne_m[1]))
         if from_own_m <= 1e-6:
-            return (float(point_ne_m[0]), float(point_ne_m[1]))
+            return at_point
         k = max(self.config.resume_margin * need_m / from_own_m, 1.0)
         hold = (tgt.north_m + (own.north_m - tgt.north_m) * k, tgt.east_m + (own.east_m - tgt.east_m) * k)
-        for other in targets:
-            if other is not tgt and math.hypot(hold[0] - other.north_m, hold[1] - other.east_m) < (
-                    self.config.resume_margin * (self.config.safe_distance_m + other.extent_m)):
-                return (float(point_ne_m[0]), float(point_ne_m[1]))
-        return hold
+        crowded = any(other is not tgt and math.hypot(hold[0] - other.north_m, hold[1] - other.east_m)
+                      < self.config.resume_margin * (self.config.safe_distance_m + other.extent_m) for other in targets)
+        return at_point if crowded else hold
 
     def step(self, own: OwnShip, targets: list[TargetState], psi_d_rad: float, speed_cmd_m_s: float,
              t_s: float) -> AvoidanceOutput:

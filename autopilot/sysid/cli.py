@@ -121,10 +121,9 @@ def _bounds(args):
 
 
 def _named_apart(paths, trials) -> list:
-    """Trials named by their files' stems, those sharing one (day1/zigzag.jsonl, day2/zigzag.jsonl) by their paths as
-    given:
-    cut into pieces, two logs of one name gave six pieces named alike in the notes, the folds and the report
-    (a sysid audit)."""
+    """Trials named by their files' stems, those sharing one (day1/zigzag.jsonl, day2/zigzag.jsonl) by their paths
+    as given: cut into pieces, two logs of one name gave six pieces named alike in the notes, the folds and the
+    report (a sysid audit)."""
     import collections
     import dataclasses
 
