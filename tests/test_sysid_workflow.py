@@ -269,13 +269,14 @@ def test_deadband_regression_seeds(seed, request, identified):
 
 @pytest.fixture(scope="module")
 def current_logs(tmp_path_factory):
-    """The four pond missions flown by the daemon (--sim, clock 3x) in a hidden 0.2 m/s current,
+    """The four pond missions flown by the daemon (--sim, --speedup max: lockstep, as the README asks of logs
+    to identify from; 3x took 20 s of the suite's 10 minutes) in a hidden 0.2 m/s current,
     realistic SC-30. The current flows east, across the missions' legs (they head north to
     north-west): along a leg a current is nearly a faster or slower boat, which the initial speed and
     GPS wander absorb over 30-s logs (the benchmark flies five logs at 2x, draws every direction and
     reports the rate)."""
     d = tmp_path_factory.mktemp("pond")
-    case = Case(("current",), kind="closed_loop", n_trials=4, current_towards_deg=90.0, speedup=3.0)
+    case = Case(("current",), kind="closed_loop", n_trials=4, current_towards_deg=90.0, speedup="max")
     hidden, trials, _ = make(case, _seed(case.label), VESSEL, work_dir=d)
     return case, hidden, trials, d
 
@@ -315,7 +316,7 @@ def test_closed_loop_wind_is_named_wind(tmp_path):
     from autopilot.sysid import read_trial
     from autopilot.sysid.closed_loop import fly_pond_logs
 
-    logs = fly_pond_logs(tmp_path, 20261205, n_logs=4, wind_speed_m_s=5.0, wind_from_deg=90.0, speedup=4.0)
+    logs = fly_pond_logs(tmp_path, 20261205, n_logs=4, wind_speed_m_s=5.0, wind_from_deg=90.0, speedup="max")
     result = identify([read_trial(p) for p in logs], VESSEL)
     print(f"  {result.status} {result.verdict} {result.chosen.values()} {result.notes}")
     assert result.status == "effects" and result.verdict == ("wind",), result.notes
