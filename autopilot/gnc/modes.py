@@ -184,7 +184,7 @@ class AutoMode:
         self.item_keeper: StationKeeper | None = None  # holding at a waypoint of the mission
         self.item_left_s = 0.0
         self.item_index: int | None = None
-        self.occupied_at: dict[int, tuple[float, float]] = {}  # waypoint reached "occupied" -> where it is held
+        self.held_off_ne_m: dict[int, tuple[float, float]] = {}  # waypoint reached "occupied" -> where it is held
         self.occupied_hold_ne_m: tuple[float, float] | None = None  # this cycle's (Avoidance.occupying), set by the helm
 
     def end_item_hold(self) -> bool:
@@ -208,9 +208,9 @@ class AutoMode:
         g = self.guidance.update(nav, dt_s)
         i = g.reached_index
         if i is not None and g.reached_how == "occupied":
-            self.occupied_at[i] = self.occupied_hold_ne_m or (nav.north_m, nav.east_m)
+            self.held_off_ne_m[i] = self.occupied_hold_ne_m or (nav.north_m, nav.east_m)
         elif i is not None:  # reached as any other (a mission set back to it, the vessel gone)
-            self.occupied_at.pop(i, None)
+            self.held_off_ne_m.pop(i, None)
         if i is not None and self._hold_s(i) is not None:
             self.item_index, self.item_left_s = i, self._hold_s(i)
             self.item_keeper = self._keeper_at(i, nav)
@@ -228,7 +228,7 @@ class AutoMode:
         (Occupied.hold_ne_m): held at the waypoint, the boat left and came back at the vessel's safe distance for
         the whole hold (found by an AIS audit)."""
         keeper = self.closing.take(self.guidance.waypoints[i], nav)
-        off = self.occupied_at.get(i)
+        off = self.held_off_ne_m.get(i)
         return keeper if off is None else keeper.least_effort(nav.psi_rad, target_ne_m=off)
 
     def _stops_at(self, i: int) -> bool:
