@@ -187,7 +187,7 @@ class Autopilot:
         meanwhile: a fix lost 4.5 m short of a waypoint came back with the boat coasted past it, and the waypoint
         was logged reached ("passed", 10 m off) though the boat never came near it under control."""
         self.reset_integrator()
-        self.speed_short.for_s = 0.0  # the time short of speed counts only while the helm drives
+        self.speed_short.restart()
         for g in (self.guidance, getattr(self.current, "guidance", None)):
             if g is not None:
                 g.disarm_pass()

@@ -140,6 +140,10 @@ class SpeedShort:
         self.for_s = 0.0
         self.said = False
 
+    def restart(self) -> None:
+        """The helm drives again after cycles it did not: the time short counts afresh (what was said stays said)."""
+        self.for_s = 0.0
+
     def update(self, speed_cmd_m_s: float | None, speed_m_s: float, dt_s: float, *, trim_n: float = 0.0,
                integral_n: float = 0.0, thrusters_full: bool = False) -> dict | None:
         """One cycle (``speed_cmd_m_s`` None: not on a course); the fields of a ``speed_short`` event when one is
