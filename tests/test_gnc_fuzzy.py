@@ -144,3 +144,32 @@ def test_last_waypoint_stop():
     out = g.update(nav(10.3, 0.2, 0), 0.1)
     assert out.complete and out.thrust_off and out.reached_index == 0
     assert g.update(nav(11, 0, 0), 0.1).thrust_off
+
+
+def test_a_waypoint_abeam_at_the_switch_is_not_passed_by_the_turn():
+    """The clean-clone failure of 08d271a: the next waypoint 10.8 m nearly abeam right after a capture armed the
+    pass test on a TCPA' just above 0, and the course swinging past it two cycles later counted it "passed"."""
+    g = guidance([(0.3, 10.8)])
+    first = g.update(nav(0, 0, 0), 0.1)
+    assert first.reached_index is None and 0.0 < first.tcpa_nd < 0.1  # abeam, a hair ahead
+    out = g.update(nav(0.5, 0.0, 0), 0.1)  # the waypoint just abaft the beam, 10.8 m off: not passed
+    assert out.reached_index is None and not out.complete and out.wp_index == 0
+    assert out.psi_d_rad == pytest.approx(math.atan2(10.8, -0.2))  # turns back to it
+    g.update(nav(0.5, 2.0, 90), 0.1)  # heading for it now: armed
+    out = g.update(nav(0.5, 11.2, 90), 0.1)  # and by it, 0.45 m abeam
+    assert out.reached_index == 0 and out.complete
+
+
+def test_arming_at_ninety_degrees_is_the_old_tcpa_test():
+    g = guidance([(0.3, 10.8)], arm_bearing_deg=90.0)
+    g.update(nav(0, 0, 0), 0.1)
+    assert g.update(nav(0.5, 0.0, 0), 0.1).reached_how == "passed"
+
+
+def test_a_boat_set_sideways_past_a_close_waypoint_passes_it():
+    """Campaign run 242 (9.6 m/s of wind): the boat blown across its first waypoint, course 60 deg off its bearing
+    but 1.4 m abeam, passes it; refused, it could never come back upwind to capture it."""
+    g = guidance([(2.7, -1.2), (7.8, -3.4)])
+    assert g.update(nav(1.49, 0.58, 4), 0.1).reached_index is None  # 60 deg off, 1.9 m abeam: ahead, close
+    out = g.update(nav(2.7, 0.3, 4), 0.1)
+    assert out.reached_index == 0 and out.reached_how == "passed" and out.wp_index == 1

@@ -29,7 +29,12 @@ Corner cases, guarded here:
   counts the waypoint reached within ``capture_radius_m`` before it is used;
 - a waypoint behind the boat (at the start, or right after a switch to a
   waypoint back the way we came): TCPA' < 0 at once, which must not count as
-  "passed". Switching is armed only once TCPA' has been >= 0 for this target;
+  "passed". Switching is armed only once this target has been ahead, within
+  ``arm_bearing_deg`` (45) of the course or at most ``arm_abeam_nd`` (1) boat
+  length abeam (a boat set sideways past it passes it close). Armed on
+  TCPA' >= 0 alone, a target nearly abeam at the switch (a sharp corner)
+  armed on a TCPA' just above 0 and was counted "passed" 10.8 m off two
+  cycles later, as the turn swung the course (a clean-clone run of 08d271a);
 - two waypoints closer than a boat length (pond set 9.2): the same arming
   keeps a switch from cascading through both at once;
 - the last waypoint has no W_{i+1}: psi_2 = psi_1, so CDH has no effect.
@@ -98,6 +103,17 @@ class FuzzyConfig:
         doc="TCPA' < 0 counts as 'passed' only within this many boat lengths (a boat spun round by "
         "current or wind far from W_i has not passed it: it turns back)",
     )
+    arm_bearing_deg: float = param(
+        45.0, unit="deg", lo=5.0, hi=90.0, source="guard, chosen in simulation (benchmarks/fuzzy_arming.py; 90: armed on TCPA' >= 0)",
+        doc="TCPA' < 0 counts as 'passed' only once the waypoint has lain ahead within this angle of the course "
+        "(the boat was heading for it) or within arm_abeam_nd: a waypoint far abeam at the switch is not "
+        "passed by the turn towards it",
+    )
+    arm_abeam_nd: float = param(
+        1.0, unit="-", lo=0.0, hi=100.0, source="guard, chosen in simulation (benchmarks/fuzzy_arming.py)",
+        doc="a waypoint ahead (TCPA' >= 0) at most this many boat lengths abeam (DCPA') arms the pass test "
+        "whatever its bearing: a boat set sideways past it by wind or current passes it close",
+    )
     defuzz_points: int = param(
         61, unit="-", lo=11, hi=2001, source="Eq 6.9 (61 samples: CDH within 0.005 of a 2001-sample CoG)", doc="samples of the CDH universe [-0.25, 1.25] for the centre of gravity (rounded up to 6k+1 so 0..1 peaks are samples)",
     )
@@ -156,6 +172,7 @@ class FuzzyGuidance(WaypointGuidance):
     def reset(self) -> None:
         cfg = self.config.fuzzy
         self._engine = cdh_engine(cfg.tcpa_max_nd, cfg.dcpa_max_nd, cfg.defuzz_points)
+        self._arm_cos = math.cos(math.radians(cfg.arm_bearing_deg))
 
     def _steer(self, nav, dt_s: float, i: int) -> Steer:
         cfg = self.config.fuzzy
@@ -163,8 +180,8 @@ class FuzzyGuidance(WaypointGuidance):
         moving = nav.speed_m_s >= cfg.min_speed_m_s
         ref = nav.course_rad if (moving and cfg.cpa_reference == "course") else nav.psi_rad
         d_m, psi_1, _, tcpa_nd, dcpa_nd = cpa_geometry(nav.north_m, nav.east_m, ref, wn, we, self.boat_length_m)
-        if tcpa_nd >= 0.0:
-            self._armed = True
+        if tcpa_nd >= 0.0 and (dcpa_nd <= cfg.arm_abeam_nd or tcpa_nd * self.boat_length_m >= d_m * self._arm_cos):
+            self._armed = True  # ahead, to be passed close or within the arm bearing (cos(alpha) >= its cosine)
         passed = self._armed and tcpa_nd < 0.0 and moving and d_m <= cfg.pass_radius_nd * self.boat_length_m
         if i + 1 < len(self.waypoints):
             n2, e2 = self.waypoints[i + 1]
