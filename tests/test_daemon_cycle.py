@@ -216,3 +216,22 @@ def test_the_failsafe_is_told_the_heading_error_only_when_the_helm_steered_by_it
     assert steps.steered_error_rad(None) is None
     assert steps.steered_error_rad(dataclasses.replace(out, thrust_off=True)) is None
     assert steps.steered_error_rad(dataclasses.replace(out, mode=Mode.MANUAL)) is None
+
+
+def test_the_loop_gives_the_helm_its_failsafe_s_position_limits(tmp_path):
+    """The holds the helm places itself (off a waypoint a moored vessel occupies) are kept inside the failsafe's
+    latched limits: the loop hands the helm its failsafe's check, the geofence and max_distance_m alike."""
+    cfg = DaemonConfig()
+    mission = Mission("north", np.array([(20.0, 0.0)]), (None,), None, *ORIGIN)
+    ap = Autopilot(cfg.gnc, mission.waypoints_ne_m)
+    fence = ((-10.0, -10.0), (40.0, -10.0), (40.0, 10.0), (-10.0, 10.0))
+    ControlLoop(cfg, clock=SimClock(), autopilot=ap, mission=mission, mission_path="m.yaml", mission_sha256="x",
+                compass=FakeCompass(SimClock()), thrusters=FakeThrusters(), log=MissionLog(tmp_path / "l.jsonl", console=None),
+                notifier=Notifier(None), store=StateStore(tmp_path / "state"), fence_ne_m=fence)
+    assert ap.within_limits(20.0, 5.0) and ap.within_limits(-10.0, 10.0)  # inside, and on its edge
+    assert not ap.within_limits(20.0, 12.0)  # beyond the fence
+    far = cfg.failsafe.max_distance_m + 1.0
+    ControlLoop(cfg, clock=SimClock(), autopilot=ap, mission=mission, mission_path="m.yaml", mission_sha256="x",
+                compass=FakeCompass(SimClock()), thrusters=FakeThrusters(), log=MissionLog(tmp_path / "m.jsonl", console=None),
+                notifier=Notifier(None), store=StateStore(tmp_path / "state2"))
+    assert ap.within_limits(20.0, 12.0) and not ap.within_limits(far, 0.0)  # no fence: the distance limit alone

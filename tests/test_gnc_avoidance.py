@@ -367,8 +367,8 @@ def test_a_hold_at_a_waypoint_a_stopped_vessel_occupies_is_kept_where_the_boat_w
 def test_an_occupied_hold_is_not_kept_by_another_vessel_nor_on_the_vessel():
     """Found by a review: the hold off an occupied waypoint was pushed out from the one vessel there, whatever
     else lay there: next to a second moored vessel (16.4 m off it, 20.8 m needed); and with the boat on the
-    vessel's own position it was the vessel's position. Both hold at the waypoint now, as before (avoidance
-    keeps the boat off it)."""
+    vessel's own position it was the vessel's position. Next to a second vessel it is kept on the nearest
+    bearing round the first that clears both; on the vessel, at the waypoint (avoidance keeps the boat off)."""
     from autopilot.gnc.autopilot import NavInput, _own_ship
 
     av = Avoidance(AvoidanceConfig())
@@ -381,5 +381,47 @@ def test_an_occupied_hold_is_not_kept_by_another_vessel_nor_on_the_vessel():
 
     alone = av.occupying(own(9.5), (30.0, 0.0), [moored])
     assert alone.hold_ne_m[0] < 9.5  # pushed out, away from the vessel
-    assert av.occupying(own(9.5), (30.0, 0.0), [moored, behind]).hold_ne_m == (30.0, 0.0)
+    need = AvoidanceConfig().safe_distance_m + 5.0
+    margin = AvoidanceConfig().resume_margin * need
+    hold = av.occupying(own(9.5), (30.0, 0.0), [moored, behind]).hold_ne_m
+    assert math.hypot(hold[0] - 30.0, hold[1]) == pytest.approx(margin)  # where avoidance lets go of the first
+    assert math.hypot(hold[0] + 12.5, hold[1]) >= margin  # and of the second
+    turned = abs(math.degrees(math.atan2(hold[1], -(hold[0] - 30.0))))
+    assert 15.0 <= turned <= 90.0 and turned == pytest.approx(15.0 * round(turned / 15.0))  # the nearest clear bearing
     assert av.occupying(own(30.0), (31.0, 0.0), [moored]).hold_ne_m == (31.0, 0.0)
+
+
+def test_a_hold_off_an_occupied_waypoint_is_kept_inside_the_position_limits():
+    """Found by a review (left in stop 41's note): the hold off a vessel moored by the geofence's edge was placed on
+    the boat's bearing from the vessel whatever the fence, and a hold kept within its few metres of wander of the
+    fence trips the latched geofence failsafe. The helm now keeps the hold and the ring of hold.off_warn_m round
+    it inside the limits (the daemon's failsafe's), on the nearest bearing that does; at the waypoint when none."""
+    import dataclasses
+
+    from autopilot.daemon.failsafe import inside_polygon
+    from autopilot.gnc import Autopilot, GncConfig
+    from autopilot.gnc.autopilot import NavInput
+
+    cfg = GncConfig()
+    cfg = dataclasses.replace(cfg, guidance=dataclasses.replace(cfg.guidance, final_action="hold"))
+    moored = TargetState(target_id=244000902, north_m=30.0, east_m=0.0, course_rad=0.0, speed_m_s=0.0, extent_m=5.0)
+    at = NavInput(north_m=9.5, east_m=0.4, psi_rad=0.0, speed_m_s=0.3, yaw_rate_rad_s=0.0, course_rad=0.0)
+    fence = ((-50.0, -2.0), (80.0, -2.0), (80.0, 60.0), (-50.0, 60.0))  # its west edge 2.4 m from the boat
+
+    def hold_of(within_limits):
+        ap = Autopilot(cfg, [(-30.0, 0.0), (30.0, 0.0)], start_index=1, within_limits=within_limits)
+        assert ap.step(at, 0.1, targets=[moored], t_s=0.0).reached_how == "occupied"
+        outs = [ap.step(at, 0.1, targets=[moored], t_s=0.1 * k) for k in range(1, 20)]
+        (hold,) = {o.hold_target_ne_m for o in outs}
+        return hold
+
+    unfenced = hold_of(None)
+    assert unfenced[1] < 3.0  # on the boat's bearing, within the hold's 5 m of wander of the fence's edge
+    hold = hold_of(lambda n, e: inside_polygon(n, e, fence))
+    r = cfg.hold.off_warn_m
+    assert all(inside_polygon(hold[0] + r * math.cos(a), hold[1] + r * math.sin(a), fence)
+               for a in np.linspace(0.0, 2.0 * math.pi, 16))
+    need = AvoidanceConfig().safe_distance_m + 5.0
+    assert math.hypot(hold[0] - 30.0, hold[1]) == pytest.approx(AvoidanceConfig().resume_margin * need)
+    assert hold[1] > 0.0 and abs(math.degrees(math.atan2(hold[1], hold[0] - 30.0))) < 180.0 - 14.0
+    assert hold_of(lambda n, e: False) == (30.0, 0.0)  # nowhere allowed: at the waypoint, as before

@@ -311,6 +311,10 @@ class Failsafe:
                 f"{cfg.heading_frozen_steer_error_deg:g} deg or more off it for {self._steered_s:.1f} s "
                 f"(limit {cfg.heading_frozen_steer_s:g} s)"))
 
+    def within_limits(self, north_m: float, east_m: float) -> bool:
+        """The point (local frame, m) is inside the latched position limits (:func:`position_limits`)."""
+        return not position_limits(north_m, east_m, self.cfg, self.fence_ne_m)
+
     def update(self, obs: Observation) -> Decision:
         found = detect(obs, self.cfg, self.fence_ne_m)
         self._steered_unanswered(obs, found)

@@ -100,6 +100,7 @@ class ControlLoop:
         self.compass, self.thrusters = compass, thrusters
         self.log, self.notifier, self.store = log, notifier, store
         self.failsafe = Failsafe(cfg.failsafe, fence_ne_m=fence_ne_m)
+        autopilot.within_limits = self.failsafe.within_limits  # the holds the helm places stay inside them
         self.rules = steps.nav_rules(cfg)
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
         self._saved_running = False  # this run's progress is the saved one (a held start keeps the old until then)

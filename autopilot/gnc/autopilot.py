@@ -105,6 +105,9 @@ def _own_ship(nav: NavInput) -> OwnShip:
     return OwnShip(nav.north_m, nav.east_m, nav.course_rad, max(nav.speed_m_s, 0.0), nav.psi_rad)
 
 
+_RING = tuple((math.cos(k * math.pi / 4.0), math.sin(k * math.pi / 4.0)) for k in range(8))
+
+
 class Autopilot:
     """The helm for one mission: modes, then PID and allocation. ``step`` once per control cycle."""
 
@@ -121,6 +124,7 @@ class Autopilot:
         thrust_curve: ThrustCurve = ThrustCurve(),
         start_index: int = 0,
         armed: bool = True,
+        within_limits=None,
     ) -> None:
         self.config = config
         self.boat_length_m = float(boat_length_m)
@@ -129,6 +133,9 @@ class Autopilot:
         self.guidance = self.auto.guidance  # the mission's route (wp_index, waypoints)
         self.mission_cleared = False  # MAVLink MISSION_CLEAR_ALL: no mission to resume until a new one
         self.armed = bool(armed)  # False: zero thrust whatever the mode asks, until armed
+        # (north_m, east_m) -> bool: inside the latched position limits (the daemon's geofence and max distance);
+        # None: no limits (evaluate, the campaigns). Points the helm chooses itself are kept inside them.
+        self.within_limits = within_limits
         self.current = self.auto
         self.mode_cause = "start"  # why the helm is in its mode (a mode event's cause: "failsafe geofence", "ctl stop")
         self.paused_from = None  # the mode a pause interrupted (resume goes back to it)
@@ -418,10 +425,18 @@ class Autopilot:
         g = self.auto.guidance
         occ = None
         if targets and self.current is self.auto and not g.complete:
-            occ = self.avoidance.occupying(_own_ship(nav), g.waypoints[g.index], targets)
+            occ = self.avoidance.occupying(_own_ship(nav), g.waypoints[g.index], targets,
+                                           allowed=None if self.within_limits is None else self._may_hold_at)
         g.occupied_reach_m = None if occ is None else occ.reach_m
         self.auto.occupied_hold_ne_m = None if occ is None else occ.hold_ne_m
         return occ
+
+    def _may_hold_at(self, north_m: float, east_m: float) -> bool:
+        """A hold the helm places itself may be kept here: the point, and the ring of hold.off_warn_m round it (what
+        a hold may wander before it is said to be off), inside the position limits."""
+        r_m = self.config.hold.off_warn_m
+        return all(self.within_limits(north_m + r_m * c, east_m + r_m * sn) for c, sn in _RING) and \
+            self.within_limits(north_m, east_m)
 
     def _check_hold_off(self, s: Steering, dt_s: float) -> None:
         """Say when a hold has been off its point by more than hold.off_warn_m for hold.off_warn_s (a current or wind

@@ -291,7 +291,11 @@ class Occupied:
     need_m: float  # the safe distance plus the vessel's extent
     target_to_point_m: float
     reach_m: float  # the boat within this of the point has come as near as it may
-    hold_ne_m: tuple[float, float]  # where a hold at the point is kept: the boat's side of it, clear of the vessel
+    hold_ne_m: tuple[float, float]  # where a hold at the point is kept: the boat's side of the vessel, or the nearest bearing clear
+
+
+HOLD_OFF_TURN_DEG = 15.0  # the hold off an occupied point looks round the vessel in these steps
+HOLD_OFF_TURNS_DEG = (0.0, *(sign * k * HOLD_OFF_TURN_DEG for k in range(1, 13) for sign in (1.0, -1.0)))[:-1]
 
 
 @dataclass
@@ -349,11 +353,12 @@ class Avoidance:
         candidates.sort(key=lambda c: c[:3])
         return keep + [c[3] for c in candidates[: max(0, MAX_ASSESSED - len(keep))]]
 
-    def occupying(self, own: OwnShip, point_ne_m, targets) -> Occupied | None:
+    def occupying(self, own: OwnShip, point_ne_m, targets, allowed=None) -> Occupied | None:
         """The stopped vessel whose safe distance covers ``point_ne_m`` (a waypoint), when own ship is at that
         distance from it (within ``resume_margin`` x): the waypoint cannot be reached by the rules, and the boat
         is as near as it may come. A moored vessel on the mission's waypoint kept the boat circling it at 21-25 m
-        for 27 minutes, until max_mission_time stopped it in open water (found by an AIS audit)."""
+        for 27 minutes, until max_mission_time stopped it in open water (found by an AIS audit). ``allowed(north_m,
+        east_m) -> bool``: where a hold may be kept (the daemon's geofence and distance limit), see ``_hold_off``."""
         cfg = self.config
         for tgt in targets:
             if tgt.speed_m_s >= cfg.encounter.stationary_speed_m_s:
@@ -363,22 +368,32 @@ class Avoidance:
             from_own = math.hypot(own.north_m - tgt.north_m, own.east_m - tgt.east_m)
             if to_point < need and from_own <= cfg.resume_margin * need:
                 return Occupied(tgt, need, to_point, cfg.resume_margin * need + to_point,
-                                self._hold_off(own, tgt, need, from_own, point_ne_m, targets))
+                                self._hold_off(own, tgt, need, from_own, point_ne_m, targets, allowed))
         return None
 
-    def _hold_off(self, own: OwnShip, tgt: TargetState, need_m: float, from_own_m: float, point_ne_m, targets):
+    def _hold_off(self, own: OwnShip, tgt: TargetState, need_m: float, from_own_m: float, point_ne_m, targets,
+                  allowed=None):
         """Where a hold at an occupied point is kept: held inside the safe distance, every move toward the point set
-        avoidance acting again, so on the boat's bearing from the vessel where avoidance lets go (resume_margin x).
-        The point itself (avoidance then keeps the boat off, as before) when that spot is inside another vessel's
-        safe distance (a review: next to a second moored vessel), or the boat is on the vessel's own position."""
+        avoidance acting again, so where avoidance lets go (resume_margin x the safe distance from the vessel), on
+        the boat's bearing from it, or the bearing nearest to that (``HOLD_OFF_TURN_DEG`` steps either way) whose
+        spot is clear of every other vessel's safe distance (a review: next to a second moored vessel) and
+        ``allowed`` (a hold off a vessel moored by the geofence's edge sat outside it: the fence's failsafe then
+        took the boat). The point itself (avoidance then keeps the boat off, as before) when no bearing will do or
+        the boat is on the vessel's own position."""
         at_point = (float(point_ne_m[0]), float(point_ne_m[1]))
         if from_own_m <= 1e-6:
             return at_point
-        k = max(self.config.resume_margin * need_m / from_own_m, 1.0)
-        hold = (tgt.north_m + (own.north_m - tgt.north_m) * k, tgt.east_m + (own.east_m - tgt.east_m) * k)
-        crowded = any(other is not tgt and math.hypot(hold[0] - other.north_m, hold[1] - other.east_m)
-                      < self.config.resume_margin * (self.config.safe_distance_m + other.extent_m) for other in targets)
-        return at_point if crowded else hold
+        cfg = self.config
+        radius_m = max(cfg.resume_margin * need_m, from_own_m)
+        bearing = math.atan2(own.east_m - tgt.east_m, own.north_m - tgt.north_m)
+        for turn_deg in HOLD_OFF_TURNS_DEG:
+            b = bearing + math.radians(turn_deg)
+            hold = (tgt.north_m + radius_m * math.cos(b), tgt.east_m + radius_m * math.sin(b))
+            crowded = any(other is not tgt and math.hypot(hold[0] - other.north_m, hold[1] - other.east_m)
+                          < cfg.resume_margin * (cfg.safe_distance_m + other.extent_m) for other in targets)
+            if not crowded and (allowed is None or allowed(*hold)):
+                return hold
+        return at_point
 
     def step(self, own: OwnShip, targets: list[TargetState], psi_d_rad: float, speed_cmd_m_s: float,
              t_s: float) -> AvoidanceOutput:
