@@ -154,10 +154,13 @@ def _finish(
         home_ll = (_num(f"{path}: home", "latitude", home[0]), _num(f"{path}: home", "longitude", home[1]))
         _check_latlon(f"{path}: home", *home_ll)
     if latlon:
-        if home_ll is not None:
-            o_lat, o_lon = home_ll  # home is the local origin
-        elif origin[0] is not None and origin[1] is not None:
+        # the configuration's origin, when there is one, stays the local frame's: its local geofence and
+        # max_distance_m are metres from it (a planner's home put there moved both silently: a new-user audit,
+        # a QGroundControl plan whose home was 501 m off flew with the fence and the distance limit around it)
+        if origin[0] is not None and origin[1] is not None:
             o_lat, o_lon = float(origin[0]), float(origin[1])
+        elif home_ll is not None:
+            o_lat, o_lon = home_ll  # no origin configured: home is the local origin
         else:
             raise MissionError(
                 f"{path}: waypoints are latitude/longitude but there is no home or origin to convert them "

@@ -116,6 +116,12 @@ CLI_CASES = [
     ("mission", "a waypoint beyond failsafe.max_distance_m", GOOD_CONFIG + "failsafe: {max_distance_m: 100}\n",
      "name: m\nframe: local\nwaypoints:\n  - {north_m: 10.0, east_m: 0.0}\n  - {north_m: 150.0, east_m: 0.0}\n", [],
      "autopilot run: error: {dir}/m.yaml: waypoint 2 is beyond the max_distance failsafe: 150.0 m from the origin (limit 100 m)"),
+    # found by a new-user audit: a planner's home became the local origin, and the fence and the limit moved with it
+    ("mission", "a home 512 m from the configuration's origin (a planner's map centre)",
+     GOOD_CONFIG + "geofence: {frame: local, polygon: [[-60, -60], [-60, 60], [60, 60], [60, -60]]}\n",
+     "name: m\nframe: latlon\nhome: {lat_deg: 52.0046, lon_deg: 4.4}\nwaypoints:\n  - {lat_deg: 52.0047, lon_deg: 4.4}\n",
+     [], "autopilot run: error: {dir}/m.yaml: the start (the mission's home) is beyond the geofence failsafe: position "
+     "(511.8, 0.0) m is outside the geofence"),
     ("configuration", "failsafe action not known", "failsafe: {actions: {geofence: drift}}\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: failsafe.actions.geofence: 'drift' is not one of stop, hold, rtl"),
     ("configuration", "battery critical above low", "failsafe: {battery_low_v: 11.5, battery_critical_v: 12.0}\n",

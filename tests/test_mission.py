@@ -29,9 +29,23 @@ def test_thesis_and_pond_sets():
 
 def test_plan_and_waypoints_home_is_origin():
     for name in ("pond-9.4.plan", "pond-9.4.waypoints"):
-        m = load_mission(MISSIONS / "examples" / name, origin_lat_deg=0.0, origin_lon_deg=0.0)
+        m = load_mission(MISSIONS / "examples" / name)
         assert m.home_latlon == pytest.approx(HOME) and (m.origin_lat_deg, m.origin_lon_deg) == pytest.approx(HOME)
         assert_allclose(m.waypoints_ne_m, [(10.2, -1.0), (22.0, -6.7), (34.5, -5.5)], atol=0.01)
+
+
+def test_a_planner_home_does_not_move_the_configured_origin():
+    """Found by a new-user audit: a QGroundControl plan's home (written wherever the map was centred) replaced the
+    configuration's origin as the local frame's, and with it moved the local geofence and max_distance_m (metres
+    from that origin): a plan whose home was 501 m off flew with both around it. The configured origin stays."""
+    origin = local_to_latlon(-20.0, 5.0, *HOME)  # the configuration's origin, 20.6 m from the plan's home
+    for name in ("pond-9.4.plan", "pond-9.4.waypoints"):
+        m = load_mission(MISSIONS / "examples" / name, origin_lat_deg=origin[0], origin_lon_deg=origin[1])
+        assert (m.origin_lat_deg, m.origin_lon_deg) == pytest.approx(origin)
+        assert_allclose(m.home_ne_m, (20.0, -5.0), atol=0.01)  # home is where the boat starts, in that frame
+        assert_allclose(m.waypoints_ne_m, [(30.2, -6.0), (42.0, -11.7), (54.5, -10.5)], atol=0.02)
+    with pytest.raises(MissionError, match="waypoint 1: .* m from the origin, farther than the allowed range"):
+        load_mission(MISSIONS / "examples" / "pond-9.4.plan", origin_lat_deg=0.0, origin_lon_deg=0.0)
     assert load_mission(MISSIONS / "examples" / "pond-9.4.waypoints").speeds_m_s == (1.2, 1.2, 1.2)
 
 
