@@ -141,8 +141,9 @@ class FakeThrusters:
         pass
 
 
-def _run_loop(tmp_path, quiet_from_s: float, until_s: float, waypoints=((200.0, 0.0),), listener=None):
-    cfg = DaemonConfig()
+def _run_loop(tmp_path, quiet_from_s: float, until_s: float, waypoints=((200.0, 0.0),), listener=None, cfg=None,
+              before_stop=None):
+    cfg = cfg or DaemonConfig()
     mission = Mission("north", np.array(waypoints, dtype=float), (None,) * len(waypoints), None, *ORIGIN)
 
     async def main():
@@ -163,6 +164,8 @@ def _run_loop(tmp_path, quiet_from_s: float, until_s: float, waypoints=((200.0, 
             clock.advance_to(t)
             for _ in range(3):
                 await asyncio.sleep(0)
+        if before_stop is not None:
+            before_stop(loop)
         loop.request_stop("SIGTERM")
         clock.advance_to(until_s + 1.0)
         assert await task == "signal"
@@ -235,3 +238,27 @@ def test_the_loop_gives_the_helm_its_failsafe_s_position_limits(tmp_path):
                 compass=FakeCompass(SimClock()), thrusters=FakeThrusters(), log=MissionLog(tmp_path / "m.jsonl", console=None),
                 notifier=Notifier(None), store=StateStore(tmp_path / "state2"))
     assert ap.within_limits(20.0, 12.0) and not ap.within_limits(far, 0.0)  # no fence: the distance limit alone
+
+
+def test_a_crash_in_the_final_hold_is_an_interrupted_run_not_a_completed_one(tmp_path):
+    """Found by a new-user audit: the progress said "complete" from the moment the last waypoint was reached, and a
+    kill -9 in the final hold (or on the way home of an rtl) came back as "no run interrupted" and flew the whole
+    mission again from its first waypoint, unasked. Until the run ends it is saved running: a restart holds zero
+    thrust (or, with resume_after_restart, goes back to the last waypoint and its hold)."""
+    import dataclasses
+
+    base = DaemonConfig()
+    gnc = dataclasses.replace(base.gnc, guidance=dataclasses.replace(base.gnc.guidance, final_action="hold"))
+    seen = {}
+
+    def in_the_hold(loop):
+        seen["mode"] = loop.ap.mode
+        seen["complete"] = loop.state.complete
+        seen["saved"] = loop.store.load()
+        seen["interrupted"] = loop.store.interrupted(loop.mission_sha256, len(loop.mission.waypoints_ne_m))
+
+    _run_loop(tmp_path, math.inf, 25.0, waypoints=((6.0, 0.0), (12.0, 0.0)),
+              cfg=dataclasses.replace(base, gnc=gnc), before_stop=in_the_hold)
+    assert seen["mode"] is Mode.HOLD and seen["complete"]  # the route done, holding at its end
+    assert seen["saved"].status == "running" and seen["saved"].wp_index == 1
+    assert seen["interrupted"] == (1, None)  # a crash now is an interrupted run (held at zero unless resumed)

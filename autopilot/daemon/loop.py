@@ -206,7 +206,10 @@ class ControlLoop:
             self._log_passes(self.passes.on_target(self.ap.wp_index), t_s)
         if out.complete and not st.complete:
             st.completed_t_s = t_s
-            self._save("complete")
+            # the route is done, the run is not (a final hold, a return to launch, the last pass): saved as
+            # running until the loop ends; saved "complete" here, a crash in the final hold came back and flew the
+            # mission again from its first waypoint, unasked (a new-user audit)
+            self._save("running")
             self.log.event("mission_complete", t_s=t_s, wp_count=len(self.mission.waypoints_ne_m))
         st.finished = out.finished
         return out
