@@ -161,7 +161,7 @@ def test_a_waypoint_abeam_at_the_switch_is_not_passed_by_the_turn():
 
 
 def test_arming_at_ninety_degrees_is_the_old_tcpa_test():
-    g = guidance([(0.3, 10.8)], arm_bearing_deg=90.0)
+    g = guidance([(0.3, 10.8)], arm_bearing_deg=90.0, pass_radius_nd=3.0)
     g.update(nav(0, 0, 0), 0.1)
     assert g.update(nav(0.5, 0.0, 0), 0.1).reached_how == "passed"
 
@@ -173,3 +173,28 @@ def test_a_boat_set_sideways_past_a_close_waypoint_passes_it():
     assert g.update(nav(1.49, 0.58, 4), 0.1).reached_index is None  # 60 deg off, 1.9 m abeam: ahead, close
     out = g.update(nav(2.7, 0.3, 4), 0.1)
     assert out.reached_index == 0 and out.reached_how == "passed" and out.wp_index == 1
+
+
+def test_no_way_on_does_not_arm_the_pass_test():
+    """Found by a review of fb51086: below min_speed_m_s the reference is the heading, which points at the target the
+    law steers for, so a boat turning on the spot armed at once; a current then set its course 100 deg off and the
+    waypoint, abaft that course's beam, was counted passed 10.8 m off."""
+    g = guidance([(11.0, 0.0)])
+    slow = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.1, yaw_rate_rad_s=0.0, course_rad=math.pi)
+    assert g.update(slow, 0.1).reached_index is None  # heading straight at it, no way on: not armed
+    set_off = NavInput(north_m=0.2, east_m=0.3, psi_rad=math.radians(38), speed_m_s=0.27, yaw_rate_rad_s=0.0,
+                       course_rad=math.radians(102))
+    out = g.update(set_off, 0.1)  # the course set by the current: the waypoint abaft its beam, 10.8 m off
+    assert out.tcpa_nd < 0.0 and out.reached_index is None and not out.complete
+
+
+def test_a_waypoint_gone_by_more_than_a_boat_length_off_is_not_passed():
+    """The pass radius (pass_radius_nd, 1 boat length; 3 before): a boat set past its waypoint 5 m off by a current
+    has not visited it and turns back for it; 3 m off it has passed it."""
+    for abeam_m, passed in ((5.0, False), (3.0, True)):
+        g = guidance([(20.0, abeam_m), (40.0, abeam_m)])
+        assert g.update(nav(0, 0, 0), 0.1).reached_index is None  # far ahead, 14 deg off the course: armed
+        out = g.update(nav(20.3, 0, 0), 0.1)  # just by it
+        assert (out.reached_index == 0) is passed, abeam_m
+        if not passed:
+            assert out.psi_d_rad == pytest.approx(math.atan2(abeam_m, -0.3))  # back for it

@@ -23,13 +23,16 @@ Corner cases, guarded here:
 - alpha from the course over ground (default) rather than the heading of
   Eq 6.4: in a current the boat crabs, and the closest point of approach
   lies along the track, not along the bow;
-- a boat spun round by current or wind far from W_i has not passed it:
-  TCPA' < 0 only switches within ``pass_radius_nd`` boat lengths;
+- a boat spun round by current or wind far from W_i, or set past it more
+  than a boat length off, has not passed it: TCPA' < 0 only switches within
+  ``pass_radius_nd`` (1) boat lengths, and the boat turns back for it;
 - the boat on top of the waypoint: the bearing is undefined; the base class
   counts the waypoint reached within ``capture_radius_m`` before it is used;
 - a waypoint behind the boat (at the start, or right after a switch to a
   waypoint back the way we came): TCPA' < 0 at once, which must not count as
-  "passed". Switching is armed only once this target has been ahead, within
+  "passed". Switching is armed only with way on (below ``min_speed_m_s`` the
+  reference is the heading, which points at the target the law steers for)
+  and once this target has been ahead, within
   ``arm_bearing_deg`` (45) of the course or at most ``arm_abeam_nd`` (1) boat
   length abeam (a boat set sideways past it passes it close). Armed on
   TCPA' >= 0 alone, a target nearly abeam at the switch (a sharp corner)
@@ -99,9 +102,9 @@ class FuzzyConfig:
         doc="below this speed the course is not used for alpha and TCPA' < 0 does not switch waypoints",
     )
     pass_radius_nd: float = param(
-        3.0, unit="-", lo=0.5, hi=100.0, source="guard, chosen in simulation",
-        doc="TCPA' < 0 counts as 'passed' only within this many boat lengths (a boat spun round by "
-        "current or wind far from W_i has not passed it: it turns back)",
+        1.0, unit="-", lo=0.5, hi=100.0, source="guard, chosen in simulation (benchmarks/fuzzy_arming.py; 3 before)",
+        doc="TCPA' < 0 counts as 'passed' only within this many boat lengths: a boat set past W_i farther off, or "
+        "spun round by current or wind far from it, has not passed it and turns back for it",
     )
     arm_bearing_deg: float = param(
         45.0, unit="deg", lo=5.0, hi=90.0, source="guard, chosen in simulation (benchmarks/fuzzy_arming.py; 90: armed on TCPA' >= 0)",
@@ -180,8 +183,11 @@ class FuzzyGuidance(WaypointGuidance):
         moving = nav.speed_m_s >= cfg.min_speed_m_s
         ref = nav.course_rad if (moving and cfg.cpa_reference == "course") else nav.psi_rad
         d_m, psi_1, _, tcpa_nd, dcpa_nd = cpa_geometry(nav.north_m, nav.east_m, ref, wn, we, self.boat_length_m)
-        if tcpa_nd >= 0.0 and (dcpa_nd <= cfg.arm_abeam_nd or tcpa_nd * self.boat_length_m >= d_m * self._arm_cos):
-            self._armed = True  # ahead, to be passed close or within the arm bearing (cos(alpha) >= its cosine)
+        # ahead along the course, to be passed close or within the arm bearing (cos(alpha) >= its cosine); with no
+        # way on the reference is the heading, which points at the target the law steers for: it proves nothing
+        if moving and tcpa_nd >= 0.0 and (dcpa_nd <= cfg.arm_abeam_nd
+                                          or tcpa_nd * self.boat_length_m >= d_m * self._arm_cos):
+            self._armed = True
         passed = self._armed and tcpa_nd < 0.0 and moving and d_m <= cfg.pass_radius_nd * self.boat_length_m
         if i + 1 < len(self.waypoints):
             n2, e2 = self.waypoints[i + 1]
