@@ -52,6 +52,14 @@ def test_bad_settings_are_refused_with_key_and_range(data, message):
     assert message in str(exc.value)
 
 
+def test_battery_low_v_zero_turns_battery_low_off_as_documented():
+    """Found by a new-user audit: `battery_low_v: 0` ("0 = off") was refused as below battery_critical_v."""
+    cfg = load(DaemonConfig, {"failsafe": {"battery_low_v": 0}})
+    assert cfg.failsafe.battery_low_v == 0.0 and cfg.failsafe.battery_critical_v == 11.7
+    with pytest.raises(ConfigError, match="battery_critical_v: 12 V is above failsafe.battery_low_v"):
+        load(DaemonConfig, {"failsafe": {"battery_low_v": 11.5, "battery_critical_v": 12}})
+
+
 def test_geofence_accepts_local_and_latlon_polygons():
     cfg = load(DaemonConfig, {"geofence": {"frame": "latlon", "polygon": [[52.0, 4.0], [52.0, 4.1], [52.1, 4.1]]}})
     assert cfg.geofence.polygon[1] == (52.0, 4.1)

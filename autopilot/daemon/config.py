@@ -165,7 +165,8 @@ class FailsafeConfig:
     actions: FailsafeActions = param(default_factory=FailsafeActions, doc="the action per fault class")
 
     def __post_init__(self) -> None:
-        if self.battery_critical_v > self.battery_low_v:
+        # ordered only when both are on: battery_low_v 0 is "off", as documented (a new-user audit found it refused)
+        if self.battery_low_v > 0.0 and self.battery_critical_v > self.battery_low_v:
             raise ConfigError(f"failsafe.battery_critical_v: {self.battery_critical_v:g} V is above "
                               f"failsafe.battery_low_v ({self.battery_low_v:g} V)")
 
