@@ -12,7 +12,9 @@ Formats (chosen by file extension):
   says ``resume``); the last item may be ``rtl`` (return to the launch point,
   then hold there).
 - ``.csv``: a header naming ``north_m,east_m`` or ``lat_deg,lon_deg``, plus
-  optional ``speed_m_s``; ``#`` starts a comment line.
+  optional ``speed_m_s`` and ``hold_s`` (seconds held there; empty: none); other
+  columns are labels, not read, but one named like a setting ('hold', 'Speed') is
+  refused; ``#`` starts a comment line.
 - ``.waypoints``: Mission Planner's "QGC WPL 110" text format; row 0 is home;
   MAV_CMD_NAV_WAYPOINT (16) rows are waypoints (param1, if not 0, seconds to
   hold there), MAV_CMD_DO_CHANGE_SPEED (178)
@@ -46,6 +48,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -328,17 +331,30 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
 
 
 # ------------------------------------------------------------------------- CSV
+_CSV_OPTIONS = ("speed_m_s", "hold_s", "name")  # name: the spreadsheet's label, not read
+_CSV_LOOKALIKE = ("hold", "speed", "north", "east", "lat", "lon", "loiter", "wait")
+
+
 def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
     rows = csv_rows(text)
     if not rows:
         raise MissionError(f"{path}: the mission has no waypoints")
     cols = rows[0]
+    if {"north_m", "east_m", "lat_deg", "lon_deg"} <= set(cols):
+        raise MissionError(f"{path}: the header names both north_m,east_m and lat_deg,lon_deg: keep one pair")
     if {"north_m", "east_m"} <= set(cols):
         keys, latlon = ("north_m", "east_m"), False
     elif {"lat_deg", "lon_deg"} <= set(cols):
         keys, latlon = ("lat_deg", "lon_deg"), True
     else:
         raise MissionError(f"{path}: header must name north_m,east_m or lat_deg,lon_deg (got {','.join(cols)})")
+    # other columns are the spreadsheet's labels, not read; one named like a setting but not one ('hold', 'Speed')
+    # is refused: a column the loader did not know was dropped unsaid, and a mission flew without its holds
+    allowed = (*keys, *_CSV_OPTIONS)
+    unknown = [c for c in cols if c not in allowed and re.sub(r"[^a-z]", "", c.lower()).startswith(_CSV_LOOKALIKE)]
+    if unknown:
+        raise MissionError(f"{path}: column {unknown[0]!r} is not one the mission reads (allowed: {', '.join(allowed)}; "
+                           "other columns are labels, not read)")
     at = {c: k for k, c in enumerate(cols)}
     for k, r in enumerate(rows[1:], start=1):
         problem = too_many_fields(r, len(cols), k)
@@ -349,7 +365,8 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
         k = at.get(name)
         return row[k] if k is not None and k < len(row) else ""
 
-    points = [_RawPoint(cell(r, keys[0]), cell(r, keys[1]), cell(r, "speed_m_s") or None) for r in rows[1:]]
+    points = [_RawPoint(cell(r, keys[0]), cell(r, keys[1]), cell(r, "speed_m_s") or None, cell(r, "hold_s") or None)
+              for r in rows[1:]]
     return _finish(path, path.stem, points, latlon=latlon, home=None, origin=origin, max_range_m=max_range_m)
 
 

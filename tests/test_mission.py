@@ -182,3 +182,25 @@ def test_a_local_missions_own_origin_is_never_silently_replaced_by_the_configura
     h = tmp_path / "home.yaml"  # a home is where a simulated boat starts, not the frame's origin: not refused
     h.write_text(f"frame: local\nhome: {{lat_deg: {far[0]}, lon_deg: {far[1]}}}\nwaypoints:\n  - [30.0, 0.0]\n")
     assert load_mission(h, origin_lat_deg=HOME[0], origin_lon_deg=HOME[1]).home_ne_m[0] == pytest.approx(200.0, abs=0.1)
+
+
+def test_a_csv_mission_holds_where_its_hold_s_column_says_and_refuses_columns_it_does_not_know(tmp_path):
+    """Found by a new-user audit: a hold_s column was dropped without a word, and the boat did not stop there."""
+    p = tmp_path / "holds.csv"
+    p.write_text("name;north_m;east_m;hold_s\nbuoy;10;5;30\nquay;35;20;\n", encoding="cp1252")
+    m = load_mission(p)
+    assert m.holds_s == (30.0, None)
+    assert_allclose(m.waypoints_ne_m, [(10.0, 5.0), (35.0, 20.0)])
+    (tmp_path / "typo.csv").write_text("north_m,east_m,hold\n10,5,30\n")
+    with pytest.raises(MissionError, match="column 'hold' is not one the mission reads \\(allowed: north_m, east_m, "
+                                           "speed_m_s, hold_s, name; other columns are labels, not read\\)"):
+        load_mission(tmp_path / "typo.csv")
+    (tmp_path / "upper.csv").write_text("north_m,east_m,Speed\n10,5,1.2\n")
+    with pytest.raises(MissionError, match="column 'Speed' is not one the mission reads"):
+        load_mission(tmp_path / "upper.csv")
+    (tmp_path / "both.csv").write_text("north_m,east_m,lat_deg,lon_deg\n10,5,52.0,4.4\n")
+    with pytest.raises(MissionError, match="both north_m,east_m and lat_deg,lon_deg"):
+        load_mission(tmp_path / "both.csv")
+    (tmp_path / "bad.csv").write_text("north_m,east_m,hold_s\n10,5,-3\n")
+    with pytest.raises(MissionError, match="hold_s -3 s outside"):
+        load_mission(tmp_path / "bad.csv")
