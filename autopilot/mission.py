@@ -481,6 +481,12 @@ def _parse_plan(path: Path, text: str, origin, max_range_m: float) -> Mission:
     mission = data.get("mission") if isinstance(data, dict) else None
     if not isinstance(mission, dict):
         raise MissionError(f"{path}: no 'mission' section (is it a QGroundControl .plan?)")
+    fence = data.get("geoFence")
+    if isinstance(fence, dict) and (fence.get("polygons") or fence.get("circles")):
+        # flown without it, the plan's fence was silently not there (a new-user audit): the failsafe's is the config's
+        raise MissionError(f"{path}: geoFence: the plan draws a fence, which is not read from a .plan: put it in the "
+                           "configuration (geofence: {frame: latlon, polygon: [[lat, lon], ...]}) and delete it from "
+                           "the plan")
     home = mission.get("plannedHomePosition")
     if home is not None:
         if not isinstance(home, list) or len(home) < 2:

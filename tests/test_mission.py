@@ -204,3 +204,17 @@ def test_a_csv_mission_holds_where_its_hold_s_column_says_and_refuses_columns_it
     (tmp_path / "bad.csv").write_text("north_m,east_m,hold_s\n10,5,-3\n")
     with pytest.raises(MissionError, match="hold_s -3 s outside"):
         load_mission(tmp_path / "bad.csv")
+
+
+def test_a_plan_that_draws_a_geofence_is_refused_not_flown_without_it(tmp_path):
+    """Found by a new-user audit: a .plan's geoFence polygons were silently not used; the operator thought the
+    boat fenced. The failsafe's fence is the configuration's: the plan is refused, saying where the fence goes.
+    QGroundControl writes an empty geoFence into every plan: that one is fine."""
+    plan = json.loads((MISSIONS / "examples" / "pond-9.4.plan").read_text())
+    assert plan["geoFence"]["polygons"] == [] and load_mission(MISSIONS / "examples" / "pond-9.4.plan")
+    plan["geoFence"]["polygons"] = [{"inclusion": True, "polygon": [[52.0, 4.4], [52.001, 4.4], [52.001, 4.401]],
+                                     "version": 1}]
+    (tmp_path / "fenced.plan").write_text(json.dumps(plan))
+    with pytest.raises(MissionError, match="geoFence: the plan draws a fence, which is not read from a .plan: put it "
+                                           "in the configuration"):
+        load_mission(tmp_path / "fenced.plan")
