@@ -12,8 +12,9 @@ from autopilot.logschema import Mode
 
 
 def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_lost=0, log_failing=False,
-          stop_acknowledged=True, stop_signal=None, hold_zero=None, board_answered=True):
-    st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [],
+          stop_acknowledged=True, stop_signal=None, hold_zero=None, board_answered=True, finished=None, mode="complete"):
+    st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [], mode=mode,
+                   finished=complete if finished is None else finished,
                    closest_m={0: 0.41, 1: 0.27, 2: float("nan")} if complete else {0: 0.41},
                    completed_t_s=38.0 if complete else None, failsafe_causes=list(failsafes),
                    stop_acknowledged=stop_acknowledged, stop_signal=stop_signal)
@@ -78,3 +79,13 @@ def test_a_board_that_never_answered_is_not_a_thruster_left_running():
                         "x", sim=False)
     assert lines[1].startswith("the Mbed never acknowledged a command in this run")
     assert not any("WARNING" in ln for ln in lines)
+
+
+def test_a_run_stopped_in_its_final_hold_is_not_called_complete():
+    """Found by a new-user audit: station-keep stopped by SIGTERM 153 s into its 300-s hold said "mission complete"
+    (the stop line said signal). The route is complete; the run was stopped in what follows it."""
+    lines = end_summary(_loop(cycles=400, skipped=0, stop_signal="SIGTERM", finished=False, mode="hold"), "x", sim=True)
+    assert lines[1] == ("route complete after 40.0 s: 3 of 3 waypoint(s) reached; then in hold, stopped by SIGTERM; "
+                        "zero thrust acknowledged by the Mbed")
+    done = end_summary(_loop(cycles=400, skipped=0, stop_signal=None), "x", sim=True)
+    assert done[1].startswith("mission complete after 40.0 s")

@@ -654,9 +654,13 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     elif st.stop_acknowledged is False:  # only a JSON field said so
         lines.append("WARNING: the Mbed did not acknowledge the final zero thrust: check that the thrusters stopped "
                      "(its own command timeout stops them)")
-    done = "mission complete" if st.complete else "mission not complete"
+    # the route done but the run stopped by a signal in what follows it (the final hold, a last hold item, the way
+    # home) is not "mission complete": a 300-s hold stopped at 153 s said so (a new-user audit)
+    cut = bool(st.stop_signal) and st.complete and not st.finished
+    done = ("route complete" if cut else "mission complete") if st.complete else "mission not complete"
     lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached"
-                 + (f"; stopped by {st.stop_signal}" if st.stop_signal and not st.complete else "")
+                 + (f"; then in {st.mode}, stopped by {st.stop_signal}" if cut else
+                    f"; stopped by {st.stop_signal}" if st.stop_signal and not st.complete else "")
                  + ("; zero thrust acknowledged by the Mbed" if st.stop_acknowledged else ""))
     for i in range(n_wps):
         ca = st.closest_m.get(i)
