@@ -30,6 +30,17 @@ def test_log_path_format():
     assert str(p) == "/var/log/x/mission-20240506T070809Z-pond-9.3.jsonl"
 
 
+def test_a_mission_with_a_long_name_gets_a_log_file_that_can_be_created(tmp_path):
+    """Found by a new-user audit: a mission named 'Pond_mission_' + 225 x 'x' stopped the start with "internal error:
+    OSError: [Errno 36] File name too long". The name is cut (whole UTF-8 characters) to fit."""
+    when = dt.datetime(2024, 5, 6, 7, 8, 9, tzinfo=dt.timezone.utc)
+    for stem in ("Pond_mission_" + "x" * 225, "Teich_Br\u00fccke_" + "\u00e4" * 200):
+        p = log_path(tmp_path, f"missions/{stem}.yaml", when)
+        assert len(p.name.encode("utf-8")) <= 200 and p.name.startswith("mission-20240506T070809Z-" + stem[:10])
+        MissionLog(p, console=None).close()  # it can be created
+        assert p.exists()
+
+
 def test_infinite_values_become_null(tmp_path):
     log = MissionLog(tmp_path / "m.jsonl", console=None)
     log.event("cycle", t_s=0.0, heading_age_s=math.inf)

@@ -46,10 +46,16 @@ def _render(_logger: Any, _name: str, event_dict: dict) -> str:
     return to_json(event_dict)
 
 
+MAX_STEM_BYTES = 120  # of the mission's name in a log's file name
+
+
 def log_path(log_dir: str | Path, mission_path: str | Path, now_utc: _dt.datetime | None = None) -> Path:
     """``<log_dir>/mission-<UTC YYYYmmddTHHMMSSZ>-<mission stem>.jsonl``."""
     now_utc = now_utc or _dt.datetime.now(_dt.timezone.utc)
-    base = f"mission-{now_utc.strftime('%Y%m%dT%H%M%SZ')}-{Path(mission_path).stem}"
+    # a file name holds 255 bytes: a mission named longer stopped the start with "File name too long" (a new-user
+    # audit); the stem is cut to leave room for the stamp, a restart's "-N", and what review adds to the name
+    stem = Path(mission_path).stem.encode("utf-8")[:MAX_STEM_BYTES].decode("utf-8", "ignore")
+    base = f"mission-{now_utc.strftime('%Y%m%dT%H%M%SZ')}-{stem}"
     path = Path(log_dir) / f"{base}.jsonl"
     n = 1
     while path.exists():  # a restart within the same second gets its own file
