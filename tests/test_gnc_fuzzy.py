@@ -198,3 +198,21 @@ def test_a_waypoint_gone_by_more_than_a_boat_length_off_is_not_passed():
         assert (out.reached_index == 0) is passed, abeam_m
         if not passed:
             assert out.psi_d_rad == pytest.approx(math.atan2(abeam_m, -0.3))  # back for it
+
+
+@pytest.mark.parametrize("law", ["fuzzy", "los", "proportional"])
+def test_waypoints_reached_in_one_place_are_each_reached_and_said(law):
+    """Found by a new-user audit: [[0, 0], [0.5, 0], [20, 0]] from the origin said "2 of 3 waypoint(s) reached":
+    W1, within the capture radius of W0, was switched past in the same cycle, without a waypoint_reached line.
+    One waypoint is reached per cycle, each said."""
+    from dataclasses import replace
+
+    from autopilot.gnc.registry import make_guidance
+
+    cfg = replace(GncConfig().guidance, law=law)
+    g = make_guidance(cfg, [(0.0, 0.0), (0.5, 0.0), (20.0, 0.0)], boat_length_m=L)
+    first = g.update(nav(0.0, 0.0, 0), 0.1)
+    second = g.update(nav(0.0, 0.0, 0), 0.1)
+    assert (first.reached_index, first.wp_index) == (0, 1)
+    assert (second.reached_index, second.wp_index) == (1, 2)
+    assert g.update(nav(0.05, 0.0, 0), 0.1).reached_index is None and g.index == 2

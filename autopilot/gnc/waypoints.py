@@ -145,8 +145,10 @@ class WaypointGuidance:
         return v * factor
 
     # ---------------------------------------------------------------- main
-    def update(self, nav: NavInput, dt_s: float) -> GuidanceOutput:
-        """One guidance cycle."""
+    def update(self, nav: NavInput, dt_s: float, *, may_reach: bool = True) -> GuidanceOutput:
+        """One guidance cycle. ``may_reach=False``: steer only (the new target right after a switch, which is judged
+        reached the next cycle at the soonest: one reached per cycle, each said; cascaded in one cycle, a waypoint
+        within the capture radius of the one before was skipped without a waypoint_reached line)."""
         if self._leg_start is None:
             self._leg_start = (nav.north_m, nav.east_m)
         if self.complete:
@@ -158,7 +160,7 @@ class WaypointGuidance:
         steer = self._steer(nav, dt_s, i)
         captured = d_m <= self.config.capture_radius_m
         occupied = self.occupied_reach_m is not None and d_m <= self.occupied_reach_m
-        if captured or steer.passed or occupied:
+        if may_reach and (captured or steer.passed or occupied):
             how = "capture" if captured else "passed" if steer.passed else "occupied"
             self.occupied_reach_m = None  # it was this waypoint's: the next one is judged on its own
             self._armed = False
@@ -174,7 +176,7 @@ class WaypointGuidance:
                 )
             self.index = i + 1
             # steer to the new target in the same cycle: no cycle without a valid command
-            nxt = self.update(nav, 0.0)
+            nxt = self.update(nav, 0.0, may_reach=False)
             return GuidanceOutput(
                 wp_index=nxt.wp_index, psi_d_rad=nxt.psi_d_rad, speed_cmd_m_s=nxt.speed_cmd_m_s,
                 xte_m=nxt.xte_m, tcpa_nd=nxt.tcpa_nd, dcpa_nd=nxt.dcpa_nd, cdh=nxt.cdh,
