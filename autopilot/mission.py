@@ -336,7 +336,8 @@ _CSV_LOOKALIKE = ("hold", "speed", "north", "east", "lat", "lon", "loiter", "wai
 
 
 def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
-    rows = csv_rows(text)
+    # rows of empty cells (';;;;' under the data, where Excel saw formatting) are no waypoints (a new-user audit)
+    rows = [r for r in csv_rows(text) if any(c.strip() for c in r)]
     if not rows:
         raise MissionError(f"{path}: the mission has no waypoints")
     cols = rows[0]

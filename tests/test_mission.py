@@ -218,3 +218,15 @@ def test_a_plan_that_draws_a_geofence_is_refused_not_flown_without_it(tmp_path):
     with pytest.raises(MissionError, match="geoFence: the plan draws a fence, which is not read from a .plan: put it "
                                            "in the configuration"):
         load_mission(tmp_path / "fenced.plan")
+
+
+def test_excel_s_empty_rows_under_a_csv_mission_are_no_waypoints(tmp_path):
+    """Found by a new-user audit: Excel writes ';;;;' rows under the data where cells were once formatted: they were
+    read as waypoints ("waypoint 3: north_m is not a number ('')")."""
+    p = tmp_path / "m.csv"
+    p.write_bytes("north_m;east_m;speed_m_s;Notiz\r\n10;5;1,2;Boje\r\n35;20;;Br\u00fccke\r\n;;;\r\n;;;\r\n".encode("cp1252"))
+    m = load_mission(p)
+    assert_allclose(m.waypoints_ne_m, [(10.0, 5.0), (35.0, 20.0)])
+    (tmp_path / "gap.csv").write_text("north_m,east_m\n10,5\n,7\n")  # a row with a cell missing is still refused
+    with pytest.raises(MissionError, match="waypoint 2: north_m is not a number"):
+        load_mission(tmp_path / "gap.csv")
