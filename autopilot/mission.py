@@ -495,6 +495,11 @@ def _parse_plan(path: Path, text: str, origin, max_range_m: float) -> Mission:
         home = (home[0], home[1])
     speed = mission.get("cruiseSpeed")
     speed = speed if speed else None
+    if speed is not None:  # "waypoint 1: speed 15 m/s ..." named neither the setting nor where QGC keeps it
+        cruise = _num(f"{path}: mission.cruiseSpeed", "the cruise speed", speed)
+        if not 0.0 < cruise <= MAX_SPEED_M_S:
+            raise MissionError(f"{path}: mission.cruiseSpeed: {cruise:g} m/s outside (0, {MAX_SPEED_M_S:g}] m/s (the "
+                               "speed of every leg without its own: set it in QGroundControl's Mission Start item)")
     points: list[_RawPoint] = []
     rtl = False
     for k, item in enumerate(mission.get("items") or [], start=1):

@@ -230,3 +230,13 @@ def test_excel_s_empty_rows_under_a_csv_mission_are_no_waypoints(tmp_path):
     (tmp_path / "gap.csv").write_text("north_m,east_m\n10,5\n,7\n")  # a row with a cell missing is still refused
     with pytest.raises(MissionError, match="waypoint 2: north_m is not a number"):
         load_mission(tmp_path / "gap.csv")
+
+
+def test_a_plan_s_cruise_speed_out_of_range_is_named_as_such(tmp_path):
+    """Found by a new-user audit: QGroundControl's cruiseSpeed 15 (its default for aircraft) was refused as "waypoint
+    1: speed 15 m/s outside (0, 3.5] m/s", naming neither the setting nor where QGroundControl keeps it."""
+    plan = json.loads((MISSIONS / "examples" / "pond-9.4.plan").read_text())
+    plan["mission"]["cruiseSpeed"] = 15
+    (tmp_path / "fast.plan").write_text(json.dumps(plan))
+    with pytest.raises(MissionError, match="mission.cruiseSpeed: 15 m/s outside \\(0, 3.5\\] m/s .*Mission Start item"):
+        load_mission(tmp_path / "fast.plan")
