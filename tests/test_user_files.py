@@ -482,3 +482,29 @@ def test_no_help_text_shows_a_formatting_escape():
         seen += 1
         assert "%%" not in text and "%(" not in text, (p.prog, text)
     assert seen > 15
+
+
+def test_a_log_beside_its_own_csv_export_is_refused_whatever_the_rounding(tmp_path):
+    """Found by a new-user audit: `sysid LOG.jsonl REVIEW/LOG.csv` fitted a log and its review export as two trials:
+    the export holds the waiting phase's fixes too and its millimetre positions round a step across a centimetre
+    now and then (39 of 44 steps alike, under the 0.9 share). A step now matches one within a centimetre."""
+    from autopilot.schema import ConfigError
+    from autopilot.sysid.cli import _distinct_trials
+    from autopilot.sysid.trials import read_trial
+
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        north, east = np.cumsum(rng.normal(0.3, 0.45, 53)), np.cumsum(rng.normal(0.0, 0.45, 53))
+
+        def rows(first, digits, north=north, east=east):  # 10 Hz rows, each fix held for its second
+            return "\n".join(f"{k + 0.1 * j:.1f},{north[k]:.{digits}f},{east[k]:.{digits}f},0.0,10.0,10.0"
+                             for k in range(first, 53) for j in range(10))
+
+        log, export, other = tmp_path / f"log{seed}.csv", tmp_path / f"export{seed}.csv", tmp_path / f"other{seed}.csv"
+        log.write_text(TRIAL_HEAD + rows(8, 9) + "\n")  # control from the ninth fix on
+        export.write_text(TRIAL_HEAD + rows(0, 3) + "\n")  # every fix, to the millimetre
+        with pytest.raises(ConfigError, match="the same trial as"):
+            _distinct_trials([log, export], [read_trial(log), read_trial(export)])
+        north2, east2 = np.cumsum(rng.normal(0.3, 0.45, 53)), np.cumsum(rng.normal(0.0, 0.45, 53))
+        other.write_text(TRIAL_HEAD + rows(0, 3, north2, east2) + "\n")  # another trial of the same drift
+        _distinct_trials([log, other], [read_trial(log), read_trial(other)])
