@@ -295,6 +295,7 @@ class Occupied:
 
 
 HOLD_OFF_TURN_DEG = 15.0  # the hold off an occupied point looks round the vessel in these steps
+# 0, +15, -15, +30, ... +180: nearest the boat's own bearing first (-180 is +180, so it is left out)
 HOLD_OFF_TURNS_DEG = (0.0, *(sign * k * HOLD_OFF_TURN_DEG for k in range(1, 13) for sign in (1.0, -1.0)))[:-1]
 
 
