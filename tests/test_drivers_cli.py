@@ -254,3 +254,39 @@ def test_a_port_claimed_under_its_name_stays_claimed_when_the_device_moves(tmp_p
     finally:
         a.close()
         b.close()
+
+
+def test_a_second_bench_run_on_the_state_directory_of_a_running_one_is_refused(tmp_path):
+    """Found by a new-user audit: a second `--sim` run given the same --state-dir as a live one read the live run's
+    progress as an interrupted mission and held zero thrust, waiting for `ctl resume`; resumed, it would have
+    written over the other's progress. The state directory is claimed as the ports are: the second is refused."""
+    from tests.conftest import REPO
+
+    state = tmp_path / "state"
+
+    def run(name: str):
+        return subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", "1", "--mission",
+                                 str(REPO / "config" / "missions" / "pond-9.1.yaml"), "--log-dir", str(tmp_path / name),
+                                 "--state-dir", str(state), "--runtime-dir", str(tmp_path / name / "run")],
+                                cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+    first = run("first")
+    try:
+        t_end = time.monotonic() + 30.0
+        while not (tmp_path / "first" / "run" / "control.sock").exists() and time.monotonic() < t_end:
+            time.sleep(0.1)
+        assert (tmp_path / "first" / "run" / "control.sock").exists()
+        second = run("second")
+        try:
+            _, err = second.communicate(timeout=30)
+        except subprocess.TimeoutExpired:  # it started and held: the refusal this test is for is missing
+            second.kill()
+            _, err = second.communicate(timeout=30)
+        assert second.returncode == 2, err
+        assert err.strip().splitlines()[-1] == (
+            f"autopilot run: error: state directory {state}: another running autopilot daemon keeps its mission "
+            "progress there; give this one its own --state-dir (or stop the other)")
+    finally:
+        first.terminate()
+        first.communicate(timeout=30)
+    assert first.returncode == 0

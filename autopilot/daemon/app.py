@@ -171,6 +171,7 @@ def prepare(cfg: DaemonConfig, opts: RunOptions, claims: list | None = None):
     if _answers(path):
         raise ConfigError(f"another autopilot daemon is running: it answers on {path} (autopilot ctl status); "
                           "stop it first, or give this one its own --runtime-dir")
+    _claim_state_dir(state_dir, claims)
     if not opts.sim:
         _claim_ports(cfg, claims)
     from autopilot.link.endpoint import parse_endpoint
@@ -198,6 +199,24 @@ def prepare(cfg: DaemonConfig, opts: RunOptions, claims: list | None = None):
         except ConfigError:
             uploaded = None
     return mission, log_dir, state_dir, uploaded
+
+
+def _claim_state_dir(state_dir: Path, claims: list | None) -> None:
+    """ConfigError when another running daemon keeps its mission progress in ``state_dir``; else it is claimed
+    for this run, as the ports are (:func:`_claim_ports`). A second bench run given the live run's --state-dir
+    read the live run's progress as an interrupted mission and waited for `ctl resume`; resumed, it would have
+    written over the other's progress (a new-user audit)."""
+    from autopilot.drivers.serial_link import claim_port
+
+    claim = claim_port(str(state_dir.resolve()))
+    if claim is None:
+        raise ConfigError(f"state directory {state_dir}: another running autopilot daemon keeps its mission progress "
+                          "there; give this one its own --state-dir (or stop the other)")
+    for c in claim:
+        if claims is None:
+            c.close()
+        else:
+            claims.append(c)
 
 
 def _claim_ports(cfg: DaemonConfig, claims: list | None) -> None:
