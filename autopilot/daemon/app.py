@@ -212,6 +212,11 @@ def _claim_state_dir(state_dir: Path, claims: list | None) -> None:
     if claim is None:
         raise ConfigError(f"state directory {state_dir}: another running autopilot daemon keeps its mission progress "
                           "there; give this one its own --state-dir (or stop the other)")
+    _keep(claim, claims)
+
+
+def _keep(claim: list, claims: list | None) -> None:
+    """A claim kept for the run (``claims``, closed when it ends), or only checked (None: closed now)."""
     for c in claim:
         if claims is None:
             c.close()
@@ -235,11 +240,7 @@ def _claim_ports(cfg: DaemonConfig, claims: list | None) -> None:
             raise ConfigError(f"another autopilot daemon{' (' + held[0] + ')' if held else ''} holds {key} {port}: "
                               "two daemons must never drive one boat; stop it first (autopilot ctl stop, then "
                               "systemctl stop wamv-autopilot, or end the one started by hand)")
-        for c in claim:
-            if claims is None:
-                c.close()
-            else:
-                claims.append(c)
+        _keep(claim, claims)
 
 
 def _refuse_radio_on_a_device_port(cfg: DaemonConfig, endpoints: list[tuple[str, str]]) -> None:
