@@ -116,3 +116,16 @@ def test_ctl_against_a_socket_that_is_not_a_daemons_says_so(tmp_path, capsys):
         server.close()
     err = capsys.readouterr().err
     assert f"autopilot ctl: the answer on {path} is not a daemon's" in err and "internal error" not in err
+
+
+def test_plain_status_says_why_the_helm_is_in_its_mode():
+    """Found by a new-user audit: a start held at zero thrust showed only "mode: stop" (`--json` said why)."""
+    from autopilot.daemon.cli import _status_lines
+
+    held = {"mode": "stop", "helm_mode": "stop", "mode_cause": "start: interrupted mission found in the state "
+            "directory and failsafe.resume_after_restart is false (--fresh starts afresh)", "armed": True, "t_s": 1.0}
+    assert _status_lines(held)[0] == ("mode: stop - start: interrupted mission found in the state directory and "
+                                      "failsafe.resume_after_restart is false (--fresh starts afresh)")
+    assert _status_lines({"mode": "auto", "helm_mode": "auto", "mode_cause": "start", "t_s": 1.0})[0] == "mode: auto"
+    assert _status_lines({"mode": "hold", "mode_cause": "ctl hold", "armed": False})[0] == (
+        "mode: hold - ctl hold - DISARMED: zero thrust whatever the mode (autopilot ctl arm)")

@@ -169,8 +169,11 @@ def _status_lines(st: dict) -> list[str]:
         v = st.get(key)
         return "n/a" if v is None else f"{v:{fmt}}{unit}"
 
+    cause = st.get("mode_cause")
     lines = [f"mode: {st.get('mode')}" + (f" (helm: {st['helm_mode']})" if st.get("helm_mode") not in (None, st.get("mode"))
                                          else "")
+             # why (a held start said only "mode: stop"; --json had it: a new-user audit)
+             + (f" - {cause}" if cause and cause != "start" else "")
              + (" - DISARMED: zero thrust whatever the mode (autopilot ctl arm)" if st.get("armed") is False else ""),
              f"mission time: {num('t_s', '.1f', ' s')}, cycle {st.get('cycle')}"]
     if "wp_index" in st:
