@@ -249,6 +249,14 @@ def _hold_s(where: str, hold: Any) -> float | None:
     return x
 
 
+def _unset_home(lat: Any, lon: Any) -> bool:
+    """A planner's home at latitude 0, longitude 0: none was set."""
+    try:
+        return float(lat) == 0.0 and float(lon) == 0.0
+    except (TypeError, ValueError):
+        return False  # said as not a number where the home is checked
+
+
 def _check_latlon(where: str, lat: float, lon: float) -> None:
     if not -90.0 <= lat <= 90.0:
         raise MissionError(f"{where}: latitude {lat:g} outside -90..90 deg")
@@ -444,7 +452,9 @@ def _parse_wpl(path: Path, text: str, origin, max_range_m: float) -> Mission:
         except ValueError:
             raise MissionError(f"{path}: row {row_no}: command {f[3]!r} is not a number") from None
         if row_no == 0:
-            home = (f[8], f[9])
+            # Mission Planner writes home 0, 0 when none was set: no home (taken as one, the waypoints were
+            # 15 600 km "from the origin" and the message sent the user to max_mission_range_m; a new-user audit)
+            home = None if _unset_home(f[8], f[9]) else (f[8], f[9])
             continue
         rows.append(f)
         if rtl:
@@ -492,7 +502,7 @@ def _parse_plan(path: Path, text: str, origin, max_range_m: float) -> Mission:
     if home is not None:
         if not isinstance(home, list) or len(home) < 2:
             raise MissionError(f"{path}: plannedHomePosition: expected [lat, lon, alt]")
-        home = (home[0], home[1])
+        home = None if _unset_home(home[0], home[1]) else (home[0], home[1])
     speed = mission.get("cruiseSpeed")
     speed = speed if speed else None
     if speed is not None:  # "waypoint 1: speed 15 m/s ..." named neither the setting nor where QGC keeps it

@@ -240,3 +240,17 @@ def test_a_plan_s_cruise_speed_out_of_range_is_named_as_such(tmp_path):
     (tmp_path / "fast.plan").write_text(json.dumps(plan))
     with pytest.raises(MissionError, match="mission.cruiseSpeed: 15 m/s outside \\(0, 3.5\\] m/s .*Mission Start item"):
         load_mission(tmp_path / "fast.plan")
+
+
+def test_a_planner_home_at_zero_zero_is_no_home(tmp_path):
+    """Found by a new-user audit: Mission Planner writes home 0, 0 when none was set; taken as the home (and so the
+    origin), the waypoints were 15 600 km from it and the message sent the user to max_mission_range_m."""
+    rows = (MISSIONS / "examples" / "pond-9.4.waypoints").read_text().splitlines()
+    f = rows[1].split("\t")
+    f[8], f[9] = "0.000000", "0.000000"
+    (tmp_path / "nohome.waypoints").write_text("\n".join([rows[0], "\t".join(f), *rows[2:]]) + "\n")
+    m = load_mission(tmp_path / "nohome.waypoints", origin_lat_deg=HOME[0], origin_lon_deg=HOME[1])
+    assert m.home_latlon is None
+    assert_allclose(m.waypoints_ne_m, [(10.2, -1.0), (22.0, -6.7), (34.5, -5.5)], atol=0.01)
+    with pytest.raises(MissionError, match="no home or origin to convert them around"):
+        load_mission(tmp_path / "nohome.waypoints")
