@@ -292,6 +292,8 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
     points = []
     rtl = False
     for k, w in enumerate(wps, start=1):
+        if isinstance(w, str) and w.strip().lower() == "rtl":  # 'RTL' said only "expected a mapping" (an audit)
+            w = "rtl"
         if w == "rtl" or w == {"rtl": True}:  # return to launch: the last item only
             if k != len(wps):
                 raise MissionError(f"{path}: waypoint {k}: rtl must be the last item")
@@ -341,6 +343,7 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
 # ------------------------------------------------------------------------- CSV
 _CSV_OPTIONS = ("speed_m_s", "hold_s", "name")  # name: the spreadsheet's label, not read
 _CSV_LOOKALIKE = ("hold", "speed", "north", "east", "lat", "lon", "loiter", "wait")
+_CSV_COLUMNS = ("north_m", "east_m", "lat_deg", "lon_deg", *_CSV_OPTIONS)
 
 
 def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
@@ -348,7 +351,7 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
     rows = [r for r in csv_rows(text) if any(c.strip() for c in r)]
     if not rows:
         raise MissionError(f"{path}: the mission has no waypoints")
-    cols = rows[0]
+    cols = [c if c.lower() not in _CSV_COLUMNS else c.lower() for c in rows[0]]  # NORTH_M is north_m (an audit)
     if {"north_m", "east_m", "lat_deg", "lon_deg"} <= set(cols):
         raise MissionError(f"{path}: the header names both north_m,east_m and lat_deg,lon_deg: keep one pair")
     if {"north_m", "east_m"} <= set(cols):

@@ -254,3 +254,13 @@ def test_a_planner_home_at_zero_zero_is_no_home(tmp_path):
     assert_allclose(m.waypoints_ne_m, [(10.2, -1.0), (22.0, -6.7), (34.5, -5.5)], atol=0.01)
     with pytest.raises(MissionError, match="no home or origin to convert them around"):
         load_mission(tmp_path / "nohome.waypoints")
+
+
+def test_an_upper_case_header_and_rtl_in_capitals_are_read(tmp_path):
+    """Found by a new-user audit: NORTH_M,EAST_M (a spreadsheet's header in capitals) was refused ("header must
+    name north_m,east_m"), and `- RTL` in YAML said only "expected a mapping with north_m, east_m"."""
+    (tmp_path / "up.csv").write_text("NORTH_M,East_M,Hold_S\n10,0,5\n")
+    m = load_mission(tmp_path / "up.csv")
+    assert_allclose(m.waypoints_ne_m, [(10.0, 0.0)]) and m.holds_s == (5.0,)
+    (tmp_path / "rtl.yaml").write_text("name: m\nwaypoints:\n  - [10, 0]\n  - RTL\n")
+    assert load_mission(tmp_path / "rtl.yaml").rtl
