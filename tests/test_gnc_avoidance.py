@@ -425,3 +425,19 @@ def test_a_hold_off_an_occupied_waypoint_is_kept_inside_the_position_limits():
     assert math.hypot(hold[0] - 30.0, hold[1]) == pytest.approx(AvoidanceConfig().resume_margin * need)
     assert hold[1] > 0.0 and abs(math.degrees(math.atan2(hold[1], hold[0] - 30.0))) < 180.0 - 14.0
     assert hold_of(lambda n, e: False) == (30.0, 0.0)  # nowhere allowed: at the waypoint, as before
+
+
+def test_a_hold_kept_inside_the_limits_keeps_the_whole_ring_from_a_straight_edge_between_its_points():
+    """Found by a review: the ring round a hold is checked at eight points, and a straight fence edge passing between
+    two of them could come within 0.92 x hold.off_warn_m of the hold (4.6 m for 5 m). Never nearer than the radius
+    now (at most 1 / cos 22.5 deg of it asked for, where an edge meets a point square on)."""
+    from autopilot.gnc import Autopilot, GncConfig
+
+    ap = Autopilot(GncConfig(), [(30.0, 0.0)])
+    r_m = GncConfig().hold.off_warn_m
+    for bearing_deg in np.arange(0.0, 360.0, 3.75):  # an edge at every orientation
+        b = math.radians(bearing_deg)
+        ap.within_limits = lambda n, e, b=b: n * math.cos(b) + e * math.sin(b) <= 0.999 * r_m  # nearer than r: no
+        assert not ap._may_hold_at(0.0, 0.0), bearing_deg
+        ap.within_limits = lambda n, e, b=b: n * math.cos(b) + e * math.sin(b) <= 1.09 * r_m  # r / cos 22.5 deg: yes
+        assert ap._may_hold_at(0.0, 0.0), bearing_deg

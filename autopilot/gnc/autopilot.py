@@ -105,7 +105,10 @@ def _own_ship(nav: NavInput) -> OwnShip:
     return OwnShip(nav.north_m, nav.east_m, nav.course_rad, max(nav.speed_m_s, 0.0), nav.psi_rad)
 
 
-_RING = tuple((math.cos(k * math.pi / 4.0), math.sin(k * math.pi / 4.0)) for k in range(8))
+# eight points round a hold, pushed out by 1 / cos(22.5 deg) so that a straight limit passing between two of them
+# is still the whole radius away (on the radius itself, such an edge could come within 0.92 of it: a review)
+_RING = tuple((math.cos(k * math.pi / 4.0) / math.cos(math.pi / 8.0), math.sin(k * math.pi / 4.0) / math.cos(math.pi / 8.0))
+              for k in range(8))
 
 
 class Autopilot:
