@@ -125,3 +125,7 @@ def test_a_progress_file_that_cannot_be_read_starts_disarmed(tmp_path):
     st.path.write_text('{"mission": "m", "mission_sha256": "abc", "wp_index": "3", "status": "running"}\n')
     assert not _armed_at_start(RunOptions(mission_path="m.yaml"), st)
     assert _armed_at_start(RunOptions(mission_path="m.yaml", fresh=True), st)
+    from autopilot.daemon.app import _disarmed_at_start  # what the start says, from the same read
+
+    assert _disarmed_at_start(RunOptions(mission_path="m.yaml"), st) == (
+        "the saved progress cannot be read (it may have said disarmed)")

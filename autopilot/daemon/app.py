@@ -333,12 +333,17 @@ def _armed_at_start(opts: RunOptions, store: StateStore) -> bool:
     mission: a disarm is the operator's "no thrust" for the boat, kept until armed; --fresh starts armed. A
     progress file that is there but cannot be read may have said disarmed: disarmed too (a review: a disarm
     given in the start it held could not be saved over it, and the next start came up armed)."""
+    return _disarmed_at_start(opts, store) is None
+
+
+def _disarmed_at_start(opts: RunOptions, store: StateStore) -> str | None:
+    """Why the start is disarmed (:func:`_armed_at_start`), or None when it is armed; the file read once."""
     if opts.fresh:
-        return True
+        return None
     saved, problem = store.read()
     if problem is not None:
-        return False
-    return True if saved is None else saved.armed
+        return "the saved progress cannot be read (it may have said disarmed)"
+    return None if saved is None or saved.armed else "disarmed when the last run ended"
 
 
 def _run_before(opts: RunOptions, store: StateStore, sha: str):
@@ -455,10 +460,11 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             clock.set_quiet(_quiet_check(log, clock, t0_s, lambda: rig.quiet(compass, thrusters) and (
                 ais_driver is None or sim_traffic is None or sim_traffic.quiet(ais_driver))))
         before = _run_before(opts, store, sha)
+        disarmed_why = _disarmed_at_start(opts, store)
         ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
                        rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index,
                        launch_ne_m=None if before is None else before.launch_ne_m,
-                       armed=_armed_at_start(opts, store))
+                       armed=disarmed_why is None)
         loop = ControlLoop(cfg, clock=clock, autopilot=ap, mission=mission, mission_path=mission_path, mission_sha256=sha,
                            compass=compass, thrusters=thrusters, log=log, notifier=notifier, store=store,
                            fence_ne_m=_fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg), hold_zero=hold_zero,
@@ -483,8 +489,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     if cfg.ais.on_compass_line:
         said.append(_compass_line_share(cfg.serial.sc30_baud))
     if not ap.armed:
-        why = ("the saved progress cannot be read (it may have said disarmed)" if store.read()[1] is not None
-               else "disarmed when the last run ended")
+        why = disarmed_why or "disarmed when the last run ended"
         said.append(f"{why}: zero thrust whatever the mode until armed (`autopilot ctl arm`, or ARM from the ground "
                     "station; --fresh starts armed)")
     for text in said:  # in the log and on the console (the journal) alike

@@ -577,9 +577,11 @@ def cut_long(trials) -> tuple[list[Trial], list[str]]:
             # first second that does, the rows before it going to the piece before (a review: a 2-s outage at
             # a cut threw the whole 67-s piece away)
             s = a
-            while window(tr, s, b - s) is None and s + PIECE_MIN_S < b:
+            fits = window(tr, s, b - s) is not None
+            while not fits and s + PIECE_MIN_S < b:
                 s += 1.0
-            if window(tr, s, b - s) is not None:
+                fits = window(tr, s, b - s) is not None
+            if fits:
                 starts.append((a, s, b))
         # a piece ends where the next begins, or at its own edge when the next was left out (replayed open loop
         # over both, it was as long as the cut is there to prevent: a review)
