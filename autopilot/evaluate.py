@@ -226,11 +226,14 @@ def run_closed_loop(
     traffic=None,
     x0=None,
     rtl: bool = False,
+    within_limits=None,
 ):
     """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`. ``traffic``: a
     :class:`autopilot.traffic.feed.TrafficFeed` whose targets the boat sees (through AIS) and avoids;
     ``x0``: the start state (north, east, psi, u, v, r), at rest at the origin heading north if None;
-    ``rtl``: the mission ends returning to the launch point and holds there until ``t_max_s``.
+    ``rtl``: the mission ends returning to the launch point and holds there until ``t_max_s``;
+    ``within_limits(north_m, east_m) -> bool``: the position limits the helm keeps its own holds and avoidance's
+    alterations inside, as the daemon's failsafe hands it (None: none).
 
     One run at a time through :class:`autopilot.closed_loop.Flight` (the daemon's control cycle without
     its failsafe, evaluate's scorecard); the campaigns fly the same flights in lockstep."""
@@ -242,7 +245,8 @@ def run_closed_loop(
 
     config = config or GncConfig()
     wps = [(float(n), float(e)) for n, e in waypoints_ne_m]
-    ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, holds_s=holds_s, rtl=rtl, boat_length_m=params.length_m)
+    ap = Autopilot(config, wps, speeds_m_s=speeds_m_s, holds_s=holds_s, rtl=rtl, boat_length_m=params.length_m,
+                   within_limits=within_limits)
     # the daemon's navigation: the SC-30's rates (a 1 Hz fix, dead-reckoned), the same assembly
     origin = EVAL_ORIGIN_DEG if traffic is None else traffic.origin  # AIS positions are decoded around it
     sensors = SensorModel(*origin, rates=sensor_rates, position_noise_m=position_noise_m,
@@ -279,10 +283,10 @@ class EncounterResult:
 
 
 def run_encounter(params, scenario, *, config=None, env=None, condition: str = "", via_ais: bool = True,
-                  record: bool = False) -> EncounterResult:
+                  record: bool = False, within_limits=None) -> EncounterResult:
     """One traffic scenario on the calibrated model with the whole GNC stack: own ship from the scenario's start
     (under way at its speed) to its goal, the targets seen through AIS; scored against the same run without
-    traffic (the delay and the extra energy the encounter cost)."""
+    traffic (the delay and the extra energy the encounter cost). ``within_limits``: as run_closed_loop's."""
     import numpy as np
 
     from autopilot.gnc import GncConfig
@@ -296,7 +300,7 @@ def run_encounter(params, scenario, *, config=None, env=None, condition: str = "
     speeds = [own.speed_m_s]
     feed = TrafficFeed(scenario, via_ais=via_ais)
     run = run_closed_loop(params, wps, config=config, speeds_m_s=speeds, env=env, record=True, x0=x0,
-                          traffic=feed, mission=scenario.name, condition=condition)
+                          traffic=feed, mission=scenario.name, condition=condition, within_limits=within_limits)
     ref = run_closed_loop(params, wps, config=config, speeds_m_s=speeds, env=env, record=True, x0=x0,
                           traffic=TrafficFeed(_no_targets(scenario)), mission=scenario.name, condition=condition)
     tr = run.trace

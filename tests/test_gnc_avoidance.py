@@ -441,3 +441,84 @@ def test_a_hold_kept_inside_the_limits_keeps_the_whole_ring_from_a_straight_edge
         assert not ap._may_hold_at(0.0, 0.0), bearing_deg
         ap.within_limits = lambda n, e, b=b: n * math.cos(b) + e * math.sin(b) <= 1.09 * r_m  # r / cos 22.5 deg: yes
         assert ap._may_hold_at(0.0, 0.0), bearing_deg
+
+
+# --------------------------------------------------------------------------- the position limits
+
+
+def _fence_east_of_track(edge_east_m: float):
+    from autopilot.daemon.failsafe import inside_polygon
+
+    fence = ((-200.0, -300.0), (500.0, -300.0), (500.0, edge_east_m), (-200.0, edge_east_m))
+    return lambda n, e: inside_polygon(n, e, fence)
+
+
+def test_an_alteration_that_leaves_the_position_limits_is_not_taken_and_the_rule_2b_side_is():
+    """Found open in stop 42's note: the clearing course ignored the geofence. A head-on vessel with the fence 12 m to
+    starboard had the boat turn 30+ deg to starboard, out of the fence, where the latched geofence failsafe (rtl)
+    takes it mid-encounter. With the limits given, no alteration whose run leaves them is taken, and with none to
+    starboard that clears, the other side is (rule 2(b)), said in the reason."""
+    head_on = [tgt(100, 2, 180, 1.5)]
+    free = Avoidance().step(OWN, head_on, 0.0, 1.0, 0.0)
+    assert free.psi_d_share_rad > 0.0 and "2(b)" not in free.reason
+    fenced = Avoidance().step(OWN, head_on, 0.0, 1.0, 0.0, _fence_east_of_track(12.0))
+    assert fenced.psi_d_share_rad < 0.0 and "rule 2(b)" in fenced.reason and "leave the position limits" in fenced.reason
+    # far from the fence the limits change nothing
+    assert Avoidance().step(OWN, head_on, 0.0, 1.0, 0.0, _fence_east_of_track(400.0)) == free
+    # nowhere allowed but the mission's own course: it is slowed on, never turned off it
+    boxed = Avoidance().step(OWN, head_on, 0.0, 1.0, 0.0, lambda n, e: False)
+    assert boxed.psi_d_share_rad == 0.0 and boxed.speed_factor < 1.0
+
+
+@pytest.mark.parametrize("name", ["head-on", "two-targets", "overtaken", "crossing-starboard"])
+@pytest.mark.parametrize("edge_m", [12.0, 20.0, 25.0])
+def test_closed_loop_with_a_fence_to_starboard_the_boat_keeps_inside_it_and_its_distance(name, edge_m):
+    """Each shipped scenario whose give-way turn is to starboard, with a fence 12-25 m to starboard of the track:
+    without the limits the boat turns out through it (up to 41.6 m east); with them it stays inside, its turn
+    mark included, and every target still passes at the distance it needs, by a departure to port where it must
+    (a departure swinging back across the track when its side stopped clearing once passed a vessel overtaking us
+    3.3 m off). three-targets is flown on the calibrated model below: here its slow vessel sails over the kinematic
+    boat's goal, which the pursuit then runs to (the helm's occupied-waypoint logic is not in this sim)."""
+    sc = load_scenario(SCENARIOS / f"{name}.yaml")
+    allowed = _fence_east_of_track(edge_m)
+    free = simulate(sc)
+    assert not all(allowed(n, e) for n, e in zip(free.north_m, free.east_m))
+    run = simulate(sc, allowed=allowed)
+    assert run.reached
+    assert all(allowed(n, e) for n, e in zip(run.north_m, run.east_m)), run.east_m.max()
+    for s in score_run(run, sc).targets:
+        assert s.distance_kept, f"{name}: {s.target_id} at {s.min_distance_m:.1f} m < {s.required_m:.1f} m"
+
+
+def test_the_helm_hands_its_position_limits_to_the_avoidance():
+    """The daemon gives the helm the failsafe's within_limits; the avoidance's course must keep inside it too."""
+    from autopilot.gnc import Autopilot, GncConfig
+    from autopilot.gnc.autopilot import NavInput
+
+    at = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=1.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    head_on = [tgt(100, 2, 180, 1.5)]
+
+    def share_deg(within_limits):
+        ap = Autopilot(GncConfig(), [(300.0, 0.0)], within_limits=within_limits)
+        return math.degrees(ap.step(at, 0.1, targets=head_on, t_s=0.0).avoidance.psi_d_share_rad)
+
+    assert share_deg(None) > 0.0
+    assert share_deg(_fence_east_of_track(12.0)) < 0.0
+
+
+@pytest.mark.parametrize("name", ["three-targets", "head-on"])
+def test_on_the_calibrated_model_a_fence_to_starboard_is_kept_and_so_is_every_distance(name):
+    """The whole GNC stack on the calibrated model, targets through AIS (evaluate's encounter run), the fence 20 m to
+    starboard handed to the helm as the daemon hands it. A held alteration is checked against the limits too: held
+    +30 deg for a slow vessel the mission course did not clear by the margin, three-targets ran out through a fence at 20 m
+    or 40 m to 56-60 m east (benchmarks/avoidance_limits.py)."""
+    from autopilot.evaluate import run_encounter
+    from autopilot.sim import default_params_path, load_params
+
+    sc = load_scenario(SCENARIOS / f"{name}.yaml")
+    allowed = _fence_east_of_track(20.0)
+    r = run_encounter(load_params(default_params_path()), sc, within_limits=allowed, record=True)
+    assert r.completed
+    assert all(allowed(n, e) for n, e in zip(r.trace["north_m"], r.trace["east_m"])), max(r.trace["east_m"])
+    for s in r.score.targets:
+        assert s.distance_kept, f"{name}: {s.target_id} at {s.min_distance_m:.1f} m < {s.required_m:.1f} m"

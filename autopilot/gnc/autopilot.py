@@ -137,7 +137,8 @@ class Autopilot:
         self.mission_cleared = False  # MAVLink MISSION_CLEAR_ALL: no mission to resume until a new one
         self.armed = bool(armed)  # False: zero thrust whatever the mode asks, until armed
         # (north_m, east_m) -> bool: inside the latched position limits (the daemon's geofence and max distance);
-        # None: no limits (evaluate, the campaigns). Points the helm chooses itself are kept inside them.
+        # None: no limits (evaluate, the campaigns). Points and courses the helm chooses itself (the hold off an
+        # occupied waypoint, avoidance's alterations) are kept inside them.
         self.within_limits = within_limits
         self.current = self.auto
         self.mode_cause = "start"  # why the helm is in its mode (a mode event's cause: "failsafe geofence", "ctl stop")
@@ -480,17 +481,18 @@ class Autopilot:
     def _avoid(self, nav: NavInput, s: Steering, targets, t_s: float):
         """Collision avoidance on the mode's course (autopilot.gnc.avoidance): one more input to the same PID
         and allocation. A boat holding station avoids too: it leaves the point on the cheapest clearing
-        course and station keeping brings it back."""
+        course and station keeping brings it back. Its alterations keep inside the position limits (within_limits,
+        the failsafe's: one that left the geofence latched its rtl mid-encounter)."""
         if s.kind not in ("course", "force") or (not targets and not self._situations):
             return s, None
         own = _own_ship(nav)
         if s.kind == "course":
-            a = self.avoidance.step(own, list(targets), s.psi_d_rad, s.speed_cmd_m_s, t_s)
+            a = self.avoidance.step(own, list(targets), s.psi_d_rad, s.speed_cmd_m_s, t_s, self.within_limits)
             if a.active:
                 s = dataclasses.replace(s, psi_d_rad=a.psi_d_rad, speed_cmd_m_s=a.speed_cmd_m_s)
         else:
             ref = s.hold.psi_ref_rad if s.hold is not None else nav.psi_rad
-            a = self.avoidance.step(own, list(targets), ref, self.config.hold.approach_speed_m_s, t_s)
+            a = self.avoidance.step(own, list(targets), ref, self.config.hold.approach_speed_m_s, t_s, self.within_limits)
             if a.active:
                 s = dataclasses.replace(s, kind="course", psi_d_rad=a.psi_d_rad, speed_cmd_m_s=a.speed_cmd_m_s)
         self._log_encounters(a)

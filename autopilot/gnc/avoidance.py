@@ -65,7 +65,17 @@ distance + its extent (or its CPA is past or beyond the horizon):
   cheapest candidate that clears every target is taken (a turn of up to 60 deg
   before slowing, by default);
 - none clears every target: the one that opens the smallest DCPA the most,
-  slowed.
+  slowed;
+- inside the position limits: given ``allowed(north_m, east_m)`` (the
+  daemon's geofence and distance limit), an alteration whose straight run
+  until the targets' CPAs (at most ``limits_lookahead_s``) at its speed, and
+  ``limits_margin_m`` beyond, leaves them is not a candidate. Leaving the
+  geofence latches its failsafe (rtl by default) in the middle of the
+  encounter, and a fence is drawn round water the boat must not enter. The
+  mission's own course is the guidance's to keep inside. When no alteration
+  to the side the rules allow clears every target inside the limits, the
+  other side is searched (rule 2(b)), and a departure once taken is kept to
+  until it ends.
 
 **Resume**: when no target calls for action any more, the mission course is
 taken back once it clears every target by ``resume_margin`` x the safe
@@ -179,6 +189,17 @@ class AvoidanceConfig:
     slow_cost_deg: float = param(
         60.0, unit="deg", lo=0.0, hi=360.0, source="chosen in simulation: turn first (rule 8(b)), slow when a turn alone is large",
         doc="in the search, slowing to slow_factor costs as much as this alteration",
+    )
+    limits_lookahead_s: float = param(
+        90.0, unit="s", lo=0.0, hi=600.0,
+        source="chosen in simulation (the shipped scenarios with a fence 12-40 m to starboard): 30 s let the boat turn "
+               "toward the fence and swing back as it neared it, a head-on vessel passing 19.5 m off (22.2 m needed)",
+        doc="an alteration is a candidate only if a straight run on it until the targets' CPAs, at most this long, "
+            "stays inside the position limits",
+    )
+    limits_margin_m: float = param(
+        HULL_LENGTH_M, unit="m", lo=0.0, hi=1000.0, source="chosen: one boat length, room for the turn back",
+        doc="and this far beyond that run",
     )
     horizon_s: float = param(
         300.0, unit="s", lo=10.0, hi=3600.0, source="chosen: beyond the encounter's risk_tcpa_s",
@@ -299,6 +320,18 @@ HOLD_OFF_TURN_DEG = 15.0  # the hold off an occupied point looks round the vesse
 HOLD_OFF_TURNS_DEG = (0.0, *(sign * k * HOLD_OFF_TURN_DEG for k in range(1, 13) for sign in (1.0, -1.0)))[:-1]
 
 
+LIMITS_STEP_M = 5.0  # an alteration's run is checked against the position limits at points this far apart at most
+
+
+def _fenced_words(fenced: list[float]) -> str:
+    """What the log adds of the alterations left out for the position limits (nothing when none was)."""
+    if not fenced:
+        return ""
+    least = min(fenced, key=abs)
+    return (f"; {len({abs(a) for a in fenced})} alteration sizes leave the position limits, the smallest "
+            f"{abs(math.degrees(least)):.0f} deg to {'starboard' if least > 0 else 'port'}")
+
+
 @dataclass
 class Avoidance:
     """COLREGs collision avoidance composed with the mission's course and speed (the module docstring)."""
@@ -397,8 +430,9 @@ class Avoidance:
         return at_point
 
     def step(self, own: OwnShip, targets: list[TargetState], psi_d_rad: float, speed_cmd_m_s: float,
-             t_s: float) -> AvoidanceOutput:
-        """One cycle: the course and speed to steer, given the mission's ``psi_d_rad`` and ``speed_cmd_m_s``."""
+             t_s: float, allowed=None) -> AvoidanceOutput:
+        """One cycle: the course and speed to steer, given the mission's ``psi_d_rad`` and ``speed_cmd_m_s``.
+        ``allowed(north_m, east_m) -> bool``: the position limits an alteration keeps inside (module docstring)."""
         cfg = self.config
         engine = risk_engine(cfg.dcpa_max_nd, cfg.tcpa_max_nd, cfg.defuzz_points)
         speed_m_s = speed_cmd_m_s if speed_cmd_m_s > 0.0 else own.speed_m_s
@@ -425,16 +459,23 @@ class Avoidance:
         reason: str
         if acting:
             starboard_only = any(e.situation is not Situation.OVERTAKING for e, _ in acting)
-            alteration, slow, why = self._search(own, encounters, psi_d_rad, speed_m_s, starboard_only)
+            alteration, slow, why = self._search(own, encounters, psi_d_rad, speed_m_s, starboard_only, allowed)
             self._alteration_rad, self._slow = alteration, slow
             worst = max(acting, key=lambda er: er[1])[0]
             reason = f"{worst.situation.value} {worst.target_id} (rule {worst.situation.rule}): {why}"
         elif self.active:
             # nobody calls for action: take the mission back once it is clear of everyone
             clear = self._clears(own, encounters, psi_d_rad, speed_m_s, margin=cfg.resume_margin, astern=False)
-            if clear:
+            # a held alteration's run is checked against the limits as a new one's is: held for a slow vessel the
+            # mission course did not clear by the margin, a 30 deg turn ran the boat 20 m out through the fence
+            leaving = (allowed is not None and self._alteration_rad != 0.0 and not self._stays_inside(
+                own, encounters, psi_d_rad + self._alteration_rad,
+                speed_m_s * (cfg.slow_factor if self._slow else 1.0), allowed))
+            if clear or leaving:
                 self._alteration_rad, self._slow, self._side = 0.0, False, 0
-                reason = "past and clear: back on the mission's course"
+                reason = ("past and clear: back on the mission's course" if clear else
+                          "no target calls for action and the alteration held would leave the position limits: "
+                          "back on the mission's course")
             else:
                 reason = (f"holding {math.degrees(self._alteration_rad):+.0f} deg until the mission course clears "
                           f"every target by {cfg.resume_margin:g} x {cfg.safe_distance_m:.0f} m")
@@ -485,10 +526,74 @@ class Avoidance:
     def _clears(self, own, encounters, course_rad, speed_m_s, *, margin: float, astern: bool) -> bool:
         return all(self._clearance(own, e, course_rad, speed_m_s, astern) >= margin for e in encounters)
 
+    def _stays_inside(self, own: OwnShip, encounters: list[Encounter], course_rad: float, speed_m_s: float,
+                      allowed) -> bool:
+        """A straight run on ``course_rad`` until the last of the targets' CPAs on it (the alteration is held that
+        long), at most limits_lookahead_s, and limits_margin_m beyond, is inside ``allowed`` (checked every
+        LIMITS_STEP_M at most)."""
+        run_s = 0.0
+        for e in encounters:
+            tgt = e.target
+            tcpa_s = cpa(tgt.north_m - own.north_m, tgt.east_m - own.east_m,
+                         tgt.speed_m_s * math.cos(tgt.course_rad) - speed_m_s * math.cos(course_rad),
+                         tgt.speed_m_s * math.sin(tgt.course_rad) - speed_m_s * math.sin(course_rad))[1]
+            run_s = max(run_s, min(tcpa_s, self.config.limits_lookahead_s))
+        reach_m = speed_m_s * run_s + self.config.limits_margin_m
+        n = max(1, math.ceil(reach_m / LIMITS_STEP_M))
+        c, s = math.cos(course_rad), math.sin(course_rad)
+        return all(allowed(own.north_m + reach_m * k / n * c, own.east_m + reach_m * k / n * s) for k in range(1, n + 1))
+
     def _search(self, own: OwnShip, encounters: list[Encounter], psi_d_rad: float, speed_m_s: float,
-                starboard_only: bool) -> tuple[float, bool, str]:
+                starboard_only: bool, allowed=None) -> tuple[float, bool, str]:
         """The cheapest (alteration, slow) that clears every target: cost = |alteration| in degrees, plus
-        ``slow_cost_deg`` when slowing to ``slow_factor``; ties to the smaller alteration."""
+        ``slow_cost_deg`` when slowing to ``slow_factor``; ties to the smaller alteration.
+
+        With ``allowed``, an alteration that leaves the position limits is no candidate (the mission course, slowed
+        or not, always is). When every clearing one to the side the rules allow (or the side kept) leaves them, the
+        other side is searched too (rule 2(b): a departure the limits of navigation make necessary; a head-on vessel
+        2 m to starboard with the fence 12 m to starboard was otherwise passed 0.8 m off, slowed). A departure once
+        taken is searched first until it ends: swinging back to starboard across the target's track when the
+        departure's side stopped clearing passed a vessel overtaking us 3.3 m off."""
+        cfg = self.config
+        if starboard_only:
+            primary = (1,)
+        elif self._side:
+            primary = (self._side,)
+        else:
+            primary = (1, -1)
+        held = (self._alteration_rad > 0.0) - (self._alteration_rad < 0.0)
+        if starboard_only and held == -1 and allowed is not None:  # a departure under way is kept to
+            primary = (-1,)
+        fenced: list[float] = []  # the alterations (signed) left out because they leave the limits
+        found, best = self._first_clearing(own, encounters, psi_d_rad, speed_m_s, primary, allowed, fenced)
+        if found is None and fenced and len(primary) == 1:
+            found = self._first_clearing(own, encounters, psi_d_rad, speed_m_s, (-primary[0],), allowed, fenced)[0]
+        departure = " (rule 2(b): to starboard leaves the position limits)"
+        if found is not None:
+            alt, slow = found
+            if alt != 0.0 and not starboard_only:
+                self._side = 1 if alt > 0 else -1
+            if alt == 0.0 and not slow:
+                return 0.0, False, "the mission course already clears every target"
+            what = []
+            if alt != 0.0:
+                what.append(f"alter {math.degrees(alt):+.0f} deg to {'starboard' if alt > 0 else 'port'}"
+                            + (departure if starboard_only and alt < 0.0 else ""))
+            if slow:
+                what.append(f"slow to {cfg.slow_factor:g} x speed (rule 8(e))")
+            return alt, slow, (" and ".join(what) + f": every target passes >= {cfg.safe_distance_m:.0f} m"
+                               + _fenced_words(fenced))
+        if not starboard_only and best[1] != 0.0:
+            self._side = 1 if best[1] > 0 else -1
+        return best[1], True, (f"nothing up to {cfg.max_alteration_deg:.0f} deg clears every target: "
+                               f"{math.degrees(best[1]):+.0f} deg{departure if starboard_only and best[1] < 0 else ''}"
+                               f" (clearance x{best[0]:.2f}) and slow to {cfg.slow_factor:g} x speed (rule 8(e))"
+                               + _fenced_words(fenced))
+
+    def _first_clearing(self, own, encounters, psi_d_rad, speed_m_s, sides, allowed, fenced):
+        """Over the candidates to ``sides`` (and none), cheapest first: the first (signed alteration, slow) that clears
+        every target, or None; and the best clearance seen, (worst clearance, signed alteration, slow). The alterations
+        that leave ``allowed`` are appended to ``fenced``."""
         cfg = self.config
         step = math.radians(cfg.alteration_step_deg)
         a_min, a_max = math.radians(cfg.min_alteration_deg), math.radians(cfg.max_alteration_deg)
@@ -497,12 +602,6 @@ class Avoidance:
         while a <= a_max + 1e-9:
             sizes.append(a)
             a += step
-        if starboard_only:
-            sides = (1,)
-        elif self._side:
-            sides = (self._side,)
-        else:
-            sides = (1, -1)
         slow_cost = math.radians(cfg.slow_cost_deg)
         candidates = sorted(
             ((size + (slow_cost if slow else 0.0), size, side, slow)
@@ -511,31 +610,21 @@ class Avoidance:
             key=lambda c: (c[0], c[1]),
         )
         held = abs(self._alteration_rad) + (slow_cost if self._slow else 0.0)
-        best: tuple[float, float, bool] | None = None  # (worst clearance, signed alteration, slow)
+        best: tuple[float, float, bool] | None = None
         for cost, size, side, slow in candidates:
             alt = side * size
             u = speed_m_s * (cfg.slow_factor if slow else 1.0)
+            if size > 0.0 and allowed is not None and not self._stays_inside(own, encounters, psi_d_rad + alt, u, allowed):
+                fenced.append(alt)
+                continue
             margin = cfg.resume_margin if cost < held - 1e-9 else 1.0
             worst = min((self._clearance(own, e, psi_d_rad + alt, u, True) for e in encounters), default=math.inf)
             if worst >= margin:
-                if size > 0.0 and not starboard_only:
-                    self._side = side
-                if size == 0.0 and not slow:
-                    return 0.0, False, "the mission course already clears every target"
-                what = []
-                if size > 0.0:
-                    what.append(f"alter {math.degrees(alt):+.0f} deg to {'starboard' if alt > 0 else 'port'}")
-                if slow:
-                    what.append(f"slow to {cfg.slow_factor:g} x speed (rule 8(e))")
-                return alt, slow, " and ".join(what) + f": every target passes >= {cfg.safe_distance_m:.0f} m"
+                return (alt, slow), best
             if best is None or worst > best[0] + 1e-9:
                 best = (worst, alt, slow)
-        assert best is not None
-        if not starboard_only and best[1] != 0.0:
-            self._side = 1 if best[1] > 0 else -1
-        return best[1], True, (f"nothing up to {cfg.max_alteration_deg:.0f} deg clears every target: "
-                               f"{math.degrees(best[1]):+.0f} deg (clearance x{best[0]:.2f}) and slow to "
-                               f"{cfg.slow_factor:g} x speed (rule 8(e))")
+        assert best is not None  # the mission course is always a candidate
+        return None, best
 
     def _row(self, e: Encounter, risk: float, acting: bool) -> TargetAssessment:
         g = e.geometry

@@ -74,9 +74,10 @@ class EncounterRun:
 
 def simulate(scenario: TrafficScenario, *, avoidance: Avoidance | None = None,
              boat: KinematicBoatConfig = KinematicBoatConfig(), via_ais: bool = False,
-             with_traffic: bool = True) -> EncounterRun:
+             with_traffic: bool = True, allowed=None) -> EncounterRun:
     """Run own ship to the scenario's goal among its targets (module docstring). ``avoidance`` None:
-    a default :class:`Avoidance`; ``with_traffic`` False: the same mission with no targets at all."""
+    a default :class:`Avoidance`; ``with_traffic`` False: the same mission with no targets at all;
+    ``allowed(north_m, east_m) -> bool``: the position limits the avoidance keeps inside (a geofence)."""
     av = avoidance if avoidance is not None else Avoidance()
     av.reset()
     specs = {s.mmsi: s for s in scenario.targets} if with_traffic else {}
@@ -116,7 +117,7 @@ def simulate(scenario: TrafficScenario, *, avoidance: Avoidance | None = None,
         t_prev = t
         dist_goal = math.hypot(gn - n, ge - e)
         psi_d = math.atan2(ge - e, gn - n)  # pure pursuit
-        out = av.step(own, seen, psi_d, own_spec.speed_m_s, t)
+        out = av.step(own, seen, psi_d, own_spec.speed_m_s, t, allowed)
         by_id = {a.target_id: a for a in out.targets}
         for m in specs:
             a = by_id.get(m)
