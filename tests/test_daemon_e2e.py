@@ -166,6 +166,27 @@ def test_signal_stops_with_zero_thrust_acknowledged_and_exit_0(signame, tmp_path
 
 
 @pytest.mark.slow
+def test_a_run_stopped_in_its_final_hold_is_reviewed_as_the_daemon_ends_it(tmp_path):
+    """Left in stop 42's note (a new-user audit): the daemon ends a run stopped by SIGTERM in the hold after its
+    route "route complete ...; then in MODE, stopped by SIGTERM", and the review of its log said "signal, mission
+    complete". The review now says what the daemon said, and its summary.json says the run did not finish."""
+    p = start(ROOT / "config" / "missions" / "station-keep.yaml", tmp_path, "--speedup", "max")
+    _wait_for(lambda recs: any(r["event"] == "mission_complete" for r in recs)
+              and sum(r["event"] == "cycle" for r in recs) > 50, tmp_path / "logs", p)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=30)
+    assert p.returncode == 0
+    said = next(ln for ln in err.splitlines() if "route complete" in ln)
+    assert "stopped by SIGTERM" in said
+    (path,) = (tmp_path / "logs").glob("mission-*.jsonl")
+    card = score(review_read_log(path))
+    assert card.complete and not card.finished and card.stop_signal == "SIGTERM"
+    row = dict(card.table_rows())["stop"]
+    assert row == f"route complete; then in {card.end_mode}, stopped by SIGTERM"
+    assert f"then in {card.end_mode}, stopped by SIGTERM" in said  # the daemon's words
+
+
+@pytest.mark.slow
 def test_the_flying_daemon_does_not_carry_the_review_and_identification_libraries(tmp_path):
     """The boat's PC runs the daemon for hours: scipy, matplotlib and dask are the review's, the
     identification's and the campaigns' (`autopilot` built every command's parser at start, and the

@@ -241,3 +241,17 @@ def test_a_boat_drifting_with_its_thrusters_off_runs_the_distance_it_drifts(tmp_
     recs = _cycles(n, mode="stop", north_m=0.0, east_m=np.round(0.28 * np.floor(t), 3), thrust_port_n=0.0,
                    thrust_stbd_n=0.0, position_age_s=np.round(t - np.floor(t), 3), sog_m_s=sog, cog_deg=90.0)
     assert score(read_log(_write(tmp_path / "drift.jsonl", [START] + recs))).distance_m == pytest.approx(28.0, rel=0.03)
+
+
+
+def test_how_a_run_ended_is_said_as_the_daemon_says_it(tmp_path):
+    """A run that ended on its own, and one stopped before its route was complete (the daemon's own run stopped in
+    its final hold: tests/test_daemon_e2e.py)."""
+    done = tmp_path / "done.jsonl"
+    write_synthetic_log(done)
+    card = score(read_log(done))
+    assert card.finished and dict(card.table_rows())["stop"] == "complete: mission complete"
+    cut = tmp_path / "cut.jsonl"
+    write_synthetic_log(cut, failsafe_at_s=20.0)
+    card = score(read_log(cut))
+    assert not card.finished and not card.complete and dict(card.table_rows())["stop"] == "stopped by SIGTERM"

@@ -185,7 +185,12 @@ class Scorecard:
     ack_missing: float
     lateness_ms: dict  # "p50" ... "max" -> ms
     stop_reason: str | None
-    complete: bool
+    complete: bool  # the route was complete (a mission_complete line): every waypoint reached or passed
+    # the run ended on its own (stop reason "complete"); a route complete but not finished was stopped by a signal (or
+    # killed) in what follows the route: the final hold, a last hold item, the way home of an rtl
+    finished: bool = False
+    stop_signal: str | None = None
+    end_mode: str | None = None  # the mode of the last cycle
     waypoints: list = field(default_factory=list)  # [WaypointScore]
     skipped_lines: int = 0
     read_notes: list = field(default_factory=list)
@@ -247,11 +252,23 @@ class Scorecard:
             ("battery under load, min / max", _fmt_range(self.battery_v, "V")),
             ("battery resting estimate, min / max", _fmt_range(self.battery_rest_v, "V")),
             *self._traffic_rows(),
-            ("stop", f"{self.stop_reason or 'no stop line'}" + (", mission complete" if self.complete else "")),
+            ("stop", self._stop_words()),
             ("log lines skipped", f"{self.skipped_lines}"),
         ]
         return rows
 
+
+    def _stop_words(self) -> str:
+        """How the run ended, in the daemon's end summary's words: a run stopped by a signal in its final hold said
+        "mission complete" here where the daemon said "route complete" (a new-user audit)."""
+        if self.stop_reason == "complete":
+            return "complete: mission complete"
+        how = self.stop_reason or "no stop line (killed?)"
+        if self.stop_signal:
+            how = f"stopped by {self.stop_signal}"
+        if self.complete:
+            return f"route complete; then in {self.end_mode or 'an unknown mode'}, {how}"
+        return how
 
     def _traffic_rows(self) -> list[tuple[str, str]]:
         """Rows only for a log with traffic (a log without keeps its summary as it was)."""
@@ -710,6 +727,10 @@ def score(log: MissionLog) -> Scorecard:
                  for ev in log.events_named("failsafe")]
     stops = log.events_named("stop")
     stop_reason = stops[-1].get("reason") if stops else None
+    stop_signal = stops[-1].get("signal") if stops else None
+    end_code = int(log.mode[-1]) if len(log.mode) else None
+    end_mode = (MODES[end_code] if end_code is not None and 0 <= end_code < len(MODES)
+                else UNKNOWN_MODE if end_code is not None else None)
     return Scorecard(
         name=log.name, path=str(log.path), cycles=log.n_cycles, mission_time_s=mission_time,
         distance_m=distance, thrust_energy_n_s=energy, thrust_unknown_s=thrust_unknown,
@@ -724,7 +745,8 @@ def score(log: MissionLog) -> Scorecard:
         nmea_dropped=_max_count(log, "nmea_dropped", "nmea_dropped"),
         ack_missing=_max_count(log, "ack_missing", "ack_missing"),
         lateness_ms=lateness, stop_reason=stop_reason if isinstance(stop_reason, str) else None,
-        complete=bool(log.events_named("mission_complete")),
+        complete=bool(log.events_named("mission_complete")), finished=stop_reason == "complete",
+        stop_signal=stop_signal if isinstance(stop_signal, str) else None, end_mode=end_mode,
         waypoints=closest_approaches(log), skipped_lines=log.stats.skipped,
         read_notes=read_notes,
         mode_time_s=mode_times_s(log, hold), holds=hold_stats(log, hold),
