@@ -58,7 +58,7 @@ import yaml
 
 from autopilot.geo import latlon_to_local
 from autopilot.schema import ConfigError
-from autopilot.userfile import csv_rows, parse_yaml, read_text, too_many_fields, yaml_problem
+from autopilot.userfile import csv_rows, parse_yaml, read_text, too_many_fields, unit_word, units_row, yaml_problem
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
@@ -344,6 +344,10 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
 _CSV_OPTIONS = ("speed_m_s", "hold_s", "name")  # name: the spreadsheet's label, not read
 _CSV_LOOKALIKE = ("hold", "speed", "north", "east", "lat", "lon", "loiter", "wait")
 _CSV_COLUMNS = ("north_m", "east_m", "lat_deg", "lon_deg", *_CSV_OPTIONS)
+_METRES, _DEGREES = ("m", "metre", "metres", "meter", "meters"), ("deg", "°", "degree", "degrees", "dd", "decimal degrees")
+# what a units row under the header may say of each column the mission reads (unit_word's form)
+_CSV_UNITS = {"north_m": _METRES, "east_m": _METRES, "lat_deg": _DEGREES, "lon_deg": _DEGREES,
+              "speed_m_s": ("m/s", "m s-1", "ms-1", "m*s-1"), "hold_s": ("s", "sec", "secs", "second", "seconds")}
 
 
 def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
@@ -368,6 +372,9 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
         raise MissionError(f"{path}: column {unknown[0]!r} is not one the mission reads (allowed: {', '.join(allowed)}; "
                            "other columns are labels, not read)")
     at = {c: k for k, c in enumerate(cols)}
+    if len(rows) > 1 and units_row(rows[1]):
+        _check_units(path, rows[1], cols)
+        del rows[1]  # a spreadsheet's units row under the header: no waypoint (it was "north_m is not a number ('m')")
     for k, r in enumerate(rows[1:], start=1):
         problem = too_many_fields(r, len(cols), k)
         if problem:
@@ -380,6 +387,16 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
     points = [_RawPoint(cell(r, keys[0]), cell(r, keys[1]), cell(r, "speed_m_s") or None, cell(r, "hold_s") or None)
               for r in rows[1:]]
     return _finish(path, path.stem, points, latlon=latlon, home=None, origin=origin, max_range_m=max_range_m)
+
+
+def _check_units(path: Path, units: list[str], cols: list[str]) -> None:
+    """A units row's unit for each column the mission reads is the one the column's name says, or none: a north_m in
+    ft or km read as metres would fly a different mission."""
+    for k, name in enumerate(cols):
+        said = unit_word(units[k]) if k < len(units) else ""
+        if name in _CSV_UNITS and said and said not in _CSV_UNITS[name]:
+            raise MissionError(f"{path}: the units row under the header gives {name} in {units[k].strip()!r}; the "
+                               f"mission reads {name} in {_CSV_UNITS[name][0]} (convert the column, or correct the unit)")
 
 
 # ------------------------------------------------------------------------- Mission Planner

@@ -134,6 +134,26 @@ def too_many_fields(row: list[str], width: int, k: int) -> str | None:
             f"point as the decimal separator)")
 
 
+def units_row(row: list[str]) -> bool:
+    """A first data row of words only, none a number (its units: s, m, deg, N; it was refused as "'s' is not a
+    number"). A row with any number in it is data."""
+    cells = [c for c in row if c.strip()]
+    if not cells:
+        return False
+    for c in cells:
+        try:
+            float(c)
+        except ValueError:
+            continue
+        return False
+    return True
+
+
+def unit_word(cell: str) -> str:
+    """A units row's cell as a bare unit: "[m]", "(m)", " M " are "m"."""
+    return re.sub(r"\s+", " ", cell.strip().strip("[]()").strip().lower())
+
+
 MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"
 
 

@@ -232,6 +232,29 @@ def test_excel_s_empty_rows_under_a_csv_mission_are_no_waypoints(tmp_path):
         load_mission(tmp_path / "gap.csv")
 
 
+def test_a_units_row_under_a_csv_mission_header_is_read_as_units(tmp_path):
+    """Left in stop 42's note (a new-user audit): a spreadsheet's units row under the header was refused as
+    "waypoint 1: north_m is not a number ('m')". It is skipped when its units are the columns' own, and refused
+    naming the column when not: a north_m in feet read as metres would fly another mission."""
+    p = tmp_path / "u.csv"
+    p.write_bytes("north_m;east_m;hold_s;Bemerkung\r\n[m];[m];[s];\r\n10;5;30;Boje\r\n35;20;;\r\n".encode("cp1252"))
+    m = load_mission(p)
+    assert_allclose(m.waypoints_ne_m, [(10.0, 5.0), (35.0, 20.0)])
+    assert tuple(m.holds_s) == (30.0, None)
+    (tmp_path / "ll.csv").write_text("lat_deg,lon_deg,speed_m_s\n\u00b0,deg,m/s\n52.0001,4.4001,1.0\n")
+    assert len(load_mission(tmp_path / "ll.csv", origin_lat_deg=52.0, origin_lon_deg=4.4).waypoints_ne_m) == 1
+    (tmp_path / "ft.csv").write_text("north_m,east_m\nft,ft\n30,0\n")
+    with pytest.raises(MissionError, match="units row under the header gives north_m in 'ft'; the mission reads "
+                                           "north_m in m"):
+        load_mission(tmp_path / "ft.csv")
+    (tmp_path / "only.csv").write_text("north_m,east_m\nm,m\n")  # a units row is no waypoint
+    with pytest.raises(MissionError, match="the mission has no waypoints"):
+        load_mission(tmp_path / "only.csv")
+    (tmp_path / "word.csv").write_text("north_m,east_m\n10,x\n")  # a row with a number in it is data, as before
+    with pytest.raises(MissionError, match="waypoint 1: east_m is not a number"):
+        load_mission(tmp_path / "word.csv")
+
+
 def test_a_plan_s_cruise_speed_out_of_range_is_named_as_such(tmp_path):
     """Found by a new-user audit: QGroundControl's cruiseSpeed 15 (its default for aircraft) was refused as "waypoint
     1: speed 15 m/s outside (0, 3.5] m/s", naming neither the setting nor where QGroundControl keeps it."""

@@ -421,7 +421,7 @@ TRIAL_COLUMNS = ("t_s", "north_m", "east_m", "lat_deg", "lon_deg", "heading_deg"
 def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     """Read one trial CSV (columns in the module docstring); a cell that is not a number, a time going back
     or a last row cut off mid-write is refused naming the row."""
-    from autopilot.userfile import csv_rows, number_cell, read_text, too_many_fields, unique_header
+    from autopilot.userfile import csv_rows, number_cell, read_text, too_many_fields, unique_header, units_row
 
     path = Path(path)
     text = read_text(path, what="trial CSV", spreadsheet=True)
@@ -434,7 +434,7 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
     width = len(header)
-    units = len(table) > 1 and _units_row(table[1])  # a row of units under the header (s, m, deg, N): no data
+    units = len(table) > 1 and units_row(table[1])  # a row of units under the header (s, m, deg, N): no data
     if len(table) > 1 and len(table[-1]) < width and not text.endswith(("\n", "\r")):
         raise ConfigError(f"{path}: data row {len(table) - 1} has {len(table[-1])} of {width} fields and the file does "
                           "not end with a new line: cut off mid-write? delete that row")
@@ -455,21 +455,6 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
         return trial_from_columns(path.stem, cols, curve=curve, row_name=lambda i: f"data row {kept[i] + 1}")
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
-
-
-def _units_row(row: list[str]) -> bool:
-    """A first data row of words only, none a number (its units: s, m, deg, N; it was refused as "'s' is not a
-    number"). A row with any number in it is data."""
-    cells = [c for c in row if c]
-    if not cells:
-        return False
-    for c in cells:
-        try:
-            float(c)
-        except ValueError:
-            continue
-        return False
-    return True
 
 
 def read_trial(path, *, curve: ThrustCurve | None = None) -> Trial:
