@@ -75,6 +75,7 @@ MODES: tuple[str, ...] = tuple(m.value for m in Mode)
 # causes of `mode` lines that the review reads back (time under a failsafe's action)
 FAILSAFE_CAUSE_PREFIX = "failsafe "  # a mode a failsafe took: "failsafe battery_low"
 RTL_ARRIVED_CAUSE = "rtl: at the launch point"  # rtl's own hand-over to the hold at launch
+MISSION_RTL_CAUSE = "mission: return to launch"  # a mission's own rtl, after its route (a restart resumes it)
 HEADING_SOURCES: tuple[str, ...] = ("THS", "HDT", "PFEC_GPatt", "COG")  # the driver's priority, then the fallback
 FAULT_CAUSES: tuple[str, ...] = (
     "heading_stale",

@@ -564,3 +564,42 @@ def test_a_silent_board_s_last_voltage_under_load_is_not_taken_for_a_resting_one
             await d.close()
 
     asyncio.run(scenario())
+
+
+def test_a_restart_on_the_mission_s_way_home_goes_on_home(tmp_path):
+    """Left in stop 42's note: a run killed (kill -9) on its mission's own way home, restarted with
+    resume_after_restart, flew back out to the last waypoint first and then home again. The progress now says
+    the run was homeward, and the restart goes on home."""
+    cfg = {"failsafe": {"resume_after_restart": True, "start_valid_s": 1.0}}
+
+    async def scenario():
+        d = Daemon(tmp_path, {"name": "out-and-home", "frame": "local", "waypoints": [[40.0, 0.0], "rtl"]}, config=cfg)
+        try:
+            await d.start()
+            await d.wait(lambda: any(m[2] == "mission: return to launch" for m in _modes(d)), 120.0, "the way home")
+            await d.wait(lambda: _boat_ne(d)[0] < 22.0, 60.0, "half way home")  # W0 18 m behind, out of its reach
+            home = d.events("launch")[0]
+            n, e = _boat_ne(d)
+            off_at_kill_m = math.hypot(n - home["north_m"], e - home["east_m"])
+            assert off_at_kill_m > 10.0  # well out, on its way
+            saved = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+            assert saved["homeward"] is True and saved["status"] == "running"
+            d.proc.kill()
+            await d.proc.wait()
+            await d.start(fresh=False)
+            await d.wait(lambda: any(m[1] == "rtl" for m in _modes(d)), 30.0, "rtl after the restart")
+            assert [m[1] for m in _modes(d)][:1] == ["rtl"], _modes(d)  # home at once, never out to W0 first
+            farthest_m = 0.0
+            while not any(m[1] == "hold" for m in _modes(d)):
+                await d.clock.sleep(0.5)
+                n, e = _boat_ne(d)
+                farthest_m = max(farthest_m, math.hypot(n - home["north_m"], e - home["east_m"]))
+                assert d.clock.now_s() < 600.0, "never home"
+            assert farthest_m < off_at_kill_m + 3.0  # it went home, not back out to the waypoint 25 m off
+            assert (d.events("launch")[0]["north_m"], d.events("launch")[0]["east_m"]) == (home["north_m"], home["east_m"])
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())

@@ -471,6 +471,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
                            t0_s=t0_s, ais=ais if (ais_driver is not None or cfg.ais.on_compass_line) else None)
         if before is not None:
             loop.failsafe.restore_latched(before.latched)
+            if before.homeward and mission.rtl and hold_zero is None and start_index == before.wp_index:
+                ap.resume_homeward()  # the interrupted run was on its way home: it goes on home
         holder["loop"] = loop
     except BaseException:  # the start failed before the loop ran: no stale socket, no empty log left behind
         await control.close()

@@ -34,7 +34,7 @@ from autopilot.devices import ZERO_THRUST, Compass, ThrustCommand, ThrusterLink
 from autopilot.gnc import Autopilot
 from autopilot.gnc.navigation import NavMemory, assemble
 from autopilot.gnc.passes import PassTracker
-from autopilot.logschema import Mode
+from autopilot.logschema import MISSION_RTL_CAUSE, RTL_ARRIVED_CAUSE, Mode
 from autopilot.mission import ItemNumbers, Mission
 
 __all__ = ["LoopState", "ControlLoop", "watchdog_due", "COMMANDS_PER_CYCLE", "COMMANDS_QUEUED_MAX"]
@@ -104,6 +104,7 @@ class ControlLoop:
         self.rules = steps.nav_rules(cfg)
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
         self._saved_running = False  # this run's progress is the saved one (a held start keeps the old until then)
+        self._saved_homeward = False  # what the saved progress says of the way home (Progress.homeward)
         self.ais = ais  # autopilot.daemon.traffic.AisSource: other vessels for collision avoidance (None: no AIS)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
         self._numbered: Mission | None = None
@@ -195,7 +196,8 @@ class ControlLoop:
         targets = () if self.ais is None else self.ais.targets(now_s)
         launch_before = self.ap.launch_ne_m
         out = self.ap.step(steps.nav_input(nav) if nav.steerable else None, dt_s, targets=targets, t_s=t_s)
-        if self.ap.launch_ne_m != launch_before and self._saved_running:  # rtl's home, for a restart too
+        if self._saved_running and (self.ap.launch_ne_m != launch_before  # rtl's home, for a restart too
+                                    or self._homeward() != self._saved_homeward):  # the way home begun
             self._save("running")
         # saved before it is logged: a kill between the two must not leave a log that runs ahead of the state
         if out.reached_index is not None:
@@ -395,13 +397,21 @@ class ControlLoop:
         launch = self.ap.launch_ne_m
         if status == "running":
             self._saved_running = True
+        self._saved_homeward = self._homeward()
         try:
             self.store.save(Progress(self.mission_path, self.mission_sha256, int(self.ap.wp_index), status,
                                      latched=self.failsafe.latched,
                                      launch_ne_m=None if launch is None else (float(launch[0]), float(launch[1])),
-                                     reason=reason, armed=bool(self.ap.armed)))
+                                     reason=reason, armed=bool(self.ap.armed), homeward=self._saved_homeward))
         except OSError as exc:
             self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="state not saved", error=str(exc))
+
+    def _homeward(self) -> bool:
+        """The mission's route is done and its own return to launch under way, or the hold at home it ends in
+        (Progress.homeward)."""
+        return bool(self.state.complete and self.mission.rtl and (
+            (self.ap.mode is Mode.RTL and self.ap.mode_cause == MISSION_RTL_CAUSE)
+            or (self.ap.mode is Mode.HOLD and self.ap.mode_cause == RTL_ARRIVED_CAUSE)))
 
     def _save_armed(self) -> None:
         """The operator's arm or disarm, saved now. In a held start the file is still the interrupted run's

@@ -40,6 +40,9 @@ class Progress:
     # the operator's disarm: zero thrust whatever the mode, until armed (found by a link audit: a kill -9 of a
     # disarmed boat and a restart with resume_after_restart flew the mission under thrust)
     armed: bool = True
+    # the route done and the mission's own rtl under way: a restart resumes the way home, not the last waypoint
+    # (left in stop 42's note: `resume` after a crash on the way home flew out to the last waypoint first)
+    homeward: bool = False
 
 
 class StateStore:
@@ -70,6 +73,9 @@ class StateStore:
             armed = data.get("armed", True)
             if type(armed) is not bool:
                 raise ValueError(f"armed {armed!r} is not true or false")
+            homeward = data.get("homeward", False)
+            if type(homeward) is not bool:
+                raise ValueError(f"homeward {homeward!r} is not true or false")
             launch = data.get("launch_ne_m")
             if launch is not None:
                 launch = tuple(float(v) for v in launch)
@@ -77,7 +83,7 @@ class StateStore:
                     raise ValueError(f"launch_ne_m {data.get('launch_ne_m')!r} is not a point")
             return Progress(mission=str(data["mission"]), mission_sha256=str(data["mission_sha256"]),
                             wp_index=index, status=str(data["status"]), latched=latched, launch_ne_m=launch,
-                            reason=str(data.get("reason") or ""), armed=armed), None
+                            reason=str(data.get("reason") or ""), armed=armed, homeward=homeward), None
         except (OSError, ValueError, KeyError, TypeError, AttributeError, OverflowError) as exc:
             return None, f"{type(exc).__name__}: {exc}"
 

@@ -182,6 +182,11 @@ class Autopilot:
         keeper = getattr(self.current, "keeper", None) or (self.auto.item_keeper if self.current is self.auto else None)
         return None if keeper is None else keeper.target
 
+    def resume_homeward(self) -> None:
+        """A restart of a run that was on the mission's own way home: the route counts as done, so the mission's
+        end (its rtl) follows at once; the last waypoint was flown out to first, then home (stop 42's note)."""
+        self.guidance.finish()
+
     def pop_events(self) -> list[tuple[str, dict]]:
         """(event name, fields) since the last call: ``mode`` {mode, from, cause}, ``launch`` {north_m, east_m}."""
         out, self._events = self._events, []

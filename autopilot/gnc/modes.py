@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from autopilot.gnc.registry import make_guidance
 from autopilot.gnc.station_keeping import HoldOutput, StationKeeper
 from autopilot.gnc.waypoints import GuidanceOutput
-from autopilot.logschema import RTL_ARRIVED_CAUSE, Mode
+from autopilot.logschema import MISSION_RTL_CAUSE, RTL_ARRIVED_CAUSE, Mode
 
 __all__ = ["Steering", "Handover", "AutoMode", "HoldMode", "PausedMode", "RtlMode", "StopMode", "CompleteMode",
            "ManualMode"]
@@ -238,7 +238,7 @@ class AutoMode:
 
     def _end(self, nav, g: GuidanceOutput | None = None) -> Steering:
         if self.rtl:
-            then = Handover(Mode.RTL, "mission: return to launch")
+            then = Handover(Mode.RTL, MISSION_RTL_CAUSE)
         elif self.config.guidance.final_action == "hold":
             keeper = self._keeper_at(len(self.guidance.waypoints) - 1, nav)
             then = Handover(Mode.HOLD, "mission end: hold at the last waypoint", keeper.target, keeper)

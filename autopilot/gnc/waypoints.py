@@ -145,6 +145,11 @@ class WaypointGuidance:
         return v * factor
 
     # ---------------------------------------------------------------- main
+    def finish(self) -> None:
+        """Count the route done without flying it (a restart on the mission's way home): its end follows at once."""
+        self.index = len(self.waypoints) - 1
+        self.complete = True
+
     def update(self, nav: NavInput, dt_s: float, *, may_reach: bool = True) -> GuidanceOutput:
         """One guidance cycle. ``may_reach=False``: steer only (the new target right after a switch, which is judged
         reached the next cycle at the soonest: one reached per cycle, each said; cascaded in one cycle, a waypoint
