@@ -4,8 +4,8 @@ Each shipped traffic scenario whose give-way turn is to starboard, flown by ``au
 (the calibrated model, the whole GNC stack, targets seen through AIS) with a straight geofence edge parallel to the
 track, ``EDGE`` m to starboard of it, handed to the helm as the daemon's failsafe hands it (``within_limits``), and
 once without it ("none"; the fence is then only measured against). Per run: the furthest the boat went to starboard,
-whether it left the fence, each target's closest approach against the distance it needs, and whether the
-avoidance departed to port (rule 2(b)).
+whether it left the fence, each target's closest approach against the distance it needs, whether the
+avoidance departed to port (rule 2(b)), and how often its alteration changed (a flicker shows there).
 
     python benchmarks/avoidance_limits.py [--edges 40 30 20 12] [--scenarios head-on two-targets ...] [--lookahead S]
 """
@@ -34,7 +34,7 @@ def fence_east_of(edge_east_m: float):
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--edges", type=float, nargs="+", default=[40.0, 30.0, 20.0, 12.0])
+    ap.add_argument("--edges", type=float, nargs="+", default=[40.0, 30.0, 25.0, 20.0, 12.0])
     ap.add_argument("--scenarios", nargs="+", default=list(STARBOARD_SCENARIOS))
     ap.add_argument("--lookahead", type=float, help="gnc.avoidance.limits_lookahead_s (s; default: the shipped one)")
     args = ap.parse_args(argv)
@@ -44,8 +44,9 @@ def main(argv=None) -> None:
         config = dataclasses.replace(config, avoidance=dataclasses.replace(config.avoidance,
                                                                            limits_lookahead_s=args.lookahead))
     paths = {p.stem: p for p in shipped_scenarios()}
-    print("| scenario | fence edge (m east) | furthest east (m) | left the fence | closest / needed (m) | port departure |")
-    print("|---|---|---|---|---|---|")
+    print("| scenario | fence edge (m east) | furthest east (m) | left the fence | closest / needed (m) | port departure "
+          "| alteration changes |")
+    print("|---|---|---|---|---|---|---|")
     for name in args.scenarios:
         sc = load_scenario(paths[name])
         for edge in [None, *args.edges]:
@@ -56,8 +57,9 @@ def main(argv=None) -> None:
             passes = ", ".join(f"{t.min_distance_m:.1f} / {t.required_m:.1f}" + ("" if t.distance_kept else " **short**")
                                for t in r.score.targets)
             left = "-" if edge is None else ("**yes**" if east.max() > edge else "no")
+            changes = int(np.count_nonzero(np.diff(np.round(np.degrees(share), 1))))
             print(f"| {name} | {'none' if edge is None else f'{edge:g}'} | {east.max():.1f} | {left} | {passes} | "
-                  f"{'yes' if share.min() < -math.radians(1.0) else 'no'} |", flush=True)
+                  f"{'yes' if share.min() < -math.radians(1.0) else 'no'} | {changes} |", flush=True)
 
 
 if __name__ == "__main__":

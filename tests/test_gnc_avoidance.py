@@ -466,8 +466,28 @@ def test_an_alteration_that_leaves_the_position_limits_is_not_taken_and_the_rule
     # far from the fence the limits change nothing
     assert Avoidance().step(OWN, head_on, 0.0, 1.0, 0.0, _fence_east_of_track(400.0)) == free
     # nowhere allowed but the mission's own course: it is slowed on, never turned off it
-    boxed = Avoidance().step(OWN, head_on, 0.0, 1.0, 0.0, lambda n, e: False)
+    boxed = Avoidance().step(OWN, head_on, 0.0, 1.0, 0.0, lambda n, e: math.hypot(n, e) < 1.0)
     assert boxed.psi_d_share_rad == 0.0 and boxed.speed_factor < 1.0
+    # outside the limits already (a failsafe's rtl heading back in): every run starts outside, and every turn was
+    # refused, the boat slowed on into a head-on vessel (1.0 m on the calibrated model; a review): turns as without
+    outside = Avoidance().step(OWN, head_on, 0.0, 1.0, 0.0, _fence_east_of_track(-10.0))
+    assert outside.psi_d_share_rad == free.psi_d_share_rad and "2(b)" not in outside.reason
+
+
+def test_a_port_turn_to_overtake_is_no_departure_for_a_head_on_vessel_met_after_it():
+    """Found by a review: a port turn held while overtaking (either side allowed) was kept for a head-on vessel
+    met after it and said to be a rule 2(b) departure, with nothing near any limit (the daemon always gives the
+    limits: max_distance_m): it must turn to starboard for the head-on vessel (rule 14)."""
+    av = Avoidance()
+    anywhere = _fence_east_of_track(400.0)
+    out = av.step(OWN, [tgt(30, 8, 0, 0.3)], 0.0, 1.0, 0.0, anywhere)  # overtaking a slow vessel 8 m to starboard
+    assert out.targets[0].situation is Situation.OVERTAKING and out.psi_d_share_rad < 0.0  # passed to port
+    own = OwnShip(3.0, 0.0, 0.0, 1.0, 0.0)
+    for t in (1.0, 2.0, 3.0):  # a vessel head-on appears (rule 14: to starboard only)
+        out = av.step(own, [tgt(30.9, 8, 0, 0.3), tgt(140, 2, 180, 1.5, tid=2)], 0.0, 1.0, t, anywhere)
+    head_on = next(r for r in out.targets if r.target_id == 2)
+    assert head_on.situation is Situation.HEAD_ON and head_on.acting
+    assert out.psi_d_share_rad > 0.0 and "2(b)" not in out.reason, out.reason
 
 
 @pytest.mark.parametrize("name", ["head-on", "two-targets", "overtaken", "crossing-starboard"])
@@ -522,3 +542,36 @@ def test_on_the_calibrated_model_a_fence_to_starboard_is_kept_and_so_is_every_di
     assert all(allowed(n, e) for n, e in zip(r.trace["north_m"], r.trace["east_m"])), max(r.trace["east_m"])
     for s in r.score.targets:
         assert s.distance_kept, f"{name}: {s.target_id} at {s.min_distance_m:.1f} m < {s.required_m:.1f} m"
+
+
+def test_a_boat_outside_the_limits_heading_back_in_still_avoids(tmp_path):
+    """Found by a review: outside the fence (a geofence failsafe's rtl heading back in) every run from the boat starts
+    outside, so every turn was refused, and a vessel on the reciprocal course passed 1.0 m off on the calibrated
+    model (27.9 m with no limits given). Outside, the alterations are not limited."""
+    from autopilot.evaluate import run_encounter
+    from autopilot.sim import default_params_path, load_params
+
+    (tmp_path / "back-in.yaml").write_text(
+        "name: back-in\nown: {north_m: 0.0, east_m: 40.0, course_deg: -7.6, speed_m_s: 1.0, goal_north_m: 300.0, "
+        "goal_east_m: 0.0}\ntargets:\n  - {mmsi: 244000121, name: FERRY, north_m: 300.0, east_m: 1.0, course_deg: "
+        "172.4, speed_m_s: 1.5, length_m: 12.0, beam_m: 4.0}\n")
+    sc = load_scenario(tmp_path / "back-in.yaml")
+    r = run_encounter(load_params(default_params_path()), sc, within_limits=_fence_east_of_track(20.0))
+    (s,) = r.score.targets
+    assert r.completed and s.distance_kept, f"{s.min_distance_m:.1f} m < {s.required_m:.1f} m"
+
+
+def test_a_departure_does_not_flicker():
+    """Found by a review: with the fence 25 m to starboard, two-targets' departure to port flicked between -30 and
+    -70 deg every few seconds, 108 changes of the alteration (the guidance cuts the speed for the heading error of
+    the turn held, and every candidate's clearance moved with it). A departure's alteration is now held 10 s before
+    a smaller one is taken: 32 changes, and both vessels pass at their distance."""
+    from autopilot.evaluate import run_encounter
+    from autopilot.sim import default_params_path, load_params
+
+    sc = load_scenario(SCENARIOS / "two-targets.yaml")
+    r = run_encounter(load_params(default_params_path()), sc, within_limits=_fence_east_of_track(25.0), record=True)
+    share_deg = np.round(np.degrees(np.asarray(r.trace["avoid_share_rad"])), 1)
+    assert share_deg.min() < -25.0  # the departure to port is taken
+    assert np.count_nonzero(np.diff(share_deg)) < 50
+    assert all(s.distance_kept for s in r.score.targets)

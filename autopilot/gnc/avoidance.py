@@ -320,6 +320,7 @@ HOLD_OFF_TURN_DEG = 15.0  # the hold off an occupied point looks round the vesse
 HOLD_OFF_TURNS_DEG = (0.0, *(sign * k * HOLD_OFF_TURN_DEG for k in range(1, 13) for sign in (1.0, -1.0)))[:-1]
 
 
+DEPARTURE_HOLD_S = 10.0  # a departure's alteration (rule 2(b)) is held this long before a smaller one is taken
 LIMITS_STEP_M = 5.0  # an alteration's run is checked against the position limits at points this far apart at most
 
 
@@ -348,6 +349,8 @@ class Avoidance:
         self._alteration_rad = 0.0  # signed, + = starboard
         self._side = 0  # +1 starboard, -1 port, 0 not chosen (overtaking only)
         self._slow = False
+        self._departed = False  # the alteration held is to port because to starboard leaves the limits (rule 2(b))
+        self._since_s = -math.inf  # when the alteration held was taken
 
     @property
     def active(self) -> bool:
@@ -436,6 +439,14 @@ class Avoidance:
         cfg = self.config
         engine = risk_engine(cfg.dcpa_max_nd, cfg.tcpa_max_nd, cfg.defuzz_points)
         speed_m_s = speed_cmd_m_s if speed_cmd_m_s > 0.0 else own.speed_m_s
+        if allowed is not None and not allowed(own.north_m, own.east_m):
+            # outside already (a failsafe takes it back): a run from here starts outside, and every turn was refused
+            # (a head-on vessel passed 1.0 m off on an rtl heading back in; a review)
+            allowed = None
+
+        def u_of(slow: bool) -> float:
+            return speed_m_s * (cfg.slow_factor if slow else 1.0)
+
         intended = OwnShip(north_m=own.north_m, east_m=own.east_m, course_rad=psi_d_rad, speed_m_s=speed_m_s,
                            heading_rad=psi_d_rad)
         encounters = self.tracker.assess(own, self.relevant(own, intended, targets), t_s, intended=intended)
@@ -459,20 +470,22 @@ class Avoidance:
         reason: str
         if acting:
             starboard_only = any(e.situation is not Situation.OVERTAKING for e, _ in acting)
-            alteration, slow, why = self._search(own, encounters, psi_d_rad, speed_m_s, starboard_only, allowed)
+            alteration, slow, why = self._search(own, encounters, psi_d_rad, u_of, starboard_only, allowed,
+                                                 reduce=t_s - self._since_s >= DEPARTURE_HOLD_S or not self._departed)
+            if (alteration, slow) != (self._alteration_rad, self._slow):
+                self._since_s = t_s
             self._alteration_rad, self._slow = alteration, slow
             worst = max(acting, key=lambda er: er[1])[0]
             reason = f"{worst.situation.value} {worst.target_id} (rule {worst.situation.rule}): {why}"
         elif self.active:
             # nobody calls for action: take the mission back once it is clear of everyone
-            clear = self._clears(own, encounters, psi_d_rad, speed_m_s, margin=cfg.resume_margin, astern=False)
+            clear = self._clears(own, encounters, psi_d_rad, u_of(False), margin=cfg.resume_margin, astern=False)
             # a held alteration's run is checked against the limits as a new one's is: held for a slow vessel the
             # mission course did not clear by the margin, a 30 deg turn ran the boat 20 m out through the fence
             leaving = (allowed is not None and self._alteration_rad != 0.0 and not self._stays_inside(
-                own, encounters, psi_d_rad + self._alteration_rad,
-                speed_m_s * (cfg.slow_factor if self._slow else 1.0), allowed))
+                own, encounters, psi_d_rad + self._alteration_rad, u_of(self._slow), allowed))
             if clear or leaving:
-                self._alteration_rad, self._slow, self._side = 0.0, False, 0
+                self._alteration_rad, self._slow, self._side, self._departed = 0.0, False, 0, False
                 reason = ("past and clear: back on the mission's course" if clear else
                           "no target calls for action and the alteration held would leave the position limits: "
                           "back on the mission's course")
@@ -543,17 +556,22 @@ class Avoidance:
         c, s = math.cos(course_rad), math.sin(course_rad)
         return all(allowed(own.north_m + reach_m * k / n * c, own.east_m + reach_m * k / n * s) for k in range(1, n + 1))
 
-    def _search(self, own: OwnShip, encounters: list[Encounter], psi_d_rad: float, speed_m_s: float,
-                starboard_only: bool, allowed=None) -> tuple[float, bool, str]:
+    def _search(self, own: OwnShip, encounters: list[Encounter], psi_d_rad: float, u_of,
+                starboard_only: bool, allowed=None, reduce: bool = True) -> tuple[float, bool, str]:
         """The cheapest (alteration, slow) that clears every target: cost = |alteration| in degrees, plus
-        ``slow_cost_deg`` when slowing to ``slow_factor``; ties to the smaller alteration.
+        ``slow_cost_deg`` when slowing to ``slow_factor``; ties to the smaller alteration. ``u_of(slow)``: the
+        speed a candidate is judged at.
 
         With ``allowed``, an alteration that leaves the position limits is no candidate (the mission course, slowed
         or not, always is). When every clearing one to the side the rules allow (or the side kept) leaves them, the
         other side is searched too (rule 2(b): a departure the limits of navigation make necessary; a head-on vessel
         2 m to starboard with the fence 12 m to starboard was otherwise passed 0.8 m off, slowed). A departure once
         taken is searched first until it ends: swinging back to starboard across the target's track when the
-        departure's side stopped clearing passed a vessel overtaking us 3.3 m off."""
+        departure's side stopped clearing passed a vessel overtaking us 3.3 m off; and its alteration is not made
+        smaller (``reduce`` False) until held DEPARTURE_HOLD_S: a departure's large turns, each cutting the speed the
+        guidance gives (its turn slow-down is on the mission's course), changed every candidate's clearance, and the
+        alteration flicked between -30 and -70 deg every few seconds (108 changes in a minute; a review). Only a departure is: a port turn
+        taken to overtake was kept as one for a head-on vessel met after it, and said to be rule 2(b) (a review)."""
         cfg = self.config
         if starboard_only:
             primary = (1,)
@@ -561,16 +579,18 @@ class Avoidance:
             primary = (self._side,)
         else:
             primary = (1, -1)
-        held = (self._alteration_rad > 0.0) - (self._alteration_rad < 0.0)
-        if starboard_only and held == -1 and allowed is not None:  # a departure under way is kept to
-            primary = (-1,)
+        if starboard_only and self._departed and self._alteration_rad < 0.0 and allowed is not None:
+            primary = (-1,)  # a departure under way is kept to
         fenced: list[float] = []  # the alterations (signed) left out because they leave the limits
-        found, best = self._first_clearing(own, encounters, psi_d_rad, speed_m_s, primary, allowed, fenced)
+        departed = starboard_only and primary == (-1,)
+        found, best = self._first_clearing(own, encounters, psi_d_rad, u_of, primary, allowed, fenced, reduce)
         if found is None and fenced and len(primary) == 1:
-            found = self._first_clearing(own, encounters, psi_d_rad, speed_m_s, (-primary[0],), allowed, fenced)[0]
+            found = self._first_clearing(own, encounters, psi_d_rad, u_of, (-primary[0],), allowed, fenced, reduce)[0]
+            departed = starboard_only and found is not None and found[0] < 0.0
         departure = " (rule 2(b): to starboard leaves the position limits)"
         if found is not None:
             alt, slow = found
+            self._departed = departed and alt < 0.0
             if alt != 0.0 and not starboard_only:
                 self._side = 1 if alt > 0 else -1
             if alt == 0.0 and not slow:
@@ -578,19 +598,20 @@ class Avoidance:
             what = []
             if alt != 0.0:
                 what.append(f"alter {math.degrees(alt):+.0f} deg to {'starboard' if alt > 0 else 'port'}"
-                            + (departure if starboard_only and alt < 0.0 else ""))
+                            + (departure if self._departed else ""))
             if slow:
                 what.append(f"slow to {cfg.slow_factor:g} x speed (rule 8(e))")
             return alt, slow, (" and ".join(what) + f": every target passes >= {cfg.safe_distance_m:.0f} m"
                                + _fenced_words(fenced))
+        self._departed = departed and best[1] < 0.0
         if not starboard_only and best[1] != 0.0:
             self._side = 1 if best[1] > 0 else -1
         return best[1], True, (f"nothing up to {cfg.max_alteration_deg:.0f} deg clears every target: "
-                               f"{math.degrees(best[1]):+.0f} deg{departure if starboard_only and best[1] < 0 else ''}"
+                               f"{math.degrees(best[1]):+.0f} deg{departure if self._departed else ''}"
                                f" (clearance x{best[0]:.2f}) and slow to {cfg.slow_factor:g} x speed (rule 8(e))"
                                + _fenced_words(fenced))
 
-    def _first_clearing(self, own, encounters, psi_d_rad, speed_m_s, sides, allowed, fenced):
+    def _first_clearing(self, own, encounters, psi_d_rad, u_of, sides, allowed, fenced, reduce=True):
         """Over the candidates to ``sides`` (and none), cheapest first: the first (signed alteration, slow) that clears
         every target, or None; and the best clearance seen, (worst clearance, signed alteration, slow). The alterations
         that leave ``allowed`` are appended to ``fenced``."""
@@ -613,16 +634,19 @@ class Avoidance:
         best: tuple[float, float, bool] | None = None
         for cost, size, side, slow in candidates:
             alt = side * size
-            u = speed_m_s * (cfg.slow_factor if slow else 1.0)
-            if size > 0.0 and allowed is not None and not self._stays_inside(own, encounters, psi_d_rad + alt, u, allowed):
-                fenced.append(alt)
+            u = u_of(slow)
+            if cost < held - 1e-9 and not reduce:
                 continue
             margin = cfg.resume_margin if cost < held - 1e-9 else 1.0
             worst = min((self._clearance(own, e, psi_d_rad + alt, u, True) for e in encounters), default=math.inf)
+            if worst < margin and best is not None and worst <= best[0] + 1e-9:
+                continue  # neither taken nor the best so far: its run need not be checked (a fence's vertices cost)
+            if size > 0.0 and allowed is not None and not self._stays_inside(own, encounters, psi_d_rad + alt, u, allowed):
+                fenced.append(alt)
+                continue
             if worst >= margin:
                 return (alt, slow), best
-            if best is None or worst > best[0] + 1e-9:
-                best = (worst, alt, slow)
+            best = (worst, alt, slow)
         assert best is not None  # the mission course is always a candidate
         return None, best
 
