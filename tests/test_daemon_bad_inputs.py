@@ -116,6 +116,12 @@ CLI_CASES = [
     ("mission", "a waypoint beyond failsafe.max_distance_m", GOOD_CONFIG + "failsafe: {max_distance_m: 100}\n",
      "name: m\nframe: local\nwaypoints:\n  - {north_m: 10.0, east_m: 0.0}\n  - {north_m: 150.0, east_m: 0.0}\n", [],
      "autopilot run: error: {dir}/m.yaml: waypoint 2 is beyond the max_distance failsafe: 150.0 m from the origin (limit 100 m)"),
+    # found by a new-user audit: the waypoints were checked, not the legs between them
+    ("mission", "a leg between two waypoints inside an L-shaped geofence that leaves it",
+     GOOD_CONFIG + "geofence: {frame: local, polygon: [[-5, -5], [60, -5], [60, 10], [10, 10], [10, 60], [-5, 60]]}\n",
+     "name: m\nframe: local\nwaypoints:\n  - {north_m: 50.0, east_m: 0.0}\n  - {north_m: 0.0, east_m: 50.0}\n", [],
+     "autopilot run: error: {dir}/m.yaml: the leg from waypoint 1 to waypoint 2 leaves the geofence (at (25.0, 25.0) m): "
+     "the geofence failsafe would turn the boat back there; add a waypoint inside the fence to go round"),
     # found by a new-user audit: a planner's home became the local origin, and the fence and the limit moved with it
     ("mission", "a home 512 m from the configuration's origin (a planner's map centre)",
      GOOD_CONFIG + "geofence: {frame: local, polygon: [[-60, -60], [-60, 60], [60, 60], [60, -60]]}\n",

@@ -375,3 +375,20 @@ def test_a_stale_heading_is_not_called_frozen_but_the_steering_is_remembered():
     assert "heading_stale" in d.active and "heading_frozen" not in d.active
     d, t = _steered(fs, t, 0.1, None)  # back, at the same heading: still frozen
     assert "heading_frozen" in d.active
+
+
+def test_a_leg_is_outside_a_polygon_where_any_piece_of_it_is():
+    """The legs of a mission inside a concave fence (a new-user audit: only the waypoints were checked)."""
+    from autopilot.daemon.failsafe import segment_outside_polygon
+
+    ell = ((-5.0, -5.0), (60.0, -5.0), (60.0, 10.0), (10.0, 10.0), (10.0, 60.0), (-5.0, 60.0))
+    assert segment_outside_polygon((50.0, 0.0), (0.0, 50.0), ell) == pytest.approx((25.0, 25.0))
+    assert segment_outside_polygon((50.0, 0.0), (5.0, 0.0), ell) is None
+    assert segment_outside_polygon((5.0, 0.0), (0.0, 50.0), ell) is None
+    assert segment_outside_polygon((10.0, 10.0), (10.0, 50.0), ell) is None  # along an edge, from the inner corner
+    # through the inner corner's vertex and out: touching the boundary at a vertex, not crossing an edge
+    out = segment_outside_polygon((0.0, 0.0), (20.0, 20.0), ell)
+    assert out is not None and out[0] > 10.0 and out[1] > 10.0
+    square = ((0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0))
+    assert segment_outside_polygon((1.0, 1.0), (9.0, 9.0), square) is None  # convex: never
+    assert segment_outside_polygon((5.0, 5.0), (15.0, 5.0), square) is not None  # its end outside

@@ -504,6 +504,26 @@ def test_a_mission_or_a_reposition_beyond_a_failsafe_limit_is_refused_up_front(t
     assert not [r for r in boat.log() if r["event"] == "fault"]
 
 
+def test_an_upload_whose_leg_leaves_a_concave_geofence_is_refused(tmp_path):
+    """Found by a new-user audit: an upload of (50, 0) and (0, 50), both inside an L-shaped fence, was accepted; the
+    straight leg between them left the fence, and the boat's geofence failsafe turned it back 60 s later (rtl,
+    the mission lost). The legs are checked as the waypoints are."""
+    fence = [[-5, -5], [60, -5], [60, 10], [10, 10], [10, 60], [-5, 60]]
+    boat = Boat(tmp_path, config={"geofence": {"frame": "local", "polygon": fence}},
+                mission={"name": "in-the-l", "frame": "local", "waypoints": [[40.0, 0.0], [5.0, 0.0]] * 2})
+    try:
+        boat.recv("HEARTBEAT")
+        across = [(16, 0, 0, *ORIGIN)] + [(16, 3, 0, *local_to_latlon(n, e, *ORIGIN)) for n, e in ((50.0, 0.0), (0.0, 50.0))]
+        assert _upload(boat, across) == mavlink.MAV_MISSION_DENIED
+        text = boat.recv("STATUSTEXT", pred=lambda m: m.text.startswith("mission refused"))
+        assert text.text.startswith("mission refused: the leg from waypoint 1 to waypoi")  # a 50-character chunk
+        round_the_corner = [(16, 0, 0, *ORIGIN)] + [(16, 3, 0, *local_to_latlon(n, e, *ORIGIN))
+                                                   for n, e in ((50.0, 0.0), (5.0, 0.0), (0.0, 50.0))]
+        assert _upload(boat, round_the_corner) == mavlink.MAV_MISSION_ACCEPTED
+    finally:
+        assert boat.stop() == 0
+
+
 def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart(tmp_path):
     new_ne = [(-15.0, 10.0), (-25.0, 0.0)]
     new = [local_to_latlon(n, e, *ORIGIN) for n, e in new_ne]
@@ -548,8 +568,22 @@ def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart
         again.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
         again.gcs.mav.mission_clear_all_send(1, 1)
         assert again.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
+        assert json.loads((tmp_path / "state" / "mission-progress.json").read_text())["status"] == "cleared"
+        again.proc.kill()  # a crash after the clear: no clean stop
+        again.proc.wait(10)
     finally:
-        assert again.stop() == 0
+        again.stop()
+    # found by a new-user audit: the restart flew the configured mission from its first waypoint under thrust,
+    # though the ground station had cleared the mission; the operator's "no mission" stands: zero thrust, said why
+    third = Boat(tmp_path, config={"failsafe": {"resume_after_restart": True}}, fresh=False)
+    try:
+        third.wait_log(lambda r: r["event"] == "cycle" and r["mode"] == "stop", 30.0, "held at the restart")
+        _count(third, 2.0)  # the ground station with it for 2 s
+        assert [r for r in third.cycles() if r["thrust_port_n"] or r["thrust_stbd_n"]] == []
+        assert {r["mode"] for r in third.cycles()} <= {"waiting", "stop"}
+        assert "cleared from the ground station (MISSION_CLEAR_ALL)" in third.stderr()
+    finally:
+        assert third.stop() == 0
 
 
 def test_a_disarmed_boat_stays_disarmed_after_a_crash_and_restart(tmp_path):

@@ -121,17 +121,24 @@ def _set_current(loop, request, helm_nav, unavailable, cause):
     return ok, answer
 
 
-def _beyond_limits(loop, points_ne_m, what) -> str | None:
+def _beyond_limits(loop, points_ne_m, what, *, legs: bool = False) -> str | None:
     """Why a point the boat is sent to would trip a latched failsafe (the geofence, max_distance), or None."""
     from autopilot.daemon.failsafe import first_beyond_limits
 
     if loop.cfg.failsafe.allow_beyond_limits:
         return None
-    return first_beyond_limits(points_ne_m, loop.cfg.failsafe, loop.failsafe.fence_ne_m, what)
+    return first_beyond_limits(points_ne_m, loop.cfg.failsafe, loop.failsafe.fence_ne_m, what, legs=legs)
 
 
 def _mission(loop, request, helm_nav, unavailable, cause):
-    beyond = _beyond_limits(loop, request["mission"].waypoints_ne_m, lambda k: f"waypoint {k + 1}")
+    mission = request["mission"]
+    route = [*mission.waypoints_ne_m]
+    launch = loop.ap.launch_ne_m
+    if mission.rtl and launch is not None:  # its way home too
+        route.append(launch)
+    n = len(mission.waypoints_ne_m)
+    beyond = _beyond_limits(loop, route, lambda k: f"waypoint {k + 1}" if k < n else "the launch point (its rtl)",
+                            legs=True)
     if beyond:
         return False, f"mission refused: {beyond}"
     loop.replace_mission(request["mission"], source=str(request.get("source", "mavlink")), cause=cause)

@@ -41,6 +41,7 @@ from autopilot.logschema import FAULT_CAUSES, LATCHED_CAUSES
 
 __all__ = ["CAUSES", "LATCHED", "WAITING_QUIET", "resting_voltage_v", "FAULT_CLASS", "NAV_CLASSES", "Observation", "Event", "Request",
            "Decision", "Failsafe", "detect", "inside_polygon", "position_limits", "first_beyond_limits",
+           "segment_outside_polygon",
            "guarded_action"]
 
 CAUSES = FAULT_CAUSES  # the log schema owns the causes' names and order
@@ -172,14 +173,55 @@ def position_limits(north_m: float, east_m: float, cfg: FailsafeConfig, fence_ne
     return out
 
 
-def first_beyond_limits(points_ne_m, cfg: FailsafeConfig, fence_ne_m, name) -> str | None:
+def first_beyond_limits(points_ne_m, cfg: FailsafeConfig, fence_ne_m, name, *, legs: bool = False) -> str | None:
     """Why the first of ``points_ne_m`` beyond a latched position limit would trip it when the boat got there
-    (``name(k)`` names point k: "waypoint 2 is beyond the max_distance failsafe: ..."), or None."""
-    for k, (north_m, east_m) in enumerate(points_ne_m):
-        beyond = position_limits(float(north_m), float(east_m), cfg, fence_ne_m)
+    (``name(k)`` names point k: "waypoint 2 is beyond the max_distance failsafe: ..."), or None. With ``legs``,
+    the straight legs between consecutive points too: a leg between two points inside a concave geofence may
+    leave it (an upload of (50, 0) and (0, 50) inside an L-shaped fence was accepted, and the boat left the fence
+    on the way and was turned back by its rtl; a new-user audit). The distance limit is a circle: a leg between
+    two points inside it stays inside."""
+    points = [(float(n), float(e)) for n, e in points_ne_m]
+    for k, (north_m, east_m) in enumerate(points):
+        beyond = position_limits(north_m, east_m, cfg, fence_ne_m)
         if beyond:
             cause, detail = next(iter(beyond.items()))
             return f"{name(k)} is beyond the {cause} failsafe: {detail}"
+    if legs and fence_ne_m is not None:
+        for k in range(len(points) - 1):
+            out = segment_outside_polygon(points[k], points[k + 1], fence_ne_m)
+            if out is not None:
+                return (f"the leg from {name(k)} to {name(k + 1)} leaves the geofence (at ({out[0]:.1f}, {out[1]:.1f}) "
+                        "m): the geofence failsafe would turn the boat back there; add a waypoint inside the fence "
+                        "to go round")
+    return None
+
+
+def segment_outside_polygon(a_ne_m, b_ne_m, polygon_ne_m) -> tuple[float, float] | None:
+    """A point of the segment from ``a_ne_m`` to ``b_ne_m`` outside the polygon (local frame, m), or None when the
+    whole segment is inside or on the edge: the segment cut where it meets the polygon's edges, and the middle of
+    each piece tested (exact for a simple polygon, a leg through a vertex included)."""
+    (an, ae), (bn, be) = a_ne_m, b_ne_m
+    dn, de = bn - an, be - ae
+    cuts = [0.0, 1.0]
+    n = len(polygon_ne_m)
+    for i in range(n):
+        (cn, ce), (en, ee) = polygon_ne_m[i], polygon_ne_m[(i + 1) % n]
+        fn, fe = en - cn, ee - ce
+        denom = dn * fe - de * fn
+        if abs(denom) < 1e-12:
+            continue  # parallel (an overlap lies on the edge: inside)
+        t = ((cn - an) * fe - (ce - ae) * fn) / denom
+        u = ((cn - an) * de - (ce - ae) * dn) / denom
+        if -1e-12 <= t <= 1.0 + 1e-12 and -1e-12 <= u <= 1.0 + 1e-12:
+            cuts.append(min(max(t, 0.0), 1.0))
+    cuts.sort()
+    for t0, t1 in zip(cuts, cuts[1:]):
+        if t1 - t0 < 1e-9:
+            continue
+        t = 0.5 * (t0 + t1)
+        pn, pe = an + t * dn, ae + t * de
+        if not inside_polygon(pn, pe, polygon_ne_m):
+            return pn, pe
     return None
 
 

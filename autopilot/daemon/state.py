@@ -124,6 +124,12 @@ class StateStore:
                 return None, (f"the last run of this mission ended with {', '.join(saved.latched)} latched (a failsafe "
                               "took the boat; resume is refused)")
             return None, f"the last run of this mission was aborted ({saved.reason or 'no reason saved'})"
+        if saved is not None and saved.status == "cleared":
+            # the ground station cleared the mission and the daemon never stopped cleanly after (a crash, a kill,
+            # a power cut): the operator's "no mission" stands. It flew the configured mission from its first
+            # waypoint under thrust, unasked (a new-user audit)
+            return None, ("the last run's mission was cleared from the ground station (MISSION_CLEAR_ALL) and that "
+                          "run did not end cleanly")
         if saved is None or saved.status != "running":
             return None, None
         if saved.latched and saved.mission_sha256 == mission_sha256:
