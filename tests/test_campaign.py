@@ -736,3 +736,16 @@ def test_an_empty_spec_is_said_empty_not_missing_its_missions(tmp_path, capsys, 
     assert main(["campaign", str(spec), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert f"{spec}: the file is empty (or comments only)" in err and "Traceback" not in err
+
+
+def test_a_normal_spread_that_ends_at_its_bound_is_taken():
+    """Found by a new-user audit: current_speed_m_s normal [0.15, 0.05] reaches 0.15 - 3 x 0.05, -2.8e-17 in floating
+    point, and was refused as "outside the allowed range [0, 5]"; a hair past the bound is still refused."""
+    from autopilot.campaign.spec import Spread, _check_support
+    from autopilot.schema import ConfigError
+    from autopilot.sim import Environment
+
+    meta = Environment.__dataclass_fields__["current_speed_m_s"].metadata
+    _check_support("current_speed_m_s", Spread(normal=(0.15, 0.05)), meta)
+    with pytest.raises(ConfigError, match="outside the allowed range"):
+        _check_support("current_speed_m_s", Spread(normal=(0.15, 0.0501)), meta)

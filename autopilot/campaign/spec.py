@@ -114,7 +114,10 @@ def _check_support(key: str, spread: Spread, meta, nominal: float = 0.0) -> None
     _check_spread(key, spread)
     lo, hi = spread_support(spread, nominal)
     allowed_lo, allowed_hi = meta.get("lo"), meta.get("hi")
-    if (allowed_lo is not None and lo < allowed_lo) or (allowed_hi is not None and hi > allowed_hi):
+    # a rounding's worth of slack: normal [0.15, 0.05] reaches 0.15 - 3 x 0.05 = -2.8e-17, and a spread a user wrote
+    # to end at the bound was refused as "outside [0, 5]" (a new-user audit)
+    tol = 1e-9 * max(1.0, abs(lo), abs(hi))
+    if (allowed_lo is not None and lo < allowed_lo - tol) or (allowed_hi is not None and hi > allowed_hi + tol):
         raise ConfigError(f"{key}: the spread reaches [{lo:g}, {hi:g}], outside the allowed range {_range_text(meta)}")
 
 
