@@ -255,6 +255,14 @@ def test_a_manual_session_and_its_timeout(tmp_path):
         assert len(manual) > 10
         last = manual[-1]
         assert last["thrust_port_n"] < last["thrust_stbd_n"] and last["thrust_stbd_n"] > 30.0  # turning to port
+        # found by a new-user audit: armed in manual with the stick held forward, the boat went to full thrust at once;
+        # as ArduPilot's "throttle not zero" check, arming needs the sticks at neutral
+        assert boat.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.gcs.mav.manual_control_send(1, 1000, 0, 0, -300, 0)
+        assert boat.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == mavlink.MAV_RESULT_DENIED
+        boat.recv("STATUSTEXT", pred=lambda m: m.text.startswith("arm refused: in manual the sticks must be"))
+        boat.gcs.mav.manual_control_send(1, 0, 0, 0, 0, 0)
+        assert boat.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == mavlink.MAV_RESULT_ACCEPTED
         t_quiet = time.monotonic()
         held = boat.wait_log(lambda r: r["event"] == "mode" and r["from"] == "manual", what="manual ends")
         assert held["mode"] == "hold" and held["cause"].startswith("manual: no input for")

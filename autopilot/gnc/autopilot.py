@@ -107,6 +107,7 @@ def _own_ship(nav: NavInput) -> OwnShip:
 
 # eight points round a hold, pushed out by 1 / cos(22.5 deg) so that a straight limit passing between two of them
 # is still the whole radius away (on the radius itself, such an edge could come within 0.92 of it: a review)
+ARM_STICK_NEUTRAL_ND = 0.05  # arming in manual needs both sticks within this of neutral (-1..1)
 _RING = tuple((math.cos(k * math.pi / 4.0) / math.cos(math.pi / 8.0), math.sin(k * math.pi / 4.0) / math.cos(math.pi / 8.0))
               for k in range(8))
 
@@ -225,6 +226,14 @@ class Autopilot:
             return True, Mode.STOP.value
         if command in ("arm", "disarm"):
             armed = command == "arm"
+            sticks = self.current if isinstance(self.current, ManualMode) else None
+            if armed and not self.armed and sticks is not None and max(abs(sticks.forward_nd),
+                                                                      abs(sticks.turn_nd)) > ARM_STICK_NEUTRAL_ND:
+                # ArduPilot's "throttle not zero" arming check: armed in manual with the stick held forward, the boat
+                # went to full thrust at once (a new-user audit)
+                return False, (f"arm refused: in manual the sticks must be at neutral to arm (forward "
+                               f"{sticks.forward_nd:+.2f}, turn {sticks.turn_nd:+.2f}; within "
+                               f"{ARM_STICK_NEUTRAL_ND:g})")
             if armed != self.armed:
                 self.armed = armed
                 self._events.append(("arming", {"armed": armed, "cause": cause}))
