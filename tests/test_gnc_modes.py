@@ -61,11 +61,32 @@ def test_pause_keeps_the_waypoint_and_resume_goes_on_from_it():
     assert ap.step(nav, 0.1).mode is Mode.AUTO and ap.wp_index == 1
 
 
+def test_auto_is_the_mission_not_what_a_pause_interrupted():
+    """Found by a new-user audit: a planner's AUTO was sent as resume, and chosen while paused on an rtl it was
+    acknowledged and took the boat home; after a mission clear it went home too. AUTO is the mission; resume
+    (DO_PAUSE_CONTINUE, ctl resume) still goes back to what the pause interrupted."""
+    ap = helm()
+    ap.step(HERE, 0.1)
+    assert ap.request("rtl", HERE, cause="ctl rtl") == (True, "rtl")
+    assert ap.request("pause", HERE, cause="ctl pause") == (True, "paused")
+    assert ap.request("auto", HERE, cause="mavlink AUTO") == (True, "auto")
+    assert ap.step(HERE, 0.1).mode is Mode.AUTO and ap.wp_index == 0
+    assert ap.request("auto", HERE, cause="mavlink AUTO") == (True, "auto")  # already: nothing changes
+    ap.request("rtl", HERE, cause="ctl rtl")
+    ap.request("pause", HERE, cause="ctl pause")
+    assert ap.request("resume", HERE, cause="ctl resume") == (True, "rtl")  # resume: back to what was paused
+    ap.clear_mission(HERE, cause="mavlink clear")
+    ok, why = ap.request("auto", HERE, cause="mavlink AUTO")
+    assert not ok and why == "auto refused: no mission (it was cleared; upload one)"
+
+
 def test_a_mission_that_is_complete_cannot_be_resumed_but_can_hold():
     ap = Autopilot(GncConfig(), [(0.5, 0.0)])
     out = ap.step(HERE, 0.1)
     assert out.complete and out.finished and out.mode is Mode.COMPLETE
     ok, why = ap.request("resume", HERE, cause="ctl resume")
+    assert not ok and "mission is complete" in why
+    ok, why = ap.request("auto", HERE, cause="mavlink AUTO")
     assert not ok and "mission is complete" in why
     assert ap.request("hold", HERE, cause="ctl hold") == (True, "hold")
     assert not ap.step(HERE, 0.1).finished

@@ -24,7 +24,7 @@ MAV = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
 def test_every_mode_has_a_rover_number_and_the_planners_modes_map_back():
     for m in Mode:
         assert rover_mode(m) in ROVER_MODES
-    assert [command_for_rover_mode(n) for n in (10, 5, 11, 4, 0, 15)] == ["resume", "hold", "rtl", "stop", "manual",
+    assert [command_for_rover_mode(n) for n in (10, 5, 11, 4, 0, 15)] == ["auto", "hold", "rtl", "stop", "manual",
                                                                            "hold"]
     assert command_for_rover_mode(3) is None and command_for_rover_mode(12) is None  # STEERING, SMART_RTL
 

@@ -242,13 +242,16 @@ class Autopilot:
             if self.current.mode is not Mode.MANUAL:
                 self._switch(ManualMode(), cause)
             return True, Mode.MANUAL.value
-        if command not in ("hold", "pause", "resume", "rtl"):
-            return False, f"{command} refused: unknown command (hold, pause, resume, rtl, stop, arm, disarm, manual)"
+        if command not in ("hold", "pause", "resume", "rtl", "auto"):
+            return False, (f"{command} refused: unknown command (hold, pause, resume, auto, rtl, stop, arm, disarm, "
+                           "manual)")
         if nav is None:
             return False, f"{command} refused: {unavailable}"
         mode = self.current.mode
         if command == "resume":
             return self._resume(nav, cause)
+        if command == "auto":
+            return self._auto(cause)
         if command == "pause" and mode not in (Mode.AUTO, Mode.RTL):
             return False, f"pause refused: mode {mode.value} (pause holds a running mission or return)"
         if command == "rtl" and self.launch_ne_m is None:
@@ -303,6 +306,20 @@ class Autopilot:
             return False, "resume refused: no mission (it was cleared; upload one)"
         if self.auto.guidance.complete and not self.auto.item_keeper:
             return False, "resume refused: the mission is complete (hold, rtl and stop are available)"
+        self._switch(self.auto, cause)
+        return True, Mode.AUTO.value
+
+    def _auto(self, cause: str) -> tuple[bool, str]:
+        """The mission (a planner's AUTO, MISSION_START): unlike resume, never back to what a pause interrupted. AUTO
+        chosen while paused on an rtl was acknowledged and took the boat home; after a clear, home too (a new-user
+        audit). Already in the mission: nothing changes (a hold item goes on)."""
+        if self.current is self.auto:
+            return True, Mode.AUTO.value
+        if self.mission_cleared:
+            return False, "auto refused: no mission (it was cleared; upload one)"
+        if self.auto.guidance.complete and not self.auto.item_keeper:
+            return False, "auto refused: the mission is complete (hold, rtl and stop are available)"
+        self.paused_from = None
         self._switch(self.auto, cause)
         return True, Mode.AUTO.value
 

@@ -477,7 +477,7 @@ class MavlinkLink:
             if k is not None:
                 self._ask_loop(port, msg, {"command": "pause" if k == 0 else "resume"})
         elif c == mavlink.MAV_CMD_MISSION_START:
-            self._ask_loop(port, msg, {"command": "resume"})
+            self._ask_loop(port, msg, {"command": "auto"})
         elif c == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
             k = self._whole(port, msg, p1, "param1", "0 (disarm) or 1 (arm)", lambda k: k in (0, 1))
             if k is not None:

@@ -10,7 +10,7 @@ follows Rover's: Rover's HOLD stops the motors (our ``stop``), Rover's LOITER ho
 
     ours       Rover          set from the planner as
     waiting    INITIALISING   -
-    auto       AUTO (10)      AUTO: resume the mission
+    auto       AUTO (10)      AUTO: the mission (not back to what a pause interrupted: DO_PAUSE_CONTINUE)
     hold       LOITER (5)     LOITER: hold here
     paused     LOITER (5)     (MAV_CMD_DO_PAUSE_CONTINUE 0)
     rtl        RTL (11)       RTL
@@ -34,7 +34,9 @@ _OURS_TO_ROVER = {
     Mode.WAITING: 16, Mode.AUTO: 10, Mode.HOLD: 5, Mode.PAUSED: 5, Mode.RTL: 11, Mode.STOP: 4,
     Mode.FAILSAFE: 4, Mode.COMPLETE: 4, Mode.MANUAL: 0,
 }
-_ROVER_TO_COMMAND = {10: "resume", 5: "hold", 11: "rtl", 4: "stop", 0: "manual", 15: "hold"}
+# AUTO is the mission, never "back to what a pause interrupted" (ctl resume, DO_PAUSE_CONTINUE): as resume, AUTO
+# chosen while paused on an rtl was acknowledged and took the boat home (a new-user audit)
+_ROVER_TO_COMMAND = {10: "auto", 5: "hold", 11: "rtl", 4: "stop", 0: "manual", 15: "hold"}
 
 
 GUIDED_CAUSE = "mavlink guided"  # the helm's mode cause of a hold the planner asked for as GUIDED
