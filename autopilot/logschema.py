@@ -120,6 +120,9 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("commands refused: queue full", "operator commands arrived faster than the loop carries them out (5 a cycle) and 100 were waiting: the next are refused at once (`queued`, `source`), once per flood"),
     ("ctl refusals not logged", "more than 10 refused control-socket requests in a second (a looping client): the rest were answered but not logged one by one; how many (`count`), said once the second is over"),
     ("zero-thrust on stop failed", "the final command could not be sent (`error`)"),
+    ("mission complete: staying up", "the mission ended stopped, and a ground station link is open or systemd runs the "
+     "daemon (`why`): it goes on at zero thrust, reporting and taking commands (rtl, hold, a new mission), until "
+     "stopped; without either it ends there"),
 )
 
 

@@ -6,9 +6,11 @@ from __future__ import annotations
 import asyncio
 import json
 import math
+import signal
 import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +21,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from autopilot.geo import local_to_latlon
 from autopilot.gnc.avoidance import AvoidanceConfig
 from autopilot.simdev.traffic import encode_ais
+from tests.logtail import LogTail
 from tests.test_failsafe_faults import ORIGIN, Daemon
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,12 +44,19 @@ def head_on(tmp_path_factory):
     gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     gcs.bind(("127.0.0.1", 0))
     gcs.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
-    r = subprocess.run([sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", "max", "--config",
-                        str(tmp / "c.yaml"), "--mission", str(tmp / "m.yaml"), "--log-dir", str(tmp / "logs"),
-                        "--state-dir", str(tmp / "state"), "--runtime-dir", str(tmp / "run"), "--fresh",
-                        "--mavlink", f"udpout:127.0.0.1:{gcs.getsockname()[1]}"],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stderr[-2000:]
+    with open(tmp / "stderr.txt", "w") as err:
+        p = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--sim", "--speedup", "max", "--config",
+                              str(tmp / "c.yaml"), "--mission", str(tmp / "m.yaml"), "--log-dir", str(tmp / "logs"),
+                              "--state-dir", str(tmp / "state"), "--runtime-dir", str(tmp / "run"), "--fresh",
+                              "--mavlink", f"udpout:127.0.0.1:{gcs.getsockname()[1]}"], stderr=err)
+        # with a ground station link the daemon stays up after the mission's stop, for the ground station
+        tail, deadline = LogTail(tmp / "logs"), time.monotonic() + 300.0
+        while p.poll() is None and time.monotonic() < deadline and not any(
+                r.get("message") == "mission complete: staying up" for r in tail.lines(p.pid)):
+            time.sleep(0.1)
+        p.send_signal(signal.SIGTERM)
+        p.wait(60)
+    assert p.returncode == 0, (tmp / "stderr.txt").read_text()[-2000:]
     mav = mavlink.MAVLink(None)
     mav.robust_parsing = True
     gcs.setblocking(False)
@@ -58,18 +68,24 @@ def head_on(tmp_path_factory):
             break
         msgs += mav.parse_buffer(data) or []
     gcs.close()
-    return _log(tmp / "logs"), msgs
+    return _log(tmp / "logs"), msgs, tmp / "logs"
 
 
 def test_the_boat_gives_way_to_starboard_and_keeps_its_distance(head_on):
-    log, _ = head_on
+    log, _, log_dir = head_on
     enc = [r for r in log if r["event"] == "encounter" and r["target"] == HEAD_ON_MMSI]
     assert enc[0]["situation"] == "head-on" and enc[0]["acting"] and enc[0]["rule"] == "14"
     assert enc[-1]["situation"] == "safe"
     cycles = [r for r in log if r["event"] == "cycle"]
     active = [c for c in cycles if c["avoid_active"]]
     assert len(active) > 100 and min(c["avoid_psi_share_deg"] for c in active) > 0.0  # to starboard only
-    assert log[-1]["reason"] == "complete"  # and the mission went on to its waypoint
+    assert [r["wp_count"] for r in log if r["event"] == "mission_complete"] == [1]  # the mission went on to its waypoint
+    assert log[-1]["reason"] == "signal" and any(r.get("message") == "mission complete: staying up" for r in log)
+    from autopilot.review.metrics import score
+    from autopilot.review.reader import read_log
+
+    card = score(read_log(next(log_dir.glob("mission-*.jsonl"))))  # the review: finished, stopped after it
+    assert card.finished and dict(card.table_rows())["stop"] == "mission complete; then stopped by SIGTERM"
     # the closest approach from what the log recorded: own fixes against the target's reported track
     tgt = [r for r in log if r["event"] == "target" and r["target"] == HEAD_ON_MMSI]
     assert len(tgt) > 10
@@ -96,7 +112,7 @@ def test_the_boat_gives_way_to_starboard_and_keeps_its_distance(head_on):
 
 
 def test_the_targets_reach_the_ground_station_as_ais_vessel(head_on):
-    _, msgs = head_on
+    _, msgs, _ = head_on
     ais = [m for m in msgs if m.get_type() == "AIS_VESSEL"]
     assert ais and {m.MMSI for m in ais} == {HEAD_ON_MMSI}
     m = ais[-1]

@@ -273,6 +273,24 @@ def test_a_manual_session_and_its_timeout(tmp_path):
     assert len(commands) == 1  # the mode chosen; the stream itself is not logged line by line
 
 
+def test_with_a_ground_station_the_daemon_stays_up_after_the_mission_s_stop(tmp_path):
+    """Found by a new-user audit: with the default final_action stop the daemon ended at the mission's end, the
+    ground station lost the boat (no heartbeat, no RTL) and systemd's Restart=on-failure does not restart an exit 0.
+    With a link open it stays at zero thrust, reporting and taking commands, until stopped."""
+    boat = Boat(tmp_path, mission={"name": "short", "frame": "local", "waypoints": [[8.0, 0.0]]}, speedup=10.0)
+    try:
+        boat.wait_log(lambda r: r["event"] == "info" and r["message"] == "mission complete: staying up", 60.0,
+                      "the mission's end")
+        assert boat.proc.poll() is None
+        boat.mode_is("complete")
+        assert boat.recv("HEARTBEAT").custom_mode == 4  # Rover's HOLD: motors stopped
+        assert boat.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("rtl")
+    finally:
+        assert boat.stop() == 0
+    assert boat.log()[-1]["event"] == "stop" and boat.log()[-1]["reason"] == "signal"
+
+
 def test_parameters_read_set_and_a_bad_one_refused(tmp_path):
     boat = Boat(tmp_path)
     try:
@@ -969,7 +987,8 @@ def test_a_review_scores_a_mission_uploaded_mid_run_against_its_own_waypoints(tm
         items = [(16, 0, 0, *ORIGIN)] + [(16, 3, 0, *local_to_latlon(n, e, *ORIGIN)) for n, e in uploaded]
         assert _upload(boat, items) == mavlink.MAV_MISSION_ACCEPTED
         boat.wait_log(lambda r: r["event"] == "mission_replaced", what="mission replaced")
-        boat.wait_log(lambda r: r["event"] == "stop", timeout_s=60.0, what="the mission's end")
+        boat.wait_log(lambda r: r["event"] == "info" and r["message"] == "mission complete: staying up", timeout_s=60.0,
+                      what="the mission's end")  # with a ground station link the daemon stays up after it
     finally:
         boat.stop()
     log = read_log(next((tmp_path / "logs").glob("mission-*.jsonl")))

@@ -506,6 +506,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     link, reason, refused = None, "error", None
     try:
         link = await _start_link(cfg, opts, loop)
+        loop.stay_when_done = ("a ground station link is open" if link is not None
+                               else "systemd runs the daemon" if notifier.enabled else None)
         tasks += [asyncio.create_task(compass.run(), name="sc30"), asyncio.create_task(thrusters.run(), name="mbed")]
         if ais_driver is not None:
             tasks.append(asyncio.create_task(ais_driver.run(), name="ais"))

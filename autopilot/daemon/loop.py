@@ -105,6 +105,9 @@ class ControlLoop:
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
         self._saved_running = False  # this run's progress is the saved one (a held start keeps the old until then)
         self._saved_homeward = False  # what the saved progress says of the way home (Progress.homeward)
+        # why the loop goes on after the mission ended stopped (a ground station link, systemd), or None: it ends there
+        self.stay_when_done: str | None = None
+        self._said_staying = False
         self.ais = ais  # autopilot.daemon.traffic.AisSource: other vessels for collision avoidance (None: no AIS)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
         self._numbered: Mission | None = None
@@ -456,7 +459,16 @@ class ControlLoop:
             self.cycle(now_s, lateness_s)
             next_due += period_s
             if self.state.finished and self.state.passes_done:
-                return "complete"
+                if self.stay_when_done is None:
+                    return "complete"
+                if not self._said_staying:
+                    # the process ended at the mission's stop, and a ground station lost the boat: no telemetry, no
+                    # rtl, and systemd's Restart=on-failure does not restart an exit 0 (a new-user audit)
+                    self._said_staying = True
+                    self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="mission complete: staying up",
+                                   why=self.stay_when_done)
+            else:
+                self._said_staying = False
             if self.failsafe.action_of("max_mission_time") == "stop":
                 return "max_mission_time"
 

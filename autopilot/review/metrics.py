@@ -263,6 +263,8 @@ class Scorecard:
         "mission complete" here where the daemon said "route complete" (a new-user audit)."""
         if self.stop_reason == "complete":
             return "complete: mission complete"
+        if self.finished:  # stayed up after the mission's stop, for a ground station, until stopped
+            return f"mission complete; then stopped by {self.stop_signal or self.stop_reason or 'a kill (no stop line)'}"
         how = self.stop_reason or "no stop line (killed?)"
         if self.stop_signal:
             how = f"stopped by {self.stop_signal}"
@@ -745,7 +747,9 @@ def score(log: MissionLog) -> Scorecard:
         nmea_dropped=_max_count(log, "nmea_dropped", "nmea_dropped"),
         ack_missing=_max_count(log, "ack_missing", "ack_missing"),
         lateness_ms=lateness, stop_reason=stop_reason if isinstance(stop_reason, str) else None,
-        complete=bool(log.events_named("mission_complete")), finished=stop_reason == "complete",
+        # a run that stayed up after the mission's stop (a ground station link, systemd) ends by a signal in complete
+        complete=bool(log.events_named("mission_complete")),
+        finished=stop_reason == "complete" or (bool(log.events_named("mission_complete")) and end_mode == "complete"),
         stop_signal=stop_signal if isinstance(stop_signal, str) else None, end_mode=end_mode,
         waypoints=closest_approaches(log), skipped_lines=log.stats.skipped,
         read_notes=read_notes,
