@@ -500,6 +500,17 @@ def test_a_second_ground_station_cannot_upload_into_another_ones_upload(tmp_path
         ack_a = boat.recv("MISSION_ACK", pred=lambda m: m.target_system == 255)
         assert ack_a.type == mavlink.MAV_MISSION_ACCEPTED
         replaced = boat.wait_log(lambda r: r["event"] == "mission_replaced", what="mission replaced")
+        # found by a new-user audit: A's own MISSION_ACK cancelling its upload was ignored; the boat went on asking
+        # A for 9 s and refused C meanwhile. A cancels: C's upload is asked for at once
+        boat.gcs.mav.mission_count_send(1, 1, 3)
+        boat.recv(["MISSION_REQUEST_INT", "MISSION_REQUEST"], pred=lambda m: m.seq == 0 and m.target_system == 255)
+        boat.gcs.mav.mission_ack_send(1, 1, mavlink.MAV_MISSION_OPERATION_CANCELLED)
+        boat.wait_log(lambda r: r["event"] == "command" and "cancelled by the ground station" in str(r.get("answer")),
+                      what="the cancel")
+        c.mav.mission_count_send(1, 1, 2)
+        asked = c.recv_match(type=["MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True, timeout=10)
+        assert asked is not None and asked.get_type() == "MISSION_REQUEST_INT" and asked.seq == 0
+        c.mav.mission_ack_send(1, 1, mavlink.MAV_MISSION_OPERATION_CANCELLED)
     finally:
         c.close()
         assert boat.stop() == 0
@@ -604,7 +615,7 @@ def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart
     third = Boat(tmp_path, config={"failsafe": {"resume_after_restart": True}}, fresh=False)
     try:
         third.wait_log(lambda r: r["event"] == "cycle" and r["mode"] == "stop", 30.0, "held at the restart")
-        _count(third, 2.0)  # the ground station with it for 2 s
+        _count(third, 1.0)  # the ground station with it for 1 s
         assert [r for r in third.cycles() if r["thrust_port_n"] or r["thrust_stbd_n"]] == []
         assert {r["mode"] for r in third.cycles()} <= {"waiting", "stop"}
         assert "cleared from the ground station (MISSION_CLEAR_ALL)" in third.stderr()

@@ -141,6 +141,15 @@ class MissionProtocol:
             self.link.refused("mission", f"{t} not supported: send the whole mission (MISSION_COUNT) or ask for "
                                          "it whole (MISSION_REQUEST_LIST)")
             self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
+        elif t == "MISSION_ACK":
+            up = self.uploads.get(ep)
+            if up is not None and up.peer == peer:
+                # the uploading station ends its upload (OPERATION_CANCELLED, or any other outcome of its own): the
+                # boat kept asking it for the next item for 9 s, and another station's upload was refused meanwhile
+                # (a new-user audit); the mission being flown stays
+                del self.uploads[ep]
+                self.link.refused("mission", f"mission upload cancelled by the ground station after {len(up.items)} "
+                                             f"of {up.count} items (MISSION_ACK {msg.type})")
         elif t == "MISSION_SET_CURRENT":
             index = self.link.waypoint_of_item(int(msg.seq), "MISSION_SET_CURRENT")
             if index is None:
