@@ -283,10 +283,11 @@ class EncounterResult:
 
 
 def run_encounter(params, scenario, *, config=None, env=None, condition: str = "", via_ais: bool = True,
-                  record: bool = False, within_limits=None) -> EncounterResult:
+                  record: bool = False, within_limits=None, reference: bool = True) -> EncounterResult:
     """One traffic scenario on the calibrated model with the whole GNC stack: own ship from the scenario's start
     (under way at its speed) to its goal, the targets seen through AIS; scored against the same run without
-    traffic (the delay and the extra energy the encounter cost). ``within_limits``: as run_closed_loop's."""
+    traffic (the delay and the extra energy the encounter cost). ``within_limits``: as run_closed_loop's;
+    ``reference`` False: no run without traffic (half the cost; the delay and extra energy then read 0)."""
     import numpy as np
 
     from autopilot.gnc import GncConfig
@@ -301,8 +302,9 @@ def run_encounter(params, scenario, *, config=None, env=None, condition: str = "
     feed = TrafficFeed(scenario, via_ais=via_ais)
     run = run_closed_loop(params, wps, config=config, speeds_m_s=speeds, env=env, record=True, x0=x0,
                           traffic=feed, mission=scenario.name, condition=condition, within_limits=within_limits)
-    ref = run_closed_loop(params, wps, config=config, speeds_m_s=speeds, env=env, record=True, x0=x0,
-                          traffic=TrafficFeed(_no_targets(scenario)), mission=scenario.name, condition=condition)
+    ref = run if not reference else run_closed_loop(
+        params, wps, config=config, speeds_m_s=speeds, env=env, record=True, x0=x0,
+        traffic=TrafficFeed(_no_targets(scenario)), mission=scenario.name, condition=condition)
     tr = run.trace
     ids = list(feed.specs)
     goal = dict(goal_north_m=own.goal_north_m, goal_east_m=own.goal_east_m,

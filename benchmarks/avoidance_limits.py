@@ -51,7 +51,7 @@ def main(argv=None) -> None:
         sc = load_scenario(paths[name])
         for edge in [None, *args.edges]:
             allowed = None if edge is None else fence_east_of(edge)
-            r = run_encounter(params, sc, config=config, within_limits=allowed, record=True)
+            r = run_encounter(params, sc, config=config, within_limits=allowed, record=True, reference=False)
             east = np.asarray(r.trace["east_m"])
             share = np.asarray(r.trace["avoid_share_rad"])
             passes = ", ".join(f"{t.min_distance_m:.1f} / {t.required_m:.1f}" + ("" if t.distance_kept else " **short**")

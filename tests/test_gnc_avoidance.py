@@ -537,7 +537,7 @@ def test_on_the_calibrated_model_a_fence_to_starboard_is_kept_and_so_is_every_di
 
     sc = load_scenario(SCENARIOS / f"{name}.yaml")
     allowed = _fence_east_of_track(20.0)
-    r = run_encounter(load_params(default_params_path()), sc, within_limits=allowed, record=True)
+    r = run_encounter(load_params(default_params_path()), sc, within_limits=allowed, record=True, reference=False)
     assert r.completed
     assert all(allowed(n, e) for n, e in zip(r.trace["north_m"], r.trace["east_m"])), max(r.trace["east_m"])
     for s in r.score.targets:
@@ -556,7 +556,7 @@ def test_a_boat_outside_the_limits_heading_back_in_still_avoids(tmp_path):
         "goal_east_m: 0.0}\ntargets:\n  - {mmsi: 244000121, name: FERRY, north_m: 300.0, east_m: 1.0, course_deg: "
         "172.4, speed_m_s: 1.5, length_m: 12.0, beam_m: 4.0}\n")
     sc = load_scenario(tmp_path / "back-in.yaml")
-    r = run_encounter(load_params(default_params_path()), sc, within_limits=_fence_east_of_track(20.0))
+    r = run_encounter(load_params(default_params_path()), sc, within_limits=_fence_east_of_track(20.0), reference=False)
     (s,) = r.score.targets
     assert r.completed and s.distance_kept, f"{s.min_distance_m:.1f} m < {s.required_m:.1f} m"
 
@@ -570,7 +570,8 @@ def test_a_departure_does_not_flicker():
     from autopilot.sim import default_params_path, load_params
 
     sc = load_scenario(SCENARIOS / "two-targets.yaml")
-    r = run_encounter(load_params(default_params_path()), sc, within_limits=_fence_east_of_track(25.0), record=True)
+    r = run_encounter(load_params(default_params_path()), sc, within_limits=_fence_east_of_track(25.0), record=True,
+                      reference=False)
     share_deg = np.round(np.degrees(np.asarray(r.trace["avoid_share_rad"])), 1)
     assert share_deg.min() < -25.0  # the departure to port is taken
     assert np.count_nonzero(np.diff(share_deg)) < 50
