@@ -576,3 +576,15 @@ def test_a_departure_does_not_flicker():
     assert share_deg.min() < -25.0  # the departure to port is taken
     assert np.count_nonzero(np.diff(share_deg)) < 50
     assert all(s.distance_kept for s in r.score.targets)
+
+
+def test_a_departure_held_in_a_channel_every_turn_of_which_leaves_the_limits_still_answers():
+    """Found rereading the change: a departure's alteration held (no smaller one taken for 10 s) skipped every smaller
+    candidate, the mission course too; with every larger one leaving the limits (a narrow channel) nothing was left
+    and the search raised in the control loop. The mission course, slowed, is the answer there."""
+    av = Avoidance()
+    av.step(OWN, [tgt(100, 2, 180, 1.5)], 0.0, 1.0, 0.0, _fence_east_of_track(12.0))
+    av._alteration_rad, av._departed, av._since_s = math.radians(-75.0), True, 0.5  # a 75-deg departure just taken
+    channel = lambda n, e: abs(e) < 1.5  # noqa: E731
+    out = av.step(OwnShip(1.0, 0.0, 0.0, 1.0, 0.0), [tgt(98.5, 2, 180, 1.5)], 0.0, 1.0, 1.0, channel)
+    assert out.psi_d_share_rad == 0.0 and out.speed_factor < 1.0

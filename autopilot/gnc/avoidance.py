@@ -647,7 +647,11 @@ class Avoidance:
             if worst >= margin:
                 return (alt, slow), best
             best = (worst, alt, slow)
-        assert best is not None  # the mission course is always a candidate
+        if best is None:
+            # not reducing, and every alteration as large as the one held leaves the limits (a narrow channel): the
+            # smaller ones after all; the search raised in the control loop here (a departure of 75 deg held; found
+            # rereading the change)
+            return self._first_clearing(own, encounters, psi_d_rad, u_of, sides, allowed, fenced)
         return None, best
 
     def _row(self, e: Encounter, risk: float, acting: bool) -> TargetAssessment:
