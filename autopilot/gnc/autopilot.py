@@ -302,12 +302,7 @@ class Autopilot:
             back, self.paused_from = self.paused_from, None
             self._switch(back, cause)
             return True, back.mode.value
-        if self.mission_cleared:
-            return False, "resume refused: no mission (it was cleared; upload one)"
-        if self.auto.guidance.complete and not self.auto.item_keeper:
-            return False, "resume refused: the mission is complete (hold, rtl and stop are available)"
-        self._switch(self.auto, cause)
-        return True, Mode.AUTO.value
+        return self._to_mission("resume", cause)
 
     def _auto(self, cause: str) -> tuple[bool, str]:
         """The mission (a planner's AUTO, MISSION_START): unlike resume, never back to what a pause interrupted. AUTO
@@ -315,11 +310,17 @@ class Autopilot:
         audit). Already in the mission: nothing changes (a hold item goes on)."""
         if self.current is self.auto:
             return True, Mode.AUTO.value
+        ok, answer = self._to_mission("auto", cause)
+        if ok:
+            self.paused_from = None
+        return ok, answer
+
+    def _to_mission(self, command: str, cause: str) -> tuple[bool, str]:
+        """Into the mission from another mode, or why not (none, or one complete)."""
         if self.mission_cleared:
-            return False, "auto refused: no mission (it was cleared; upload one)"
+            return False, f"{command} refused: no mission (it was cleared; upload one)"
         if self.auto.guidance.complete and not self.auto.item_keeper:
-            return False, "auto refused: the mission is complete (hold, rtl and stop are available)"
-        self.paused_from = None
+            return False, f"{command} refused: the mission is complete (hold, rtl and stop are available)"
         self._switch(self.auto, cause)
         return True, Mode.AUTO.value
 

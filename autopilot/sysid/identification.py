@@ -52,7 +52,7 @@ from autopilot.sysid.holdout import (
 )
 from autopilot.sysid.intervals import WINDOW_S, curvature_holds, with_windows
 from autopilot.sysid.noise import NoiseBounds
-from autopilot.sysid.prediction import Prepared, initial_states, predict, prepare, residuals
+from autopilot.sysid.prediction import Prepared, initial_states, predict, prepare, trial_cost
 from autopilot.sysid.trials import cut_long
 
 BIC_MARGIN = 2.0  # "positive" evidence on the Kass-Raftery scale; held-out, size and z gates follow
@@ -271,8 +271,7 @@ def unstick_states(prep, vessel, fit: Fit, held, notes: list) -> Fit:
     where = {t: j for j, t in enumerate(fit.trials)}
     stuck = []
     for t in fit.trials:
-        fitted = float(np.sum(np.nan_to_num(residuals(prep, t, pred_fit, [where[t]])[0], nan=1e3) ** 2))
-        out = float(np.sum(np.nan_to_num(residuals(prep, t, pred_held, [t])[0], nan=1e3) ** 2))
+        fitted, out = trial_cost(prep, t, pred_fit, where[t]), trial_cost(prep, t, pred_held, t)
         if out < fitted - STUCK_MARGIN * max(1.0, 0.01 * fitted):
             stuck.append(t)
     if not stuck:

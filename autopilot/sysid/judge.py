@@ -35,8 +35,8 @@ from autopilot.sysid.prediction import (
     channel_costs,
     channel_residuals,
     predict,
-    residuals,
     rmse,
+    trial_cost,
 )
 
 ADEQUATE_CHI2 = 1.3  # per channel and measurement
@@ -190,7 +190,7 @@ class Scores:
 def rescore(prep: Prepared, vessel, fit: Fit) -> Fit:
     """``fit`` with its cost recomputed under ``prep``'s noise model (same parameters and states)."""
     pred = predict_fit(prep, vessel, fit)
-    cost = sum(float(np.sum(np.nan_to_num(residuals(prep, i, pred, [j])[0], nan=1e3) ** 2)) for j, i in enumerate(fit.trials))
+    cost = sum(trial_cost(prep, i, pred, j) for j, i in enumerate(fit.trials))
     return dataclasses.replace(fit, cost=cost)
 
 

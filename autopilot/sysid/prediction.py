@@ -520,6 +520,12 @@ def residuals(prep: Prepared, i: int, pred: dict, runs) -> np.ndarray:
     return np.hstack(parts)
 
 
+def trial_cost(prep: Prepared, i: int, pred: dict, run: int) -> float:
+    """Weighted sum of squares of trial ``i`` predicted by run ``run`` of ``pred`` (a NaN, a replay gone far off,
+    counts 1e3 a residual)."""
+    return float(np.sum(np.nan_to_num(residuals(prep, i, pred, [run])[0], nan=1e3) ** 2))
+
+
 def channel_costs(prep: Prepared, pred: dict, trials_idx, runs) -> dict:
     """Weighted cost and number of measurements per channel: {"position": (cost, n), "heading": (cost, n), ...}."""
     cost = {c.name: 0.0 for c in prep.channels}
