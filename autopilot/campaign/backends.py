@@ -259,8 +259,12 @@ def _dask(campaign, seed, runs, n_chunks, scheduler, done, progress) -> None:
                 with _sigint_held():
                     # no dashboard, and the scheduler's own HTTP routes on a free loopback port: by default they
                     # took 8787, and a second campaign (or any Dask) on the machine printed a port-in-use warning
+                    # the workers' own logs at CRITICAL: on a Ctrl-C the scheduler can go before a worker's
+                    # heartbeat, and the worker process printed "Failed to communicate with scheduler during
+                    # heartbeat" with its traceback on the user's terminal (a clean-clone suite run, twice over
+                    # the stops); a chunk's error reaches the campaign through its future, a lost worker its retry
                     cluster = LocalCluster(n_workers=default_jobs(), threads_per_worker=1, processes=True,
-                                           dashboard_address=None, silence_logs=logging.ERROR,
+                                           dashboard_address=None, silence_logs=logging.CRITICAL,
                                            scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"})
                 address = cluster.scheduler_address
             else:
