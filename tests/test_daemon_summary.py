@@ -89,3 +89,13 @@ def test_a_run_stopped_in_its_final_hold_is_not_called_complete():
                         "zero thrust acknowledged by the Mbed")
     done = end_summary(_loop(cycles=400, skipped=0, stop_signal=None), "x", sim=True)
     assert done[1].startswith("mission complete after 40.0 s")
+
+
+def test_a_run_that_stayed_up_after_its_mission_says_how_it_ended():
+    """Rereading the change: a daemon that stayed up after the mission's stop (a ground station link, systemd) and
+    was then stopped by SIGTERM said "mission complete" and nothing of the signal; the review says "mission
+    complete; then stopped by SIGTERM"."""
+    lines = end_summary(_loop(cycles=400, skipped=0, stop_signal="SIGTERM", finished=True, mode="complete"), "x",
+                        sim=True)
+    assert lines[1] == ("mission complete after 40.0 s: 3 of 3 waypoint(s) reached; then stopped by SIGTERM; "
+                        "zero thrust acknowledged by the Mbed")
