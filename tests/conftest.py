@@ -1,3 +1,4 @@
+import gc
 import os
 import sys
 from pathlib import Path
@@ -41,6 +42,15 @@ def _shared_dir() -> Path:
 SHARED = _shared_dir()
 
 
+def lowest_cpu_priority() -> None:
+    """Run only when no other process wants the CPU (Linux's SCHED_IDLE: a waking daemon or simulator preempts
+    at once; inherited by the threads and processes started after), else at nice 19."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    except (AttributeError, OSError):
+        os.nice(19)
+
+
 def _background_modules(session):
     """Test modules that start work of their own when collection ends (``start_background(items)``)."""
     seen = {}
@@ -51,7 +61,57 @@ def _background_modules(session):
     return list(seen.values())
 
 
+# The suite runs on two pytest-xdist workers (pyproject's addopts): one flies these modules' daemons, simulators,
+# sockets and pseudo-terminals on the wall clock (x speedup), one after another as alone (and the campaigns' and
+# the install's process trees, which a starved worker would make balk); the other computes
+# everything else at the lowest CPU priority, in the time the first leaves idle, so it cannot make a daemon late.
+REALTIME_MODULES = frozenset({
+    "test_campaign.py", "test_install.py",  # process pools, Dask clusters and a venv: a starved worker balks
+    "test_daemon_bad_inputs.py", "test_daemon_config.py", "test_daemon_control.py", "test_daemon_cycle.py",
+    "test_daemon_e2e.py", "test_daemon_log.py", "test_daemon_modes.py", "test_daemon_notify.py",
+    "test_daemon_traffic.py", "test_drivers_ais.py", "test_drivers_cli.py", "test_drivers_line_timing.py",
+    "test_failsafe_faults.py", "test_link_mavlink.py", "test_link_params.py", "test_sc30_output.py",
+    "test_simdev_contract.py", "test_simdev_traffic.py", "test_systemd_unit.py",
+})
+
+
+def _group(item) -> str:
+    return "realtime" if item.path.name in REALTIME_MODULES else "compute"
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook reads the mark
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        item.add_marker(pytest.mark.xdist_group(_group(item)))
+
+
+_lowered = False
+_frozen_for = None  # the realtime module whose start froze the heap
+
+
+def pytest_runtest_setup(item):
+    global _lowered, _frozen_for
+    if _group(item) == "realtime":
+        # The simulated SC-30 and Mbed run in this process, at the tests' speedup: a full collection of the
+        # suite's heap paused it 10-30 ms (0.1-0.3 s simulated, an ack timeout's worth: a spurious
+        # mbed_ack_missing seen), so the heap as it stands is frozen out of the collector for the module.
+        if item.module is not _frozen_for:
+            _frozen_for = item.module
+            gc.unfreeze()
+            gc.collect()
+            gc.freeze()
+        return
+    if not os.environ.get("PYTEST_XDIST_WORKER") or _lowered:
+        return
+    _lowered = True  # this worker runs the compute group only (loadgroup gives a group to one worker whole)
+    lowest_cpu_priority()
+    for mod in _background_modules(item.session):
+        mod.start_background(item.session.items)
+
+
 def pytest_collection_finish(session):
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        return  # every worker collects every test: the compute worker starts the background at its first test
     for mod in _background_modules(session):
         mod.start_background(session.items)
 

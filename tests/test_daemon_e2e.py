@@ -6,9 +6,11 @@ behind real pseudo-terminals in the same process. The log is checked against doc
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -321,13 +323,17 @@ def test_a_sigterm_or_sighup_in_the_start_up_is_a_clean_stop(tmp_path, signame):
     assert not (run / "control.sock").exists()
 
 
-def test_a_second_bench_run_keeps_its_own_progress_and_a_held_start_is_said(tmp_path):
+def test_a_second_bench_run_keeps_its_own_progress_and_a_held_start_is_said(tmp_path, request):
     """Found by a new-user audit: a second `--sim` run (own socket) read the first's live mission progress as an
     interrupted mission and sat at zero thrust for max_mission_time_s, said only in a JSON line; after a kill -9
     the next bench run did the same, and the summary never said why."""
     import yaml
 
-    env = {**os.environ, "XDG_RUNTIME_DIR": str(tmp_path / "xdg")}  # the default runtime directory, this test's
+    # the default runtime directory, this test's; short, as /run/user/UID is (a socket's path has 107 bytes, and a
+    # pytest-xdist worker's tmp_path leaves too few of them)
+    xdg = Path(tempfile.mkdtemp(prefix="xdg-", dir="/tmp"))
+    request.addfinalizer(lambda: shutil.rmtree(xdg, ignore_errors=True))
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(xdg)}
     work = tmp_path / "work"
     work.mkdir()
     cfg = yaml.safe_load(CONFIG.read_text())
@@ -357,7 +363,7 @@ def test_a_second_bench_run_keeps_its_own_progress_and_a_held_start_is_said(tmp_
         assert second.returncode == 0, err[-2000:]
         assert "another daemon runs, so this bench run keeps its mission progress in" in err, err[-2000:]
         assert "mission complete" in err and "holding zero thrust" not in err, err[-2000:]
-        private = [p for p in (tmp_path / "xdg").iterdir() if "-sim-" in p.name]
+        private = [p for p in xdg.iterdir() if "-sim-" in p.name]
         assert private == []  # removed at exit
         assert progress.read_bytes() == before  # the first run's progress is its own
     finally:

@@ -115,7 +115,15 @@ class Boat:
     def cycles(self) -> list[dict]:
         return [r for r in self.log() if r["event"] == "cycle"]
 
+    def drain(self) -> None:
+        """Read what has arrived, as a planner does all the time: a test that slept let the ground station's UDP
+        receive buffer fill with telemetry, and the kernel dropped the COMMAND_ACK that came next (seen under
+        load: no ACK within 10 s for a command the daemon had accepted and acknowledged)."""
+        while self.gcs.recv_match(blocking=False) is not None:
+            pass
+
     def command(self, cmd: int, *params, use_int: bool = False, x: int = 0, y: int = 0):
+        self.drain()
         p = list(params) + [0.0] * (7 - len(params))
         if use_int:
             self.gcs.mav.command_int_send(1, 1, mavlink.MAV_FRAME_GLOBAL, cmd, 0, 0, *p[:4], x, y, 0.0)

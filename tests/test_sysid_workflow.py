@@ -19,8 +19,8 @@ every hidden parameter within 3.29 sigma of its estimate (99.9 %: about fifteen 
 checked per run); where the effect moved the track by more than twice the noise, the held-out
 error beyond the noise cut by 70 %. Each test is armed with a SIGALRM safety net (ALARM_S).
 
-The cases of CASES are independent and CPU-bound: every selected one is started when collection ends,
-in a pool of the machine's cores (at most two) at the lowest CPU priority (SCHED_IDLE), so that they use the time the
+The cases of CASES are independent and CPU-bound: every selected one is started when collection ends
+(under pytest-xdist, at the computing worker's first test: tests/conftest.py), in a pool of the machine's cores (at most two) at the lowest CPU priority (SCHED_IDLE), so that they use the time the
 rest of the suite leaves idle (see _Background); each test then checks its own result. What each computes is what it computed run one after another: the same
 case, seed and code, in a fresh interpreter.
 """
@@ -43,6 +43,7 @@ import pytest
 from autopilot.sim import default_params_path, load_params
 from autopilot.sysid import identify
 from autopilot.sysid.cases import DRAWS, Case, make, score
+from tests.conftest import lowest_cpu_priority
 
 VESSEL = load_params(default_params_path())
 Z_MAX = 3.29  # two-sided 99.9 %
@@ -116,15 +117,6 @@ def _case_of(item):
     return case, (seed if seed is not None else _seed(case.label, quiet=True))
 
 
-def _lowest_priority() -> None:
-    """A worker's initializer: run only when no other process wants the CPU (Linux's SCHED_IDLE: a waking
-    daemon or simulator preempts it at once), else at nice 19."""
-    try:
-        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
-    except (AttributeError, OSError):
-        os.nice(19)
-
-
 class _Background:
     """The pooled cases, started when collection ends (tests/conftest.py), in worker processes at the lowest
     CPU priority: they compute in the time the rest of the suite leaves idle (its daemons mostly wait on
@@ -144,7 +136,7 @@ class _Background:
         workers = max(1, min(2, os.cpu_count() or 1, len(mine)))
         # spawn: a forked copy of the suite's process would inherit the threads earlier tests left running
         self.pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                                        initializer=_lowest_priority)
+                                        initializer=lowest_cpu_priority)
         for it in mine:
             case, seed = _case_of(it)
             self.jobs[it.nodeid] = (case, seed, self.pool.submit(_identify_case, case, seed))
