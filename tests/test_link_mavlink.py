@@ -11,6 +11,7 @@ import json
 import math
 import os
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -319,6 +320,11 @@ def test_parameters_read_set_and_a_bad_one_refused(tmp_path):
         text = boat.recv("STATUSTEXT", pred=lambda m: "HDG_KP" in m.text and "refused" not in m.text
                          and "=" not in m.text)
         assert "50.0 is outside the" in text.text and text.id > 0  # the first of its 50-character chunks
+        # an INT32 1 sent bytewise: the float field reads 1.4e-45, inside HDG_KP's range (a new-user audit)
+        bits = struct.unpack("<f", struct.pack("<i", 1))[0]
+        boat.gcs.mav.param_set_send(1, 1, b"HDG_KP", bits, mavlink.MAV_PARAM_TYPE_INT32)
+        m = boat.recv("PARAM_VALUE", pred=lambda m: m.param_id == "HDG_KP")
+        assert m.param_value == pytest.approx(2.5) and m.param_type == mavlink.MAV_PARAM_TYPE_REAL32  # unchanged
         boat.gcs.mav.param_set_send(1, 1, b"FS_GCS_ACT", 2.0, mavlink.MAV_PARAM_TYPE_REAL32)  # rtl
         assert boat.recv("PARAM_VALUE", pred=lambda m: m.param_id == "FS_GCS_ACT").param_value == 2.0
         boat.gcs.mav.param_request_read_send(1, 1, b"LOIT_RADIUS", -1)
@@ -330,6 +336,8 @@ def test_parameters_read_set_and_a_bad_one_refused(tmp_path):
                                                                        "continue", "rtl")]
     refused = [r for r in boat.log() if r["event"] == "command" and not r["accepted"]]
     assert any("HDG_KP" in r["answer"] and "[0, 10]" in r["answer"] for r in refused)
+    assert any(r["answer"].startswith("HDG_KP (gnc.pid.kp_n_per_deg): param_type 6 (MAV_PARAM_TYPE_INT32) refused")
+               for r in refused), refused
 
 
 def test_malformed_commands_are_denied_naming_the_parameter_and_other_boats_sticks_are_ignored(tmp_path):

@@ -50,6 +50,12 @@ def test_parameters_are_configuration_keys_with_their_ranges():
     assert f32 != 1.2 and P.check_set(cfg, kp, f32) == 1.2
     with pytest.raises(ConfigError, match=r"HDG_KP \(gnc.pid.kp_n_per_deg: 10.1 is outside"):
         P.check_set(cfg, kp, float(np.float32(10.1)))
+    # the declared type: a REAL32 (or 0, unsaid) is read as the float it is; any other is another type's bytes
+    assert P.check_set(cfg, kp, 2.0, mavlink.MAV_PARAM_TYPE_REAL32) == 2.0 == P.check_set(cfg, kp, 2.0, 0)
+    with pytest.raises(ConfigError, match=r"HDG_KP \(gnc.pid.kp_n_per_deg\): param_type 6 \(MAV_PARAM_TYPE_INT32\) "
+                                          r"refused: every parameter here is a float, param_type 9 "):
+        P.check_set(cfg, kp, 1.401298464324817e-45, mavlink.MAV_PARAM_TYPE_INT32)
+    assert P.WIRE_TYPE == mavlink.MAV_PARAM_TYPE_REAL32
 
 
 @pytest.mark.parametrize("url, kind", [("udpout:127.0.0.1:14550", "udpout"), ("udpin:0.0.0.0:14550", "udpin"),

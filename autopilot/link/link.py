@@ -551,7 +551,7 @@ class MavlinkLink:
     # ---------------------------------------------------------------- parameters
     def _param_value(self, port: _Port, p: P.Param, index: int) -> None:
         port.send(port.mav.param_value_encode(p.name.encode("ascii"), P.value_of(self.loop.cfg, p),
-                                              mavlink.MAV_PARAM_TYPE_REAL32, len(P.PARAMS), index))
+                                              P.WIRE_TYPE, len(P.PARAMS), index))
 
     def _param(self, port: _Port, msg) -> None:
         t = msg.get_type()
@@ -575,7 +575,7 @@ class MavlinkLink:
             return
         index = P.PARAMS.index(p)
         try:
-            value = P.check_set(self.loop.cfg, p, float(msg.param_value))
+            value = P.check_set(self.loop.cfg, p, float(msg.param_value), int(msg.param_type))
         except ConfigError as exc:
             self.refused("param_set", f"{exc}")
             self._param_value(port, p, index)  # the value stays: the ground station sees it unchanged

@@ -88,8 +88,24 @@ def value_of(cfg, p: Param) -> float:
     return float(value)
 
 
-def check_set(cfg, p: Param, wire_value: float):
-    """The configuration value a PARAM_SET means, checked with the key's range; ConfigError names both."""
+WIRE_TYPE = 9  # MAV_PARAM_TYPE_REAL32: what every PARAM_VALUE says (MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT)
+
+
+def _type_name(param_type: int) -> str:
+    from pymavlink.dialects.v20 import common
+
+    entry = common.enums["MAV_PARAM_TYPE"].get(param_type)
+    return f"{param_type} ({entry.name})" if entry is not None else str(param_type)
+
+
+def check_set(cfg, p: Param, wire_value: float, param_type: int = WIRE_TYPE):
+    """The configuration value a PARAM_SET means, checked with the key's range; ConfigError names both.
+
+    ``param_type`` other than REAL32 (or 0, unsaid) is refused: the float field then holds another type's
+    bytes (an INT32 1 sent bytewise reads 1.4e-45, inside HDG_KP's range, found by a new-user audit)."""
+    if param_type not in (0, WIRE_TYPE):
+        raise ConfigError(f"{p.name} ({p.key}): param_type {_type_name(param_type)} refused: every parameter here "
+                          f"is a float, param_type {_type_name(WIRE_TYPE)}, as its PARAM_VALUE says")
     field, tp, _ = _field(cfg, p.key)
     meta = field.metadata
     choices = meta.get("choices")
