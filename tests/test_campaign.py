@@ -206,6 +206,9 @@ def test_replay_reproduces_a_runs_scorecard_and_review_reads_its_log(tmp_path, c
     # without its place ("kinds: give at least one fault kind")
     ({"name": " "}, ["name: give the campaign a name"]),
     ({"conditions": {"c": {"faults": {"kinds": []}}}}, ["conditions.c.faults.kinds: give at least one fault kind"]),
+    # found by a new-user audit: flown, every run the max_distance failsafe's, a mission the daemon refuses at start
+    ({"failsafe": {"max_distance_m": 10}}, ["missions[0]: pond-9.1: waypoint 1 is beyond the max_distance failsafe: "
+                                            "26.7 m from the origin (limit 10 m) (the daemon refuses"]),
 ])
 def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change, named):
     spec = tmp_path / "bad.yaml"
@@ -216,6 +219,17 @@ def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change
     for text in named:
         assert text in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_campaign_of_the_distance_failsafe_says_so_and_is_flown_as_the_daemon_would():
+    """failsafe.allow_beyond_limits lets a spec fly missions beyond max_distance_m, as it lets the daemon."""
+    from autopilot.schema import ConfigError
+
+    limited = {"max_distance_m": 10.0}
+    with pytest.raises(ConfigError, match=r"missions\[0\]: pond-9.1: waypoint 1 is beyond the max_distance"):
+        resolve(_load_spec({**SPEC, "failsafe": limited}))
+    c = resolve(_load_spec({**SPEC, "failsafe": {**limited, "allow_beyond_limits": True}}))
+    assert c.spec.failsafe.max_distance_m == 10.0 and [m.name for m in c.missions] == ["pond-9.1", "pond-9.2"]
 
 
 def test_a_nan_spread_is_refused_without_a_made_up_range(tmp_path, capsys):

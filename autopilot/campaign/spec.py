@@ -489,6 +489,21 @@ def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[s
     return out, thrust, notes
 
 
+def _within_limits(spec: CampaignSpec, missions: tuple[MissionData, ...]) -> None:
+    """Every mission inside the spec's failsafe limits, as the daemon checks it at start: a mission it would refuse
+    was flown, and every run counted as the max_distance failsafe's (a new-user audit). A campaign has no geofence;
+    failsafe.allow_beyond_limits flies such missions on purpose (a campaign of that failsafe)."""
+    from autopilot.daemon.failsafe import mission_beyond_limits
+
+    if spec.failsafe.allow_beyond_limits:
+        return
+    for i, m in enumerate(missions):
+        why = mission_beyond_limits(m.home_ne_m, m.waypoints_ne_m, m.rtl, spec.failsafe, None, "the start")
+        if why is not None:
+            raise ConfigError(f"missions[{i}]: {spec.missions[i]}: {why} (the daemon refuses such a mission at start; "
+                              "failsafe.allow_beyond_limits: true flies it, a campaign of that failsafe)")
+
+
 def resolve(spec: CampaignSpec, *, base_dir: str | Path = ".") -> Campaign:
     """A checked spec -> the campaign's data (missions read, vessel and sysid spreads resolved)."""
     from autopilot.sim import default_params_path, load_params
@@ -500,6 +515,7 @@ def resolve(spec: CampaignSpec, *, base_dir: str | Path = ".") -> Campaign:
         if first != i:
             raise ConfigError(f"missions[{i}]: {spec.missions[i]} is named {m.name}, as missions[{first}] "
                               f"({spec.missions[first]}): the results are kept by mission name")
+    _within_limits(spec, missions)
     vessel_path = (base_dir / spec.vessel.file) if spec.vessel.file else default_params_path()
     vessel = load_params(vessel_path)
     sources = [f"vessel: {vessel_path}"]

@@ -71,19 +71,13 @@ def _within_limits(cfg: DaemonConfig, mission, mission_path) -> None:
     geofence, as an upload is checked: a mission beyond them started, flew, and was turned back by its
     own latched failsafe half way (a fence with lat/lon swapped stopped the boat at its first fix); unless
     failsafe.allow_beyond_limits (a test of those failsafes)."""
-    from autopilot.daemon.failsafe import first_beyond_limits
+    from autopilot.daemon.failsafe import mission_beyond_limits
 
     if cfg.failsafe.allow_beyond_limits:
         return
     fence = _fence_ne_m(cfg, mission.origin_lat_deg, mission.origin_lon_deg)
     start = "the start (the mission's home)" if mission.home_latlon is not None else "the start (the origin)"
-    route = [mission.home_ne_m, *mission.waypoints_ne_m] + ([mission.home_ne_m] if mission.rtl else [])
-    n = len(mission.waypoints_ne_m)
-
-    def name(k: int) -> str:
-        return start if k == 0 else f"waypoint {k}" if k <= n else "the launch point (the mission's rtl)"
-
-    why = first_beyond_limits(route, cfg.failsafe, fence, name, legs=True)
+    why = mission_beyond_limits(mission.home_ne_m, mission.waypoints_ne_m, mission.rtl, cfg.failsafe, fence, start)
     if why is not None:
         raise ConfigError(f"{mission_path}: {why}")
 

@@ -196,6 +196,21 @@ def first_beyond_limits(points_ne_m, cfg: FailsafeConfig, fence_ne_m, name, *, l
     return None
 
 
+def mission_beyond_limits(home_ne_m, waypoints_ne_m, rtl: bool, cfg: FailsafeConfig, fence_ne_m,
+                          start: str) -> str | None:
+    """Why a mission flown from ``home_ne_m`` (named ``start``) would trip a latched position failsafe: a waypoint,
+    the start, or a leg between them (the start's to the first waypoint, an rtl's back to it) beyond the geofence
+    or max_distance_m; None when it stays inside. The daemon refuses such a mission at start (and a campaign's
+    spec), unless failsafe.allow_beyond_limits, which the callers check."""
+    route = [home_ne_m, *waypoints_ne_m] + ([home_ne_m] if rtl else [])
+    n = len(waypoints_ne_m)
+
+    def name(k: int) -> str:
+        return start if k == 0 else f"waypoint {k}" if k <= n else "the launch point (the mission's rtl)"
+
+    return first_beyond_limits(route, cfg, fence_ne_m, name, legs=True)
+
+
 def segment_outside_polygon(a_ne_m, b_ne_m, polygon_ne_m) -> tuple[float, float] | None:
     """A point of the segment from ``a_ne_m`` to ``b_ne_m`` outside the polygon (local frame, m), or None when the
     whole segment is inside or on the edge: the segment cut where it meets the polygon's edges, and the middle of
