@@ -123,6 +123,10 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("mission complete: staying up", "the mission ended stopped, and a ground station link is open or systemd runs the "
      "daemon (`why`): it goes on at zero thrust, reporting and taking commands (rtl, hold, a new mission), until "
      "stopped; without either it ends there"),
+    ("max_mission_time: stopped, staying up", "`failsafe.max_mission_time_s` ran out with its action stop, and a "
+     "ground station link is open or systemd runs the daemon (`why`): as at a mission's end it goes on at zero "
+     "thrust, reporting and taking commands, until stopped; the run is saved as ended by max_mission_time, so a "
+     "restart does not fly it again; without either the daemon ends there (stop reason `max_mission_time`)"),
 )
 
 

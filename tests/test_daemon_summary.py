@@ -12,7 +12,8 @@ from autopilot.logschema import Mode
 
 
 def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_lost=0, log_failing=False,
-          stop_acknowledged=True, stop_signal=None, hold_zero=None, board_answered=True, finished=None, mode="complete"):
+          stop_acknowledged=True, stop_signal=None, hold_zero=None, board_answered=True, finished=None, mode="complete",
+          time_stop_stayed=False):
     st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [], mode=mode,
                    finished=complete if finished is None else finished,
                    closest_m={0: 0.41, 1: 0.27, 2: float("nan")} if complete else {0: 0.41},
@@ -22,6 +23,7 @@ def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_
     return SimpleNamespace(state=st, clock=SimpleNamespace(now_s=lambda: 45.0, speedup=speedup), t0_s=5.0,
                            mission=SimpleNamespace(waypoints_ne_m=np.zeros((3, 2))), speedup_held=lambda: held,
                            log=SimpleNamespace(lines_lost=lines_lost, failing=log_failing), hold_zero=hold_zero,
+                           time_stop_stayed=time_stop_stayed,
                            ap=SimpleNamespace(mode=Mode.STOP if hold_zero else Mode.AUTO),
                            thrusters=SimpleNamespace(answered=board_answered))
 
@@ -67,6 +69,9 @@ def test_a_stop_by_signal_and_a_held_start_are_said():
     lines = end_summary(_loop(cycles=95, skipped=0, complete=False, stop_signal="SIGTERM"), "x", sim=False)
     assert lines[1] == ("mission not complete after 40.0 s: 0 of 3 waypoint(s) reached; stopped by SIGTERM; zero "
                         "thrust acknowledged by the Mbed")
+    timed = end_summary(_loop(cycles=95, skipped=0, complete=False, stop_signal="SIGTERM", time_stop_stayed=True),
+                        "x", sim=False)  # stayed up after its time limit's stop (a link, systemd)
+    assert "; stopped by max_mission_time, then by SIGTERM; zero thrust" in timed[1], timed
     held = end_summary(_loop(cycles=95, skipped=0, complete=False, hold_zero="interrupted mission found"), "x",
                        sim=True)
     assert "  the boat waited at zero thrust from the start: interrupted mission found" in held

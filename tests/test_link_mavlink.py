@@ -300,6 +300,28 @@ def test_with_a_ground_station_the_daemon_stays_up_after_the_mission_s_stop(tmp_
     assert boat.log()[-1]["event"] == "stop" and boat.log()[-1]["reason"] == "signal"
 
 
+def test_with_a_ground_station_the_daemon_stays_up_after_the_mission_time_s_stop(tmp_path):
+    """Found by a new-user audit: max_mission_time's stop still ended the daemon, link and all, where the mission's
+    own stop no longer does. It now stays up at zero thrust, and the run is saved as ended by its time limit: the
+    signal that ends the daemon later (a shutdown) does not make the next start fly the mission again."""
+    boat = Boat(tmp_path, config={"failsafe": {"max_mission_time_s": 6.0}}, speedup=10.0)
+    try:
+        boat.wait_log(lambda r: r["event"] == "info" and r["message"] == "max_mission_time: stopped, staying up",
+                      60.0, "the time limit's stop")
+        assert boat.proc.poll() is None
+        after = len(boat.log())
+        assert boat.recv("HEARTBEAT").custom_mode == 4  # Rover's HOLD: motors stopped
+        time.sleep(0.5)
+        later = [r for r in boat.log()[after:] if r["event"] == "cycle"]
+        assert len(later) > 10 and not any(r["thrust_port_n"] or r["thrust_stbd_n"] for r in later)
+    finally:
+        assert boat.stop() == 0
+    assert boat.log()[-1]["event"] == "stop" and boat.log()[-1]["reason"] == "signal"
+    progress = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+    assert (progress["status"], progress["reason"]) == ("aborted", "max_mission_time"), progress
+    assert "stopped by max_mission_time, then by SIGINT" in (tmp_path / "stderr.txt").read_text()
+
+
 def test_parameters_read_set_and_a_bad_one_refused(tmp_path):
     boat = Boat(tmp_path)
     try:

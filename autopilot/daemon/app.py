@@ -690,7 +690,8 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached"
                  + (f"; then in {st.mode}, stopped by {st.stop_signal}" if cut else
                     f"; then stopped by {st.stop_signal}" if st.stop_signal and st.complete else  # stayed up after it
-                    f"; stopped by {st.stop_signal}" if st.stop_signal else "")
+                    f"; stopped by max_mission_time, then by {st.stop_signal}" if st.stop_signal and loop.time_stop_stayed
+                    else f"; stopped by {st.stop_signal}" if st.stop_signal else "")
                  + ("; zero thrust acknowledged by the Mbed" if st.stop_acknowledged else ""))
     for i in range(n_wps):
         ca = st.closest_m.get(i)

@@ -107,6 +107,7 @@ class ControlLoop:
         self._saved_homeward = False  # what the saved progress says of the way home (Progress.homeward)
         # why the loop goes on after the mission ended stopped (a ground station link, systemd), or None: it ends there
         self.stay_when_done: str | None = None
+        self.time_stop_stayed = False  # max_mission_time's stop taken, and the loop went on for stay_when_done
         self._said_staying = False
         self.ais = ais  # autopilot.daemon.traffic.AisSource: other vessels for collision avoidance (None: no AIS)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
@@ -470,7 +471,13 @@ class ControlLoop:
             else:
                 self._said_staying = False
             if self.failsafe.action_of("max_mission_time") == "stop":
-                return "max_mission_time"
+                if self.stay_when_done is None:
+                    return "max_mission_time"
+                if not self.time_stop_stayed:  # as at the mission's end: a ground station kept, at zero thrust
+                    self.time_stop_stayed = True
+                    self._save("aborted", "max_mission_time")  # a restart does not fly the mission again
+                    self.log.event("info", t_s=self.clock.now_s() - self.t0_s,
+                                   message="max_mission_time: stopped, staying up", why=self.stay_when_done)
 
     def zero_now(self) -> None:
         """Zero thrust at once, no wait and no log: the first thing on any way out, before anything that
@@ -496,11 +503,14 @@ class ControlLoop:
             self._log_passes(self.passes.finish(), self.clock.now_s() - self.t0_s)
         st.stop_acknowledged = ack
         status = {"complete": "complete", "signal": "stopped"}.get(reason, "aborted")
+        saved_reason = reason if status == "aborted" else ""
+        if status == "stopped" and self.time_stop_stayed:  # the run ended at its time limit: a signal later (a
+            status, saved_reason = "aborted", "max_mission_time"  # shutdown) does not make a reboot fly it again
         # a held start stopped cleanly keeps the interrupted run's progress (ctl resume may continue it later),
         # unless that run had latched a failsafe: then resume is refused, and kept it left the boat held at every
         # start until someone with a shell passed --fresh
         if self.hold_zero is None or status != "stopped" or self.failsafe.latched:
-            self._save(status, reason if status == "aborted" else "")
+            self._save(status, saved_reason)
         self.log.event(
             "stop", t_s=self.clock.now_s() - self.t0_s, reason=reason, signal=st.stop_signal, ack_received=ack,
             cycles=st.cycles, skipped_cycles=st.skipped, late_cycles=st.late_cycles,
