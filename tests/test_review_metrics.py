@@ -74,6 +74,23 @@ def test_cross_track_recomputed_from_legs(tmp_path):
     assert math.isnan(card.logged_xte_rms_m)  # not logged: not invented
 
 
+def test_leg_0_runs_from_the_launch_point_where_the_helm_started_it(tmp_path):
+    """Found by a new-user audit: leg 0 ran from the first fix, taken while the daemon waited for valid data; a boat
+    that drifted 1.85 m across it in a 0.5 m/s current before control started (pond-9.4, --sim) scored 3.19 m RMS
+    against the guidance's own 2.66 m (2.64 m now). The helm starts leg 0 where it launches."""
+    north = [0.0, 0.0, 0.0, 5.0, 8.0]
+    east = [0.0, 1.0, 2.0, 2.0, 2.0]  # drifted east before the launch at t 0.2 s, then north along x = 2
+    wp = [0, 0, 0, 0, 0]
+    recs = _cycles(5, north_m=north, east_m=east, wp_index=wp)
+    launch = {"event": "launch", "t_s": 0.2, "north_m": 0.0, "east_m": 2.0}
+    log = read_log(_write(tmp_path / "l.jsonl", [START] + recs[:3] + [launch] + recs[3:]))
+    # leg 0 from (0, 2) to (10, 0): the boat on x = 2 is to port of it, by its distance to that line
+    d = np.array([10.0, -2.0]) / math.hypot(10.0, -2.0)
+    expected = [(d[0] * (e - 2.0) - d[1] * n) for n, e in zip(north, east)]
+    assert_allclose(cross_track_m(log), expected, atol=1e-12)
+    assert abs(cross_track_m(log)[2]) < 1e-12  # at the launch point: on the leg
+
+
 def test_synthetic_mission_scorecard(tmp_path):
     truth = write_synthetic_log(tmp_path / "m.jsonl", weave_m=1.0)
     log = read_log(tmp_path / "m.jsonl")
