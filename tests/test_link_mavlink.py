@@ -814,7 +814,12 @@ def test_a_mission_with_a_speed_item_keeps_the_planners_item_numbers(tmp_path):
         boat.gcs.mav.mission_set_current_send(1, 1, 4)
         assert boat.recv("MISSION_CURRENT").seq == 4
         jumped = boat.wait_log(lambda r: r["event"] == "command" and r["command"] == "set_current", what="the jump")
-        assert jumped["accepted"] and jumped["answer"] == "waypoint 2"  # the third waypoint, item 4
+        # the third waypoint, item 4; said in both numberings (the STATUSTEXT said "waypoint 2" alone: a new-user audit)
+        assert jumped["accepted"] and jumped["answer"] == "waypoint 2 (mission item 4)"
+        first = boat.recv("STATUSTEXT", pred=lambda m: m.text.startswith("mode auto: mavlink set_current"))
+        chunks = [first] + [boat.recv("STATUSTEXT", pred=lambda m: m.id == first.id and m.chunk_seq == k)
+                            for k in (1,)]  # 50 characters a chunk, joined by the planner
+        assert "".join(c.text for c in chunks) == "mode auto: mavlink set_current: waypoint 2 (mission item 4)"
         boat.gcs.mav.mission_set_current_send(1, 1, 0)
         assert "item 0 is home" in boat.recv("STATUSTEXT", pred=lambda m: "MISSION_SET_CURRENT" in m.text).text
         assert boat.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 9).result == mavlink.MAV_RESULT_DENIED

@@ -114,7 +114,9 @@ def _manual(loop, request, helm_nav, unavailable, cause):
 
 
 def _set_current(loop, request, helm_nav, unavailable, cause):
-    ok, answer = loop.ap.set_current(int(request["index"]), cause=cause)
+    item = request.get("item")  # a planner's mission item number (home is item 0, a speed item has one too)
+    ok, answer = loop.ap.set_current(int(request["index"]), cause=cause,
+                                     also="" if item is None else f"mission item {int(item)}")
     if ok:
         loop.passes_restart()
         loop.save_progress("running")

@@ -383,8 +383,9 @@ class Autopilot:
                 self.request("stop", None, cause=cause)
         return self.current.mode.value
 
-    def set_current(self, index: int, *, cause: str) -> tuple[bool, str]:
-        """Fly the mission from waypoint ``index`` (MAVLink set current)."""
+    def set_current(self, index: int, *, cause: str, also: str = "") -> tuple[bool, str]:
+        """Fly the mission from waypoint ``index`` (MAVLink set current); ``also``: how the asker numbers it, said
+        beside the waypoint (a planner's mission item: its STATUSTEXT said "waypoint 2" for item 4)."""
         n = len(self.guidance.waypoints)
         if self.mission_cleared:
             return False, "set current refused: the mission was cleared (upload one first)"
@@ -396,9 +397,10 @@ class Autopilot:
         g.reset()
         g.disarm_pass()
         self.auto.end_item_hold()
+        said = f"waypoint {index}" + (f" ({also})" if also else "")
         self._events.append(("mode", {"mode": self.current.mode.value, "from": self.current.mode.value,
-                                      "cause": f"{cause}: waypoint {index}"}))
-        return True, f"waypoint {index}"
+                                      "cause": f"{cause}: {said}"}))
+        return True, said
 
     def set_config(self, config: GncConfig) -> None:
         """New gains and limits, from the next step on (a parameter set between cycles)."""

@@ -492,7 +492,7 @@ class MavlinkLink:
             seq = self._whole(port, msg, p1, "param1 (mission item)", "a whole number >= 1", lambda k: k >= 1)
             index = None if seq is None else self.waypoint_of_item(seq, "DO_SET_MISSION_CURRENT")
             if index is not None:
-                self._ask_loop(port, msg, {"command": "set_current", "index": index})
+                self._ask_loop(port, msg, {"command": "set_current", "index": index, "item": seq})
             elif seq is not None:
                 self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
         elif c == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:

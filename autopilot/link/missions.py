@@ -155,7 +155,7 @@ class MissionProtocol:
             if index is None:
                 self.link.send_mission_current()  # the answer MAVLink has: the current item, unchanged
                 return
-            self.link.submit({"command": "set_current", "index": index, "source": "mavlink"},
+            self.link.submit({"command": "set_current", "index": index, "item": int(msg.seq), "source": "mavlink"},
                              lambda reply: self.link.send_mission_current())
 
     def _clear(self, ep, peer, mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION) -> None:
