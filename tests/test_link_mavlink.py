@@ -555,6 +555,31 @@ def test_a_second_ground_station_cannot_upload_into_another_ones_upload(tmp_path
     assert [[round(x, 1) for x in w] for w in replaced["waypoints"]] == [[-15.0, 10.0], [-25.0, 0.0]]
 
 
+def test_a_go_here_across_a_concave_geofence_is_refused_and_one_along_it_taken(tmp_path):
+    """Found by a new-user audit: a "go here" point was checked, not the way to it. Inside an L-shaped fence, a
+    point in the other arm lay across the corner: the boat left the fence on its way and the fence's rtl took it."""
+    fence = [[-10.0, -10.0], [60.0, -10.0], [60.0, 10.0], [10.0, 10.0], [10.0, 60.0], [-10.0, 60.0]]  # north, east
+    boat = Boat(tmp_path, mission={"name": "up", "frame": "local", "waypoints": [[50.0, 0.0], [0.0, 0.0]]},
+                config={"geofence": {"frame": "local", "polygon": fence}}, speedup=10.0)
+    try:
+        boat.wait_log(lambda r: r["event"] == "cycle" and (r["north_m"] or 0.0) > 20.0, 60.0, "up the north arm")
+        across = local_to_latlon(-5.0, 40.0, *ORIGIN)  # inside, in the east arm: the straight way cuts the corner
+        ack = boat.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, 0, use_int=True, x=round(across[0] * 1e7),
+                           y=round(across[1] * 1e7))
+        assert ack.result == mavlink.MAV_RESULT_DENIED
+        along = local_to_latlon(40.0, 0.0, *ORIGIN)  # up the same arm
+        ack = boat.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, 0, use_int=True, x=round(along[0] * 1e7),
+                           y=round(along[1] * 1e7))
+        assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("hold")
+    finally:
+        assert boat.stop() == 0
+    refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
+    assert any(a.startswith("hold refused: the leg from the boat to the point leaves the geofence") for a in refused), \
+        refused
+    assert not [r for r in boat.log() if r["event"] == "fault"]
+
+
 def test_a_mission_or_a_reposition_beyond_a_failsafe_limit_is_refused_up_front(tmp_path):
     """Found by fault injection: a 'go here' 300 m out with max_distance_m 100 was accepted; the boat set off
     and its own failsafe turned it back at 101 m (latched: the mission lost). Now refused, saying why."""

@@ -77,7 +77,7 @@ def _helm(loop, request, helm_nav, unavailable, cause):
                        "hold, rtl and stop are allowed)")
     heading = request.get("heading_deg")
     target = (request["north_m"], request["east_m"]) if "north_m" in request else None
-    beyond = None if target is None else _beyond_limits(loop, [target], lambda k: "the point")
+    beyond = None if target is None else _beyond_limits(loop, *_way_to(loop, helm_nav, target), legs=True)
     if beyond:
         return False, f"{command} refused: {beyond}"
     return loop.ap.request(command, helm_nav, cause=cause, unavailable=unavailable, target_ne_m=target,
@@ -121,6 +121,15 @@ def _set_current(loop, request, helm_nav, unavailable, cause):
         loop.passes_restart()
         loop.save_progress("running")
     return ok, answer
+
+
+def _way_to(loop, helm_nav, target_ne_m):
+    """(the points, their names) of a "go here": the boat's position and the point, when the boat is inside the
+    limits (a point inside a concave geofence may lie across it: the boat left the fence on its way there and the
+    fence's rtl took it, a new-user audit); the point alone when it is not (an rtl bringing it back in)."""
+    if helm_nav is not None and loop.failsafe.within_limits(helm_nav.north_m, helm_nav.east_m):
+        return [(helm_nav.north_m, helm_nav.east_m), target_ne_m], lambda k: "the boat" if k == 0 else "the point"
+    return [target_ne_m], lambda k: "the point"
 
 
 def _beyond_limits(loop, points_ne_m, what, *, legs: bool = False) -> str | None:
