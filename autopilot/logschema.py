@@ -370,6 +370,8 @@ EVENTS: tuple[EventSpec, ...] = (
     EventSpec("launch", "the launch point was set: where the boat was when control first started (`rtl` returns there; after a restart that carries on an interrupted run, that run's)", (
         _f("north_m", "float", "m", "local frame"),
         _f("east_m", "float", "m", "local frame"),
+        _f("carried", "bool", "-", "true: an interrupted run's launch point, carried over a restart, not where this "
+           "run's control started (the review measures leg 0 from a launch point that is not carried)"),
     )),
     EventSpec("stop", "the last line of a log unless the process was killed (SIGKILL, power loss)", (
         _f("reason", "string", "-", "one of " + ", ".join(f"`{r}`" for r in STOP_REASONS)),

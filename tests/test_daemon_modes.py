@@ -493,6 +493,7 @@ def test_a_restart_after_a_latched_failsafe_holds_and_goes_home_to_the_first_lau
                                         "failsafe took the boat; resume is refused) (--fresh starts afresh)")
             launch = d.events("launch")[0]
             assert (launch["north_m"], launch["east_m"]) == (first_launch["north_m"], first_launch["east_m"])
+            assert launch["carried"] is True and first_launch["carried"] is False  # the review tells them apart
             code, text = await d.ctl("resume")
             assert code == 1 and text.startswith("resume refused: geofence latched"), text
             assert not d.rig.mbed.thrusting

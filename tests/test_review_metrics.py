@@ -89,6 +89,10 @@ def test_leg_0_runs_from_the_launch_point_where_the_helm_started_it(tmp_path):
     expected = [(d[0] * (e - 2.0) - d[1] * n) for n, e in zip(north, east)]
     assert_allclose(cross_track_m(log), expected, atol=1e-12)
     assert abs(cross_track_m(log)[2]) < 1e-12  # at the launch point: on the leg
+    # an interrupted run's launch point carried over a restart is not where this run's helm started leg 0
+    carried = read_log(_write(tmp_path / "c.jsonl", [START] + recs[:3] + [{**launch, "carried": True}] + recs[3:]))
+    d0 = np.array([1.0, 0.0])  # from the first fix (0, 0) to (10, 0)
+    assert_allclose(cross_track_m(carried), [d0[0] * e - d0[1] * n for n, e in zip(north, east)], atol=1e-12)
 
 
 def test_synthetic_mission_scorecard(tmp_path):

@@ -151,7 +151,8 @@ class Autopilot:
         self.speed_short = SpeedShort(config.speed)
         self._events: list[tuple[str, dict]] = []
         if self.launch_ne_m is not None:  # given (a restart carrying on the run before): said as when it is set
-            self._events.append(("launch", {"north_m": self.launch_ne_m[0], "east_m": self.launch_ne_m[1]}))
+            self._events.append(("launch", {"north_m": self.launch_ne_m[0], "east_m": self.launch_ne_m[1],
+                                            "carried": True}))
         self._last_kind: str | None = None
         self.avoidance = Avoidance(config.avoidance)
         self._situations: dict[int, tuple[str, bool]] = {}  # target -> (situation, acting) last logged
@@ -438,7 +439,7 @@ class Autopilot:
             raise ValueError("NavInput position and heading must be finite")
         if self.launch_ne_m is None:
             self.launch_ne_m = (nav.north_m, nav.east_m)
-            self._events.append(("launch", {"north_m": nav.north_m, "east_m": nav.east_m}))
+            self._events.append(("launch", {"north_m": nav.north_m, "east_m": nav.east_m, "carried": False}))
         occupied = self._occupied(nav, targets)
         s = self.current.update(nav, dt_s)
         reached = s.guidance if self.current is self.auto else None  # rtl's own arrival is not a mission waypoint

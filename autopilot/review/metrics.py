@@ -384,9 +384,12 @@ def leg_starts(wps: np.ndarray, first_ne_m) -> np.ndarray:
 
 
 def _first_launch_ne_m(log: MissionLog, plan: Plan) -> tuple[float, float] | None:
-    """(north, east) of the first ``launch`` event dated inside ``plan``: where the helm started leg 0."""
+    """(north, east) of the first ``launch`` event dated inside ``plan``: where the helm started leg 0. Not one
+    carried over a restart (the interrupted run's: the helm starts a leg 0 flown again where the boat is)."""
     for ev in log.events_named("launch"):
         t, n, e = ev.get("t_s"), ev.get("north_m"), ev.get("east_m")
+        if ev.get("carried") is True:
+            continue
         if _is_number(t) and _is_number(n) and _is_number(e) and plan.holds(float(t)):
             return float(n), float(e)
     return None
