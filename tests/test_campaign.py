@@ -609,7 +609,7 @@ def test_a_fault_too_near_the_end_for_the_failsafe_to_notice_is_not_counted_for_
     assert _fault_kind([gnss], 42.0, fs) == "not reached"
     assert _fault_kind([gnss], 44.0, fs) == "gnss_lost"
     assert _fault_kind([Fault("mbed_lost", at_s=40.0, duration_s=2.0)], 40.2, fs) == "mbed_lost"  # at once
-    # over before the failsafe could notice it (a stop-40 audit): a GNSS loss shorter than position_stale_s
+    # over before the failsafe could notice it (noticed beside dfa05b3's fix): a GNSS loss shorter than position_stale_s
     short = Fault("gnss_lost", at_s=40.0, duration_s=fs.position_stale_s - 0.5)
     assert _fault_kind([short], 80.0, fs) == "not reached"
     assert _fault_kind([Fault("gnss_lost", at_s=40.0, duration_s=fs.position_stale_s)], 80.0, fs) == "gnss_lost"

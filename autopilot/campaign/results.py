@@ -58,7 +58,8 @@ def _fault_kind(faults, time_s: float, failsafe) -> str:
     due after the end counted as a success for that fault: a spec with every fault at 5000 s reported 100 %; and
     one due less than its notice time before the end was a success the failsafe never had to earn), and that
     lasted its notice time (a 2-s GNSS loss with position_stale_s 3 s never made the failsafe act, and counted
-    under gnss_lost: a stop-40 audit; one up to a fix period shorter may have, and is not counted either)."""
+    under gnss_lost: noticed beside dfa05b3's fix; one up to a fix period shorter may have, and is not counted
+    either)."""
     if not faults:
         return ""
     first = faults[0]
