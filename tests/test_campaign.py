@@ -581,7 +581,9 @@ def test_a_fault_due_after_the_run_ended_is_not_counted_for_that_fault(tmp_path)
     was due (11 of 60 in a 400-run campaign); faults at 5000 s reported gnss_lost at 100 % with no failsafe."""
     spec = tmp_path / "spec.yaml"
     conditions = {"late": {"faults": {"kinds": ["gnss_lost"], "at_s": {"uniform": [4000.0, 5000.0]}}},
-                  "soon": {"faults": {"kinds": ["gnss_lost"], "at_s": {"uniform": [3.0, 5.0]}}}}
+                  # and long enough to be noticed (position_stale_s, 3 s: a shorter loss is not reached either)
+                  "soon": {"faults": {"kinds": ["gnss_lost"], "at_s": {"uniform": [3.0, 5.0]},
+                                      "duration_s": {"uniform": [3.5, 6.0]}}}}
     spec.write_text(json.dumps({**SPEC, "runs": 16, "chunk_runs": 16, "conditions": conditions}), encoding="utf-8")
     out = tmp_path / "out"
     assert main(["campaign", str(spec), "--out", str(out), "--jobs", "1", "--quiet", "--no-report"]) == 0
