@@ -86,20 +86,17 @@ def pytest_collection_modifyitems(config, items):
 
 
 _lowered = False
-_frozen_for = None  # the realtime module whose start froze the heap
 
 
 def pytest_runtest_setup(item):
-    global _lowered, _frozen_for
+    global _lowered
     if _group(item) == "realtime":
         # The simulated SC-30 and Mbed run in this process, at the tests' speedup: a full collection of the
         # suite's heap paused it 10-30 ms (0.1-0.3 s simulated, an ack timeout's worth: a spurious
-        # mbed_ack_missing seen), so the heap as it stands is frozen out of the collector for the module.
-        if item.module is not _frozen_for:
-            _frozen_for = item.module
-            gc.unfreeze()
-            gc.collect()
-            gc.freeze()
+        # mbed_ack_missing seen), and one of what a module's earlier tests left still did. The collector is off
+        # for the test (a test lasts seconds: its cyclic garbage waits for the next test's start).
+        gc.collect()
+        gc.disable()
         return
     if not os.environ.get("PYTEST_XDIST_WORKER") or _lowered:
         return
@@ -107,6 +104,10 @@ def pytest_runtest_setup(item):
     lowest_cpu_priority()
     for mod in _background_modules(item.session):
         mod.start_background(item.session.items)
+
+
+def pytest_runtest_teardown(item):
+    gc.enable()
 
 
 def pytest_collection_finish(session):
