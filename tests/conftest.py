@@ -93,8 +93,8 @@ def pytest_runtest_setup(item):
     if _group(item) == "realtime":
         # The simulated SC-30 and Mbed run in this process, at the tests' speedup: a full collection of the
         # suite's heap paused it 10-30 ms (0.1-0.3 s simulated, an ack timeout's worth: a spurious
-        # mbed_ack_missing seen), and one of what a module's earlier tests left still did. The collector is off
-        # for the test (a test lasts seconds: its cyclic garbage waits for the next test's start).
+        # mbed_ack_missing seen). The collector is off for the test (a test lasts seconds: its cyclic garbage
+        # waits for the next test's start); a freeze once a module still saw one ~0.1-s stall, cause not proven.
         gc.collect()
         gc.disable()
         return
