@@ -687,11 +687,17 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     # home) is not "mission complete": a 300-s hold stopped at 153 s said so (a new-user audit)
     cut = bool(st.stop_signal) and st.complete and not st.finished
     done = ("route complete" if cut else "mission complete") if st.complete else "mission not complete"
-    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached"
-                 + (f"; then in {st.mode}, stopped by {st.stop_signal}" if cut else
-                    f"; then stopped by {st.stop_signal}" if st.stop_signal and st.complete else  # stayed up after it
-                    f"; stopped by max_mission_time, then by {st.stop_signal}" if st.stop_signal and loop.time_stop_stayed
-                    else f"; stopped by {st.stop_signal}" if st.stop_signal else "")
+    if not st.stop_signal:
+        stopped = ""
+    elif cut:
+        stopped = f"; then in {st.mode}, stopped by {st.stop_signal}"
+    elif st.complete:  # stayed up after the mission's stop
+        stopped = f"; then stopped by {st.stop_signal}"
+    elif loop.time_stop_stayed:  # stayed up after max_mission_time's stop
+        stopped = f"; stopped by max_mission_time, then by {st.stop_signal}"
+    else:
+        stopped = f"; stopped by {st.stop_signal}"
+    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached" + stopped
                  + ("; zero thrust acknowledged by the Mbed" if st.stop_acknowledged else ""))
     for i in range(n_wps):
         ca = st.closest_m.get(i)
