@@ -64,6 +64,8 @@ class Daemon:
     proc: asyncio.subprocess.Process | None = None
     clock: Clock = field(default_factory=lambda: Clock(SPEEDUP))
     _log: LogTail | None = None
+    stalls: list = field(default_factory=list)  # (clock s, wall ms): this process's event loop held up
+    _watch: asyncio.Task | None = None
 
     async def start(self, *, fresh: bool = True) -> None:
         if self.rig is None:
@@ -79,6 +81,8 @@ class Daemon:
                 **self.rig_options,
             )
             await self.rig.start()
+        if self._watch is None:
+            self._watch = asyncio.ensure_future(self._watch_stalls())
         cfg = {
             "rate_hz": RATE_HZ,
             "origin_lat_deg": ORIGIN[0],
@@ -172,7 +176,37 @@ class Daemon:
                 await self.proc.wait()
         return self.proc.returncode
 
+    async def _watch_stalls(self) -> None:
+        """Record every hold-up of this process's loop over 20 ms of wall time (0.2 s simulated at 10x): this
+        process is the boat, the SC-30 and the Mbed, and a stall here starves the daemon of headings and acks."""
+        loop = asyncio.get_running_loop()
+        tick_s = 0.005
+        last = loop.time()
+        while True:
+            await asyncio.sleep(tick_s)
+            now = loop.time()
+            if now - last - tick_s > 0.02:
+                self.stalls.append((round(self.clock.now_s(), 2), round((now - last - tick_s) * 1000.0, 1)))
+            last = now
+
+    def report_stalls(self) -> None:
+        """Print (shown with a failed test) this process's stalls and the daemon's late cycles, to tell which of
+        the two was held up when a fault nobody injected appears (the load flakes of docs/test-runs.md)."""
+        print(f"rig: this process's event loop held up > 20 ms wall (clock s, wall ms): {self.stalls[:40]}")
+        if self.proc is None:
+            return
+        try:
+            late = [(r["t_s"], r["lateness_ms"]) for r in self.log() if r["event"] == "cycle"
+                    and (r.get("lateness_ms") or 0.0) > 200.0]
+        except (OSError, ValueError, KeyError):
+            return
+        print(f"rig: the daemon's cycles > 200 ms (simulated) late (t_s, lateness_ms): {late[:40]}")
+
     async def close(self) -> None:
+        if self._watch is not None:
+            self._watch.cancel()
+            self._watch = None
+            self.report_stalls()
         if self.proc is not None and self.proc.returncode is None:
             self.proc.kill()
             await self.proc.wait()
