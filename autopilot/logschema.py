@@ -112,6 +112,7 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("control loop error", "an exception in the loop (`error`); the boat is stopped"),
     ("mavlink link open", "the MAVLink endpoints are open (`endpoints`, `signing`)"),
     ("mavlink message not handled", "a message that broke its handler (`kind`, `error`), once per kind: a bug to report"),
+    ("mavlink message not sent", "a message of ours that did not encode (`kind`, `error`), once per kind: a bug to report"),
     ("mavlink link closed", "at the end: what the link received (`stats`: messages by type, bad frames, dropped datagrams, refusals)"),
     ("start refused", "an endpoint could not be opened (`error`); the run stops, exit 2"),
     ("state not saved", "the progress file could not be written (`error`; a full disk, a read-only state directory): a restart after a crash would not know this run was interrupted; also said to the ground station"),

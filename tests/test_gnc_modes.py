@@ -80,6 +80,37 @@ def test_auto_is_the_mission_not_what_a_pause_interrupted():
     assert not ok and why == "auto refused: no mission (it was cleared; upload one)"
 
 
+def test_continue_goes_on_only_with_what_a_pause_stopped():
+    """Found by a GCS audit: a planner's DO_PAUSE_CONTINUE 1 was ctl's resume, and Mission Planner's Resume pressed
+    in HOLD (our stop), LOITER (our hold) or RTL drove the boat into the mission. ArduPilot continues only the
+    mode it is in; in the mission a waypoint's hold is not cut short by it (ctl resume still ends one)."""
+    ap = helm()
+    ap.step(HERE, 0.1)  # the launch point
+    far = dataclasses.replace(HERE, north_m=20.0)  # an rtl from here is under way for a while
+    for command in ("hold", "stop", "rtl"):
+        assert ap.request(command, far, cause=f"ctl {command}")[0]
+        ok, why = ap.request("continue", far, cause="mavlink continue")
+        assert not ok and why.startswith(f"continue refused: mode {command} is not paused"), why
+        assert ap.step(far, 0.1).mode.value == command  # nothing moved
+    assert ap.request("pause", far, cause="ctl pause") == (True, "paused")  # an rtl paused ...
+    assert ap.request("continue", far, cause="mavlink continue") == (True, "rtl")  # ... goes on home
+    assert ap.request("auto", far, cause="mavlink AUTO") == (True, "auto")
+    assert ap.request("continue", far, cause="mavlink continue") == (True, "auto")  # running: nothing to do
+    assert ap.request("pause", far, cause="ctl pause") == (True, "paused")
+    assert ap.request("continue", far, cause="mavlink continue") == (True, "auto")
+    ok, why = ap.request("continue", None, cause="mavlink continue", unavailable="heading stale")
+    assert (ok, why) == (False, "continue refused: heading stale")
+
+    item = Autopilot(GncConfig(), [(0.5, 0.0), (30.0, 0.0)], holds_s=[60.0, None])
+    for _ in range(20):  # on W0: its hold begins
+        item.step(HERE, 0.1)
+    assert item.auto.item_keeper is not None
+    assert item.request("continue", HERE, cause="mavlink continue") == (True, "auto")
+    assert item.auto.item_keeper is not None  # the hold goes on
+    assert item.request("resume", HERE, cause="ctl resume") == (True, "auto")
+    assert item.auto.item_keeper is None  # the operator's resume ends it
+
+
 def test_a_mission_that_is_complete_cannot_be_resumed_but_can_hold():
     ap = Autopilot(GncConfig(), [(0.5, 0.0)])
     out = ap.step(HERE, 0.1)

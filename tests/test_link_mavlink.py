@@ -195,9 +195,18 @@ def test_each_command_is_acknowledged_and_obeyed(tmp_path):
         assert ack.result == mavlink.MAV_RESULT_ACCEPTED
         boat.mode_is("hold")
         assert boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1 and m.custom_mode == 5)
-        assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 1).result == mavlink.MAV_RESULT_ACCEPTED  # continue
+        # continue goes on only with what a pause stopped (ArduPilot): pressed in a hold it drove the boat into the
+        # mission (a GCS audit)
+        assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 1).result == mavlink.MAV_RESULT_DENIED
+        assert boat.recv("STATUSTEXT", pred=lambda m: m.text.startswith("continue refused: mode hold is not paused"))
+        boat.mode_is("hold")
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 10).result == mavlink.MAV_RESULT_ACCEPTED  # AUTO
         boat.mode_is("auto")
         assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 0).result == mavlink.MAV_RESULT_ACCEPTED  # pause
+        boat.mode_is("paused")
+        assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 1).result == mavlink.MAV_RESULT_ACCEPTED  # continue
+        boat.mode_is("auto")
+        assert boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 0).result == mavlink.MAV_RESULT_ACCEPTED
         boat.mode_is("paused")
         before = len(boat.log())
         assert boat.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == mavlink.MAV_RESULT_ACCEPTED
@@ -234,7 +243,7 @@ def test_each_command_is_acknowledged_and_obeyed(tmp_path):
         assert boat.stop() == 0
     modes = [(r["mode"], r["cause"]) for r in boat.log() if r["event"] == "mode"]
     commanded = [m for m, c in modes if c.startswith("mavlink ")]
-    assert commanded[:6] == ["hold", "auto", "paused", "rtl", "stop", "hold"]
+    assert commanded[:8] == ["hold", "auto", "paused", "auto", "paused", "rtl", "stop", "hold"]
     # the only change of its own: the hold that ends an rtl begun within reach of the launch point
     assert all(c.startswith("mavlink ") or c == "rtl: at the launch point" for _, c in modes), modes
 
@@ -256,9 +265,18 @@ def test_a_manual_session_and_its_timeout(tmp_path):
         assert 2 <= len(ignored) <= 4 and ignored[0]["answer"] == ("stick input ignored: mode auto (choose MANUAL to "
                                                                    "drive by stick)"), ignored
         assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 0).result == mavlink.MAV_RESULT_ACCEPTED  # MANUAL
+        # a multicopter's pitch and yaw sticks (x, r) do not drive a Rover: they drove this boat, and the Rover's
+        # throttle and steering (z, y) did nothing (a GCS audit)
+        t_end = time.monotonic() + 1.5
+        while time.monotonic() < t_end:
+            boat.gcs.mav.manual_control_send(1, 1000, 0, 0, 1000, 0)
+            boat.beat()
+            time.sleep(0.05)
+        still = [r for r in boat.cycles() if r["mode"] == "manual"]
+        assert len(still) > 5 and all(r["thrust_port_n"] == r["thrust_stbd_n"] == 0.0 for r in still), still[-1]
         t_end = time.monotonic() + 3.0
         while time.monotonic() < t_end:  # full ahead, a little to port, at 20 Hz like a joystick
-            boat.gcs.mav.manual_control_send(1, 1000, 0, 0, -300, 0)
+            boat.gcs.mav.manual_control_send(1, 0, -300, 1000, 0, 0)
             boat.beat()
             time.sleep(0.05)
         manual = [r for r in boat.cycles() if r["mode"] == "manual"]
@@ -268,7 +286,7 @@ def test_a_manual_session_and_its_timeout(tmp_path):
         # found by a new-user audit: armed in manual with the stick held forward, the boat went to full thrust at once;
         # as ArduPilot's "throttle not zero" check, arming needs the sticks at neutral
         assert boat.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == mavlink.MAV_RESULT_ACCEPTED
-        boat.gcs.mav.manual_control_send(1, 1000, 0, 0, -300, 0)
+        boat.gcs.mav.manual_control_send(1, 0, -300, 1000, 0, 0)
         assert boat.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == mavlink.MAV_RESULT_DENIED
         boat.recv("STATUSTEXT", pred=lambda m: m.text.startswith("arm refused: in manual the sticks must be"))
         boat.gcs.mav.manual_control_send(1, 0, 0, 0, 0, 0)
@@ -400,7 +418,7 @@ def test_malformed_commands_are_denied_naming_the_parameter_and_other_boats_stic
         assert len(said) == 1  # its first 50-character chunk
         t_end = time.monotonic() + 1.5
         while time.monotonic() < t_end:  # another boat's joystick, full ahead
-            boat.gcs.mav.manual_control_send(2, 1000, 0, 0, 0, 0)
+            boat.gcs.mav.manual_control_send(2, 0, 0, 1000, 0, 0)
             boat.beat()
             time.sleep(0.05)
         boat.gcs.mav.param_set_send(1, 1, b"FS_MAX_TIME", 1.0, mavlink.MAV_PARAM_TYPE_REAL32)
@@ -879,7 +897,7 @@ def test_mode_changes_as_the_standard_says_a_broken_datagram_and_the_planners_sh
         boat.mode_is("hold")
         # a datagram whose header announces 255 bytes of payload it does not carry, then a command at once
         boat.gcs.port.sendto(b"\xfd\xff\x00\x00\x00\xff\xbe\x4c\x00\x00", next(iter(boat.gcs.clients)))
-        ack = boat.command(mavlink.MAV_CMD_DO_PAUSE_CONTINUE, 1)
+        ack = boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 5)  # LOITER again: answered
         assert ack.result == mavlink.MAV_RESULT_ACCEPTED
         sys_status = mavlink.MAVLINK_MSG_ID_SYS_STATUS
         assert boat.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, sys_status, 60e6).result == mavlink.MAV_RESULT_ACCEPTED
@@ -983,7 +1001,7 @@ def test_a_joystick_stream_does_not_undo_a_failsafe_stop(tmp_path):
         crit = None
         t_end = time.monotonic() + 40.0
         while time.monotonic() < t_end and crit is None:  # driving by joystick at ~20 Hz until the battery trips
-            boat.gcs.mav.manual_control_send(1, 800, 0, 0, 0, 0)
+            boat.gcs.mav.manual_control_send(1, 0, 0, 800, 0, 0)
             boat.beat()
             boat.gcs.recv_match(blocking=False)
             time.sleep(0.05)
@@ -991,7 +1009,7 @@ def test_a_joystick_stream_does_not_undo_a_failsafe_stop(tmp_path):
         assert crit is not None, "battery_critical never tripped"
         t_end = time.monotonic() + 2.0  # the hand stays on the stick
         while time.monotonic() < t_end:
-            boat.gcs.mav.manual_control_send(1, 800, 0, 0, 0, 0)
+            boat.gcs.mav.manual_control_send(1, 0, 0, 800, 0, 0)
             boat.beat()
             time.sleep(0.05)
     finally:

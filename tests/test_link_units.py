@@ -221,3 +221,30 @@ def test_ais_vessel_carries_status_zero_dimension_flags_and_the_turn_rate():
     assert m.flags & dialect.AIS_FLAGS_VALID_TURN_RATE and m.turn_rate == -15  # 0.1 deg/s
     unknown = ais_vessel(mav, AisTarget(mmsi=1, ais_class="B", last_t_s=0.0, lat_deg=52.0, lon_deg=4.4), 1.0)
     assert unknown.navigational_status == 15 and not unknown.flags & dialect.AIS_FLAGS_VALID_TURN_RATE
+
+
+@pytest.mark.parametrize("tau_com_n", [-40.0, 40.0, -500.0])
+def test_vfr_hud_encodes_a_reverse_throttle_as_its_size(tau_com_n):
+    """Found by a GCS audit: a negative common thrust (braking in a hold, backing) made VFR_HUD's uint16 throttle
+    unencodable, and the HUD froze on old values for as long as it lasted. ArduPilot sends abs()."""
+    msg = T.vfr_hud(MAV, {"sog_m_s": 0.4, "heading_deg": 359.6, "tau_com_n": tau_com_n, "max_forward_n": 200.0})
+    decoded = mavlink.MAVLink(None).parse_char(msg.pack(MAV))
+    assert decoded.throttle == min(100, round(abs(tau_com_n) / 2.0)) and decoded.heading == 0
+
+
+def test_a_message_that_does_not_encode_is_counted_and_told_once_per_send():
+    from autopilot.link.link import _Port
+
+    class Quiet:
+        tx_errors = 0
+        sent: list = []
+
+        def send(self, data):
+            self.sent.append(data)
+
+    told = []
+    port = _Port(Quiet(), MAV, lambda kind, exc: told.append((kind, type(exc).__name__)))
+    port.send(MAV.vfr_hud_encode(0.0, 0.0, 0, -20, 0.0, 0.0))  # uint16 throttle -20: does not pack
+    port.send(MAV.vfr_hud_encode(0.0, 0.0, 0, 20, 0.0, 0.0))
+    assert port.endpoint.tx_errors == 1 and len(port.endpoint.sent) == 1
+    assert told == [("VFR_HUD", "error")]

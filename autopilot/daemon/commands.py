@@ -72,7 +72,7 @@ def _helm(loop, request, helm_nav, unavailable, cause):
         # injection: a failsafe never replaces a stop in force, whoever's (cycle.answer_failsafe)
         return False, f"{command} not taken: {stop_stands(stopped)}"
     latched = list(loop.failsafe.latched)
-    if command in ("resume", "auto") and latched:
+    if command in ("resume", "continue", "auto") and latched:
         return False, (f"{command} refused: {', '.join(latched)} latched (a failsafe took the boat; "
                        "hold, rtl and stop are allowed)")
     heading = request.get("heading_deg")

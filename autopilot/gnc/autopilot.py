@@ -243,7 +243,7 @@ class Autopilot:
             if self.current.mode is not Mode.MANUAL:
                 self._switch(ManualMode(), cause)
             return True, Mode.MANUAL.value
-        if command not in ("hold", "pause", "resume", "rtl", "auto"):
+        if command not in ("hold", "pause", "resume", "continue", "rtl", "auto"):
             return False, (f"{command} refused: unknown command (hold, pause, resume, auto, rtl, stop, arm, disarm, "
                            "manual)")
         if nav is None:
@@ -251,6 +251,8 @@ class Autopilot:
         mode = self.current.mode
         if command == "resume":
             return self._resume(nav, cause)
+        if command == "continue":
+            return self._continue(nav, cause)
         if command == "auto":
             return self._auto(cause)
         if command == "pause" and mode not in (Mode.AUTO, Mode.RTL):
@@ -304,6 +306,19 @@ class Autopilot:
             self._switch(back, cause)
             return True, back.mode.value
         return self._to_mission("resume", cause)
+
+    def _continue(self, nav: NavInput, cause: str) -> tuple[bool, str]:
+        """A planner's DO_PAUSE_CONTINUE 1: what a pause stopped goes on, nothing else moves (ArduPilot's resume of
+        the mode it is in). As ``resume`` it drove the boat into the mission from a hold, a stop, an rtl, the
+        hold after a manual timeout (a GCS audit: Mission Planner's Resume pressed in HOLD started the
+        thrusters); in the mission it ended a waypoint's hold early."""
+        mode = self.current.mode
+        if mode is Mode.PAUSED and self.paused_from is not None:
+            return self._resume(nav, cause)
+        if self.current is self.auto:
+            return True, Mode.AUTO.value  # running: nothing paused to continue
+        return False, (f"continue refused: mode {mode.value} is not paused (continue goes on with what a pause "
+                       "stopped; AUTO starts the mission)")
 
     def _auto(self, cause: str) -> tuple[bool, str]:
         """The mission (a planner's AUTO, MISSION_START): unlike resume, never back to what a pause interrupted. AUTO

@@ -156,15 +156,24 @@ def _custom_mode_enabled(base_mode) -> bool:
 
 
 class _Port:
-    """One endpoint and its codec."""
+    """One endpoint and its codec. ``on_unencodable(message type, exception)``: told of a message that does not
+    encode (a VFR_HUD with a negative throttle went unsent for as long as the boat reversed, counted only in the
+    closing statistics: a GCS audit)."""
 
-    def __init__(self, endpoint: Endpoint, mav) -> None:
+    def __init__(self, endpoint: Endpoint, mav, on_unencodable=lambda kind, exc: None) -> None:
         self.endpoint, self.mav = endpoint, mav
+        self.on_unencodable = on_unencodable
 
     def send(self, msg) -> None:
         try:
-            self.endpoint.send(msg.pack(self.mav))
-        except Exception:  # noqa: BLE001 - a message that does not encode is a bug here, never a stop
+            data = msg.pack(self.mav)
+        except Exception as exc:  # noqa: BLE001 - a message that does not encode is a bug here, never a stop
+            self.endpoint.tx_errors += 1
+            self.on_unencodable(msg.get_type(), exc)
+            return
+        try:
+            self.endpoint.send(data)
+        except Exception:  # noqa: BLE001 - the endpoints count their own OSErrors; anything else, never a stop
             self.endpoint.tx_errors += 1
 
 
@@ -223,7 +232,7 @@ class MavlinkLink:
                     mav.signing.allow_unsigned_callback = self._allow_unsigned
                 else:
                     mav.signing.allow_unsigned_callback = lambda _mav, _msg_id: True
-            self.ports.append(_Port(ep, mav))
+            self.ports.append(_Port(ep, mav, self._unencodable))
         self.loop.log.listeners.append(self.on_event)
         self._tasks = [asyncio.create_task(self._receive(p), name=f"mavlink-rx-{k}") for k, p in enumerate(self.ports)]
         self._tasks.append(asyncio.create_task(self._send_loop(), name="mavlink-tx"))
@@ -269,6 +278,13 @@ class MavlinkLink:
 
     def submit(self, request: dict, answer) -> None:
         self.loop.submit(request, answer)
+
+    def _unencodable(self, kind: str, exc: Exception) -> None:
+        """A message of ours that does not encode: logged once per kind (a bug to report, not a flood to log)."""
+        key = f"unencodable {kind}"
+        if key not in self._refusals:
+            self._refusals[key] = 0.0
+            self.loop.log_event("info", message="mavlink message not sent", kind=kind, error=repr(exc)[:200])
 
     def refused(self, what: str, why: str) -> None:
         """A refusal the link decides by itself (a malformed item, an unknown parameter): logged and shown."""
@@ -400,8 +416,11 @@ class MavlinkLink:
                 return
             self._set_mode(port, msg, msg.custom_mode)
         elif t == "MANUAL_CONTROL":
-            x, r = (0 if v == 32767 else max(-1000, min(1000, v)) for v in (msg.x, msg.r))  # 32767: axis unused
-            self.submit({"command": "manual", "forward_nd": x / 1000.0, "turn_nd": r / 1000.0, "source": "mavlink"},
+            # ArduPilot Rover's axes: z the throttle (0 stop, -1000 full astern), y the steering (+1000 full to
+            # starboard). x and r (a multicopter's pitch and yaw) drove it before, and a planner's joystick set up for
+            # a Rover did nothing while its pitch stick drove the boat (a GCS audit)
+            z, y = (0 if v == 32767 else max(-1000, min(1000, v)) for v in (msg.z, msg.y))  # 32767: axis unused
+            self.submit({"command": "manual", "forward_nd": z / 1000.0, "turn_nd": y / 1000.0, "source": "mavlink"},
                         lambda reply: None)  # a refusal is logged, and the log's listener shows it
         elif t.startswith("MISSION_"):
             self.missions.handle(port, msg)
@@ -475,7 +494,7 @@ class MavlinkLink:
         elif c == mavlink.MAV_CMD_DO_PAUSE_CONTINUE:
             k = self._whole(port, msg, p1, "param1", "0 (pause) or 1 (continue)", lambda k: k in (0, 1))
             if k is not None:
-                self._ask_loop(port, msg, {"command": "pause" if k == 0 else "resume"})
+                self._ask_loop(port, msg, {"command": "pause" if k == 0 else "continue"})
         elif c == mavlink.MAV_CMD_MISSION_START:
             self._ask_loop(port, msg, {"command": "auto"})
         elif c == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:

@@ -117,7 +117,9 @@ def gps_raw_int(mav, st: dict, time_usec: int):
 def vfr_hud(mav, st: dict):
     sog = _num(st, "sog_m_s")
     limit = _num(st, "max_forward_n", 1.0) or 1.0
-    throttle = int(round(max(-100.0, min(100.0, 100.0 * _num(st, "tau_com_n") / limit))))
+    # the common thrust's size, as ArduPilot's abs(): VFR_HUD's throttle is a uint16, and a reverse one (braking in
+    # a hold, backing) did not encode: the HUD froze on old values while the boat reversed (a GCS audit)
+    throttle = int(round(min(100.0, abs(100.0 * _num(st, "tau_com_n") / limit))))
     return mav.vfr_hud_encode(sog, sog, int(round(_num(st, "heading_deg"))) % 360, throttle, 0.0, 0.0)
 
 
