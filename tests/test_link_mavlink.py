@@ -828,6 +828,8 @@ def test_a_mission_with_a_speed_item_keeps_the_planners_item_numbers(tmp_path):
     boat = Boat(tmp_path, mission={"name": "far", "frame": "local", "waypoints": [[-40.0, 0.0]]})
     try:
         boat.mode_is("auto")
+        boat.gcs.mav.mission_request_list_send(1, 1)
+        assert boat.recv("MISSION_COUNT").count == 2  # home and the one waypoint
         boat.gcs.mav.mission_count_send(1, 1, len(items))
         while True:
             m = boat.recv(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"])
@@ -839,6 +841,13 @@ def test_a_mission_with_a_speed_item_keeps_the_planners_item_numbers(tmp_path):
                                                round(lon * 1e7), 0)
         assert m.type == mavlink.MAV_MISSION_ACCEPTED
         boat.wait_log(lambda r: r["event"] == "mission_replaced", what="mission replaced")
+        # an item of the new mission, asked without a new list: served from it, not refused by the count of the
+        # download before the upload (INVALID_SEQUENCE: a GCS audit)
+        boat.drain()
+        boat.gcs.mav.mission_request_int_send(1, 1, 3)
+        got = boat.recv(["MISSION_ITEM_INT", "MISSION_ACK"])
+        assert got.get_type() == "MISSION_ITEM_INT" and got.seq == 3, got
+        assert (got.x, got.y) == (round(wps[1][0] * 1e7), round(wps[1][1] * 1e7))
         boat.gcs.mav.mission_request_list_send(1, 1)
         assert boat.recv("MISSION_COUNT").count == 5
         boat.gcs.mav.mission_request_send(1, 1, 2)  # the float protocol
@@ -863,18 +872,25 @@ def test_a_mission_with_a_speed_item_keeps_the_planners_item_numbers(tmp_path):
         # (its STATUSTEXT is the mode line's text, in 50-character chunks: telemetry.event_text; read from the log,
         # as wait_log above reads and drops what the ground station received meanwhile)
         mode = boat.wait_log(lambda r: r["event"] == "mode" and "set_current" in r["cause"], what="the jump's mode")
-        assert T.event_text("mode", mode)[1] == "mode auto: mavlink set_current: waypoint 2 (mission item 4)"
+        assert T.event_text("mode", mode)[1] == "mode auto (AUTO): mavlink set_current: waypoint 2 (mission item 4)"
+        # item 0 (home) restarts the mission at its first waypoint, as ArduPilot's: Mission Planner's Restart Mission
+        # (it was refused, "item 0 is home": a GCS audit)
         boat.gcs.mav.mission_set_current_send(1, 1, 0)
-        assert "item 0 is home" in boat.recv("STATUSTEXT", pred=lambda m: "MISSION_SET_CURRENT" in m.text).text
+        assert boat.recv("MISSION_CURRENT").seq == 1
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 4).result == mavlink.MAV_RESULT_ACCEPTED
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 0).result == mavlink.MAV_RESULT_ACCEPTED
         assert boat.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, 9).result == mavlink.MAV_RESULT_DENIED
         boat.gcs.mav.mission_write_partial_list_send(1, 1, 1, 2)  # unanswered once: the planner timed out
         assert boat.recv("MISSION_ACK").type == mavlink.MAV_MISSION_UNSUPPORTED
     finally:
         assert boat.stop() == 0
     refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
-    assert refused[:2] == ["MISSION_SET_CURRENT refused: item 0 is home", "DO_SET_MISSION_CURRENT refused: item 9 is "
-                           "not a waypoint of the mission (waypoints are items 1..4)"]
-    assert refused[2].startswith("MISSION_WRITE_PARTIAL_LIST not supported: send the whole mission")
+    assert refused[:1] == ["DO_SET_MISSION_CURRENT refused: item 9 is not a waypoint of the mission (waypoints are "
+                           "items 1..4)"]
+    assert refused[1].startswith("MISSION_WRITE_PARTIAL_LIST not supported: send the whole mission")
+    jumps = [r["answer"] for r in boat.log() if r["event"] == "command" and r["command"] == "set_current"]
+    assert jumps == ["waypoint 2 (mission item 4)", "waypoint 0 (mission item 1)", "waypoint 2 (mission item 4)",
+                     "waypoint 0 (mission item 1)"]
 
 
 def test_mode_changes_as_the_standard_says_a_broken_datagram_and_the_planners_shortcuts(tmp_path):
@@ -1165,3 +1181,68 @@ def test_an_endpoint_waiting_cannot_help_is_still_refused_at_start(tmp_path):
         taken.close()
     assert p.returncode == 2, p.stderr[-1500:]
     assert f"mavlink endpoint udpin:127.0.0.1:{port}: cannot open (" in p.stderr and "in use" in p.stderr, p.stderr[-1500:]
+
+
+def test_the_planners_waypoint_is_where_the_mode_takes_the_boat(tmp_path):
+    """Found by a GCS audit: NAV_CONTROLLER_OUTPUT gave the mission's waypoint in every mode: in rtl 21 m to item 3
+    with home 46 m the other way, after a "go here" the bearing of the mission's waypoint. ArduPilot gives the
+    mode's destination: rtl's launch point, the point held."""
+    boat = Boat(tmp_path)
+    try:
+        boat.wait_log(lambda r: r["event"] == "cycle" and r["mode"] == "auto" and r["est_north_m"] is not None
+                      and r["est_north_m"] > 15.0, what="the boat out on the first leg")
+        launch = next(r for r in boat.log() if r["event"] == "launch")
+        assert boat.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("rtl")
+        nco = boat.recv("NAV_CONTROLLER_OUTPUT")
+        last = boat.cycles()[-1]
+        dn, de = launch["north_m"] - last["est_north_m"], launch["east_m"] - last["est_east_m"]
+        assert last["mode"] == "rtl" and math.hypot(dn, de) > 10.0
+        assert abs(nco.wp_dist - math.hypot(dn, de)) < 3.0, (nco, last)
+        assert abs((nco.target_bearing - math.degrees(math.atan2(de, dn)) + 180.0) % 360.0 - 180.0) < 10.0
+        lat, lon = local_to_latlon(last["est_north_m"], last["est_east_m"] - 20.0, *ORIGIN)  # 20 m to the west
+
+        def position_target(lat_deg, lon_deg):  # the type_mask of a position alone
+            boat.gcs.mav.set_position_target_global_int_send(0, 1, 1, mavlink.MAV_FRAME_GLOBAL_INT, 0b110111111000,
+                                                             round(lat_deg * 1e7), round(lon_deg * 1e7), 0.0,
+                                                             0, 0, 0, 0, 0, 0, 0, 0)
+
+        position_target(lat, lon)  # in rtl: not carried out, said (it was ignored without a word: the same audit)
+        boat.wait_log(lambda r: r["event"] == "command" and r["answer"].startswith(
+            "SET_POSITION_TARGET_GLOBAL_INT ignored: mode rtl is not GUIDED"), what="the position target refused")
+        ack = boat.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, 0, use_int=True, x=round(lat * 1e7),
+                           y=round(lon * 1e7))
+        assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+        boat.mode_is("hold")
+        nco = boat.recv("NAV_CONTROLLER_OUTPUT")
+        assert 15.0 < nco.wp_dist < 25.0 and abs((nco.target_bearing - 270.0 + 180.0) % 360.0 - 180.0) < 15.0, nco
+        # in GUIDED a position target is a go-here, as ArduPilot Rover's
+        target = (last["est_north_m"] + 15.0, last["est_east_m"] - 20.0)
+        position_target(*local_to_latlon(*target, *ORIGIN))
+        moved = boat.wait_log(lambda r: r["event"] == "cycle" and r["hold_north_m"] is not None
+                              and abs(r["hold_north_m"] - target[0]) < 0.05, what="the hold moved")
+        assert abs(moved["hold_east_m"] - target[1]) < 0.05
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4).result == mavlink.MAV_RESULT_ACCEPTED  # HOLD: stop
+        boat.mode_is("stop")
+        assert boat.recv("NAV_CONTROLLER_OUTPUT").wp_dist == 0  # nowhere to go
+    finally:
+        assert boat.stop() == 0
+
+
+def test_a_missions_rtl_stays_rtl_and_its_item_at_home(tmp_path):
+    """Found by a GCS audit: at home after the mission's RTL item the heartbeat said LOITER (unasked: Rover stays
+    in RTL, a boat loitering there) and MISSION_CURRENT went back to the last waypoint's item."""
+    boat = Boat(tmp_path, mission={"name": "out-and-home", "frame": "local", "waypoints": [[12.0, 0.0], "rtl"]},
+                speedup=8.0)
+    try:
+        arrived = boat.wait_log(lambda r: r["event"] == "mode" and r["cause"] == "rtl: at the launch point", 60.0,
+                                what="home")
+        boat.wait_log(lambda r: r["event"] == "cycle" and r["mode"] == "hold", what="holding at home")
+        hb = boat.recv("HEARTBEAT", pred=lambda m: m.get_srcSystem() == 1)
+        current = boat.recv("MISSION_CURRENT")
+        text = boat.recv("STATUSTEXT", pred=lambda m: "at the launch point" in m.text)
+    finally:
+        assert boat.stop() == 0
+    assert arrived["mode"] == "hold" and hb.custom_mode == 11
+    assert (current.seq, current.total) == (2, 2)  # home 0, the waypoint 1, the RTL item 2
+    assert text.text == "mode hold (RTL): rtl: at the launch point"

@@ -27,6 +27,15 @@ def test_every_mode_has_a_rover_number_and_the_planners_modes_map_back():
     assert [command_for_rover_mode(n) for n in (10, 5, 11, 4, 0, 15)] == ["auto", "hold", "rtl", "stop", "manual",
                                                                            "hold"]
     assert command_for_rover_mode(3) is None and command_for_rover_mode(12) is None  # STEERING, SMART_RTL
+    # the hold at home an rtl ends in is Rover's RTL still (LOITER came unasked: a GCS audit)
+    assert rover_mode("hold", "rtl: at the launch point") == 11 and rover_mode("hold", "ctl hold") == 5
+
+
+def test_a_mode_change_is_said_with_the_planners_name_of_the_mode():
+    """Found by a GCS audit: the LOITER chosen came back as "mode hold", the HOLD as "mode stop"."""
+    assert T.event_text("mode", {"mode": "hold", "cause": "mavlink hold"})[1] == "mode hold (LOITER): mavlink hold"
+    assert T.event_text("mode", {"mode": "stop", "cause": "mavlink stop"})[1] == "mode stop (HOLD): mavlink stop"
+    assert T.event_text("mode", {"mode": "hold", "cause": "mavlink guided"})[1] == "mode hold (GUIDED): mavlink guided"
 
 
 def test_parameters_are_configuration_keys_with_their_ranges():

@@ -308,10 +308,10 @@ class ControlLoop:
 
         hold = None if out is None else out.hold_target_ne_m
         ap, origin = self.ap, (self.mission.origin_lat_deg, self.mission.origin_lon_deg)
-        wp = ap.guidance.waypoints[ap.wp_index]
+        goal = self._destination_ne_m(hold)
         dist = brg = None
-        if nav.est_north_m is not None:
-            dn, de = wp[0] - nav.est_north_m, wp[1] - nav.est_east_m
+        if nav.est_north_m is not None and goal is not None:
+            dn, de = goal[0] - nav.est_north_m, goal[1] - nav.est_east_m
             dist, brg = math.hypot(dn, de), math.degrees(math.atan2(de, dn)) % 360.0
         launch = ap.launch_ne_m
         launch_ll = (None, None) if launch is None else local_to_latlon(launch[0], launch[1], *origin)
@@ -341,6 +341,20 @@ class ControlLoop:
             "thrust_stbd_n": None if out is None else out.thrust_stbd_n,
         }
 
+    def _destination_ne_m(self, hold_ne_m) -> tuple[float, float] | None:
+        """Where the helm takes the boat now, as ArduPilot's mode destination (a planner's distance to the waypoint
+        and its bearing): the point held (a hold, a pause, GUIDED, a hold item, rtl closing on its end), rtl's launch
+        point, the mission's waypoint; none when stopped, in manual or with the route done. The mission's
+        waypoint in every mode said the boat in rtl 21 m from item 3 with home 46 m the other way (a GCS audit)."""
+        ap = self.ap
+        if hold_ne_m is not None:
+            return hold_ne_m
+        if ap.mode is Mode.RTL:
+            return ap.current.launch
+        if ap.mode is Mode.AUTO and not ap.guidance.complete:
+            return ap.guidance.waypoints[ap.wp_index]
+        return None
+
     def mission_item_now(self) -> tuple[int, int]:
         """(the MAVLink item number the helm steers to now, the mission's item count), (0, 0) when cleared: from
         the helm, not the last cycle's status (a MISSION_SET_CURRENT's answer is sent before the next cycle)."""
@@ -350,7 +364,9 @@ class ControlLoop:
         # the RTL item once the mission has come to it; an rtl mid-mission, or a jump while returning, leaves the
         # mission's own current item (as ArduPilot reports it): a MISSION_SET_CURRENT answered with the RTL item
         # looked refused to the planner (a review)
-        returning = ap.mode is Mode.RTL and numbers.rtl is not None and ap.guidance.complete
+        # ... and the hold at home it ends in (it went back to the last waypoint's item: a GCS audit)
+        returning = (numbers.rtl is not None and ap.guidance.complete
+                     and (ap.mode is Mode.RTL or ap.mode_cause == RTL_ARRIVED_CAUSE))
         item = numbers.rtl if returning else numbers.waypoints[ap.wp_index]
         return int(item), int(numbers.count)
 

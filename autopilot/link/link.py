@@ -38,6 +38,7 @@ from autopilot.link.config import MavlinkConfig, MavlinkRates
 from autopilot.link.endpoint import Endpoint, open_endpoint, parse_endpoint
 from autopilot.link.missions import MissionProtocol
 from autopilot.link.modes import GUIDED_CAUSE, ROVER_MODES, command_for_rover_mode
+from autopilot.logschema import Mode
 from autopilot.schema import ConfigError
 
 __all__ = ["MavlinkLink", "load_signing_key", "rate_for_interval", "rates_for_stream", "READ_ONLY_MESSAGES"]
@@ -153,6 +154,14 @@ def _custom_mode_enabled(base_mode) -> bool:
     """SET_MODE's base_mode (DO_SET_MODE's param1) says the custom mode is meant, as ArduPilot requires: a
     standard mode such as MAV_MODE_AUTO_ARMED with custom mode 0 was taken as MANUAL and left the mission."""
     return (int(base_mode) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED) != 0
+
+
+# SET_POSITION_TARGET_GLOBAL_INT: the frames a latitude and longitude come in (the altitude is not used), and the
+# type_mask bits that say x or y (the position) is not given
+GLOBAL_FRAMES = frozenset({mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_INT,
+                           mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+                           mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT})
+POSITION_IGNORED = mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE
 
 
 class _Port:
@@ -319,6 +328,14 @@ class MavlinkLink:
             return None
         return {"command": "hold", "north_m": n, "east_m": e, "cause": GUIDED_CAUSE}  # ArduPilot: GUIDED
 
+    def item_to_fly(self, seq: int) -> int:
+        """The mission item a jump to ``seq`` means: item 0 (home) restarts the mission at its first waypoint, as
+        ArduPilot's set_current_cmd (Mission Planner's Restart Mission sends it; it was refused: a GCS audit)."""
+        numbers = self.loop.item_numbers
+        if seq == 0 and numbers.waypoints and not self.loop.ap.mission_cleared:
+            return int(numbers.waypoints[0])
+        return seq
+
     def waypoint_of_item(self, seq: int, what: str) -> int | None:
         """The waypoint (index) a jump to mission item ``seq`` flies to; None (refused, logged, shown) when the
         item is not one: the texts number items as the planner does (home is 0)."""
@@ -427,16 +444,44 @@ class MavlinkLink:
         elif t in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
             self._param(port, msg)
         elif t == "RC_CHANNELS_OVERRIDE":  # Mission Planner's joystick: ignored without a word before (a GCS audit)
-            now = self.clock()
-            if now - self._refusals.get(t, -math.inf) >= 10.0:
-                self._refusals[t] = now
-                self.refused("rc_override", "RC_CHANNELS_OVERRIDE not supported: drive by MANUAL_CONTROL (QGroundControl's "
-                             "joystick) in MANUAL mode")
+            self._said_every_10_s(t, "rc_override", "RC_CHANNELS_OVERRIDE not supported: drive by MANUAL_CONTROL "
+                                  "(QGroundControl's joystick) in MANUAL mode")
+        elif t == "SET_POSITION_TARGET_GLOBAL_INT":
+            self._position_target(msg)
         elif t == "REQUEST_DATA_STREAM":  # unanswered, as ArduPilot: the new rate shows in the telemetry itself
             for mid, hz in rates_for_stream(self.cfg.rates, msg.req_stream_id, msg.req_message_rate,
                                             msg.start_stop).items():
                 self.rates[mid] = hz
                 self._due[mid] = 0.0
+
+    def _said_every_10_s(self, key: str, what: str, why: str) -> None:
+        """A refusal of a message a planner streams, said once every 10 s, not each time."""
+        now = self.clock()
+        if now - self._refusals.get(key, -math.inf) >= 10.0:
+            self._refusals[key] = now
+            self.refused(what, why)
+
+    def _position_target(self, msg) -> None:
+        """SET_POSITION_TARGET_GLOBAL_INT as ArduPilot Rover takes it: in GUIDED a position is a "go here" (as
+        DO_REPOSITION); outside GUIDED, or without a position, it is not carried out, and said (the message has no
+        ack). It was ignored without a word (a GCS audit)."""
+        name = "SET_POSITION_TARGET_GLOBAL_INT"
+        ap = self.loop.ap
+        if not (ap.mode is Mode.HOLD and ap.mode_cause == GUIDED_CAUSE):
+            self._said_every_10_s(name, "position_target", f"{name} ignored: mode {ap.mode.value} is not GUIDED "
+                                  "(choose GUIDED, or use go here: DO_REPOSITION)")
+            return
+        if int(msg.coordinate_frame) not in GLOBAL_FRAMES:
+            self._said_every_10_s(name, "position_target", f"{name} refused: coordinate_frame "
+                                  f"{int(msg.coordinate_frame)} is not a global frame (0, 3, 5, 6, 10, 11)")
+            return
+        if int(msg.type_mask) & POSITION_IGNORED:
+            self._said_every_10_s(name, "position_target", f"{name} refused: only a position target is supported "
+                                  "(type_mask ignores x or y; velocity, acceleration and yaw targets are not)")
+            return
+        request = self.reposition(msg.lat_int / 1e7, msg.lon_int / 1e7)
+        if request is not None:
+            self.submit({**request, "source": "mavlink"}, lambda reply: None)  # a refusal is logged, and shown
 
     def _gcs_seen(self) -> None:
         now = self.clock()
@@ -508,7 +553,8 @@ class MavlinkLink:
                 return
             self._ask_loop(port, msg, request)
         elif c == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT:
-            seq = self._whole(port, msg, p1, "param1 (mission item)", "a whole number >= 1", lambda k: k >= 1)
+            seq = self._whole(port, msg, p1, "param1 (mission item)", "a whole number >= 0", lambda k: k >= 0)
+            seq = None if seq is None else self.item_to_fly(seq)
             index = None if seq is None else self.waypoint_of_item(seq, "DO_SET_MISSION_CURRENT")
             if index is not None:
                 self._ask_loop(port, msg, {"command": "set_current", "index": index, "item": seq})

@@ -61,6 +61,7 @@ class MissionProtocol:
         self.link = link
         self.uploads: dict = {}  # endpoint -> _Upload
         self.download_items: list | None = None
+        self._download_of: tuple | None = None  # (the loop's mission, cleared) the download's items are of
 
     def handle(self, ep, msg) -> None:
         t = msg.get_type()
@@ -115,9 +116,14 @@ class MissionProtocol:
                 ep.send(mav.mission_count_encode(peer[0], peer[1], 0, mission_type))
                 return
             self.download_items = self.link.mission_items()
+            self._download_of = self._mission_now()
             ep.send(mav.mission_count_encode(peer[0], peer[1], len(self.download_items)))
         elif t in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
-            items = self.download_items if self.download_items is not None else self.link.mission_items()
+            # the items counted at the list request, while that mission is the loop's: one uploaded or cleared since
+            # is served as it is now, as ArduPilot serves from its store (the old one's count refused its items)
+            same = self.download_items is not None and self._download_of is not None and (
+                self._download_of[0] is self._mission_now()[0] and self._download_of[1] == self._mission_now()[1])
+            items = self.download_items if same else self.link.mission_items()
             if not 0 <= msg.seq < len(items):
                 self._ack(ep, peer, mavlink.MAV_MISSION_INVALID_SEQUENCE)
                 return
@@ -151,11 +157,12 @@ class MissionProtocol:
                 self.link.refused("mission", f"mission upload cancelled by the ground station after {len(up.items)} "
                                              f"of {up.count} items (MISSION_ACK {msg.type})")
         elif t == "MISSION_SET_CURRENT":
-            index = self.link.waypoint_of_item(int(msg.seq), "MISSION_SET_CURRENT")
+            seq = self.link.item_to_fly(int(msg.seq))
+            index = self.link.waypoint_of_item(seq, "MISSION_SET_CURRENT")
             if index is None:
                 self.link.send_mission_current()  # the answer MAVLink has: the current item, unchanged
                 return
-            self.link.submit({"command": "set_current", "index": index, "item": int(msg.seq), "source": "mavlink"},
+            self.link.submit({"command": "set_current", "index": index, "item": seq, "source": "mavlink"},
                              lambda reply: self.link.send_mission_current())
 
     def _clear(self, ep, peer, mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION) -> None:
@@ -176,6 +183,10 @@ class MissionProtocol:
                 continue
             up.retries += 1
             self._ask(ep)
+
+    def _mission_now(self) -> tuple:
+        loop = self.link.loop
+        return loop.mission, bool(loop.ap.mission_cleared)
 
     def _ask(self, ep) -> None:
         up = self.uploads[ep]

@@ -13,7 +13,7 @@ follows Rover's: Rover's HOLD stops the motors (our ``stop``), Rover's LOITER ho
     auto       AUTO (10)      AUTO: the mission (not back to what a pause interrupted: DO_PAUSE_CONTINUE)
     hold       LOITER (5)     LOITER: hold here
     paused     LOITER (5)     (MAV_CMD_DO_PAUSE_CONTINUE 0)
-    rtl        RTL (11)       RTL
+    rtl        RTL (11)       RTL (and the hold at the launch point it ends in, as Rover's)
     stop       HOLD (4)       HOLD: zero thrust
     failsafe   HOLD (4)       -
     complete   HOLD (4)       -
@@ -23,9 +23,9 @@ follows Rover's: Rover's HOLD stops the motors (our ``stop``), Rover's LOITER ho
 
 from __future__ import annotations
 
-from autopilot.logschema import Mode
+from autopilot.logschema import RTL_ARRIVED_CAUSE, Mode
 
-__all__ = ["ROVER_MODES", "GUIDED_CAUSE", "rover_mode", "command_for_rover_mode"]
+__all__ = ["ROVER_MODES", "GUIDED_CAUSE", "rover_mode", "rover_mode_name", "command_for_rover_mode"]
 
 ROVER_MODES = {0: "MANUAL", 1: "ACRO", 3: "STEERING", 4: "HOLD", 5: "LOITER", 6: "FOLLOW", 7: "SIMPLE",
                8: "DOCK", 9: "CIRCLE", 10: "AUTO", 11: "RTL", 12: "SMART_RTL", 15: "GUIDED", 16: "INITIALISING"}
@@ -47,7 +47,14 @@ def rover_mode(mode: Mode | str, cause: str | None = None) -> int:
     Mission (GUIDED, arm, MISSION_START) saw the mode change fail three times and gave up (found by a GCS audit)."""
     if Mode(mode) is Mode.HOLD and cause == GUIDED_CAUSE:
         return 15
+    if Mode(mode) is Mode.HOLD and cause == RTL_ARRIVED_CAUSE:
+        return 11  # Rover stays in RTL at home (a boat loiters there): LOITER came unasked (a GCS audit)
     return _OURS_TO_ROVER[Mode(mode)]
+
+
+def rover_mode_name(mode: Mode | str, cause: str | None = None) -> str:
+    """The name a planner shows for the mode: ``LOITER`` for our ``hold``, ``HOLD`` for our ``stop``."""
+    return ROVER_MODES[rover_mode(mode, cause)]
 
 
 def command_for_rover_mode(custom_mode: int) -> str | None:

@@ -25,7 +25,7 @@ import math
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from autopilot.daemon.failsafe import FAULT_CLASS
-from autopilot.link.modes import rover_mode
+from autopilot.link.modes import rover_mode, rover_mode_name
 from autopilot.logschema import Mode
 
 __all__ = ["heartbeat", "sys_status", "global_position_int", "attitude", "gps_raw_int", "vfr_hud",
@@ -226,8 +226,12 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
         return mavlink.MAV_SEVERITY_INFO, f"cleared {f.get('cause')}"
     if name == "resume":
         return mavlink.MAV_SEVERITY_INFO, f"resumed after {f.get('cause')}"
-    if name == "mode":
-        return mavlink.MAV_SEVERITY_INFO, f"mode {f.get('mode')}: {f.get('cause')}"
+    if name == "mode":  # with the planner's name of it: "mode hold" came for the LOITER chosen (a GCS audit)
+        try:
+            shown = f" ({rover_mode_name(f.get('mode'), f.get('cause'))})"
+        except (ValueError, KeyError):
+            shown = ""
+        return mavlink.MAV_SEVERITY_INFO, f"mode {f.get('mode')}{shown}: {f.get('cause')}"
     if name == "command" and not f.get("accepted"):
         return mavlink.MAV_SEVERITY_WARNING, str(f.get("answer"))
     if name == "arming":
