@@ -159,7 +159,7 @@ class ControlCycle:
                                                 "how": out.reached_how}))
         if out.complete and self.completed_t_s is None:
             self.completed_t_s = now_s
-            events.append(("mission_complete", {"wp_count": len(ap.guidance.waypoints)}))
+            events.append(("mission_complete", {"wp_count": len(ap.guidance.waypoints), "rtl": bool(ap.auto.rtl)}))
         return out
 
 

@@ -260,6 +260,8 @@ EVENTS: tuple[EventSpec, ...] = (
     )),
     EventSpec("mission_complete", "the last waypoint reached", (
         _f("wp_count", "int", "-", "waypoints in the mission"),
+        _f("rtl", "bool", "-", "the mission ends with its return to launch, which begins now (a planner is told the "
+           "waypoints are done, not the mission; null in logs before 2026-12-06)"),
     )),
     EventSpec("fault", "a failsafe cause appeared (once per cause until it clears)", (
         _CAUSE, _f("detail", "string", "-", "what was seen"))),

@@ -594,7 +594,7 @@ def test_a_go_here_across_a_concave_geofence_is_refused_and_one_along_it_taken(t
     finally:
         assert boat.stop() == 0
     refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
-    assert any(a.startswith("hold refused: the leg from the boat to the point leaves the geofence") for a in refused), \
+    assert any(a.startswith("go here refused: the leg from the boat to the point leaves the geofence") for a in refused), \
         refused
     assert not [r for r in boat.log() if r["event"] == "fault"]
 
@@ -618,7 +618,7 @@ def test_a_mission_or_a_reposition_beyond_a_failsafe_limit_is_refused_up_front(t
     finally:
         assert boat.stop() == 0
     refused = [r["answer"] for r in boat.log() if r["event"] == "command" and not r["accepted"]]
-    assert any(a.startswith("hold refused: the point is beyond the max_distance failsafe: 300.0 m") for a in refused)
+    assert any(a.startswith("go here refused: the point is beyond the max_distance failsafe: 300.0 m") for a in refused)
     assert any(a.startswith("mission refused: waypoint 2 is beyond the max_distance failsafe") for a in refused)
     assert not [r for r in boat.log() if r["event"] == "fault"]
 
@@ -1246,3 +1246,5 @@ def test_a_missions_rtl_stays_rtl_and_its_item_at_home(tmp_path):
     assert arrived["mode"] == "hold" and hb.custom_mode == 11
     assert (current.seq, current.total) == (2, 2)  # home 0, the waypoint 1, the RTL item 2
     assert text.text == "mode hold (RTL): rtl: at the launch point"
+    done = next(r for r in boat.log() if r["event"] == "mission_complete")
+    assert done["rtl"] is True and T.event_text("mission_complete", done)[1] == "mission waypoints done: returning to launch"

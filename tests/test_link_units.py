@@ -257,3 +257,11 @@ def test_a_message_that_does_not_encode_is_counted_and_told_once_per_send():
     port.send(MAV.vfr_hud_encode(0.0, 0.0, 0, 20, 0.0, 0.0))
     assert port.endpoint.tx_errors == 1 and len(port.endpoint.sent) == 1
     assert told == [("VFR_HUD", "error")]
+
+
+def test_the_waypoints_done_before_the_missions_rtl_are_not_said_to_be_the_mission_complete():
+    """Found by a GCS audit: "mission complete" came before the mission's own RTL item ran."""
+    assert T.event_text("mission_complete", {"wp_count": 3, "rtl": True})[1] == \
+        "mission waypoints done: returning to launch"
+    assert T.event_text("mission_complete", {"wp_count": 3, "rtl": False})[1] == "mission complete"
+    assert T.event_text("mission_complete", {"wp_count": 3})[1] == "mission complete"  # a log before the field

@@ -78,8 +78,8 @@ def _helm(loop, request, helm_nav, unavailable, cause):
     heading = request.get("heading_deg")
     target = (request["north_m"], request["east_m"]) if "north_m" in request else None
     beyond = None if target is None else _beyond_limits(loop, *_way_to(loop, helm_nav, target), legs=True)
-    if beyond:
-        return False, f"{command} refused: {beyond}"
+    if beyond:  # a point given is a planner's "go here" (it was said "hold refused" for one: a GCS audit)
+        return False, f"{'go here' if command == 'hold' else command} refused: {beyond}"
     return loop.ap.request(command, helm_nav, cause=cause, unavailable=unavailable, target_ne_m=target,
                            heading_rad=None if heading is None else math.radians(float(heading)))
 

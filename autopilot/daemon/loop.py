@@ -216,7 +216,8 @@ class ControlLoop:
             # running until the loop ends; saved "complete" here, a crash in the final hold came back and flew the
             # mission again from its first waypoint, unasked (a new-user audit)
             self._save("running")
-            self.log.event("mission_complete", t_s=t_s, wp_count=len(self.mission.waypoints_ne_m))
+            self.log.event("mission_complete", t_s=t_s, wp_count=len(self.mission.waypoints_ne_m),
+                           rtl=bool(self.mission.rtl))
         st.finished = out.finished
         return out
 

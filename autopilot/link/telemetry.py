@@ -268,8 +268,9 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
     if name == "hold_heading" and f.get("across"):
         return mavlink.MAV_SEVERITY_WARNING, (f"hold heading {f.get('heading_deg', 0.0):.0f}: current across it, "
                                               f"point not held (try {f.get('feasible_heading_deg', 0.0):.0f})")
-    if name == "mission_complete":
-        return mavlink.MAV_SEVERITY_INFO, "mission complete"
+    if name == "mission_complete":  # "mission complete" came before the mission's own RTL item ran (a GCS audit)
+        return mavlink.MAV_SEVERITY_INFO, ("mission waypoints done: returning to launch" if f.get("rtl")
+                                           else "mission complete")
     if name == "info" and f.get("message") == "log write failed":  # the boat's own record is going: say so
         return mavlink.MAV_SEVERITY_ERROR, f"log write failed: {f.get('error')}"
     if name == "info" and f.get("message") == "state not saved":  # a restart after a crash would not know the run

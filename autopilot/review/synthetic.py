@@ -284,7 +284,7 @@ def write_synthetic_log(
             f.write(_line("waypoint_reached", t[-1], wp_index=last, north_m=round(float(north_true[-1]), 3),
                           east_m=round(float(east_true[-1]), 3), distance_m=round(float(abs(weave[-1])), 3),
                           how="capture"))
-            f.write(_line("mission_complete", t[-1], wp_count=len(wps)))
+            f.write(_line("mission_complete", t[-1], wp_count=len(wps), rtl=False))
         for i in sorted(passes):  # the passes still open end with the log
             if i >= len(wps) - 2 or (i + 1) not in {int(leg[k - 1]) for k in reached}:
                 ca, ct = passes[i]
