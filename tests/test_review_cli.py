@@ -122,14 +122,16 @@ def test_nan_positions_huge_thrusts_and_a_utf16_log_are_said_so(tmp_path, capsys
     huge = _rewritten(src, tmp_path / "huge.jsonl", lambda r: r.update(thrust_port_n=1e308))
     assert main(["review", str(nan), "--out", str(tmp_path / "r1"), "--no-plots"]) == 0
     out = capsys.readouterr()
-    assert "no position" in out.out and "non-numeric or infinite value(s) of north_m: treated as gaps" in out.out
+    assert "no position" in out.out
+    assert "non-numeric, infinite or absurd (beyond 1e12) value(s) of north_m: treated as gaps" in out.out
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # numpy's overflow warning reached the user's terminal
         assert main(["review", str(huge), "--out", str(tmp_path / "r2"), "--no-plots"]) == 0
     out = capsys.readouterr()
-    assert "thrust energy not computed: thrust values up to 1e+308 N overflow the sum" in out.out
+    # (an absurd value is a gap since a review audit: 1e308 was summed into a 300-digit distance)
+    assert "373 non-numeric, infinite or absurd (beyond 1e12) value(s) of thrust_port_n: treated as gaps" in out.out
     utf16 = tmp_path / "u.jsonl"
     utf16.write_bytes(src.read_text().encode("utf-16"))
     assert main(["review", str(utf16), "--out", str(tmp_path / "r3")]) == 2
@@ -177,19 +179,31 @@ def test_two_logs_joined_in_one_file_are_said_so(logs, tmp_path, capsys):
     text = (d / "ok.jsonl").read_text()
     (tmp_path / "two.jsonl").write_text(text + text)
     assert main(["review", str(tmp_path / "two.jsonl"), "--out", str(tmp_path / "r"), "--no-plots"]) == 0
-    assert "2 missions in one file (a mission_start line each): reviewed as one" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "2 missions in one file (a mission_start line each): reviewed as one" in out
+    assert "left out of every figure" in out
 
 
-def test_a_block_of_lines_written_twice_does_not_add_to_the_distance(logs, tmp_path):
+def test_a_block_of_lines_written_twice_is_left_out_of_every_figure(logs, tmp_path):
     """Found by a new-user audit: a log with lines 150-250 repeated (a copy glitch) gave a distance of 67.7 m for a
-    43.3 m mission: the jump back and the second pass were added. Only cycles later than every one before count."""
+    43.3 m mission: the jump back and the second pass were added. Then (a review audit) only the distance left the
+    block out: its energy, mode times, "position lost" (20 s in a log with a fix throughout) and exported fixes
+    counted it. Cycles not later than every one before are left out of every figure, and said."""
     d, _ = logs
     lines = (d / "ok.jsonl").read_text().splitlines(keepends=True)
     (tmp_path / "dup.jsonl").write_text("".join(lines[:250] + lines[150:250] + lines[250:]))
-    assert main(["review", str(d / "ok.jsonl"), "--out", str(tmp_path / "a"), "--no-plots"]) == 0
-    assert main(["review", str(tmp_path / "dup.jsonl"), "--out", str(tmp_path / "b"), "--no-plots"]) == 0
+    assert main(["review", str(d / "ok.jsonl"), "--out", str(tmp_path / "a"), "--no-plots", "--export", "gpx,csv"]) == 0
+    assert main(["review", str(tmp_path / "dup.jsonl"), "--out", str(tmp_path / "b"), "--no-plots",
+                 "--export", "gpx,csv"]) == 0
     a, b = (json.loads((tmp_path / x / "summary.json").read_text()) for x in "ab")
     assert b["distance_m"] == pytest.approx(a["distance_m"], rel=1e-9) and a["distance_m"] > 10.0
+    assert {k: v for k, v in b.items() if k not in ("path", "read_notes")} == \
+        {k: v for k, v in a.items() if k not in ("path", "read_notes")}
+    assert any("100 cycle(s) not later than one before" in n for n in b["read_notes"]), b["read_notes"]
+    assert (tmp_path / "b" / "dup.gpx").read_text().count("<trkpt") == \
+        (tmp_path / "a" / "ok.gpx").read_text().count("<trkpt")
+    assert len((tmp_path / "b" / "dup.csv").read_text().splitlines()) == \
+        len((tmp_path / "a" / "ok.csv").read_text().splitlines())
 
 
 def test_every_link_and_figure_of_a_report_resolves_whatever_the_log_is_called(tmp_path):

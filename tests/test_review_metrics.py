@@ -276,3 +276,57 @@ def test_how_a_run_ended_is_said_as_the_daemon_says_it(tmp_path):
     write_synthetic_log(cut, failsafe_at_s=20.0)
     card = score(read_log(cut))
     assert not card.finished and not card.complete and dict(card.table_rows())["stop"] == "stopped by SIGTERM"
+
+
+def test_the_closest_approach_summary_is_over_the_waypoints_reached(tmp_path):
+    """Found by a review audit: a run stopped by a signal as its next pass began showed "closest approach, mean /
+    max 5.47 / 20.24 m" for waypoints reached at 0.74 m at most: the unreached one's distance was in both."""
+    write_synthetic_log(tmp_path / "full.jsonl")
+    lines = (tmp_path / "full.jsonl").read_text().splitlines(keepends=True)
+    cut = [ln for ln in lines[: len(lines) * 6 // 10] if '"event": "stop"' not in ln]
+    (tmp_path / "cut.jsonl").write_text("".join(cut))
+    card = score(read_log(tmp_path / "cut.jsonl"))
+    reached = [w.closest_approach_m for w in card.waypoints if w.reached]
+    short = [w for w in card.waypoints if not w.reached and math.isfinite(w.closest_approach_m)]
+    assert reached and short and max(w.closest_approach_m for w in short) > max(reached)
+    value = dict(card.table_rows())["closest approach of the waypoints reached, mean / max"]
+    assert value.startswith(f"{np.mean(reached):.2f} / {np.max(reached):.2f} m; not reached: "), value
+    assert f"{short[0].label} {short[0].closest_approach_m:.2f} m" in value
+
+
+def test_waypoints_passed_in_a_hole_in_the_log_are_said_so_not_missed(tmp_path):
+    """Found by a review audit: with 30 s of a log lost, two waypoints reached in the hole were "not reached", at
+    6.73 and 3.58 m recomputed from the fixes left (0.17 and 0.34 m in truth), and the track plot drew them so."""
+    write_synthetic_log(tmp_path / "full.jsonl")
+    lines = (tmp_path / "full.jsonl").read_text().splitlines(keepends=True)
+    kept = [ln for ln in lines if not 6.0 < (json.loads(ln).get("t_s") or 0.0) < 28.0]
+    (tmp_path / "hole.jsonl").write_text("".join(kept))
+    full, hole = (score(read_log(tmp_path / f"{n}.jsonl")) for n in ("full", "hole"))
+    assert [w.reached for w in full.waypoints] == [True, True, True]
+    assert [w.in_hole for w in hole.waypoints] == [True, True, False]
+    assert [w.reached for w in hole.waypoints] == [False, False, True]
+    assert all(math.isnan(w.closest_approach_m) for w in hole.waypoints[:2])  # nothing known: no invented miss
+    rows = dict(hole.table_rows())
+    assert rows["waypoints reached"] == "1 of 3; 2 passed in a hole in the log (W0, W1): not known"
+    assert "not reached" not in rows["closest approach of the waypoints reached, mean / max"]
+
+
+def test_absurd_values_in_cycle_lines_are_gaps_not_figures(tmp_path):
+    """Found by a review audit: sog_m_s 1e308 and thrust_port_n 1e300 on a few cycles were summed into a distance
+    of 9e307 m (printed as a 300-digit number) and an energy of 9e299 N s, without a note."""
+    write_synthetic_log(tmp_path / "ok.jsonl")
+    lines = (tmp_path / "ok.jsonl").read_text().splitlines(keepends=True)
+    out, spoilt = [], 0
+    for ln in lines:
+        rec = json.loads(ln)
+        if rec["event"] == "cycle" and 100 <= rec["cycle"] < 109:
+            rec["sog_m_s"], rec["thrust_port_n"] = 1e308, 1e300
+            spoilt += 1
+        out.append(json.dumps(rec) + "\n")
+    (tmp_path / "absurd.jsonl").write_text("".join(out))
+    ok, bad = (score(read_log(tmp_path / f"{n}.jsonl")) for n in ("ok", "absurd"))
+    assert spoilt == 9
+    assert abs(bad.distance_m - ok.distance_m) < 2.0 and abs(bad.thrust_energy_n_s - ok.thrust_energy_n_s) < 0.1 * ok.thrust_energy_n_s
+    notes = " ".join(bad.read_notes)
+    assert "9 non-numeric, infinite or absurd (beyond 1e12) value(s) of sog_m_s" in notes
+    assert "9 non-numeric, infinite or absurd (beyond 1e12) value(s) of thrust_port_n" in notes

@@ -177,3 +177,21 @@ def test_another_programs_json_log_is_not_a_mission_log(tmp_path):
     with pytest.raises(ConfigError, match=r"not a mission log") as e:
         check_mission_log(path)
     assert "request" in str(e.value)
+
+
+def test_a_log_re_saved_in_windows_1252_is_read_whole_and_said(tmp_path):
+    """Found by a review audit: a log re-saved by an editor in Latin-1, an accented mission name on its first line,
+    lost its mission_start as "not JSON": no waypoints in the report, yet "stop: complete"."""
+    from autopilot.review.metrics import score
+
+    write_synthetic_log(tmp_path / "ok.jsonl")
+    lines = (tmp_path / "ok.jsonl").read_text().splitlines(keepends=True)
+    first = json.loads(lines[0])
+    first["mission"] = "étang nord"
+    lines[0] = json.dumps(first, ensure_ascii=False) + "\n"
+    (tmp_path / "cp.jsonl").write_bytes("".join(lines).encode("cp1252"))
+    log = read_log(tmp_path / "cp.jsonl")
+    assert log.start is not None and log.start["mission"] == "étang nord"
+    assert log.stats.corrupt == 0 and log.stats.not_utf8 == 1
+    assert "1 line(s) not UTF-8 (a log re-saved by an editor?): read as Windows-1252" in log.stats.describe()
+    assert len(score(log).waypoints) == len(score(read_log(tmp_path / "ok.jsonl")).waypoints) > 0

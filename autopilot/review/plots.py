@@ -307,6 +307,10 @@ def plot_track(log: MissionLog, card: Scorecard, path: Path) -> Path | None:
         if labelled:  # one label per waypoint (two, at the waypoint and its closest fix, overlapped)
             for w in card.waypoints:
                 text = w.label + (f"  {w.closest_approach_m:.2f} m" if math.isfinite(w.closest_approach_m) else "")
+                if not w.reached and math.isfinite(w.closest_approach_m):
+                    text += " (not reached)"  # drawn as a reached one's, it read as a miss by metres (a review audit)
+                elif w.in_hole:
+                    text += " (passed in a hole in the log)"
                 ax.annotate(text, (w.east_m, w.north_m), textcoords="offset points", xytext=(9, 4), fontsize=9,
                             bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.75})
     for name, marker, color in (("fault", "X", "#ef6c00"), ("failsafe", "*", "#d50000")):

@@ -63,7 +63,8 @@ class ReadStats:
     bad_values: Counter = field(default_factory=Counter)  # field -> non-numeric/infinite values
     bad_events: Counter = field(default_factory=Counter)  # "target" / "encounter" lines that cannot be placed
     unknown_modes: int = 0
-    time_reversals: int = 0  # cycles whose t_s is before the previous cycle's
+    time_reversals: int = 0  # cycles not later than every one before: left out
+    not_utf8: int = 0  # lines read as Windows-1252 (or Latin-1): not UTF-8
     examples: list = field(default_factory=list)  # (line number, reason) of the first skips
 
     @property
@@ -89,14 +90,16 @@ class ReadStats:
         for name, count in sorted(self.unknown_events.items()):
             out.append(f"{count} line(s) of unknown event {name!r}: skipped")
         for name, count in sorted(self.bad_values.items()):
-            out.append(f"{count} non-numeric or infinite value(s) of {name}: treated as gaps")
+            out.append(f"{count} non-numeric, infinite or absurd (beyond 1e12) value(s) of {name}: treated as gaps")
         for name, count in sorted(self.bad_events.items()):
             out.append(f"{count} {name} line(s) without a usable MMSI, time or position: not drawn or scored")
         if self.unknown_modes:
             out.append(f"{self.unknown_modes} cycle(s) with an unknown or missing mode")
         if self.time_reversals:
-            out.append(f"{self.time_reversals} cycle(s) with t_s going backwards (the distance counts only cycles "
-                       "later than every one before)")
+            out.append(f"{self.time_reversals} cycle(s) not later than one before (a block written twice, or another "
+                       "run appended): left out of every figure")
+        if self.not_utf8:
+            out.append(f"{self.not_utf8} line(s) not UTF-8 (a log re-saved by an editor?): read as Windows-1252")
         if self.blank:
             out.append(f"{self.blank} blank line(s)")
         if self.examples:
@@ -454,6 +457,9 @@ class _Columns:
         self.n += m
 
 
+ABSURD = 1e12  # |value| above this in a cycle line is corrupt (a position 1e12 m off is 25 000 times round the Earth)
+
+
 def _block_to_array(rows: list, stats: ReadStats) -> np.ndarray:
     try:
         arr = np.array(rows, dtype=np.float64)
@@ -469,8 +475,9 @@ def _block_to_array(rows: list, stats: ReadStats) -> np.ndarray:
                 except TypeError:
                     arr[i, j] = math.nan
                     stats.bad_values[CYCLE_FIELDS[j]] += 1
-        return arr
-    bad = ~np.isfinite(arr) & ~np.isnan(arr)
+    # no quantity of a mission log comes near ABSURD: 1e308 m/s was summed into a 300-digit distance (a review audit)
+    with np.errstate(invalid="ignore"):
+        bad = (~np.isfinite(arr) & ~np.isnan(arr)) | (np.abs(arr) > ABSURD)
     if bad.any():
         for j in np.nonzero(bad.any(axis=0))[0]:
             stats.bad_values[CYCLE_FIELDS[j]] += int(bad[:, j].sum())
@@ -561,6 +568,14 @@ def _lines(f, stats: ReadStats):
         yield raw
 
 
+def _cp1252_ok(raw: bytes) -> bool:
+    try:
+        raw.decode("cp1252")
+    except UnicodeDecodeError:  # the five bytes Windows-1252 leaves undefined: Latin-1 reads every byte
+        return False
+    return True
+
+
 def read_log(path) -> MissionLog:
     """Read one mission log in a single streaming pass.
 
@@ -589,8 +604,18 @@ def read_log(path) -> MissionLog:
     # not as a silent gap (a log of NaN positions gave "nan m" and no note)
     decode = json.JSONDecoder(parse_constant=lambda _name: math.inf).decode
 
-    def loads(raw):  # bytes, as json.loads takes them (a bad byte: ValueError, a corrupt line)
-        return decode(raw.decode("utf-8") if isinstance(raw, bytes) else raw)
+    def loads(raw):  # bytes, as json.loads takes them (a line that is not JSON: ValueError, a corrupt line)
+        if not isinstance(raw, bytes):
+            return decode(raw)
+        try:
+            return decode(raw.decode("utf-8"))
+        except UnicodeDecodeError:
+            # a log re-saved by an editor in Windows-1252 / Latin-1: its mission_start line (an accented mission
+            # name) was skipped as "not JSON", and the report had no waypoints (a review audit)
+            text = raw.decode("cp1252", errors="strict") if _cp1252_ok(raw) else raw.decode("latin-1")
+            rec = decode(text)
+            stats.not_utf8 += 1
+            return rec
 
     def first_loads(raw):  # the first line: a byte-order mark (a log saved by a Windows editor) is not data
         return loads(raw.removeprefix(codecs.BOM_UTF8) if isinstance(raw, bytes) else raw.removeprefix("\ufeff"))
@@ -684,9 +709,16 @@ def read_log(path) -> MissionLog:
         t = data[_INDEX["t_s"]]
     else:
         mode, source, situation = cols.mode[: cols.n], cols.source[: cols.n], cols.situation[: cols.n]
+    # a cycle not later than every one before is a block written twice (a copy glitch) or another run appended:
+    # left out of every figure. Kept, its energy, mode times, "position lost" and fixes counted twice while only
+    # the distance left it out (a review audit: 20 s of position lost in a log with a fix throughout)
+    later = t > np.maximum.accumulate(np.r_[-np.inf, t[:-1]]) if len(t) else np.zeros(0, dtype=bool)
+    if not later.all():
+        stats.time_reversals = int(np.count_nonzero(~later))
+        line_numbers = line_numbers[later]
+        data, mode, source, situation = data[:, later], mode[later], source[later], situation[later]
     stats.cycles = int(data.shape[1])
     stats.unknown_modes = int(np.count_nonzero(mode == UNKNOWN_CODE))
-    stats.time_reversals = int(np.count_nonzero(np.diff(t) < 0))
     return MissionLog(path=path, start=start, events=events, data=data, mode=mode,
                       heading_source=source, stats=stats, first_timestamp=first_ts,
                       last_timestamp=last_ts, avoid_situation=situation, line_numbers=line_numbers)
