@@ -203,6 +203,12 @@ def test_geofence_takes_its_configured_action(tmp_path, action):
                 c = _last_cycle(d)
                 assert c["mode"] == "hold" and c["hold_error_m"] < 3.0 and c["t_s"] > n0
             else:
+                # the operator pauses the failsafe's rtl and resumes it: it goes on home (it was refused, "geofence
+                # latched", and the boat stayed paused: an operator audit); resume never flies the mission here
+                assert await d.ctl("pause") == (0, "paused")
+                assert await d.ctl("resume") == (0, "rtl")
+                code, text = await d.ctl("resume")
+                assert code == 1 and text.startswith("resume refused: geofence latched"), text
                 await _wait_mode(d, "hold", 120.0)
                 launch = d.events("launch")[0]
                 await d.clock.sleep(10.0)
@@ -607,3 +613,72 @@ def test_a_restart_on_the_mission_s_way_home_goes_on_home(tmp_path):
             await d.close()
 
     asyncio.run(scenario())
+
+
+@pytest.mark.parametrize("command", ["stop", "rtl"])
+def test_a_crash_in_the_operators_mode_does_not_fly_the_mission_again_with_resume_after_restart(tmp_path, command):
+    """Found by an operator audit: with failsafe.resume_after_restart, a kill -9 after `ctl stop`, `ctl hold` or
+    `ctl rtl` and a restart flew the mission again, under thrust: the saved progress had no word of the operator's
+    mode. It holds zero thrust now, saying why, and `ctl resume` continues the mission."""
+    async def scenario():
+        d = Daemon(tmp_path, square_mission(side_m=30.0, laps=2), config={"failsafe": {"resume_after_restart": True}})
+        try:
+            await d.start()
+            await d.wait(lambda: any(r["event"] == "waypoint_reached" for r in d.log()), 60.0, "first waypoint")
+            code, text = await d.ctl(command)
+            assert code == 0, text
+            await d.wait(lambda: json.loads((d.tmp / "state" / "mission-progress.json").read_text())["operator"]
+                         == command, 5.0, "the operator's mode saved")
+            d.proc.kill()
+            await d.proc.wait()
+            await d.start(fresh=False)
+            await d.wait(lambda: sum(1 for r in d.log() if r["event"] == "cycle") > 30, 30.0, "restarted daemon running")
+            start = d.log()[0]
+            held = [r for r in d.log() if r["event"] == "info" and "holding zero thrust" in r.get("message", "")]
+            assert held and f"the operator's {command} was in force" in held[0]["message"], held
+            assert _thrust_cycles_after(d, -1.0) == []
+            code, text = await d.ctl("resume")
+            assert code == 0 and text.startswith("auto"), text
+            await d.steady_thrust(1.0)
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+        return start
+
+    start = asyncio.run(scenario())
+    assert start["event"] == "mission_start"
+
+
+def test_a_held_start_with_a_failsafe_latched_does_not_offer_resume(tmp_path):
+    """Found by an operator audit: after a run with max_distance latched was killed, the next start said "resume is
+    refused" and, in the same line, "`autopilot ctl ... resume` starts the mission"; resume was refused."""
+    import hashlib
+
+    import yaml
+
+    from autopilot.daemon.state import Progress, StateStore
+
+    mission = square_mission(side_m=20.0)
+    text = yaml.safe_dump(mission)
+    StateStore(tmp_path / "state").save(Progress(str(tmp_path / "mission.yaml"), hashlib.sha256(text.encode()).hexdigest(),
+                                                 1, "running", latched=("max_distance",), launch_ne_m=(0.0, 0.0)))
+
+    async def scenario():
+        d = Daemon(tmp_path, mission)
+        try:
+            await d.start(fresh=False)
+            await d.wait(lambda: sum(1 for r in d.log() if r["event"] == "cycle") > 10, 30.0, "cycles")
+            code, answer = await d.ctl("resume")
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+            err = (await d.proc.stderr.read()).decode()
+        finally:
+            await d.close()
+        return code, answer, err
+
+    code, answer, err = asyncio.run(scenario())
+    assert code != 0 and answer.startswith("resume refused: max_distance latched"), answer
+    held = [x for x in err.splitlines() if "holding zero thrust" in x]
+    assert held and "resume is refused" in held[0] and "resume` starts the mission" not in held[0], err[-1500:]
+    assert held[0].endswith("rtl`, `hold` or `stop` are what it takes"), held[0]

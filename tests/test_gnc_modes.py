@@ -422,6 +422,24 @@ def test_a_plain_hold_while_holding_a_given_heading_lets_the_heading_go():
     assert ap.request("hold", turned, cause="ctl hold") == (True, "hold") and ap.current.keeper is free
 
 
+def test_a_new_heading_for_the_hold_under_way_keeps_its_point():
+    """Found by an operator audit: `ctl hold --heading 270` while holding, swept 5.4 m off by the current, moved the
+    point to where the boat had drifted (5 m downstream; the error read 0.05 m). ArduPilot turns the loiter without
+    moving it; a hold from another mode still holds where the boat stops."""
+    ap = helm()
+    ap.step(HERE, 0.1)
+    assert ap.request("hold", HERE, cause="ctl hold") == (True, "hold")
+    point = ap.current.keeper.target
+    swept = dataclasses.replace(HERE, east_m=point[1] + 5.4)
+    assert ap.request("hold", swept, cause="ctl hold", heading_rad=math.radians(270.0)) == (True, "hold")
+    assert ap.current.keeper.target == point and ap.current.keeper.heading_rad == pytest.approx(math.radians(270.0))
+    assert ap.step(swept, 0.1).hold_error_m == pytest.approx(5.4, abs=0.6)
+    assert ap.request("pause", swept, cause="ctl pause")[0] is False  # (holding: nothing to pause)
+    assert ap.request("stop", None, cause="ctl stop")[0]
+    assert ap.request("hold", swept, cause="ctl hold", heading_rad=0.0) == (True, "hold")
+    assert ap.current.keeper.target == (swept.north_m, swept.east_m)  # from a stop: where the boat is
+
+
 def test_a_hold_taken_at_speed_turns_towards_its_point_while_braking():
     """Found by a modes audit: a hold commanded at 2 m/s braked astern while the boat still ran ahead, and the
     heading correction followed the thrust's sign: it turned away from the point (6 m ahead, 2 m to port: 21.8 deg

@@ -27,7 +27,7 @@ from autopilot.daemon.control import check_socket_path
 from autopilot.daemon.loop import ControlLoop
 from autopilot.daemon.missionlog import MissionLog, log_path
 from autopilot.daemon.sd_notify import Notifier
-from autopilot.daemon.state import StateStore, file_sha256
+from autopilot.daemon.state import RESUME_REFUSED, StateStore, file_sha256
 from autopilot.geo import latlon_to_local
 from autopilot.logschema import Mode
 from autopilot.resources import package_version
@@ -437,8 +437,11 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         log = MissionLog(log_path(log_dir, opts.mission_path))
         start_index, hold_zero = _resume_index(cfg, opts, store, sha, len(mission.waypoints_ne_m))
         if hold_zero is not None:  # only a JSON line said so, and a bench run sat still for max_mission_time_s
-            _console(f"holding zero thrust: {hold_zero}; `autopilot ctl --runtime-dir {control.path.parent} resume` "
-                     "starts the mission")
+            ctl = f"autopilot ctl --runtime-dir {control.path.parent}"
+            # with a failsafe latched, resume is refused: "resume starts the mission" beside it (an operator audit)
+            _console(f"holding zero thrust: {hold_zero}; " + (
+                f"`{ctl} rtl`, `hold` or `stop` are what it takes" if RESUME_REFUSED in hold_zero
+                else f"`{ctl} resume` starts the mission"))
         t0_s = clock.now_s()
         events = DeviceEvents(log, clock, t0_s, cfg)
         tasks, rig, tmpdir = [], None, None

@@ -72,7 +72,8 @@ def _helm(loop, request, helm_nav, unavailable, cause):
         # injection: a failsafe never replaces a stop in force, whoever's (cycle.answer_failsafe)
         return False, f"{command} not taken: {stop_stands(stopped)}"
     latched = list(loop.failsafe.latched)
-    if command in ("resume", "continue", "auto") and latched:
+    # ... but a failsafe's rtl paused goes on home on resume: it was refused, and the boat stayed paused (an audit)
+    if command in ("resume", "continue", "auto") and latched and not (command != "auto" and loop.ap.paused_on_rtl):
         return False, (f"{command} refused: {', '.join(latched)} latched (a failsafe took the boat; "
                        "hold, rtl and stop are allowed)")
     heading = request.get("heading_deg")

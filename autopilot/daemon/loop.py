@@ -29,7 +29,7 @@ from autopilot.daemon.config import DaemonConfig
 from autopilot.daemon.failsafe import Failsafe, resting_voltage_v
 from autopilot.daemon.missionlog import MissionLog
 from autopilot.daemon.sd_notify import Notifier
-from autopilot.daemon.state import Progress, StateStore
+from autopilot.daemon.state import OPERATOR_MODES, Progress, StateStore
 from autopilot.devices import ZERO_THRUST, Compass, ThrustCommand, ThrusterLink
 from autopilot.gnc import Autopilot
 from autopilot.gnc.navigation import NavMemory, assemble
@@ -105,6 +105,7 @@ class ControlLoop:
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
         self._saved_running = False  # this run's progress is the saved one (a held start keeps the old until then)
         self._saved_homeward = False  # what the saved progress says of the way home (Progress.homeward)
+        self.operator_mode = ""  # the mode the operator took the boat off the mission with (Progress.operator)
         # why the loop goes on after the mission ended stopped (a ground station link, systemd), or None: it ends there
         self.stay_when_done: str | None = None
         self.time_stop_stayed = False  # max_mission_time's stop taken, and the loop went on for stay_when_done
@@ -155,12 +156,14 @@ class ControlLoop:
             commands.failsafe_action(self, req, helm_nav, unavailable, t_s)
         if decision.requests and self._saved_running:  # a latched fault is remembered across a restart
             self._save("running")
-        armed_before = self.ap.armed
+        armed_before, mode_before, cause_before = self.ap.armed, self.ap.mode, self.ap.mode_cause
         for _ in range(min(len(self.commands), COMMANDS_PER_CYCLE)):
             request, answer = self.commands.popleft()
             answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
         if self.ap.armed != armed_before:  # a disarm is remembered across a restart
             self._save_armed()
+        if (self.ap.mode, self.ap.mode_cause) != (mode_before, cause_before):  # the operator's mode, likewise
+            self._operator_chose()
         self._flooded = self._flooded and bool(self.commands)
         self._manual_timeout(helm_nav, unavailable, t_s)
         mode, drive = steps.arbitrate(decision, steerable=nav.steerable, manual=self.ap.mode is Mode.MANUAL)
@@ -423,9 +426,20 @@ class ControlLoop:
             self.store.save(Progress(self.mission_path, self.mission_sha256, int(self.ap.wp_index), status,
                                      latched=self.failsafe.latched,
                                      launch_ne_m=None if launch is None else (float(launch[0]), float(launch[1])),
-                                     reason=reason, armed=bool(self.ap.armed), homeward=self._saved_homeward))
+                                     reason=reason, armed=bool(self.ap.armed), homeward=self._saved_homeward,
+                                     operator=self.operator_mode))
         except OSError as exc:
             self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="state not saved", error=str(exc))
+
+    def _operator_chose(self) -> None:
+        """A command changed the helm's mode: the operator's mode (Progress.operator) is it, or none for the mission."""
+        mode = self.ap.mode
+        chosen = "" if mode in (Mode.AUTO, Mode.COMPLETE) else mode.value
+        if chosen not in OPERATOR_MODES or chosen == self.operator_mode:
+            return
+        self.operator_mode = chosen
+        if self._saved_running:
+            self._save("running")
 
     def _homeward(self) -> bool:
         """The mission's route is done and its own return to launch under way, or the hold at home it ends in

@@ -19,6 +19,8 @@ from pathlib import Path
 __all__ = ["Progress", "StateStore", "file_sha256", "save_uploaded_mission", "UPLOADED_MISSION"]
 
 STATE_FILE = "mission-progress.json"
+OPERATOR_MODES = ("", "stop", "hold", "paused", "rtl", "manual")  # Progress.operator
+RESUME_REFUSED = "a failsafe took the boat; resume is refused"  # said of a held start that resume cannot end
 UPLOADED_MISSION = "uploaded-mission.waypoints"  # a mission uploaded over MAVLink (Mission Planner's format)
 
 
@@ -43,6 +45,11 @@ class Progress:
     # the route done and the mission's own rtl under way: a restart resumes the way home, not the last waypoint
     # (left in stop 42's note: `resume` after a crash on the way home flew out to the last waypoint first)
     homeward: bool = False
+    # the mode the operator (ctl, the ground station, its loss) took the boat off the mission with, in force: stop,
+    # hold, paused, rtl, manual; "" while the mission (or nothing the operator chose) runs. A restart with
+    # resume_after_restart flew the mission again after a crash in the operator's stop, hold or rtl (an operator
+    # audit); it holds zero thrust now
+    operator: str = ""
 
 
 class StateStore:
@@ -76,6 +83,9 @@ class StateStore:
             homeward = data.get("homeward", False)
             if type(homeward) is not bool:
                 raise ValueError(f"homeward {homeward!r} is not true or false")
+            operator = data.get("operator", "")
+            if operator not in OPERATOR_MODES:
+                raise ValueError(f"operator {operator!r} is not one of {', '.join(repr(m) for m in OPERATOR_MODES)}")
             launch = data.get("launch_ne_m")
             if launch is not None:
                 launch = tuple(float(v) for v in launch)
@@ -83,7 +93,8 @@ class StateStore:
                     raise ValueError(f"launch_ne_m {data.get('launch_ne_m')!r} is not a point")
             return Progress(mission=str(data["mission"]), mission_sha256=str(data["mission_sha256"]),
                             wp_index=index, status=str(data["status"]), latched=latched, launch_ne_m=launch,
-                            reason=str(data.get("reason") or ""), armed=armed, homeward=homeward), None
+                            reason=str(data.get("reason") or ""), armed=armed, homeward=homeward,
+                            operator=operator), None
         except (OSError, ValueError, KeyError, TypeError, AttributeError, OverflowError) as exc:
             return None, f"{type(exc).__name__}: {exc}"
 
@@ -121,8 +132,8 @@ class StateStore:
             # a crash caught by the loop, or max_mission_time: it flew again from W0 (a clean stop, a signal, is
             # the operator's: the next start is a new run, its latched faults not carried over)
             if saved.latched:
-                return None, (f"the last run of this mission ended with {', '.join(saved.latched)} latched (a failsafe "
-                              "took the boat; resume is refused)")
+                return None, (f"the last run of this mission ended with {', '.join(saved.latched)} latched "
+                              f"({RESUME_REFUSED})")
             return None, f"the last run of this mission was aborted ({saved.reason or 'no reason saved'})"
         if saved is not None and saved.status == "cleared":
             # the ground station cleared the mission and the daemon never stopped cleanly after (a crash, a kill,
@@ -133,13 +144,15 @@ class StateStore:
         if saved is None or saved.status != "running":
             return None, None
         if saved.latched and saved.mission_sha256 == mission_sha256:
-            return None, (f"an interrupted run of this mission had {', '.join(saved.latched)} latched (a failsafe "
-                          "took the boat; resume is refused)")
+            return None, f"an interrupted run of this mission had {', '.join(saved.latched)} latched ({RESUME_REFUSED})"
         if saved.mission_sha256 != mission_sha256:
             return None, (f"an interrupted run of another mission ({saved.mission}, or this file since edited) "
                           "is in the state directory")
         if not 0 <= saved.wp_index < n_waypoints:
             return None, f"the saved progress's waypoint {saved.wp_index} is not in this mission (0..{n_waypoints - 1})"
+        if saved.operator:
+            return None, (f"the operator's {saved.operator} was in force when a run of this mission was interrupted "
+                          "(the boat had been taken off the mission): not flown again unasked")
         return saved.wp_index, None
 
 

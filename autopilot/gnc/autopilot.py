@@ -278,6 +278,10 @@ class Autopilot:
         here = self._stopping_point(nav)
         if command == "hold":
             point = here if target_ne_m is None else (float(target_ne_m[0]), float(target_ne_m[1]))
+            if target_ne_m is None and mode in (Mode.HOLD, Mode.PAUSED) and hasattr(self.current, "keeper"):
+                # a new heading for the hold under way keeps its point, as ArduPilot turns the loiter without moving
+                # it: taken where the current had swept the boat, the point jumped 5 m downstream (an operator audit)
+                point = self.current.keeper.target
             self._switch(HoldMode(self.config.hold, point, heading_rad=heading_rad, initial_heading_rad=nav.psi_rad),
                          cause)
         elif command == "pause":
@@ -306,6 +310,11 @@ class Autopilot:
             self._switch(back, cause)
             return True, back.mode.value
         return self._to_mission("resume", cause)
+
+    @property
+    def paused_on_rtl(self) -> bool:
+        """Paused on a return to launch: resume (or continue) goes on home, never into the mission."""
+        return self.current.mode is Mode.PAUSED and self.paused_from is not None and self.paused_from.mode is Mode.RTL
 
     def _continue(self, nav: NavInput, cause: str) -> tuple[bool, str]:
         """A planner's DO_PAUSE_CONTINUE 1: what a pause stopped goes on, nothing else moves (ArduPilot's resume of
