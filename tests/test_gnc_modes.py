@@ -491,3 +491,29 @@ def test_a_hold_closing_on_a_far_point_is_not_said_off():
     for k in range(400):  # 40 s closing at 1 m/s
         ap.step(dataclasses.replace(HERE, north_m=0.1 * k, speed_m_s=1.0), 0.1)
     assert [f for n, f in ap.pop_events() if n == "hold_off"] == []
+
+
+def test_a_hold_items_time_runs_while_held_and_resume_on_the_way_back_does_not_end_it():
+    """Found by an operator audit: after `ctl stop` and `ctl resume` the boat drove back to a 300-s hold item's point
+    22 m off, its time running meanwhile; a second resume ended the hold there and then, the mission with it, and
+    the daemon exited with the boat adrift 9 m short. The time runs while the point is held (within approach_m),
+    and a resume on the way back says so and ends nothing."""
+    ap = Autopilot(GncConfig(), [(0.5, 0.0), (30.0, 0.0)], holds_s=[60.0, None])
+    for _ in range(20):  # on W0: its hold begins
+        ap.step(HERE, 0.1)
+    assert ap.auto.item_keeper is not None
+    left = ap.auto.item_left_s
+    assert ap.request("stop", None, cause="ctl stop")[0]
+    away = dataclasses.replace(HERE, north_m=-22.0)
+    assert ap.request("resume", away, cause="ctl resume") == (True, "auto")
+    for _ in range(50):  # 5 s on the way back: the hold's time does not run, and it is not the hold proper
+        out = ap.step(away, 0.1)
+    assert ap.auto.item_left_s == pytest.approx(left) and not out.holding and out.hold_target_ne_m == (0.5, 0.0)
+    ok, answer = ap.request("resume", away, cause="ctl resume")
+    assert ok and answer == "auto (on the way back to waypoint 0's hold: resume there ends it)"
+    assert ap.auto.item_keeper is not None
+    for _ in range(10):  # back at the point: it runs again
+        out = ap.step(HERE, 0.1)
+    assert ap.auto.item_left_s == pytest.approx(left - 1.0) and out.holding
+    assert ap.request("resume", HERE, cause="ctl resume") == (True, "auto")  # held: the operator's resume ends it
+    assert ap.auto.item_keeper is None

@@ -300,6 +300,12 @@ class Autopilot:
 
     def _resume(self, nav: NavInput, cause: str) -> tuple[bool, str]:
         if self.current is self.auto:
+            if self.auto.item_keeper is not None and not self.auto.item_hold_under_way(nav):
+                # on the way back to a hold item's point: a second resume (the first brought the boat back into
+                # the mission from a stop) ended the hold 22 m short, then the mission, and the daemon exited with
+                # the boat adrift (an operator audit)
+                return True, f"{Mode.AUTO.value} (on the way back to waypoint {self.auto.item_index}'s hold: resume " \
+                             "there ends it)"
             if self.auto.end_item_hold():
                 self._events.append(("mode", {"mode": Mode.AUTO.value, "from": Mode.AUTO.value,
                                               "cause": f"{cause}: the waypoint's hold ended"}))

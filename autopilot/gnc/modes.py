@@ -81,6 +81,10 @@ class Closing:
     def near(self, nav, point) -> bool:
         return math.hypot(point[0] - nav.north_m, point[1] - nav.east_m) < self.config.approach_m
 
+    def far(self, nav, point) -> bool:
+        """Farther than ``approach_m``: where station keeping approaches the point on a course (StationKeeper.step)."""
+        return math.hypot(point[0] - nav.north_m, point[1] - nav.east_m) > self.config.approach_m
+
     def keeper_for(self, point, nav) -> StationKeeper:
         p = (float(point[0]), float(point[1]))
         if self.keeper is None or self.keeper.target != p:
@@ -197,11 +201,19 @@ class AutoMode:
         h = self.holds_s[i] if i < len(self.holds_s) else None
         return None if h is None or h <= 0.0 else h
 
+    def item_hold_under_way(self, nav) -> bool:
+        """Holding at a waypoint's hold item proper: not on the way back to its point (after a stop, an rtl, a hold
+        elsewhere), farther than ``approach_m``, where its time does not run and resume does not end it."""
+        return self.item_keeper is not None and not self.closing.far(nav, self.item_keeper.target)
+
     def update(self, nav, dt_s: float) -> Steering:
         if self.item_keeper is not None:
-            self.item_left_s -= dt_s
+            # the item's time runs while it is held: it ran on the way back to the point too, 22 m off (an audit)
+            back = not self.item_hold_under_way(nav)
+            if not back:
+                self.item_left_s -= dt_s
             if self.item_left_s > 0.0:
-                return keep_station(self.item_keeper, nav, dt_s)
+                return keep_station(self.item_keeper, nav, dt_s, holding=not back)
             self.end_item_hold()
         if self.guidance.complete:
             return self._end(nav)
