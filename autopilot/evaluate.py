@@ -227,13 +227,15 @@ def run_closed_loop(
     x0=None,
     rtl: bool = False,
     within_limits=None,
+    commands=(),
 ):
     """Simulate one mission with the autopilot in the loop; returns a :class:`RunResult`. ``traffic``: a
     :class:`autopilot.traffic.feed.TrafficFeed` whose targets the boat sees (through AIS) and avoids;
     ``x0``: the start state (north, east, psi, u, v, r), at rest at the origin heading north if None;
     ``rtl``: the mission ends returning to the launch point and holds there until ``t_max_s``;
     ``within_limits(north_m, east_m) -> bool``: the position limits the helm keeps its own holds and avoidance's
-    alterations inside, as the daemon's failsafe hands it (None: none).
+    alterations inside, as the daemon's failsafe hands it (None: none); ``commands``: ``(t_s, command)`` the
+    operator gives (``pause``, ``hold``, ``rtl``, ...), each at the first cycle from ``t_s`` with a position.
 
     One run at a time through :class:`autopilot.closed_loop.Flight` (the daemon's control cycle without
     its failsafe, evaluate's scorecard); the campaigns fly the same flights in lockstep."""
@@ -259,7 +261,12 @@ def run_closed_loop(
                     origin_lon_deg=origin[1], record=record, traffic=traffic)
     x = np.zeros(6) if x0 is None else np.array(x0, dtype=float)
     t = 0.0
+    pending = sorted(commands)
     while (thrust := flight.control(t, x)) is not None:
+        while pending and t >= pending[0][0] and flight.last.nav.steerable:
+            from autopilot.daemon.cycle import nav_input
+
+            ap.request(pending.pop(0)[1], nav_input(flight.last.nav), cause="evaluate")  # from the next cycle
         for _ in range(flight.substeps):
             x = step(params, x, thrust[0], thrust[1], dt_s, t_s=t, env=env, external_force=external_force)
             t += dt_s

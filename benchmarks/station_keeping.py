@@ -32,8 +32,15 @@ fix, --seeds seeds), calm and in 0.3 m/s of current, with the position the hold 
 of each thruster's thrust, the largest change from one 10 Hz command to the next, sign reversals a
 minute, the hold's energy and position RMS.
 
+--pause: `ctl pause` at cruise speed (~0.95 m/s, 25 s out on a straight leg) in calm water and in
+current_wind, 0.3 m position noise, --seeds seeds, with the learning deadband shipped
+(gnc.hold.learn_deadband_m) and without it (0: every error learned, as before 2026-12-06): over the 90 s
+after, the heading's swing (largest minus smallest), the time either thruster is saturated, and the
+position RMS from the pause point.
+
     python benchmarks/station_keeping.py --currents [--position-noise-m 0.3] [--seeds 3] [--markdown]
     python benchmarks/station_keeping.py --chatter [--seeds 3] [--markdown]
+    python benchmarks/station_keeping.py --pause [--seeds 6] [--markdown]
 """
 
 from __future__ import annotations
@@ -193,6 +200,35 @@ def _print(header, out, markdown: bool) -> None:
             print("  ".join(f"{c:>18}" for c in r))
 
 
+def _pause_run(job):
+    params, cfg, cond, seed = job
+    r = run_closed_loop(params, [(200.0, 0.0)], env=conditions()[cond], config=cfg, position_noise_m=0.3,
+                        heading_noise_deg=0.1, seed=seed, t_max_s=115.0, commands=[(25.0, "pause")], record=True)
+    paused = np.asarray(r.trace["mode"]) == "paused"
+    psi = np.unwrap(np.asarray(r.trace["psi_rad"]))[paused]
+    thrust = np.abs(np.c_[r.trace["thrust_port_n"], r.trace["thrust_stbd_n"]])[paused]
+    saturated_s = float(np.count_nonzero(thrust.max(axis=1) >= 32.4)) * 0.1
+    return math.degrees(psi.max() - psi.min()), saturated_s, r.hold.position_error_rms_m
+
+
+def pause_main(args) -> int:
+    params = load_params(default_params_path())
+    base = GncConfig()
+    ways = {"shipped": base,
+            "no deadband (before 2026-12-06)": dataclasses.replace(base, hold=dataclasses.replace(base.hold,
+                                                                                                 learn_deadband_m=0.0))}
+    rows = []
+    for cond in ("calm", "current_wind"):
+        for name, cfg in ways.items():
+            runs = [_pause_run((params, cfg, cond, s)) for s in range(args.seeds)]
+            swing, sat, rms = (np.array(v) for v in zip(*runs))
+            rows.append((cond, name, f"{swing.min():.0f}-{swing.max():.0f}", f"{sat.min():.1f}-{sat.max():.1f}",
+                         f"{rms.min():.2f}-{rms.max():.2f}", f"{np.count_nonzero(swing > 30.0)} of {len(swing)}"))
+    _print(("condition", "learning", "heading swing (deg)", "saturated (s)", "position RMS (m)", "swing > 30 deg"),
+           rows, args.markdown)
+    return 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--markdown", action="store_true")
@@ -203,7 +239,10 @@ def main() -> int:
     ap.add_argument("--offset", action="store_true", help="holds started from rest with the point off the bow")
     ap.add_argument("--currents", action="store_true", help="the hold in currents of 0.2-0.5 m/s")
     ap.add_argument("--chatter", action="store_true", help="the thrust while holding with a noisy position")
+    ap.add_argument("--pause", action="store_true", help="a pause at cruise speed, calm and current_wind")
     args = ap.parse_args()
+    if args.pause:
+        return pause_main(args)
     if args.chatter:
         return chatter_main(args)
     if args.offset:

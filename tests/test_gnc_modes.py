@@ -517,3 +517,18 @@ def test_a_hold_items_time_runs_while_held_and_resume_on_the_way_back_does_not_e
     assert ap.auto.item_left_s == pytest.approx(left - 1.0) and out.holding
     assert ap.request("resume", HERE, cause="ctl resume") == (True, "auto")  # held: the operator's resume ends it
     assert ap.auto.item_keeper is None
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_a_pause_at_cruise_in_calm_water_holds_its_heading(params, seed):
+    """Found by an operator audit: `ctl pause` at 1 m/s in calm water learned a current that was not there (0.17 m
+    abeam of the point, which the boat cannot push sideways out of, integrated for 20 s past the 1 N the
+    least-effort heading turns at): the boat swung 100-160 deg at full thrust. Error within learn_deadband_m
+    drives no estimate (benchmarks/station_keeping.py --pause)."""
+    r = run_closed_loop(params, [(200.0, 0.0)], env=conditions()["calm"], position_noise_m=0.3, heading_noise_deg=0.1,
+                        seed=seed, t_max_s=115.0, commands=[(25.0, "pause")], record=True)
+    paused = np.asarray(r.trace["mode"]) == "paused"
+    psi = np.unwrap(np.asarray(r.trace["psi_rad"]))[paused]
+    assert paused.sum() == 900  # 90 s held
+    assert math.degrees(psi.max() - psi.min()) < 30.0
+    assert r.hold.position_error_rms_m < 0.6

@@ -83,6 +83,11 @@ class HoldConfig:
                                           "or more, carrying the boat faster than that, was never learned (RMS 9-11 m)",
                                    doc="... and only below this ground speed (3 = at any speed; with radius_m, below "
                                        "radius_slow_m_s too)")
+    learn_deadband_m: float = param(0.5, unit="m", lo=0.0, hi=5.0,
+                                    source="benchmarks/station_keeping.py --pause (a pause at cruise in calm water)",
+                                    doc="error within this does not drive the estimate (a fix's noise, an offset the "
+                                        "boat cannot push sideways out of: 0.17 m abeam, learned for 20 s, turned a "
+                                        "hold in calm water 100 deg at full thrust)")
     learn_error_m: float = param(3.0, unit="m", lo=0.05, hi=50.0, source="benchmarks/station_keeping.py --currents",
                                  doc="at most this much error drives the estimate (a large error is a transient)")
     integral_limit_n: float = param(28.0, unit="N", lo=0.0, hi=100.0, source="below the 32.5 N of a thruster",
@@ -189,8 +194,9 @@ class StationKeeper:
         # drifting and driving back (radius_m), the drive back is no holding to learn from: only when slow there
         below = cfg.learn_below_m_s if cfg.radius_m <= 0.0 else min(cfg.learn_below_m_s, cfg.radius_slow_m_s)
         slow = not math.isfinite(sog_m_s) or sog_m_s < below
-        if d < cfg.learn_within_m and slow:  # learn from holding, not from an approach or an overshoot
-            w = min(1.0, cfg.learn_error_m / max(d, 1e-9))  # at most learn_error_m of error counts
+        if d < cfg.learn_within_m and slow and d > cfg.learn_deadband_m:  # learn from holding, not an approach
+            # the error beyond the deadband, at most learn_error_m of it, drives the estimate
+            w = min(d - cfg.learn_deadband_m, cfg.learn_error_m) / d
             dn = self._d_n[0] + cfg.ki_n_per_m_s * en * w * dt_s
             de = self._d_n[1] + cfg.ki_n_per_m_s * ee * w * dt_s
             size = math.hypot(dn, de)
