@@ -576,11 +576,12 @@ def _cp1252_ok(raw: bytes) -> bool:
     return True
 
 
-def read_log(path) -> MissionLog:
+def read_log(path, *, keep_reversals: bool = False) -> MissionLog:
     """Read one mission log in a single streaming pass.
 
     Raises ``ConfigError`` only when the file cannot be opened; anything
-    wrong inside the file is skipped and counted in ``stats``.
+    wrong inside the file is skipped and counted in ``stats``. Cycles not later than every one before are left
+    out (counted) unless ``keep_reversals`` (the identification refuses such a log, naming the line).
     """
     path = Path(path)
     try:
@@ -713,7 +714,9 @@ def read_log(path) -> MissionLog:
     # left out of every figure. Kept, its energy, mode times, "position lost" and fixes counted twice while only
     # the distance left it out (a review audit: 20 s of position lost in a log with a fix throughout)
     later = t > np.maximum.accumulate(np.r_[-np.inf, t[:-1]]) if len(t) else np.zeros(0, dtype=bool)
-    if not later.all():
+    if keep_reversals:
+        stats.time_reversals = int(np.count_nonzero(np.diff(t) < 0))
+    elif not later.all():
         stats.time_reversals = int(np.count_nonzero(~later))
         line_numbers = line_numbers[later]
         data, mode, source, situation = data[:, later], mode[later], source[later], situation[later]

@@ -70,7 +70,7 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
     """A daemon mission log as a trial (rules in the module docstring)."""
     from autopilot.review.reader import check_mission_log, read_log
 
-    log = read_log(check_mission_log(path))
+    log = read_log(check_mission_log(path), keep_reversals=True)  # a step back is refused below, naming its line
     starts = log.events_named("mission_start")
     if len(starts) > 1:  # logs joined with cat: each mission's clock starts again at 0
         raise ConfigError(f"{path}: {len(starts)} missions in one file (a mission_start line each): "
