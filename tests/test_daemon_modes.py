@@ -88,6 +88,8 @@ def test_each_mode_by_ctl_and_rtl_ends_holding_at_launch(tmp_path):
             await d.clock.sleep(40.0)  # it brakes from the mission's speed, turns, and settles on the point
             c = _last_cycle(d)
             assert c["hold_heading_deg"] == pytest.approx(90.0)  # the heading asked for
+            # ... and said in the mode's cause (it read "ctl hold": an operator audit)
+            assert _modes(d)[-1][1:] == ("hold", "ctl hold --heading 90")
             # the hull keeps it within the lateral correction (at most 40 deg) while it steers the offset away
             assert abs(((c["heading_deg"] - 90.0) + 180.0) % 360.0 - 180.0) < 20.0, c
 

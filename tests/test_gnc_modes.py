@@ -35,7 +35,11 @@ def test_every_command_answers_with_the_new_mode_or_why_not():
     assert ap.request("hold", None, cause="ctl hold", unavailable="heading stale") == (False, "hold refused: heading stale")
     assert ap.request("resume", HERE, cause="ctl") == (True, "auto")  # already running the mission
     assert ap.request("pause", HERE, cause="ctl pause") == (True, "paused")
+    # paused already: answered as the mode it is in, as every other command (an operator audit: it was refused)
+    assert ap.request("pause", HERE, cause="ctl pause") == (True, "paused")
+    assert ap.request("hold", HERE, cause="ctl hold") == (True, "hold")
     assert ap.request("pause", HERE, cause="ctl pause")[0] is False  # only a running mission or return pauses
+    assert ap.request("resume", HERE, cause="ctl resume") == (True, "auto")
     assert ap.request("resume", HERE, cause="ctl resume") == (True, "auto")
     assert ap.request("stop", None, cause="ctl stop") == (True, "stop")  # stop needs nothing
     out = ap.step(HERE, 0.1)
@@ -44,8 +48,8 @@ def test_every_command_answers_with_the_new_mode_or_why_not():
     assert ap.request("fly", HERE, cause="ctl")[0] is False
     events = [f for name, f in ap.pop_events() if name == "mode"]
     assert [(e["from"], e["mode"], e["cause"]) for e in events] == [
-        ("auto", "paused", "ctl pause"), ("paused", "auto", "ctl resume"), ("auto", "stop", "ctl stop"),
-        ("stop", "auto", "ctl resume")]
+        ("auto", "paused", "ctl pause"), ("paused", "hold", "ctl hold"), ("hold", "auto", "ctl resume"),
+        ("auto", "stop", "ctl stop"), ("stop", "auto", "ctl resume")]
 
 
 def test_pause_keeps_the_waypoint_and_resume_goes_on_from_it():

@@ -330,3 +330,13 @@ def test_absurd_values_in_cycle_lines_are_gaps_not_figures(tmp_path):
     notes = " ".join(bad.read_notes)
     assert "9 non-numeric, infinite or absurd (beyond 1e12) value(s) of sog_m_s" in notes
     assert "9 non-numeric, infinite or absurd (beyond 1e12) value(s) of thrust_port_n" in notes
+
+
+def test_a_log_without_cycles_says_n_a_not_zero_for_times_over_cycles(tmp_path):
+    """Found by a review audit: an empty log's heading and position lost, gaps and time in failsafe read "0.0 s",
+    as a clean run's do."""
+    rows = dict(score(read_log(_write(tmp_path / "none.jsonl", [START]))).table_rows())
+    assert rows["cycles"] == "0"
+    for label, value in rows.items():
+        if label.startswith(("heading lost", "position lost", "gaps in the log", "time in failsafe")):
+            assert value == "n/a (no cycles in the log)", (label, value)

@@ -36,7 +36,9 @@ def failsafe_action(loop, req, helm_nav, unavailable: str, t_s: float) -> None:
 def apply(loop, request: dict, helm_nav, unavailable: str, decision, t_s: float) -> dict:
     source = str(request.get("source", "ctl"))
     command = str(request.get("command", ""))[:32]
-    cause = str(request.get("cause") or f"{source} {command}")
+    heading = request.get("heading_deg")
+    # the heading given is part of the cause: `ctl hold --heading 270` was logged and shown as "ctl hold" (an audit)
+    cause = str(request.get("cause") or f"{source} {command}" + ("" if heading is None else f" --heading {heading:g}"))
     handler = _HANDLERS.get(command, _helm)
     try:
         ok, answer = handler(loop, request, helm_nav, unavailable, cause)

@@ -255,6 +255,8 @@ class Autopilot:
             return self._continue(nav, cause)
         if command == "auto":
             return self._auto(cause)
+        if command == "pause" and mode is Mode.PAUSED:  # as every other command of the mode it is in (an audit)
+            return True, mode.value
         if command == "pause" and mode not in (Mode.AUTO, Mode.RTL):
             return False, f"pause refused: mode {mode.value} (pause holds a running mission or return)"
         if command == "rtl" and self.launch_ne_m is None:
