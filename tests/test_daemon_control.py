@@ -127,5 +127,11 @@ def test_plain_status_says_why_the_helm_is_in_its_mode():
     assert _status_lines(held)[0] == ("mode: stop - start: interrupted mission found in the state directory and "
                                       "failsafe.resume_after_restart is false (--fresh starts afresh)")
     assert _status_lines({"mode": "auto", "helm_mode": "auto", "mode_cause": "start", "t_s": 1.0})[0] == "mode: auto"
+    # a given hold heading the current is across: said by ctl status too, not only in the log (an operator audit)
+    across = {"mode": "hold", "mode_cause": "ctl hold --heading 0", "hold_north_m": 1.0, "hold_east_m": 2.0,
+              "hold_error_m": 4.97, "hold_heading_deg": 0.0, "hold_across_feasible_deg": 265.4}
+    assert ("hold heading 0 deg cannot keep the point: the current or wind is across it, from about 265 deg; hold "
+            "without --heading to face it") in _status_lines(across)
+    assert not any("cannot keep" in x for x in _status_lines({**across, "hold_across_feasible_deg": None}))
     assert _status_lines({"mode": "hold", "mode_cause": "ctl hold", "armed": False})[0] == (
         "mode: hold - ctl hold - DISARMED: zero thrust whatever the mode (autopilot ctl arm)")

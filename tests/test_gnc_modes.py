@@ -231,10 +231,12 @@ def test_the_helm_logs_a_hold_heading_it_cannot_keep_once_and_when_it_can_again(
     said = [f for name, f in ap.pop_events() if name == "hold_heading"]
     assert said == [{"across": True, "heading_deg": 0.0, "feasible_heading_deg": 90.0, "limit_deg": 40.0}]
     assert set(said[0]) <= {f.name for f in event_spec("hold_heading").fields}
+    assert ap.hold_across_feasible_rad == pytest.approx(math.radians(90.0))  # for ctl status, while it lasts
     assert ap.request("hold", HERE, cause="test", heading_rad=math.radians(90.0))[0]  # facing it: can hold
     ap.step(HERE, 0.1)
     said = [f for name, f in ap.pop_events() if name == "hold_heading"]
     assert said == [{"across": False, "heading_deg": 90.0}]
+    assert ap.hold_across_feasible_rad is None
 
 
 @pytest.fixture(scope="module")

@@ -184,6 +184,10 @@ def _status_lines(st: dict) -> list[str]:
     if st.get("hold_north_m") is not None:
         lines.append(f"holding: north {st['hold_north_m']:.1f} m, east {st['hold_east_m']:.1f} m, "
                      f"error {num('hold_error_m', '.2f', ' m')}")
+        if st.get("hold_across_feasible_deg") is not None:  # said in the log and to the planner only (an audit)
+            lines.append(f"hold heading {num('hold_heading_deg', '.0f', ' deg')} cannot keep the point: the current "
+                         f"or wind is across it, from about {st['hold_across_feasible_deg']:.0f} deg; hold without "
+                         "--heading to face it")
     lines.append(f"battery: {num('battery_v', '.2f', ' V')}")
     faults = st.get("active_faults") or []
     lines.append("faults: " + (", ".join(faults) if faults else "none")

@@ -334,6 +334,10 @@ class ControlLoop:
             "latched_faults": list(self.failsafe.latched), "nmea_dropped": self.compass.lines_dropped,
             "hold_north_m": None if hold is None else hold[0], "hold_east_m": None if hold is None else hold[1],
             "hold_error_m": None if hold is None else out.hold_error_m,
+            "hold_heading_deg": None if hold is None or out.hold_heading_rad is None
+            else round(math.degrees(out.hold_heading_rad) % 360.0, 1),
+            "hold_across_feasible_deg": None if hold is None or ap.hold_across_feasible_rad is None
+            else round(math.degrees(ap.hold_across_feasible_rad) % 360.0, 1),
             "launch_ne_m": None if launch is None else list(launch),
             "launch_lat_deg": launch_ll[0], "launch_lon_deg": launch_ll[1],
             "wp_distance_m": dist, "wp_bearing_deg": brg,

@@ -157,6 +157,8 @@ class Autopilot:
         self.avoidance = Avoidance(config.avoidance)
         self._situations: dict[int, tuple[str, bool]] = {}  # target -> (situation, acting) last logged
         self._hold_across = False  # the last hold_heading event said the given heading cannot be kept
+        # the heading the disturbance lies along while a hold's given heading cannot be kept across it (rad), else None
+        self.hold_across_feasible_rad: float | None = None
         self._hold_off_s = 0.0  # how long the hold has been farther than hold.off_warn_m from its point
         self._hold_off_said = False
 
@@ -535,6 +537,7 @@ class Autopilot:
         it can again: the operator chose it, so it is kept, but the boat will sit off the point."""
         feasible = s.hold.feasible_heading_rad if s.hold is not None else None
         across = feasible is not None
+        self.hold_across_feasible_rad = feasible
         if across == self._hold_across:
             return
         self._hold_across = across
