@@ -340,3 +340,13 @@ def test_a_log_without_cycles_says_n_a_not_zero_for_times_over_cycles(tmp_path):
     for label, value in rows.items():
         if label.startswith(("heading lost", "position lost", "gaps in the log", "time in failsafe")):
             assert value == "n/a (no cycles in the log)", (label, value)
+
+
+@pytest.mark.parametrize("speedup, said", [(5.0, " (simulated ms: --speedup 5)"), ("max", " (simulated ms: --speedup max)"),
+                                           (1.0, ""), (None, "")])
+def test_the_loop_lateness_of_a_sped_up_run_is_said_to_be_simulated(tmp_path, speedup, said):
+    """Found by a review audit: a `--speedup 5` bench run's lateness was labelled ms: simulated ms, 5 to the wall's."""
+    start = dict(START) if speedup is None else {**START, "speedup": speedup}
+    recs = [start] + _cycles(20, lateness_ms=1.0)
+    rows = dict(score(read_log(_write(tmp_path / "s.jsonl", recs))).table_rows())
+    assert f"loop lateness p50 / p99 / max{said}" in rows

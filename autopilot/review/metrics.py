@@ -206,6 +206,7 @@ class Scorecard:
     gps_jumps_reanchored: int = 0  # and re-anchorings (two far fixes agreed)
     missions: list = field(default_factory=list)  # one per plan when the mission was replaced: number, from_t_s, source, waypoints
     heading_stale_after_s: float = math.nan  # the ages above which a sample counted stale (stale_limits_s)
+    speedup: str = ""  # mission_start's --speedup when not real time ("10", "max"): the log's times are simulated
     position_stale_after_s: float = math.nan
 
     def to_dict(self) -> dict:
@@ -255,7 +256,7 @@ class Scorecard:
             ("dropped NMEA lines", _fmt_count(self.nmea_dropped)),
             ("missing Mbed acks", _fmt_count(self.ack_missing)),
             ("GPS jumps refused / re-anchored", f"{self.gps_jumps_refused} / {self.gps_jumps_reanchored}"),
-            ("loop lateness p50 / p99 / max",
+            ("loop lateness p50 / p99 / max" + (f" (simulated ms: --speedup {self.speedup})" if self.speedup else ""),
              f"{_fmt(lat.get('p50'), 'ms', 2)} / {_fmt(lat.get('p99'), 'ms', 2)} / {_fmt(lat.get('max'), 'ms', 2)}"),
             ("thrust unknown (not logged)", _fmt(self.thrust_unknown_s, "s", 1)),
             ("time per mode", ", ".join(f"{m} {v:.1f} s" for m, v in self.mode_time_s.items() if v > 0) or "n/a"),
@@ -517,6 +518,15 @@ def _passed_in_holes(t: np.ndarray, idx: np.ndarray, plan: Plan) -> set:
         if np.isfinite(a) and np.isfinite(b) and b > a and plan.holds(t[k]) and plan.holds(t[k + 1]):
             out.update(range(int(a), int(b)))
     return out
+
+
+def _speedup_words(value) -> str:
+    """mission_start's speedup as said beside a figure in its times: "" for real time (1) or none logged."""
+    if isinstance(value, str):
+        return value[:16]
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value != 1.0:
+        return f"{value:g}"
+    return ""
 
 
 def _fault_times(log: MissionLog, t_end_s: float) -> dict:
@@ -793,6 +803,7 @@ def score(log: MissionLog) -> Scorecard:
         nmea_dropped=_max_count(log, "nmea_dropped", "nmea_dropped"),
         ack_missing=_max_count(log, "ack_missing", "ack_missing"),
         lateness_ms=lateness, stop_reason=stop_reason if isinstance(stop_reason, str) else None,
+        speedup=_speedup_words((log.start or {}).get("speedup")),
         # a run that stayed up after the mission's stop (a ground station link, systemd) ends by a signal in complete
         complete=bool(log.events_named("mission_complete")),
         finished=stop_reason == "complete" or (bool(log.events_named("mission_complete")) and end_mode == "complete"),
