@@ -262,3 +262,51 @@ def test_a_crash_in_the_final_hold_is_an_interrupted_run_not_a_completed_one(tmp
     assert seen["mode"] is Mode.HOLD and seen["complete"]  # the route done, holding at its end
     assert seen["saved"].status == "running" and seen["saved"].wp_index == 1
     assert seen["interrupted"] == (1, None)  # a crash now is an interrupted run (held at zero unless resumed)
+
+
+def test_a_held_start_saves_a_stop_of_the_operators_until_they_say_otherwise(tmp_path):
+    """Found reviewing 847bd84: a start held at zero thrust was no stop of the operator's, so a jump or an upload
+    saved while held (status running, no operator's mode) and a crash after it flew the mission under thrust
+    with resume_after_restart."""
+    cfg = DaemonConfig()
+    mission = Mission("north", np.array([(20.0, 0.0), (40.0, 0.0)]), (None, None), None, *ORIGIN)
+    store = StateStore(tmp_path / "state")
+    loop = ControlLoop(cfg, clock=SimClock(), autopilot=Autopilot(cfg.gnc, mission.waypoints_ne_m), mission=mission,
+                       mission_path="m.yaml", mission_sha256="x", compass=FakeCompass(SimClock()),
+                       thrusters=FakeThrusters(), log=MissionLog(tmp_path / "l.jsonl", console=None),
+                       notifier=Notifier(None), store=store, hold_zero="an interrupted mission")
+    loop.save_progress("running")  # what a jump (MISSION_SET_CURRENT) or an upload does while held
+    saved = store.load()
+    assert saved.status == "running" and saved.operator == "stop"
+    assert store.interrupted("x", 2) == (0, "the operator's stop was in force when a run of this mission was "
+                                            "interrupted (the boat had been taken off the mission): not flown again "
+                                            "unasked")
+
+
+def test_the_missions_own_way_home_paused_and_resumed_stays_the_missions(tmp_path):
+    """Found reviewing 847bd84: pausing the mission's own rtl and resuming it saved the operator's mode "rtl" (a
+    restart then held the boat adrift on its way home), and homeward went false (the cause was "ctl resume"): a
+    restart with resume_after_restart flew back out to the last waypoint."""
+    from autopilot.gnc.autopilot import NavInput
+
+    cfg = DaemonConfig()
+    mission = Mission("out-and-home", np.array([(10.0, 0.0)]), (None,), None, *ORIGIN, rtl=True)
+    ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, rtl=True)
+    loop = ControlLoop(cfg, clock=SimClock(), autopilot=ap, mission=mission, mission_path="m.yaml",
+                       mission_sha256="x", compass=FakeCompass(SimClock()), thrusters=FakeThrusters(),
+                       log=MissionLog(tmp_path / "l.jsonl", console=None), notifier=Notifier(None),
+                       store=StateStore(tmp_path / "state"))
+    home = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    there = NavInput(north_m=10.0, east_m=0.0, psi_rad=math.pi, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    ap.step(home, 0.1)  # the launch point
+    for _ in range(3):
+        out = ap.step(there, 0.1)
+    assert ap.mode is Mode.RTL and out.complete
+    loop.state.completed_t_s = 1.0  # the loop notes the route done when the helm says so
+    assert loop._homeward()
+    assert ap.request("pause", there, cause="ctl pause")[0]
+    loop._operator_chose()
+    assert loop.operator_mode == "paused" and not loop._homeward()
+    assert ap.request("resume", there, cause="ctl resume") == (True, "rtl")
+    loop._operator_chose()
+    assert loop.operator_mode == "" and loop._homeward()

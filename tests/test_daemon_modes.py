@@ -631,6 +631,7 @@ def test_a_crash_in_the_operators_mode_does_not_fly_the_mission_again_with_resum
             assert code == 0, text
             await d.wait(lambda: json.loads((d.tmp / "state" / "mission-progress.json").read_text())["operator"]
                          == command, 5.0, "the operator's mode saved")
+            saved_wp = json.loads((d.tmp / "state" / "mission-progress.json").read_text())["wp_index"]
             d.proc.kill()
             await d.proc.wait()
             await d.start(fresh=False)
@@ -644,12 +645,15 @@ def test_a_crash_in_the_operators_mode_does_not_fly_the_mission_again_with_resum
             await d.steady_thrust(1.0)
             d.proc.send_signal(2)
             assert await d.finish(30.0) == 0
+            err = (await d.proc.stderr.read()).decode()
         finally:
             await d.close()
-        return start
+        return start, saved_wp, err
 
-    start = asyncio.run(scenario())
-    assert start["event"] == "mission_start"
+    start, saved_wp, err = asyncio.run(scenario())
+    # held at the waypoint the run was at, and resume continues from there (a review: it started at W0)
+    assert start["event"] == "mission_start" and saved_wp >= 1 and start["start_index"] == saved_wp
+    assert f"resume` continues the mission from waypoint {saved_wp}" in err, err[-1500:]
 
 
 def test_a_held_start_with_a_failsafe_latched_does_not_offer_resume(tmp_path):

@@ -446,6 +446,16 @@ def test_a_new_heading_for_the_hold_under_way_keeps_its_point():
     assert ap.current.keeper.target == (swept.north_m, swept.east_m)  # from a stop: where the boat is
 
 
+def test_a_new_heading_far_from_a_go_here_point_holds_where_the_boat_is():
+    """Found reviewing 847bd84: `hold --heading` while a "go here" (GUIDED) was still 180 m off kept that point."""
+    ap = helm()
+    ap.step(HERE, 0.1)
+    assert ap.request("hold", HERE, cause="mavlink guided", target_ne_m=(200.0, 0.0)) == (True, "hold")
+    en_route = dataclasses.replace(HERE, north_m=20.0)
+    assert ap.request("hold", en_route, cause="ctl hold", heading_rad=math.radians(90.0)) == (True, "hold")
+    assert ap.current.keeper.target == pytest.approx((20.0, 0.0))
+
+
 def test_a_hold_taken_at_speed_turns_towards_its_point_while_braking():
     """Found by a modes audit: a hold commanded at 2 m/s braked astern while the boat still ran ahead, and the
     heading correction followed the thrust's sign: it turned away from the point (6 m ahead, 2 m to port: 21.8 deg
@@ -523,6 +533,19 @@ def test_a_hold_items_time_runs_while_held_and_resume_on_the_way_back_does_not_e
     assert ap.auto.item_left_s == pytest.approx(left - 1.0) and out.holding
     assert ap.request("resume", HERE, cause="ctl resume") == (True, "auto")  # held: the operator's resume ends it
     assert ap.auto.item_keeper is None
+
+
+def test_a_hold_items_time_runs_on_when_a_current_sets_the_boat_off_its_point():
+    """Found reviewing 846ed8b: the item's time ran only within approach_m of the point, so a boat a current held
+    farther off (or a drift-and-return radius wider than approach_m) kept station under thrust for ever. The time
+    stops only on the way back after the mission was left."""
+    ap = Autopilot(GncConfig(), [(0.5, 0.0), (30.0, 0.0)], holds_s=[2.0, None])
+    for _ in range(20):  # on W0: its hold begins
+        ap.step(HERE, 0.1)
+    swept = dataclasses.replace(HERE, north_m=-12.0)
+    for _ in range(30):  # 3 s set 12 m off: the 2-s hold ends all the same
+        ap.step(swept, 0.1)
+    assert ap.auto.item_keeper is None and ap.wp_index == 1
 
 
 @pytest.mark.parametrize("seed", [0, 3])

@@ -195,3 +195,29 @@ def test_a_log_re_saved_in_windows_1252_is_read_whole_and_said(tmp_path):
     assert log.stats.corrupt == 0 and log.stats.not_utf8 == 1
     assert "1 line(s) not UTF-8 (a log re-saved by an editor?): read as Windows-1252" in log.stats.describe()
     assert len(score(log).waypoints) == len(score(read_log(tmp_path / "ok.jsonl")).waypoints) > 0
+
+
+def test_one_corrupt_t_s_ahead_of_its_neighbours_drops_that_cycle_not_the_rest(tmp_path):
+    """Found reviewing d266692: a cycle whose t_s was raised by 1000 s (a corrupt value) was taken as the clock,
+    and the 322 cycles after it were left out as "not later than one before"."""
+    write_synthetic_log(tmp_path / "ok.jsonl")
+    lines = (tmp_path / "ok.jsonl").read_text().splitlines(keepends=True)
+    cycle_lines = [k for k, ln in enumerate(lines) if json.loads(ln)["event"] == "cycle"]
+    k = cycle_lines[50]
+    rec = json.loads(lines[k])
+    rec["t_s"] += 1000.0
+    lines[k] = json.dumps(rec) + "\n"
+    (tmp_path / "spike.jsonl").write_text("".join(lines))
+    ok, spike = read_log(tmp_path / "ok.jsonl"), read_log(tmp_path / "spike.jsonl")
+    assert spike.stats.cycles == ok.stats.cycles - 1 and spike.stats.time_reversals == 1
+
+
+def test_an_integer_too_large_for_a_float_is_a_bad_value_not_a_crash(tmp_path):
+    """Found reviewing d266692: a 400-digit integer in a cycle line raised OverflowError out of read_log."""
+    write_synthetic_log(tmp_path / "ok.jsonl")
+    lines = (tmp_path / "ok.jsonl").read_text().splitlines(keepends=True)
+    k = next(k for k, ln in enumerate(lines) if json.loads(ln)["event"] == "cycle")
+    lines[k] = lines[k].replace('"sog_m_s": ', '"sog_m_s": ' + "9" * 400 + ", \"x\": ", 1)
+    (tmp_path / "huge.jsonl").write_text("".join(lines))
+    log = read_log(tmp_path / "huge.jsonl")
+    assert log.stats.bad_values["sog_m_s"] == 1 and log.stats.cycles == read_log(tmp_path / "ok.jsonl").stats.cycles

@@ -319,8 +319,8 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: s
     if opts.fresh:
         return 0, None
     saved, hold = store.interrupted(sha, n_waypoints)
-    if hold is not None:
-        return 0, hold + " (--fresh starts afresh)"
+    if hold is not None:  # held at the waypoint the operator's mode found the run at, else at the first
+        return saved or 0, hold + " (--fresh starts afresh)"
     if saved is None:
         return 0, None
     if cfg.failsafe.resume_after_restart:
@@ -441,6 +441,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             # with a failsafe latched, resume is refused: "resume starts the mission" beside it (an operator audit)
             _console(f"holding zero thrust: {hold_zero}; " + (
                 f"`{ctl} rtl`, `hold` or `stop` are what it takes" if RESUME_REFUSED in hold_zero
+                else f"`{ctl} resume` continues the mission from waypoint {start_index}" if start_index
                 else f"`{ctl} resume` starts the mission"))
         t0_s = clock.now_s()
         events = DeviceEvents(log, clock, t0_s, cfg)

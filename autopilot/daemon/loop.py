@@ -34,7 +34,7 @@ from autopilot.devices import ZERO_THRUST, Compass, ThrustCommand, ThrusterLink
 from autopilot.gnc import Autopilot
 from autopilot.gnc.navigation import NavMemory, assemble
 from autopilot.gnc.passes import PassTracker
-from autopilot.logschema import MISSION_RTL_CAUSE, RTL_ARRIVED_CAUSE, Mode
+from autopilot.logschema import RTL_ARRIVED_CAUSE, Mode
 from autopilot.mission import ItemNumbers, Mission
 
 __all__ = ["LoopState", "ControlLoop", "watchdog_due", "COMMANDS_PER_CYCLE", "COMMANDS_QUEUED_MAX"]
@@ -105,7 +105,9 @@ class ControlLoop:
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
         self._saved_running = False  # this run's progress is the saved one (a held start keeps the old until then)
         self._saved_homeward = False  # what the saved progress says of the way home (Progress.homeward)
-        self.operator_mode = ""  # the mode the operator took the boat off the mission with (Progress.operator)
+        # the mode the operator took the boat off the mission with (Progress.operator); a held start is a stop of
+        # theirs until they say otherwise: a jump or an upload saved while held, then a crash, flew the mission
+        self.operator_mode = "stop" if hold_zero is not None else ""
         # why the loop goes on after the mission ended stopped (a ground station link, systemd), or None: it ends there
         self.stay_when_done: str | None = None
         self.time_stop_stayed = False  # max_mission_time's stop taken, and the loop went on for stay_when_done
@@ -438,7 +440,8 @@ class ControlLoop:
     def _operator_chose(self) -> None:
         """A command changed the helm's mode: the operator's mode (Progress.operator) is it, or none for the mission."""
         mode = self.ap.mode
-        chosen = "" if mode in (Mode.AUTO, Mode.COMPLETE) else mode.value
+        # the mission's own way home (an rtl resumed after a pause too) is the mission's: homeward carries it over
+        chosen = "" if mode in (Mode.AUTO, Mode.COMPLETE) or self._homeward() else mode.value
         if chosen not in OPERATOR_MODES or chosen == self.operator_mode:
             return
         self.operator_mode = chosen
@@ -448,9 +451,10 @@ class ControlLoop:
     def _homeward(self) -> bool:
         """The mission's route is done and its own return to launch under way, or the hold at home it ends in
         (Progress.homeward)."""
+        # any rtl once the route is done goes to the same launch point: the mission's own, or resumed after a pause
+        # (its cause then "ctl resume": a crash after it flew back out to the last waypoint)
         return bool(self.state.complete and self.mission.rtl and (
-            (self.ap.mode is Mode.RTL and self.ap.mode_cause == MISSION_RTL_CAUSE)
-            or (self.ap.mode is Mode.HOLD and self.ap.mode_cause == RTL_ARRIVED_CAUSE)))
+            self.ap.mode is Mode.RTL or (self.ap.mode is Mode.HOLD and self.ap.mode_cause == RTL_ARRIVED_CAUSE)))
 
     def _save_armed(self) -> None:
         """The operator's arm or disarm, saved now. In a held start the file is still the interrupted run's

@@ -122,6 +122,7 @@ class StateStore:
         """After a start without --fresh: (the waypoint an interrupted run of this mission was at, None), or
         (None, why the boat must hold zero thrust: a run was, or may have been, interrupted and cannot be
         continued as it was; or the last run of this mission was aborted, or ended with a failsafe latched),
+        or (that waypoint, why) when the operator's mode was in force (held there, resume continues),
         or (None, None) when no run was interrupted. A run of another mission (an
         uploaded one since deleted or edited, or the mission file edited since) is not the one to continue,
         nor a reason to start this one from its first waypoint unasked."""
@@ -150,9 +151,9 @@ class StateStore:
                           "is in the state directory")
         if not 0 <= saved.wp_index < n_waypoints:
             return None, f"the saved progress's waypoint {saved.wp_index} is not in this mission (0..{n_waypoints - 1})"
-        if saved.operator:
-            return None, (f"the operator's {saved.operator} was in force when a run of this mission was interrupted "
-                          "(the boat had been taken off the mission): not flown again unasked")
+        if saved.operator:  # held at the waypoint it was at: ctl resume continues from there
+            return saved.wp_index, (f"the operator's {saved.operator} was in force when a run of this mission was "
+                                    "interrupted (the boat had been taken off the mission): not flown again unasked")
         return saved.wp_index, None
 
 

@@ -282,10 +282,13 @@ class Autopilot:
         here = self._stopping_point(nav)
         if command == "hold":
             point = here if target_ne_m is None else (float(target_ne_m[0]), float(target_ne_m[1]))
-            if target_ne_m is None and mode in (Mode.HOLD, Mode.PAUSED) and hasattr(self.current, "keeper"):
-                # a new heading for the hold under way keeps its point, as ArduPilot turns the loiter without moving
-                # it: taken where the current had swept the boat, the point jumped 5 m downstream (an operator audit)
-                point = self.current.keeper.target
+            keeper = getattr(self.current, "keeper", None) if mode in (Mode.HOLD, Mode.PAUSED) else None
+            if (target_ne_m is None and keeper is not None and math.hypot(
+                    nav.north_m - keeper.target[0], nav.east_m - keeper.target[1]) <= self.config.hold.approach_m):
+                # a new heading for the hold the boat is at keeps its point, as ArduPilot turns the loiter without
+                # moving it: taken where the current had swept the boat, the point jumped 5 m downstream (an
+                # operator audit); a go-here still far off (GUIDED) is not the hold asked for: here it is
+                point = keeper.target
             self._switch(HoldMode(self.config.hold, point, heading_rad=heading_rad, initial_heading_rad=nav.psi_rad),
                          cause)
         elif command == "pause":
@@ -304,7 +307,7 @@ class Autopilot:
 
     def _resume(self, nav: NavInput, cause: str) -> tuple[bool, str]:
         if self.current is self.auto:
-            if self.auto.item_keeper is not None and not self.auto.item_hold_under_way(nav):
+            if self.auto.item_keeper is not None and self.auto.item_returning:
                 # on the way back to a hold item's point: a second resume (the first brought the boat back into
                 # the mission from a stop) ended the hold 22 m short, then the mission, and the daemon exited with
                 # the boat adrift (an operator audit)
@@ -365,6 +368,7 @@ class Autopilot:
             self.paused_from = None
         if new is self.auto and self.current is not self.auto:  # back to the mission: no stale "passed"
             self.auto.guidance.disarm_pass()
+            self.auto.back_to_item()
         self.current = new
         self.mode_cause = cause
         self.reset_integrator()

@@ -186,6 +186,7 @@ class AutoMode:
         self.rtl = rtl
         self.closing = Closing(config.hold)
         self.item_keeper: StationKeeper | None = None  # holding at a waypoint of the mission
+        self.item_returning = False  # ... on the way back to it after the mission was left (back_to_item)
         self.item_left_s = 0.0
         self.item_index: int | None = None
         self.held_off_ne_m: dict[int, tuple[float, float]] = {}  # waypoint reached "occupied" -> where it is held
@@ -195,25 +196,28 @@ class AutoMode:
         """Resume: end a hold item early (True if there was one)."""
         held = self.item_keeper is not None
         self.item_keeper = self.item_index = None
+        self.item_returning = False
         return held
 
     def _hold_s(self, i: int) -> float | None:
         h = self.holds_s[i] if i < len(self.holds_s) else None
         return None if h is None or h <= 0.0 else h
 
-    def item_hold_under_way(self, nav) -> bool:
-        """Holding at a waypoint's hold item proper: not on the way back to its point (after a stop, an rtl, a hold
-        elsewhere), farther than ``approach_m``, where its time does not run and resume does not end it."""
-        return self.item_keeper is not None and not self.closing.far(nav, self.item_keeper.target)
+    def back_to_item(self) -> None:
+        """The mission is taken up again (after a stop, a pause, an rtl, a hold elsewhere): a hold item under way is
+        returned to, its time stopped until the boat is within ``approach_m`` of its point again."""
+        self.item_returning = self.item_keeper is not None
 
     def update(self, nav, dt_s: float) -> Steering:
         if self.item_keeper is not None:
-            # the item's time runs while it is held: it ran on the way back to the point too, 22 m off (an audit)
-            back = not self.item_hold_under_way(nav)
-            if not back:
+            # the item's time runs while it is held: it ran on the way back to the point too, 22 m off (an audit);
+            # once back it runs on, however far a current then sets the boat (it must end)
+            if self.item_returning and not self.closing.far(nav, self.item_keeper.target):
+                self.item_returning = False
+            if not self.item_returning:
                 self.item_left_s -= dt_s
             if self.item_left_s > 0.0:
-                return keep_station(self.item_keeper, nav, dt_s, holding=not back)
+                return keep_station(self.item_keeper, nav, dt_s, holding=not self.item_returning)
             self.end_item_hold()
         if self.guidance.complete:
             return self._end(nav)

@@ -425,9 +425,12 @@ def _to_float(x) -> float:
         return math.nan
     if isinstance(x, bool):
         return 1.0 if x else 0.0
-    if isinstance(x, (int, float)) and math.isfinite(x):
-        return float(x)
-    raise TypeError  # strings, lists, objects, infinities
+    try:
+        if isinstance(x, (int, float)) and math.isfinite(x):
+            return float(x)
+    except OverflowError:  # a 400-digit integer: not a float at all (it escaped read_log: a review)
+        pass
+    raise TypeError  # strings, lists, objects, infinities, integers beyond a float
 
 
 class _Columns:
@@ -465,7 +468,7 @@ def _block_to_array(rows: list, stats: ReadStats) -> np.ndarray:
         arr = np.array(rows, dtype=np.float64)
         if arr.shape != (len(rows), len(CYCLE_FIELDS)):
             raise ValueError
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         # slow path only for blocks holding something odd (strings, lists)
         arr = np.empty((len(rows), len(CYCLE_FIELDS)))
         for i, row in enumerate(rows):
@@ -566,6 +569,23 @@ def _lines(f, stats: ReadStats):
             return
         lineno += 1
         yield raw
+
+
+def _in_time_order(t: np.ndarray) -> np.ndarray:
+    """The cycles to keep: those later than every one kept before. A lone cycle whose t_s is ahead of both
+    neighbours while they are in order (a corrupt value) is one bad cycle: taken as the clock, it once left the
+    322 cycles after it out (a review of the change that began leaving cycles out)."""
+    n = len(t)
+    spike = np.zeros(n, dtype=bool)
+    if n >= 3:
+        spike[1:-1] = (t[1:-1] > t[2:]) & (t[2:] > t[:-2])
+    if n >= 2 and t[0] > t[1]:
+        spike[0] = n == 2 or t[1] < t[2]  # the first, ahead of an ordered rest
+    keep = ~spike
+    kept = t[keep]
+    ordered = kept > np.maximum.accumulate(np.r_[-np.inf, kept[:-1]]) if len(kept) else np.zeros(0, dtype=bool)
+    keep[np.flatnonzero(keep)[~ordered]] = False
+    return keep
 
 
 def _cp1252_ok(raw: bytes) -> bool:
@@ -713,7 +733,7 @@ def read_log(path, *, keep_reversals: bool = False) -> MissionLog:
     # a cycle not later than every one before is a block written twice (a copy glitch) or another run appended:
     # left out of every figure. Kept, its energy, mode times, "position lost" and fixes counted twice while only
     # the distance left it out (a review audit: 20 s of position lost in a log with a fix throughout)
-    later = t > np.maximum.accumulate(np.r_[-np.inf, t[:-1]]) if len(t) else np.zeros(0, dtype=bool)
+    later = _in_time_order(t)
     if keep_reversals:
         stats.time_reversals = int(np.count_nonzero(np.diff(t) < 0))
     elif not later.all():
