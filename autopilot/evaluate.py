@@ -242,6 +242,7 @@ def run_closed_loop(
     import numpy as np
 
     from autopilot.closed_loop import Flight
+    from autopilot.daemon.cycle import nav_input
     from autopilot.gnc import Autopilot, GncConfig
     from autopilot.sim import step
 
@@ -264,8 +265,6 @@ def run_closed_loop(
     pending = sorted(commands)
     while (thrust := flight.control(t, x)) is not None:
         while pending and t >= pending[0][0] and flight.last.nav.steerable:
-            from autopilot.daemon.cycle import nav_input
-
             ap.request(pending.pop(0)[1], nav_input(flight.last.nav), cause="evaluate")  # from the next cycle
         for _ in range(flight.substeps):
             x = step(params, x, thrust[0], thrust[1], dt_s, t_s=t, env=env, external_force=external_force)

@@ -735,17 +735,13 @@ def score(log: MissionLog) -> Scorecard:
 
     tp, ts = log.col("thrust_port_n"), log.col("thrust_stbd_n")
     known = np.isfinite(tp) & np.isfinite(ts)
-    with np.errstate(over="ignore", invalid="ignore"):  # a corrupt 1e308 N overflows: said below, not warned
-        energy = float(np.sum((np.abs(tp[known]) + np.abs(ts[known])) * hold[known])) if known.any() else math.nan
+    # (the reader makes a value beyond ABSURD a gap: a corrupt 1e308 N no longer overflows the sum)
+    energy = float(np.sum((np.abs(tp[known]) + np.abs(ts[known])) * hold[known])) if known.any() else math.nan
     read_notes = log.stats.describe()
     starts = len(log.events_named("mission_start"))
     if starts > 1:  # logs joined with cat: one mission of twice the cycles, a jump back to the start in its distance
         read_notes.append(f"{starts} missions in one file (a mission_start line each): reviewed as one, the cycles "
                           "of a later one that restart its clock left out; give each mission's log as a file of its own")
-    if not math.isfinite(energy) and known.any():
-        read_notes.append(f"thrust energy not computed: thrust values up to {np.max(np.abs(np.r_[tp[known], ts[known]])):.3g} N "
-                          "overflow the sum (a corrupt log?)")
-        energy = math.nan
     thrust_unknown = float(np.sum(hold[~known]))
     if distance_note:
         read_notes.append(distance_note)
