@@ -196,11 +196,18 @@ class Daemon:
         if self.proc is None:
             return
         try:
-            late = [(r["t_s"], r["lateness_ms"]) for r in self.log() if r["event"] == "cycle"
-                    and (r.get("lateness_ms") or 0.0) > 200.0]
+            cycles = [r for r in self.log() if r["event"] == "cycle"]
         except (OSError, ValueError, KeyError):
             return
-        print(f"rig: the daemon's cycles > 200 ms (simulated) late (t_s, lateness_ms): {late[:40]}")
+        # a late cycle is logged after the deadlines it skipped (its lateness then under a period): the gaps
+        # between cycles and the skips tell a stall of the daemon's
+        gaps = [(b["t_s"], round(b["t_s"] - a["t_s"], 3)) for a, b in zip(cycles, cycles[1:])
+                if b["t_s"] - a["t_s"] > 2.0 * PERIOD_S]
+        print(f"rig: the daemon's cycles more than two periods apart (t_s, gap s): {gaps[:40]}; deadlines skipped: "
+              f"{cycles[-1].get('skipped_cycles') if cycles else None}")
+        stale = [(r["t_s"], r.get("heading_age_s"), r.get("ack_missing")) for r in cycles
+                 if (r.get("heading_age_s") or 0.0) > 0.6]
+        print(f"rig: the daemon's cycles with a heading older than 0.6 s (t_s, age s, acks missing): {stale[:40]}")
 
     async def close(self) -> None:
         if self._watch is not None:
