@@ -643,9 +643,7 @@ def test_a_crash_in_the_operators_mode_does_not_fly_the_mission_again_with_resum
             code, text = await d.ctl("resume")
             assert code == 0 and text.startswith("auto"), text
             await d.steady_thrust(1.0)
-            d.proc.send_signal(2)
-            assert await d.finish(30.0) == 0
-            err = (await d.proc.stderr.read()).decode()
+            err = await d.interrupt()
         finally:
             await d.close()
         return start, saved_wp, err
@@ -676,9 +674,7 @@ def test_a_held_start_with_a_failsafe_latched_does_not_offer_resume(tmp_path):
             await d.start(fresh=False)
             await d.wait(lambda: sum(1 for r in d.log() if r["event"] == "cycle") > 10, 30.0, "cycles")
             code, answer = await d.ctl("resume")
-            d.proc.send_signal(2)
-            assert await d.finish(30.0) == 0
-            err = (await d.proc.stderr.read()).decode()
+            err = await d.interrupt()
         finally:
             await d.close()
         return code, answer, err

@@ -209,6 +209,12 @@ class Daemon:
                  if (r.get("heading_age_s") or 0.0) > 0.6]
         print(f"rig: the daemon's cycles with a heading older than 0.6 s (t_s, age s, acks missing): {stale[:40]}")
 
+    async def interrupt(self) -> str:
+        """Ctrl-C, as an operator stops it: the daemon must end cleanly (exit 0); its standard error."""
+        self.proc.send_signal(signal.SIGINT)
+        assert await self.finish(30.0) == 0
+        return (await self.proc.stderr.read()).decode()
+
     async def close(self) -> None:
         if self._watch is not None:
             self._watch.cancel()
