@@ -350,3 +350,13 @@ def test_the_loop_lateness_of_a_sped_up_run_is_said_to_be_simulated(tmp_path, sp
     recs = [start] + _cycles(20, lateness_ms=1.0)
     rows = dict(score(read_log(_write(tmp_path / "s.jsonl", recs))).table_rows())
     assert f"loop lateness p50 / p99 / max{said}" in rows
+
+
+@pytest.mark.parametrize("start_index, said", [(1, " (this run started at W1: W0 was an earlier run's)"), (0, ""),
+                                               (7, "")])
+def test_a_run_carried_on_after_a_restart_says_where_it_started(tmp_path, start_index, said):
+    """Found by a review audit: a resumed run read "waypoints reached 6 of 9" beside "complete", without a word that
+    it started at W3 (the rest were the interrupted run's). A start index the mission has not is not said."""
+    recs = [{**START, "start_index": start_index}] + _cycles(20, wp_index=1)
+    rows = dict(score(read_log(_write(tmp_path / "r.jsonl", recs))).table_rows())
+    assert rows["waypoints reached"] == "0 of 2" + said

@@ -207,6 +207,7 @@ class Scorecard:
     missions: list = field(default_factory=list)  # one per plan when the mission was replaced: number, from_t_s, source, waypoints
     heading_stale_after_s: float = math.nan  # the ages above which a sample counted stale (stale_limits_s)
     speedup: str = ""  # mission_start's --speedup when not real time ("10", "max"): the log's times are simulated
+    start_index: int = 0  # the waypoint this run started at (mission_start's: a restart that carried a run on)
     position_stale_after_s: float = math.nan
 
     def to_dict(self) -> dict:
@@ -236,6 +237,11 @@ class Scorecard:
                 + ("from mission_start" if m["from_t_s"] is None else f"from {m['from_t_s']:.1f} s ({m['source'] or 'replaced'})")
                 for m in self.missions))] if len(self.missions) > 1 else []),
             ("waypoints reached", f"{wp_reached} of {len(self.waypoints)}" + (
+                # a restart that carried a run on: the waypoints before it were the earlier run's (it read "6 of 9"
+                # beside "complete" for a run that flew its 6: a review audit)
+                f" (this run started at W{self.start_index}: "
+                + ("W0 was" if self.start_index == 1 else f"W0-W{self.start_index - 1} were") + " an earlier run's)"
+                if self.start_index else "") + (
                 f"; {len(in_hole)} passed in a hole in the log ({', '.join(in_hole[:5])}"
                 + (", ..." if len(in_hole) > 5 else "") + "): not known" if in_hole else "")),
             ("closest approach of the waypoints reached, mean / max", ca_text),
@@ -520,6 +526,13 @@ def _passed_in_holes(t: np.ndarray, idx: np.ndarray, plan: Plan) -> set:
     return out
 
 
+def _start_index(log: MissionLog) -> int:
+    """mission_start's start_index when it is a waypoint of the mission, else 0."""
+    k = (log.start or {}).get("start_index")
+    n = len(log.plans[0].waypoints_ne_m) if log.plans else 0
+    return k if isinstance(k, int) and not isinstance(k, bool) and 0 < k < n else 0
+
+
 def _speedup_words(value) -> str:
     """mission_start's speedup as said beside a figure in its times: "" for real time (1) or none logged."""
     if isinstance(value, str):
@@ -800,6 +813,7 @@ def score(log: MissionLog) -> Scorecard:
         ack_missing=_max_count(log, "ack_missing", "ack_missing"),
         lateness_ms=lateness, stop_reason=stop_reason if isinstance(stop_reason, str) else None,
         speedup=_speedup_words((log.start or {}).get("speedup")),
+        start_index=_start_index(log),
         # a run that stayed up after the mission's stop (a ground station link, systemd) ends by a signal in complete
         complete=bool(log.events_named("mission_complete")),
         finished=stop_reason == "complete" or (bool(log.events_named("mission_complete")) and end_mode == "complete"),
