@@ -81,10 +81,6 @@ class Closing:
     def near(self, nav, point) -> bool:
         return math.hypot(point[0] - nav.north_m, point[1] - nav.east_m) < self.config.approach_m
 
-    def far(self, nav, point) -> bool:
-        """Farther than ``approach_m``: where station keeping approaches the point on a course (StationKeeper.step)."""
-        return math.hypot(point[0] - nav.north_m, point[1] - nav.east_m) > self.config.approach_m
-
     def keeper_for(self, point, nav) -> StationKeeper:
         p = (float(point[0]), float(point[1]))
         if self.keeper is None or self.keeper.target != p:
@@ -212,7 +208,7 @@ class AutoMode:
         if self.item_keeper is not None:
             # the item's time runs while it is held: it ran on the way back to the point too, 22 m off (an audit);
             # once back it runs on, however far a current then sets the boat (it must end)
-            if self.item_returning and not self.closing.far(nav, self.item_keeper.target):
+            if self.item_returning and self.closing.near(nav, self.item_keeper.target):
                 self.item_returning = False
             if not self.item_returning:
                 self.item_left_s -= dt_s
