@@ -11,11 +11,16 @@ import asyncio
 import json
 import math
 import socket
+from functools import partial
 
 import pytest
 
 from autopilot.sim.battery import BatteryConfig
-from tests.test_failsafe_faults import Daemon, square_mission
+from tests.test_failsafe_faults import Daemon as FaultRigDaemon
+from tests.test_failsafe_faults import square_mission
+
+# these tests inject no heading or acknowledgement fault: those watchdogs at margins the loaded machine keeps
+Daemon = partial(FaultRigDaemon, injects_link_faults=False)
 
 
 def _modes(d: Daemon) -> list[tuple[str, str, str]]:

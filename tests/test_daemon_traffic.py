@@ -11,6 +11,7 @@ import socket
 import subprocess
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +23,11 @@ from autopilot.geo import local_to_latlon
 from autopilot.gnc.avoidance import AvoidanceConfig
 from autopilot.simdev.traffic import encode_ais
 from tests.logtail import LogTail
-from tests.test_failsafe_faults import ORIGIN, Daemon
+from tests.test_failsafe_faults import ORIGIN
+from tests.test_failsafe_faults import Daemon as FaultRigDaemon
+
+# these tests inject no heading or acknowledgement fault: those watchdogs at margins the loaded machine keeps
+Daemon = partial(FaultRigDaemon, injects_link_faults=False)
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAD_ON_MMSI = 244000101

@@ -45,6 +45,13 @@ FAILSAFE = {
     "position_confirm_s": 1.0,
 }
 ACK_TIMEOUT_S = 0.3
+# The heading and acknowledgement watchdogs of a test that injects neither: at 10x, FAILSAFE's 1 s heading limit
+# and 5 missing acks are 100 ms and ~70 ms of wall time, and on the 2-core machine under the other pytest-xdist
+# worker the pseudo-terminals' output has reached the daemon that late with neither event loop held up
+# (docs/test-runs.md, the geofence tests' load flake: the kernel's deferred tty flush is what is left). A test of
+# modes or traffic is not a test of those watchdogs (each has its own, with FAILSAFE's limits, here): it runs
+# them at 3 s and 20 acks, ~300 and ~220 ms of wall time, and still stops on a real loss of either.
+BYSTANDER_WATCHDOGS = {"heading_stale_s": 3.0, "ack_missing_n": 20}
 STOP_TIMEOUT_S = 0.5  # the simulated firmware's own stop (docs/mbed-protocol.md)
 # the pseudo-terminal hop and two event loops on a shared 2-core machine, in simulated seconds
 TRANSPORT_S = 0.05
@@ -66,6 +73,7 @@ class Daemon:
     _log: LogTail | None = None
     stalls: list = field(default_factory=list)  # (clock s, wall ms): this process's event loop held up
     _watch: asyncio.Task | None = None
+    injects_link_faults: bool = True  # False: the heading and ack watchdogs at BYSTANDER_WATCHDOGS' margins
 
     async def start(self, *, fresh: bool = True) -> None:
         if self.rig is None:
@@ -89,7 +97,7 @@ class Daemon:
             "origin_lon_deg": ORIGIN[1],
             "serial": {"sc30_port": self.rig.sc30_path, "mbed_port": self.rig.mbed_path, "ack_timeout_s": ACK_TIMEOUT_S,
                        "reconnect_min_s": 0.2, "reconnect_max_s": 1.0},
-            "failsafe": dict(FAILSAFE),
+            "failsafe": dict(FAILSAFE) if self.injects_link_faults else {**FAILSAFE, **BYSTANDER_WATCHDOGS},
             "runtime_dir": str(self.runtime_dir),
         }
         for k, v in self.config.items():
