@@ -258,7 +258,8 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("closest_east_m", "float", "m", "that fix"),
         _f("fixes", "int", "-", "fixes in the pass"),
     )),
-    EventSpec("mission_complete", "the last waypoint reached", (
+    EventSpec("mission_complete", "the route done: the last waypoint reached and its hold item, if it has one, over "
+              "(before 2026-12-06 logged when that hold item began)", (
         _f("wp_count", "int", "-", "waypoints in the mission"),
         _f("rtl", "bool", "-", "the mission ends with its return to launch, which begins now (a planner is told the "
            "waypoints are done, not the mission; null in logs before 2026-12-06)"),

@@ -168,13 +168,18 @@ def test_signal_stops_with_zero_thrust_acknowledged_and_exit_0(signame, tmp_path
 
 
 @pytest.mark.slow
-def test_a_run_stopped_in_its_final_hold_is_reviewed_as_the_daemon_ends_it(tmp_path):
-    """Left in stop 42's note (a new-user audit): the daemon ends a run stopped by SIGTERM in the hold after its
-    route "route complete ...; then in MODE, stopped by SIGTERM", and the review of its log said "signal, mission
-    complete". The review now says what the daemon said, and its summary.json says the run did not finish."""
-    p = start(ROOT / "config" / "missions" / "station-keep.yaml", tmp_path, "--speedup", "max")
+def test_a_run_stopped_after_its_route_is_reviewed_as_the_daemon_ends_it(tmp_path):
+    """Left in stop 42's note (a new-user audit): the daemon ends a run stopped by SIGTERM after its route (on the
+    way home, in the hold that ends it) "route complete ...; then in MODE, stopped by SIGTERM", and the review of
+    its log said "signal, mission complete". The review now says what the daemon said, and its summary.json says
+    the run did not finish."""
+    mission = tmp_path / "out-and-home.yaml"
+    mission.write_text("name: out-and-home\nframe: local\nwaypoints:\n  - {north_m: 20.0, east_m: 20.0}\n  - rtl\n")
+    p = start(mission, tmp_path, "--speedup", "max")
     _wait_for(lambda recs: any(r["event"] == "mission_complete" for r in recs)
-              and sum(r["event"] == "cycle" for r in recs) > 50, tmp_path / "logs", p)
+                     and sum(r["event"] == "cycle" for r in recs) > 50 + next(
+                         k for k, r in enumerate(x for x in recs if x["event"] in ("cycle", "mission_complete"))
+                         if r["event"] == "mission_complete"), tmp_path / "logs", p)
     p.send_signal(signal.SIGTERM)
     _, err = p.communicate(timeout=30)
     assert p.returncode == 0
@@ -183,9 +188,29 @@ def test_a_run_stopped_in_its_final_hold_is_reviewed_as_the_daemon_ends_it(tmp_p
     (path,) = (tmp_path / "logs").glob("mission-*.jsonl")
     card = score(review_read_log(path))
     assert card.complete and not card.finished and card.stop_signal == "SIGTERM"
+    assert card.end_mode in ("rtl", "hold")
     row = dict(card.table_rows())["stop"]
     assert row == f"route complete; then in {card.end_mode}, stopped by SIGTERM"
     assert f"then in {card.end_mode}, stopped by SIGTERM" in said  # the daemon's words
+
+
+@pytest.mark.slow
+def test_a_run_stopped_in_its_last_waypoints_hold_item_is_not_complete(tmp_path):
+    """An operator audit: the last waypoint's hold item (station-keep: 300 s) began and the daemon logged
+    mission_complete and `ctl status` said "complete", the boat holding there under thrust. The item is part of
+    the mission: stopped in it, the run is not complete, for the daemon and the review alike."""
+    p = start(ROOT / "config" / "missions" / "station-keep.yaml", tmp_path, "--speedup", "max")
+    recs = _wait_for(lambda recs: sum(r["event"] == "cycle" and r["holding"] for r in recs) > 100,
+                     tmp_path / "logs", p)
+    assert not any(r["event"] == "mission_complete" for r in recs)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=30)
+    assert p.returncode == 0
+    said = next(ln for ln in err.splitlines() if "waypoint(s) reached" in ln)
+    assert said.startswith("autopilot run: mission not complete after") and "stopped by SIGTERM" in said, said
+    (path,) = (tmp_path / "logs").glob("mission-*.jsonl")
+    card = score(review_read_log(path))
+    assert not card.complete and not card.finished and card.stop_signal == "SIGTERM"
 
 
 @pytest.mark.slow

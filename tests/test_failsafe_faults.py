@@ -12,6 +12,7 @@ the mission resumes and completes.
 from __future__ import annotations
 
 import asyncio
+import json
 import re
 import signal
 import sys
@@ -557,15 +558,23 @@ def test_sigkill_leaves_a_valid_log_and_restart_is_safe(tmp_path, resume):
             # restart, a loaded machine once read the killed daemon's last two commands (full thrust, in the line
             # before the kill) into the list after it was counted (clean clone of f6a60c2)
             new_cmds = [c for c in d.rig.mbed.commands if c[0] >= t_restart]
-            if resume:
-                await d.wait(lambda: d.rig.mbed.thrusting, 10.0, "resumed thrust")
+            if not resume:  # held: the operator's resume continues from the waypoint the run was at
+                assert await d.ctl("resume") == (0, "auto")
+            await d.wait(lambda: d.rig.mbed.thrusting, 10.0, "resumed thrust")
+            await d.steady_thrust(1.0)
+            def thrust_cycles():
+                return [r for r in d.log() if r["event"] == "cycle" and r["pwm_port_pct"] + r["pwm_stbd_pct"] > 0.0]
+
+            await d.wait(thrust_cycles, 5.0, "the thrust in the log")
+            steered = thrust_cycles()[0]["wp_index"]  # where its first thrust went
             d.proc.send_signal(signal.SIGTERM)
             code = await d.finish(30.0)
         finally:
             await d.close()
-        return dt_s, first_log, after, new_cmds, code
+        saved = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+        return dt_s, first_log, after, new_cmds, code, steered, saved
 
-    dt_s, first_log, after, new_cmds, code = asyncio.run(scenario())
+    dt_s, first_log, after, new_cmds, code, steered, saved = asyncio.run(scenario())
     assert dt_s <= STOP_TIMEOUT_S + 2 * PERIOD_S + TRANSPORT_S
     assert first_log[0]["event"] == "mission_start" and not [r for r in first_log if r["event"] == "stop"]
     reached = max(r["wp_index"] for r in first_log if r["event"] == "waypoint_reached")
@@ -573,13 +582,15 @@ def test_sigkill_leaves_a_valid_log_and_restart_is_safe(tmp_path, resume):
     assert start["event"] == "mission_start"
     # the first commands after a restart are zero thrust (waiting for valid data)
     assert new_cmds and new_cmds[0][2] == 0 and new_cmds[0][4] == 0
+    # held or not, the run goes on from the waypoint it was at (held, `ctl resume` started the mission from W0
+    # while the kept progress said W1, and the stop after kept that progress: an operator audit)
+    assert start["start_index"] == reached + 1 and steered == reached + 1
     if resume:
-        assert start["start_index"] == reached + 1
         assert any("resuming interrupted mission" in r.get("message", "") for r in after)
     else:
-        assert start["start_index"] == 0
         assert any("holding zero thrust" in r.get("message", "") for r in after)
         assert all(c[2] == 0 and c[4] == 0 for c in new_cmds)
+    assert saved["status"] == "stopped" and saved["wp_index"] == reached + 1  # this run's, stopped cleanly
     assert code == 0
 
 

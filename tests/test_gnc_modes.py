@@ -561,3 +561,24 @@ def test_a_pause_at_cruise_in_calm_water_holds_its_heading(params, seed):
     assert paused.sum() == 900  # 90 s held
     assert math.degrees(psi.max() - psi.min()) < 30.0
     assert r.hold.position_error_rms_m < 0.6
+
+
+def test_a_mission_ending_in_a_hold_item_is_complete_when_the_hold_is_over(params):
+    """An operator audit: the last waypoint's hold item began and the daemon logged mission_complete, `ctl status`
+    said "complete", while the boat held there under thrust for the item's whole time. Complete now means the
+    route's last item is over; evaluate's mission time counts the hold (as README said it did)."""
+    r = run_closed_loop(params, [(15.0, 0.0)], holds_s=[30.0], record=True, position_noise_m=0.3, seed=1,
+                        t_max_s=150.0)
+    t = np.asarray(r.trace["t_s"])
+    holding_from_s = t[np.flatnonzero([m == "auto" and e is not None for m, e in
+                                       zip(r.trace["mode"], r.trace["hold_error_m"])])[0]]
+    assert r.completed and r.hold is not None and r.hold.time_s == pytest.approx(30.0, abs=0.2)
+    assert r.time_s >= holding_from_s + 30.0 - 0.2
+    ap = Autopilot(GncConfig(), [(0.5, 0.0)], holds_s=[60.0])
+    for _ in range(20):  # on W0, the last waypoint: its hold begins
+        out = ap.step(HERE, 0.1)
+    assert ap.auto.item_keeper is not None and ap.guidance.complete
+    assert not ap.complete and not out.complete and not out.finished  # the item's hold under way
+    assert ap.request("resume", HERE, cause="ctl resume") == (True, "auto")  # the operator's resume ends it
+    out = ap.step(HERE, 0.1)
+    assert ap.complete and out.complete and out.finished

@@ -325,7 +325,10 @@ def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: s
         return 0, None
     if cfg.failsafe.resume_after_restart:
         return saved, None
-    return 0, "interrupted mission found in the state directory and failsafe.resume_after_restart is false (--fresh starts afresh)"
+    # held at the waypoint the run was at, as the operator's case: `ctl resume` continues from there. It started
+    # the mission from W0 while the kept progress said W1, and a stop then kept that progress (an operator audit)
+    return saved, ("interrupted mission found in the state directory and failsafe.resume_after_restart is false "
+                   "(--fresh starts afresh)")
 
 
 def _armed_at_start(opts: RunOptions, store: StateStore) -> bool:
@@ -441,7 +444,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             # with a failsafe latched, resume is refused: "resume starts the mission" beside it (an operator audit)
             _console(f"holding zero thrust: {hold_zero}; " + (
                 f"`{ctl} rtl`, `hold` or `stop` are what it takes" if RESUME_REFUSED in hold_zero
-                else f"`{ctl} resume` continues the mission from waypoint {start_index}" if start_index
+                else f"`{ctl} resume` continues the mission from waypoint {start_index} (`set_current 0`: from its "
+                     "first)" if start_index
                 else f"`{ctl} resume` starts the mission"))
         t0_s = clock.now_s()
         events = DeviceEvents(log, clock, t0_s, cfg)

@@ -445,7 +445,9 @@ class ControlLoop:
         if chosen not in OPERATOR_MODES or chosen == self.operator_mode:
             return
         self.operator_mode = chosen
-        if self._saved_running:
+        # a held start taken into the mission is this run from now: its progress is saved (a stop kept the
+        # interrupted run's, and the next start held the boat for a run that had since gone on)
+        if self._saved_running or (chosen == "" and self.hold_zero is not None and not self.failsafe.latched):
             self._save("running")
 
     def _homeward(self) -> bool:
@@ -545,10 +547,10 @@ class ControlLoop:
         saved_reason = reason if status == "aborted" else ""
         if status == "stopped" and self.time_stop_stayed:  # the run ended at its time limit: a signal later (a
             status, saved_reason = "aborted", "max_mission_time"  # shutdown) does not make a reboot fly it again
-        # a held start stopped cleanly keeps the interrupted run's progress (ctl resume may continue it later),
-        # unless that run had latched a failsafe: then resume is refused, and kept it left the boat held at every
+        # a held start stopped cleanly, never resumed, keeps the interrupted run's progress (ctl resume may continue
+        # it later), unless that run had latched a failsafe: then resume is refused, and kept it left the boat held at every
         # start until someone with a shell passed --fresh
-        if self.hold_zero is None or status != "stopped" or self.failsafe.latched:
+        if self._saved_running or self.hold_zero is None or status != "stopped" or self.failsafe.latched:
             self._save(status, saved_reason)
         self.log.event(
             "stop", t_s=self.clock.now_s() - self.t0_s, reason=reason, signal=st.stop_signal, ack_received=ack,

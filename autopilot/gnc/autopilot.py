@@ -174,8 +174,10 @@ class Autopilot:
 
     @property
     def complete(self) -> bool:
-        """The mission's last waypoint has been reached."""
-        return self.guidance.complete
+        """The mission's route is done: its last waypoint reached and that waypoint's hold item (if it has one)
+        over. Complete at the hold item's start, the daemon logged mission_complete and `ctl status` said
+        "complete" while the boat held there under thrust for the item's time (an operator audit)."""
+        return self.guidance.complete and self.auto.item_keeper is None
 
     @property
     def finished(self) -> bool:
@@ -655,7 +657,7 @@ class Autopilot:
             reached_index=None if reached is None else reached.reached_index,
             reached_distance_m=None if reached is None else reached.reached_distance_m,
             reached_how=None if reached is None else reached.reached_how,
-            complete=self.guidance.complete,
+            complete=self.complete,
             tau_com_trim_n=trim_n,
             thrust_off=s.kind == "off",
             finished=self.finished,
