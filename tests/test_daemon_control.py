@@ -124,7 +124,7 @@ def test_plain_status_says_why_the_helm_is_in_its_mode():
 
     held = {"mode": "stop", "helm_mode": "stop", "mode_cause": "start: interrupted mission found in the state "
             "directory and failsafe.resume_after_restart is false (--fresh starts afresh)", "armed": True, "t_s": 1.0}
-    assert _status_lines(held)[0] == ("mode: stop - start: interrupted mission found in the state directory and "
+    assert _status_lines(held)[0] == ("mode: stop (planner: HOLD) - start: interrupted mission found in the state directory and "
                                       "failsafe.resume_after_restart is false (--fresh starts afresh)")
     assert _status_lines({"mode": "auto", "helm_mode": "auto", "mode_cause": "start", "t_s": 1.0})[0] == "mode: auto"
     # a given hold heading the current is across: said by ctl status too, not only in the log (an operator audit)
@@ -134,4 +134,21 @@ def test_plain_status_says_why_the_helm_is_in_its_mode():
             "without --heading to face it") in _status_lines(across)
     assert not any("cannot keep" in x for x in _status_lines({**across, "hold_across_feasible_deg": None}))
     assert _status_lines({"mode": "hold", "mode_cause": "ctl hold", "armed": False})[0] == (
-        "mode: hold - ctl hold - DISARMED: zero thrust whatever the mode (autopilot ctl arm)")
+        "mode: hold (planner: LOITER) - ctl hold - DISARMED: zero thrust whatever the mode (autopilot ctl arm)")
+
+
+def test_status_names_the_planners_mode_and_a_fault_latched_before_a_restart():
+    """An operator audit: `ctl status` said "hold" where the planner beside it showed LOITER (and its HOLD is our
+    stop); and a latched fault restored from the run before a restart was listed as a fault of now."""
+    from autopilot.daemon.cli import _status_lines
+    from autopilot.logschema import RTL_ARRIVED_CAUSE
+
+    assert _status_lines({"mode": "hold", "mode_cause": RTL_ARRIVED_CAUSE})[0].startswith(
+        "mode: hold (planner: RTL)")
+    assert _status_lines({"mode": "paused", "mode_cause": "ctl pause"})[0] == "mode: paused (planner: LOITER) - ctl pause"
+    assert _status_lines({"mode": "rtl", "mode_cause": "ctl rtl"})[0] == "mode: rtl - ctl rtl"  # the same name
+    assert _status_lines({"mode": "no-such-mode"})[0] == "mode: no-such-mode"  # a newer daemon's: shown as it is
+    st = {"mode": "stop", "active_faults": ["heading_stale", "geofence", "battery_low"],
+          "latched_faults": ["geofence", "battery_low"], "latched_before_restart": ["geofence"]}
+    assert _status_lines(st)[-1] == "faults: heading_stale; latched: geofence (before the restart), battery_low"
+    assert _status_lines({"mode": "auto", "active_faults": []})[-1] == "faults: none"

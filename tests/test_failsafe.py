@@ -392,3 +392,12 @@ def test_a_leg_is_outside_a_polygon_where_any_piece_of_it_is():
     square = ((0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0))
     assert segment_outside_polygon((1.0, 1.0), (9.0, 9.0), square) is None  # convex: never
     assert segment_outside_polygon((5.0, 5.0), (15.0, 5.0), square) is not None  # its end outside
+
+
+def test_a_fault_latched_before_a_restart_is_told_apart_from_one_of_this_run():
+    """ctl status lists a restored latched fault as "before the restart" (an operator audit): the failsafe names them."""
+    fs = Failsafe(CFG, fence_ne_m=SQUARE)
+    fs.restore_latched(["geofence", "heading_stale"])  # a transient one is not latched across a restart
+    d = fs.update(good(0.0, mission_time_s=1e4))  # this run's own
+    assert fs.latched == ("geofence", "max_mission_time") and fs.restored == ("geofence",)
+    assert {"geofence", "max_mission_time"} <= set(d.active)

@@ -172,6 +172,7 @@ def _status_lines(st: dict) -> list[str]:
     cause = st.get("mode_cause")
     lines = [f"mode: {st.get('mode')}" + (f" (helm: {st['helm_mode']})" if st.get("helm_mode") not in (None, st.get("mode"))
                                          else "")
+             + _planner_name(st.get("mode"), cause)
              # why (a held start said only "mode: stop"; --json had it: a new-user audit)
              + (f" - {cause}" if cause and cause != "start" else "")
              + (" - DISARMED: zero thrust whatever the mode (autopilot ctl arm)" if st.get("armed") is False else ""),
@@ -189,7 +190,24 @@ def _status_lines(st: dict) -> list[str]:
                          f"or wind is across it, from about {st['hold_across_feasible_deg']:.0f} deg; hold without "
                          "--heading to face it")
     lines.append(f"battery: {num('battery_v', '.2f', ' V')}")
-    faults = st.get("active_faults") or []
+    # a latched fault's action stays in force whether or not its cause is still there: listed apart, and one
+    # carried over from the run before a restart said so (it read as a fault of now: an operator audit)
+    latched = st.get("latched_faults") or []
+    before = set(st.get("latched_before_restart") or ())
+    faults = [f for f in st.get("active_faults") or [] if f not in latched]
     lines.append("faults: " + (", ".join(faults) if faults else "none")
-                 + (f" (latched: {', '.join(st['latched_faults'])})" if st.get("latched_faults") else ""))
+                 + ("; latched: " + ", ".join(f + (" (before the restart)" if f in before else "") for f in latched)
+                    if latched else ""))
     return lines
+
+
+def _planner_name(mode, cause) -> str:
+    """The name QGroundControl and Mission Planner show for our mode, where it is not ours: their HOLD is our
+    stop, their LOITER our hold (an operator audit: the planner and ctl named one mode two ways)."""
+    from autopilot.link.modes import rover_mode_name
+
+    try:
+        name = rover_mode_name(mode, cause)
+    except (ValueError, KeyError):
+        return ""
+    return "" if name.lower() == str(mode) else f" (planner: {name})"

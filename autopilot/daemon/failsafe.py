@@ -305,6 +305,11 @@ class Failsafe:
     def latched(self) -> tuple[str, ...]:
         return tuple(c for c in CAUSES if c in self._latched)
 
+    @property
+    def restored(self) -> tuple[str, ...]:
+        """The latched causes carried over from the run before a restart (restore_latched), not seen in this one."""
+        return tuple(c for c in CAUSES if c in self._restored)
+
     def action_of(self, cause: str) -> str | None:
         """The action a latched cause took in this run (None if it has not tripped, or tripped before a restart:
         a max_mission_time restored must not end the restarted daemon at its first cycle)."""

@@ -333,7 +333,8 @@ class ControlLoop:
             "yaw_rate_deg_s": None if nav.yaw_rate_rad_s is None else math.degrees(nav.yaw_rate_rad_s),
             "sog_m_s": nav.sog_m_s, "cog_deg": None if nav.cog_rad is None else math.degrees(nav.cog_rad) % 360.0,
             "fix_quality": nav.fix_quality, "battery_v": battery_v, "active_faults": list(decision.active),
-            "latched_faults": list(self.failsafe.latched), "nmea_dropped": self.compass.lines_dropped,
+            "latched_faults": list(self.failsafe.latched), "latched_before_restart": list(self.failsafe.restored),
+            "nmea_dropped": self.compass.lines_dropped,
             "hold_north_m": None if hold is None else hold[0], "hold_east_m": None if hold is None else hold[1],
             "hold_error_m": None if hold is None else out.hold_error_m,
             "hold_heading_deg": None if hold is None or out.hold_heading_rad is None
