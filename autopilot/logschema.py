@@ -10,6 +10,7 @@ Readers ignore keys they do not know, so adding a field is compatible.
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
 
 __all__ = [
@@ -17,6 +18,8 @@ __all__ = [
     "EventSpec",
     "Mode",
     "MODES",
+    "TIME_STOP_CAUSE",
+    "time_stop_words",
     "HEADING_SOURCES",
     "FAULT_CAUSES",
     "LATCHED_CAUSES",
@@ -75,6 +78,18 @@ MODES: tuple[str, ...] = tuple(m.value for m in Mode)
 # causes of `mode` lines that the review reads back (time under a failsafe's action)
 FAILSAFE_CAUSE_PREFIX = "failsafe "  # a mode a failsafe took: "failsafe battery_low"
 RTL_ARRIVED_CAUSE = "rtl: at the launch point"  # rtl's own hand-over to the hold at launch
+TIME_STOP_CAUSE = "max_mission_time"  # the latched failsafe whose stop a daemon may stay up after
+
+
+def time_stop_words(mode: str | None, held_s: float) -> str:
+    """How a run that stayed up after max_mission_time's stop spent the time before it, in the daemon's end summary
+    and the review's alike: "then in hold for 1560 s until max_mission_time stopped it" (whole seconds, tenths
+    under 10 s); "then in stop" alone left a 26-min final hold unsaid (a review audit)."""
+    held = ("an unknown time" if held_s is None or not math.isfinite(held_s)
+            else f"{held_s:.0f} s" if held_s >= 10.0 else f"{held_s:.1f} s")
+    return f"then in {mode or 'an unknown mode'} for {held} until {TIME_STOP_CAUSE} stopped it"
+
+
 MISSION_RTL_CAUSE = "mission: return to launch"  # a mission's own rtl, after its route (a restart resumes it)
 HEADING_SOURCES: tuple[str, ...] = ("THS", "HDT", "PFEC_GPatt", "COG")  # the driver's priority, then the fallback
 FAULT_CAUSES: tuple[str, ...] = (

@@ -6,6 +6,7 @@ behind real pseudo-terminals in the same process. The log is checked against doc
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -17,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from autopilot.logschema import CYCLE_KEYS
 from autopilot.review.export import GPX_NS, write_gpx
@@ -192,6 +194,43 @@ def test_a_run_stopped_after_its_route_is_reviewed_as_the_daemon_ends_it(tmp_pat
     row = dict(card.table_rows())["stop"]
     assert row == f"route complete; then in {card.end_mode}, stopped by SIGTERM"
     assert f"then in {card.end_mode}, stopped by SIGTERM" in said  # the daemon's words
+
+
+@pytest.mark.slow
+def test_a_final_hold_the_time_limit_stopped_is_said_by_the_daemon_and_the_review_alike(tmp_path):
+    """A review audit: a daemon that stayed up (systemd) after max_mission_time stopped its final hold, then got a
+    SIGTERM, said "route complete; then in stop, stopped by SIGTERM", the hold before the stop unsaid."""
+    import socket
+
+    notify = tmp_path / "notify"
+    srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    srv.bind(str(notify))
+    cfg = yaml.safe_load(CONFIG.read_text())
+    cfg.setdefault("gnc", {}).setdefault("guidance", {})["final_action"] = "hold"
+    cfg.setdefault("failsafe", {})["max_mission_time_s"] = 60.0
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
+    mission = tmp_path / "out.yaml"
+    mission.write_text("name: out\nframe: local\nwaypoints:\n  - {north_m: 12.0, east_m: 0.0}\n")
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--config", str(tmp_path / "c.yaml"), "--mission",
+                          str(mission), "--sim", "--speedup", "max", "--log-dir", str(tmp_path / "logs"),
+                          "--state-dir", str(tmp_path / "state")], cwd=tmp_path, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, env=dict(os.environ, NOTIFY_SOCKET=str(notify)))
+    try:
+        _wait_for(lambda recs: any(r.get("message") == "max_mission_time: stopped, staying up" for r in recs),
+                  tmp_path / "logs", p, limit_s=120.0)
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=30)
+    finally:
+        srv.close()
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 0, err[-2000:]
+    said = next(ln for ln in err.splitlines() if "route complete" in ln)
+    held = re.search(r"; then in hold for (\d+) s until max_mission_time stopped it; stopped by SIGTERM", said)
+    assert held and 20 <= int(held.group(1)) <= 60, said  # the hold from the waypoint (reached in ~10-30 s) to 60 s
+    (path,) = (tmp_path / "logs").glob("mission-*.jsonl")
+    card = score(review_read_log(path))
+    assert dict(card.table_rows())["stop"] == f"route complete; {held.group(0)[2:]}"  # the daemon's words
 
 
 @pytest.mark.slow

@@ -64,6 +64,11 @@ def test_failsafe_mission_is_reported(logs, tmp_path):
     assert summary["heading_lost_s"] > 3.0  # failsafe plus the drop-outs
     html = (out / "report.html").read_text()
     assert "heading_stale at 20.0 s" in html
+    # per leg, in summary.json and the report's table: the leg the failsafe stopped it on, the one never flown
+    assert [leg["label"] for leg in summary["legs"]] == ["start->W0", "W0->W1", "W1->W2"]
+    assert summary["legs"][1]["fixes"] > 5 and summary["legs"][1]["xte_rms_m"] > 0.0
+    assert summary["legs"][2]["cycles"] == 0 and summary["legs"][2]["xte_rms_m"] is None
+    assert "<td>cross-track error, leg W1-&gt;W2</td><td class=\"num\">n/a (not flown)</td>" in html
 
 
 def test_empty_log_exports_fail_but_report_is_written(logs, tmp_path, capsys):

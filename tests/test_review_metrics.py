@@ -360,3 +360,140 @@ def test_a_run_carried_on_after_a_restart_says_where_it_started(tmp_path, start_
     recs = [{**START, "start_index": start_index}] + _cycles(20, wp_index=1)
     rows = dict(score(read_log(_write(tmp_path / "r.jsonl", recs))).table_rows())
     assert rows["waypoints reached"] == "0 of 2" + said
+
+
+def test_cross_track_error_per_leg_by_hand(tmp_path):
+    """Researchers asked for the cross-track error per leg (one figure for the run hid which leg was flown badly).
+    Leg k runs from W_{k-1} (leg 0: from the start) to W_k, over the cycles steering to W_k in auto, a hold at its
+    point left out as the run's figure leaves it; a leg without samples is n/a, never 0."""
+    start = {**START, "waypoints": [[10.0, 0.0], [10.0, 10.0], [20.0, 10.0]]}
+    north = [0.0, 5.0, 8.0, 10.5, 12.0, 9.0]
+    east = [0.0, 1.0, -2.0, 5.0, 8.0, 3.0]  # xte 0, 1, -2 on leg 0; -0.5, -2, 1 on leg 1 (as above)
+    recs = _cycles(6, north_m=north, east_m=east, wp_index=[0, 0, 0, 1, 1, 1])
+    hold = _cycles(20, north_m=13.0, east_m=10.0, wp_index=1, holding=True, hold_north_m=10.0, hold_east_m=10.0)
+    for k, r in enumerate(hold):  # a hold item at W1: 2 s of station keeping 3 m off leg 1, not leg 1's error
+        r["t_s"] = round(0.6 + 0.1 * k, 3)
+    card = score(read_log(_write(tmp_path / "legs.jsonl", [start] + recs + hold)))
+    leg0, leg1, leg2 = card.legs
+    assert [g.label for g in card.legs] == ["start->W0", "W0->W1", "W1->W2"]
+    assert (leg0.cycles, leg0.fixes, leg1.cycles, leg1.fixes) == (3, 3, 3, 3)
+    assert_allclose([leg0.xte_rms_m, leg0.xte_max_m, leg0.time_s], [math.sqrt(5 / 3), 2.0, 0.3], atol=1e-9)
+    assert_allclose([leg1.xte_rms_m, leg1.xte_max_m, leg1.time_s], [math.sqrt(5.25 / 3), 2.0, 0.3], atol=1e-9)
+    assert leg2.cycles == leg2.fixes == 0 and math.isnan(leg2.xte_rms_m) and math.isnan(leg2.xte_max_m)
+    rows = dict(card.table_rows())
+    assert rows["cross-track error, leg start->W0"] == "RMS 1.29 m, max 2.00 m over 0.3 s (3 fixes)"
+    assert rows["cross-track error, leg W1->W2"] == "n/a (not flown)"
+    legs = json.loads(json.dumps(card.to_dict(), allow_nan=False))["legs"]
+    assert legs[1]["xte_rms_m"] == pytest.approx(math.sqrt(5.25 / 3)) and legs[2]["xte_rms_m"] is None
+    # flown without a fix (the position lost all along the leg): n/a over its time, not 0
+    lost = score(read_log(_write(tmp_path / "lost.jsonl", [start] + _cycles(10, wp_index=0))))
+    assert lost.legs[0].cycles == 10 and lost.legs[0].fixes == 0
+    assert dict(lost.table_rows())["cross-track error, leg start->W0"] == "n/a (no fix) over 1.0 s"
+
+
+def _combined(legs, count, rms, peak):
+    n = np.array([getattr(g, count) for g in legs])
+    r = np.nan_to_num([getattr(g, rms) for g in legs])
+    return math.sqrt(np.sum(n * r * r) / np.sum(n)), np.nanmax([getattr(g, peak) for g in legs])
+
+
+def test_the_runs_cross_track_error_is_its_legs_combined(tmp_path):
+    """The run's RMS is the legs' combined, each weighted by its samples (fixes recomputed, cycles of xte_m logged),
+    and its maximum the largest leg's: one selection for both, on the synthetic mission (1 Hz fixes held on 10 Hz
+    cycle lines, a weave off each leg) and on a mission replaced in flight (M1's and M2's legs)."""
+    write_synthetic_log(tmp_path / "m.jsonl", weave_m=1.0, dropout_every_s=25.0)
+    log = read_log(tmp_path / "m.jsonl")
+    card = score(log)
+    assert [g.label for g in card.legs] == ["start->W0", "W0->W1", "W1->W2"]
+    assert all(g.fixes >= 5 and g.logged_cycles > 5 * g.fixes for g in card.legs)  # 1 Hz fixes, 10 Hz xte_m
+    assert_allclose(_combined(card.legs, "fixes", "xte_rms_m", "xte_max_m"), [card.xte_rms_m, card.xte_max_m], rtol=1e-12)
+    assert_allclose(_combined(card.legs, "logged_cycles", "logged_xte_rms_m", "logged_xte_max_m"),
+                    [card.logged_xte_rms_m, card.logged_xte_max_m], rtol=1e-12)
+    assert_allclose(sum(g.time_s for g in card.legs), card.mode_time_s["auto"], atol=1e-9)  # no hold item here
+    # a mission replaced at 10 s: its legs are the new plan's, labelled M2
+    recs = _cycles(200, north_m=list(np.round(0.1 * np.arange(200), 2)), east_m=[0.3, -0.4] * 100,
+                   wp_index=[0] * 60 + [1] * 40 + [0] * 50 + [1] * 50)
+    replaced = {"event": "mission_replaced", "t_s": 10.0, "source": "mavlink", "waypoints": [[30.0, 0.0], [30.0, 10.0]]}
+    card = score(read_log(_write(tmp_path / "r.jsonl", [START] + recs[:100] + [replaced] + recs[100:])))
+    assert [g.label for g in card.legs] == ["M1 start->W0", "M1 W0->W1", "M2 start->W0", "M2 W0->W1"]
+    assert [g.cycles for g in card.legs] == [60, 40, 50, 50]
+    assert_allclose(_combined(card.legs, "fixes", "xte_rms_m", "xte_max_m"), [card.xte_rms_m, card.xte_max_m], rtol=1e-12)
+
+
+def _final_hold_then_time_stop(hold_s=1560.0, stop_s=10.0, after=None, mode_lines=True, signal="SIGTERM"):
+    """A daemon run as it logs one (a --sim run under systemd: max_mission_time_s 90, final_action hold): the route
+    flown, mission_complete and the final hold at W1, max_mission_time's stop (failsafe, mode stop, "staying up"),
+    ``stop_s`` at zero thrust, then the signal. ``after``: a mode the operator commanded after the time stop."""
+    start = {**START, "config": {"failsafe": {"max_mission_time_s": 20.0 + hold_s}}}
+    legs = _cycles(200, north_m=list(np.round(np.minimum(0.1 * np.arange(200), 10.0), 2)),
+                   east_m=list(np.round(np.maximum(0.1 * np.arange(200) - 10.0, 0.0), 2)), wp_index=[0] * 100 + [1] * 100)
+    done_t, stop_t = 20.0, 20.0 + hold_s
+
+    def later(n, t0, **cols):
+        recs = _cycles(n, **cols)
+        for r in recs:
+            r["t_s"] = round(t0 + r["t_s"], 3)
+        return recs
+
+    hold = later(int(round(hold_s * 10)), done_t, mode="hold", wp_index=1, north_m=10.0, east_m=10.0, holding=True,
+                 hold_north_m=10.0, hold_east_m=10.0, hold_error_m=0.1)
+    stopped = later(int(round(stop_s * 10)), stop_t, mode="stop", wp_index=1, north_m=10.0, east_m=10.0,
+                    thrust_port_n=0.0, thrust_stbd_n=0.0)
+    events = [{"event": "waypoint_reached", "t_s": done_t, "wp_index": 1},
+              {"event": "mission_complete", "t_s": done_t, "wp_count": 2, "rtl": False},
+              {"event": "mode", "t_s": done_t, "mode": "hold", "from": "auto", "cause": "mission end: hold at the last waypoint"}]
+    time_stop = [{"event": "fault", "t_s": stop_t, "cause": "max_mission_time", "detail": "mission time"},
+                 {"event": "failsafe", "t_s": stop_t, "cause": "max_mission_time", "action": "stop", "configured": "stop",
+                  "fallback": None},
+                 {"event": "mode", "t_s": stop_t, "mode": "stop", "from": "hold", "cause": "failsafe max_mission_time"},
+                 {"event": "info", "t_s": stop_t, "message": "max_mission_time: stopped, staying up",
+                  "why": "systemd runs the daemon"}]
+    if not mode_lines:
+        events, time_stop = events[:2], [ev for ev in time_stop if ev["event"] != "mode"]
+    tail = []
+    if after:
+        half = len(stopped) // 2
+        for r in stopped[half:]:
+            r["mode"] = after
+        tail = [{"event": "mode", "t_s": stopped[half]["t_s"], "mode": after, "from": "stop", "cause": f"ctl {after}"}]
+        stopped = stopped[:half] + tail + stopped[half:]
+    stop = {"event": "stop", "t_s": stop_t + stop_s, "reason": "signal" if signal else "max_mission_time",
+            "signal": signal, "ack_received": True}
+    return [start] + legs + events + hold + time_stop + stopped + [stop]
+
+
+def test_a_final_hold_until_the_mission_time_limit_is_said_before_the_signal(tmp_path):
+    """Asked by researchers: a run whose route was complete, then held (final hold) until max_mission_time stopped
+    it, the daemon staying up at zero thrust until a SIGTERM, was said "route complete; then in stop, stopped by
+    SIGTERM": true, but its 1560 s of hold went unsaid. The mode before the time stop and how long it lasted come
+    from the failsafe and mode lines, else from the cycles."""
+    card = score(read_log(_write(tmp_path / "t.jsonl", _final_hold_then_time_stop())))
+    assert card.complete and not card.finished and card.end_mode == "stop"
+    assert dict(card.table_rows())["stop"] == (
+        "route complete; then in hold for 1560 s until max_mission_time stopped it; stopped by SIGTERM")
+    summary = card.to_dict()
+    assert (summary["time_stop_t_s"], summary["time_stop_from_mode"]) == (1580.0, "hold")
+    assert summary["time_stop_from_mode_s"] == pytest.approx(1560.0)
+    # a log without mode lines: the mode and its time from the cycles (the first hold cycle at 20.0 s)
+    card = score(read_log(_write(tmp_path / "c.jsonl", _final_hold_then_time_stop(hold_s=45.0, mode_lines=False))))
+    assert dict(card.table_rows())["stop"] == (
+        "route complete; then in hold for 45 s until max_mission_time stopped it; stopped by SIGTERM")
+    # the operator took a mode after the time stop (rtl): where the signal found it is said as well
+    card = score(read_log(_write(tmp_path / "r.jsonl", _final_hold_then_time_stop(hold_s=6.5, after="rtl"))))
+    assert dict(card.table_rows())["stop"] == (
+        "route complete; then in hold for 6.5 s until max_mission_time stopped it; then in rtl, stopped by SIGTERM")
+
+
+def test_the_other_ends_keep_their_words(tmp_path):
+    """The words the daemon's end summary matches stay: a signal in the final hold before any time stop, a run the
+    time limit ended (no staying up), and a time stop before the route was complete."""
+    recs = _final_hold_then_time_stop(hold_s=30.0)
+    cut = [r for r in recs if r["t_s"] < 50.0 and r["event"] != "stop"] + [
+        {"event": "stop", "t_s": 49.9, "reason": "signal", "signal": "SIGTERM"}]
+    assert dict(score(read_log(_write(tmp_path / "h.jsonl", cut))).table_rows())["stop"] == (
+        "route complete; then in hold, stopped by SIGTERM")
+    ended = _final_hold_then_time_stop(hold_s=30.0, stop_s=0.1, signal=None)
+    assert dict(score(read_log(_write(tmp_path / "e.jsonl", ended))).table_rows())["stop"] == (
+        "route complete; then in stop, max_mission_time")
+    early = [r for r in recs if r.get("event") not in ("mission_complete", "waypoint_reached")]
+    assert dict(score(read_log(_write(tmp_path / "n.jsonl", early))).table_rows())["stop"] == "stopped by SIGTERM"

@@ -29,7 +29,7 @@ from autopilot.daemon.missionlog import MissionLog, log_path
 from autopilot.daemon.sd_notify import Notifier
 from autopilot.daemon.state import RESUME_REFUSED, StateStore, file_sha256
 from autopilot.geo import latlon_to_local
-from autopilot.logschema import Mode
+from autopilot.logschema import Mode, time_stop_words
 from autopilot.resources import package_version
 from autopilot.schema import ConfigError, to_dict
 
@@ -691,12 +691,15 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     elif st.stop_acknowledged is False:  # only a JSON field said so
         lines.append("WARNING: the Mbed did not acknowledge the final zero thrust: check that the thrusters stopped "
                      "(its own command timeout stops them)")
-    # the route done but the run stopped by a signal in what follows it (the final hold, a last hold item, the way
+    # the route done but the run stopped by a signal in what follows it (the final hold, the way
     # home) is not "mission complete": a 300-s hold stopped at 153 s said so (a new-user audit)
     cut = bool(st.stop_signal) and st.complete and not st.finished
     done = ("route complete" if cut else "mission complete") if st.complete else "mission not complete"
     if not st.stop_signal:
         stopped = ""
+    elif cut and loop.time_stop_from is not None:  # stayed up after the time limit's stop, then a signal
+        stopped = (f"; {time_stop_words(*loop.time_stop_from)}; "
+                   + ("" if st.mode == Mode.STOP.value else f"then in {st.mode}, ") + f"stopped by {st.stop_signal}")
     elif cut:
         stopped = f"; then in {st.mode}, stopped by {st.stop_signal}"
     elif st.complete:  # stayed up after the mission's stop

@@ -34,7 +34,7 @@ from autopilot.devices import ZERO_THRUST, Compass, ThrustCommand, ThrusterLink
 from autopilot.gnc import Autopilot
 from autopilot.gnc.navigation import NavMemory, assemble
 from autopilot.gnc.passes import PassTracker
-from autopilot.logschema import RTL_ARRIVED_CAUSE, Mode
+from autopilot.logschema import FAILSAFE_CAUSE_PREFIX, RTL_ARRIVED_CAUSE, TIME_STOP_CAUSE, Mode
 from autopilot.mission import ItemNumbers, Mission
 
 __all__ = ["LoopState", "ControlLoop", "watchdog_due", "COMMANDS_PER_CYCLE", "COMMANDS_QUEUED_MAX"]
@@ -111,6 +111,11 @@ class ControlLoop:
         # why the loop goes on after the mission ended stopped (a ground station link, systemd), or None: it ends there
         self.stay_when_done: str | None = None
         self.time_stop_stayed = False  # max_mission_time's stop taken, and the loop went on for stay_when_done
+        # (mode, s in it) the time stop ended, for the end summary (logschema.time_stop_words); the helm's mode
+        # changes are followed for it: (from, s in it, cause) of the last, and since when the mode now is in force
+        self.time_stop_from: tuple[str, float] | None = None
+        self._last_mode_change: tuple[str, float, str] | None = None
+        self._mode_entered_s: float | None = None  # mission time; the first helm step for the mode control starts in
         self._said_staying = False
         self.ais = ais  # autopilot.daemon.traffic.AisSource: other vessels for collision avoidance (None: no AIS)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
@@ -204,6 +209,8 @@ class ControlLoop:
         st.last_step_s, st.driving = now_s, True
         targets = () if self.ais is None else self.ais.targets(now_s)
         launch_before = self.ap.launch_ne_m
+        if self._mode_entered_s is None:
+            self._mode_entered_s = t_s
         out = self.ap.step(steps.nav_input(nav) if nav.steerable else None, dt_s, targets=targets, t_s=t_s)
         if self._saved_running and (self.ap.launch_ne_m != launch_before  # rtl's home, for a restart too
                                     or self._homeward() != self._saved_homeward):  # the way home begun
@@ -306,6 +313,10 @@ class ControlLoop:
 
     def _log_helm_events(self, t_s: float) -> None:
         for name, fields in self.ap.pop_events():
+            if name == "mode":
+                entered = t_s if self._mode_entered_s is None else self._mode_entered_s
+                self._last_mode_change = (str(fields.get("from")), t_s - entered, str(fields.get("cause")))
+                self._mode_entered_s = t_s
             self.log.event(name, t_s=t_s, **fields)
 
     def _status(self, t_s: float, mode, nav, out, decision, battery_v) -> dict:
@@ -517,6 +528,9 @@ class ControlLoop:
                     return "max_mission_time"
                 if not self.time_stop_stayed:  # as at the mission's end: a ground station kept, at zero thrust
                     self.time_stop_stayed = True
+                    change = self._last_mode_change
+                    if change is not None and change[2] == FAILSAFE_CAUSE_PREFIX + TIME_STOP_CAUSE:
+                        self.time_stop_from = change[:2]
                     self._save("aborted", "max_mission_time")  # a restart does not fly the mission again
                     self.log.event("info", t_s=self.clock.now_s() - self.t0_s,
                                    message="max_mission_time: stopped, staying up", why=self.stay_when_done)

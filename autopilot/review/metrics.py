@@ -36,7 +36,7 @@ import numpy as np
 
 from autopilot.gnc.encounter import EncounterConfig
 from autopilot.gnc.passes import closest_per_pass
-from autopilot.logschema import FAILSAFE_CAUSE_PREFIX, RTL_ARRIVED_CAUSE, Mode
+from autopilot.logschema import FAILSAFE_CAUSE_PREFIX, RTL_ARRIVED_CAUSE, TIME_STOP_CAUSE, Mode, time_stop_words
 from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog, Plan, TargetTrack, _is_number
 from autopilot.traffic.score import score_target
 
@@ -49,6 +49,7 @@ HOLD_POINT_TOLERANCE_M = 1e-3  # logged hold points closer than this are one poi
 HOLD_ERROR_PERCENTILE = 95.0  # the hold's achieved radius: this percentile of hold_error_m over its cycles
 UNKNOWN_MODE = "unknown"  # mode_time_s key of cycles whose mode is missing or not in the schema
 SIDE_TOLERANCE_DEG = 1.0  # a manoeuvre whose share of psi_d never exceeds this was a change of speed only
+MAX_LEG_ROWS = 20  # per-leg cross-track rows in the summary table; summary.json has every leg
 
 
 @dataclass
@@ -69,6 +70,28 @@ class WaypointScore:
     def __post_init__(self) -> None:
         if not self.label:
             self.label = f"W{self.index}"
+
+
+@dataclass
+class LegScore:
+    """Cross-track error over one leg: the track from the waypoint before (leg 0: from the start) to ``index``.
+
+    Its cycles are those of :func:`cross_track_scores`' selection steering to the waypoint (``wp_index``) in the
+    plan's time: in ``auto``, not holding at a point. The recomputed error is over their fixes, the logged over
+    the leg's ``auto`` cycles with ``xte_m`` (as the run's logged figure); both NaN (never 0) without samples.
+    """
+
+    index: int  # the waypoint the leg ends at
+    label: str  # "start->W0", "W0->W1"; "M2 W0->W1" in a log of several missions
+    mission: int  # the plan it belongs to (MissionLog.plans)
+    cycles: int
+    time_s: float  # the cycles' durations (:func:`hold_durations_s`)
+    fixes: int  # the samples of the recomputed error
+    xte_rms_m: float
+    xte_max_m: float
+    logged_cycles: int  # the samples of the logged error (cycles with xte_m)
+    logged_xte_rms_m: float
+    logged_xte_max_m: float
 
 
 @dataclass
@@ -188,7 +211,7 @@ class Scorecard:
     stop_reason: str | None
     complete: bool  # the route was complete (a mission_complete line): every waypoint reached or passed
     # the run ended on its own (stop reason "complete"); a route complete but not finished was stopped by a signal (or
-    # killed) in what follows the route: the final hold, a last hold item, the way home of an rtl
+    # killed) in what follows the route: the final hold, the way home of an rtl
     finished: bool = False
     stop_signal: str | None = None
     end_mode: str | None = None  # the mode of the last cycle
@@ -209,6 +232,12 @@ class Scorecard:
     speedup: str = ""  # mission_start's --speedup when not real time ("10", "max"): the log's times are simulated
     start_index: int = 0  # the waypoint this run started at (mission_start's: a restart that carried a run on)
     position_stale_after_s: float = math.nan
+    legs: list = field(default_factory=list)  # [LegScore], every plan's legs in order
+    # max_mission_time's stop (its failsafe, action stop): when, the mode it stopped and since when the boat was in
+    # it (the daemon stays up after it for a ground station or systemd: the signal that ends the run comes later)
+    time_stop_t_s: float = math.nan  # NaN: no such stop
+    time_stop_from_mode: str | None = None
+    time_stop_from_mode_s: float = math.nan  # how long the boat had been in that mode then
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -249,6 +278,7 @@ class Scorecard:
              f"{_fmt(self.xte_rms_m, 'm', 2)} / {_fmt(self.xte_max_m, 'm', 2)}"),
             ("cross-track error RMS / max (logged xte_m)",
              f"{_fmt(self.logged_xte_rms_m, 'm', 2)} / {_fmt(self.logged_xte_max_m, 'm', 2)}"),
+            *self._leg_rows(),
             (f"heading lost / stale{_older_than(self.heading_stale_after_s)}",
              f"{_fmt(self.heading_lost_s, 's', 1)} / {_fmt(self.heading_stale_s, 's', 1)}"),
             (f"position lost / stale{_older_than(self.position_stale_after_s)}",
@@ -291,9 +321,21 @@ class Scorecard:
         how = self.stop_reason or "no stop line (killed?)"
         if self.stop_signal:
             how = f"stopped by {self.stop_signal}"
+        if self.complete and self.stop_signal and self.time_stop_from_mode:
+            # the daemon stayed up at zero thrust after max_mission_time's stop: "then in stop" left the final hold
+            # before it, 1560 s of it, unsaid
+            after = "" if self.end_mode == Mode.STOP.value else f"then in {self.end_mode or 'an unknown mode'}, "
+            return f"route complete; {time_stop_words(self.time_stop_from_mode, self.time_stop_from_mode_s)}; {after}{how}"
         if self.complete:
             return f"route complete; then in {self.end_mode or 'an unknown mode'}, {how}"
         return how
+
+    def _leg_rows(self) -> list[tuple[str, str]]:
+        """A row per leg (the first MAX_LEG_ROWS; the rest are in summary.json's ``legs``)."""
+        rows = [(f"cross-track error, leg {leg.label}", _fmt_leg(leg)) for leg in self.legs[:MAX_LEG_ROWS]]
+        if len(self.legs) > MAX_LEG_ROWS:
+            rows.append(("cross-track error, more legs", f"{len(self.legs) - MAX_LEG_ROWS} (see summary.json)"))
+        return rows
 
     def _traffic_rows(self) -> list[tuple[str, str]]:
         """Rows only for a log with traffic (a log without keeps its summary as it was)."""
@@ -342,6 +384,18 @@ def _fmt_holds(holds: list) -> str:
     if held:
         text += "; p95 error " + ", ".join(f"hold {h.number}: {h.error_p95_m:.2f} m" for h in held[:5])
         text += ", ..." if len(held) > 5 else ""
+    return text
+
+
+def _fmt_leg(leg: LegScore) -> str:
+    """"RMS 0.31 m, max 0.92 m over 41.0 s (41 fixes; logged xte_m 0.30 m / 0.88 m)"; n/a without samples."""
+    if not leg.cycles:
+        return "n/a (not flown)"
+    text = (f"RMS {_fmt(leg.xte_rms_m, 'm', 2)}, max {_fmt(leg.xte_max_m, 'm', 2)}" if leg.fixes else "n/a (no fix)")
+    text += f" over {leg.time_s:.1f} s"
+    if leg.fixes or leg.logged_cycles:
+        text += f" ({leg.fixes} fixes" + (f"; logged xte_m {_fmt(leg.logged_xte_rms_m, 'm', 2)} / "
+                                          f"{_fmt(leg.logged_xte_max_m, 'm', 2)}" if leg.logged_cycles else "") + ")"
     return text
 
 
@@ -448,6 +502,106 @@ def cross_track_m(log: MissionLog) -> np.ndarray:
         pn, pe = n[ok] - a[:, 0], e[ok] - a[:, 1]
         out[ok] = (d[:, 0] * pe - d[:, 1] * pn) / length
     return out
+
+
+def leg_of_rows(log: MissionLog) -> np.ndarray:
+    """Per cycle: the leg it steered on, an index into every plan's legs in order (plan 1's W0, W1, ..., then plan
+    2's); -1 without one (no ``wp_index``, or one the plan in force has not). The rows :func:`cross_track_m` judges."""
+    t, idx = log.col("t_s"), log.col("wp_index")
+    out = np.full(len(t), -1, dtype=np.int64)
+    first = 0
+    for plan in log.plans:
+        count = len(plan.waypoints_ne_m)
+        ok = plan.holds(t) & np.isfinite(idx) & (idx >= 0) & (idx < count)
+        out[ok] = first + idx[ok].astype(np.int64)
+        first += count
+    return out
+
+
+def cross_track_scores(log: MissionLog, cycle_s: np.ndarray) -> tuple[tuple[float, float], tuple[float, float], list]:
+    """The run's cross-track error, recomputed and logged (RMS, max each), and each leg's (:class:`LegScore`).
+
+    One selection for the run and its legs, so the run's RMS is its legs' combined, weighted by their samples.
+    The legs are judged in ``auto``, not at a hold item's point (station keeping, scored in its own rows; the
+    daemon logs no ``xte_m`` there either); a log whose cycles state no mode at all: every cycle. A log with
+    modes but never in auto (a held start) has no tracking to score. Recomputed: at the fixes (each measured
+    once: a held fix is not a new measurement); logged: every such cycle's ``xte_m`` (the run's also those
+    without a leg). ``cycle_s`` is each cycle's duration (:func:`hold_durations_s`).
+    """
+    t = log.col("t_s")
+    in_auto = log.mode == MODES.index("auto")
+    if not np.any(log.mode != UNKNOWN_CODE):
+        in_auto = np.ones(len(t), dtype=bool)
+    on_leg = in_auto & ~holding_proper(log)
+    fix = np.zeros(len(t), dtype=bool)
+    fix[log.fix_rows()[0]] = True
+    xte, logged = cross_track_m(log), log.col("xte_m")
+    sample = on_leg & fix & np.isfinite(xte)  # a finite xte has a leg (leg_of_rows)
+    logged_sample = in_auto & np.isfinite(logged)
+    leg = leg_of_rows(log)
+    n_legs = sum(len(plan.waypoints_ne_m) for plan in log.plans)
+
+    def per_leg(rows, values):  # samples, RMS and max of |values| per leg, over the rows with a leg
+        rows = rows & (leg >= 0)
+        count = np.bincount(leg[rows], minlength=n_legs)
+        sum_sq = np.bincount(leg[rows], weights=values[rows] ** 2, minlength=n_legs)
+        peak = np.full(n_legs, -np.inf)
+        np.maximum.at(peak, leg[rows], np.abs(values[rows]))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return count, np.where(count > 0, np.sqrt(sum_sq / count), np.nan), np.where(count > 0, peak, np.nan)
+
+    flown = on_leg & (leg >= 0)
+    cycles = np.bincount(leg[flown], minlength=n_legs)
+    time_s = np.bincount(leg[flown], weights=cycle_s[flown], minlength=n_legs)
+    fixes, rms, peak = per_leg(sample, xte)
+    logged_n, logged_rms, logged_peak = per_leg(logged_sample, logged)
+    several = len(log.plans) > 1
+    legs, k = [], 0
+    for plan in log.plans:
+        prefix = f"M{plan.number} " if several else ""
+        for i in range(len(plan.waypoints_ne_m)):
+            legs.append(LegScore(
+                index=i, label=prefix + ("start" if i == 0 else f"W{i - 1}") + f"->W{i}", mission=plan.number,
+                cycles=int(cycles[k]), time_s=float(time_s[k]), fixes=int(fixes[k]), xte_rms_m=float(rms[k]),
+                xte_max_m=float(peak[k]), logged_cycles=int(logged_n[k]), logged_xte_rms_m=float(logged_rms[k]),
+                logged_xte_max_m=float(logged_peak[k])))
+            k += 1
+    return _rms_max(xte[sample]), _rms_max(logged[logged_sample]), legs
+
+
+def time_stop(log: MissionLog) -> tuple[float, str | None, float]:
+    """(when, the mode it stopped, how long the boat had been in that mode then) of max_mission_time's stop: its
+    ``failsafe`` line with action stop; (NaN, None, NaN) without one.
+
+    The mode is the ``from`` of the stop's own ``mode`` line, else the last cycle's before it. Since when: the
+    first of the ``mode`` lines into it that lead up to the stop, else the first cycle of the run of that mode up
+    to it (control's start in ``auto`` has no ``mode`` line).
+    """
+    cause = TIME_STOP_CAUSE
+    when = next((float(ev["t_s"]) for ev in log.events_named("failsafe")
+                 if ev.get("cause") == cause and ev.get("action") == Mode.STOP.value and _is_number(ev.get("t_s"))), None)
+    if when is None:
+        return math.nan, None, math.nan
+    changes = sorted((float(ev["t_s"]), k, ev) for k, ev in enumerate(log.events_named("mode")) if _is_number(ev.get("t_s")))
+    own = next((ev for at, _, ev in changes if at == when and ev.get("cause") == FAILSAFE_CAUSE_PREFIX + cause), {})
+    t = log.col("t_s")
+    before = np.nonzero(t < when)[0]
+    mode = own.get("from")
+    if mode not in MODES:
+        code = int(log.mode[before[-1]]) if len(before) else UNKNOWN_CODE
+        mode = MODES[code] if 0 <= code < len(MODES) else None
+    if mode is None:
+        return when, None, math.nan
+    since = math.nan
+    for at, _, ev in changes:
+        if at >= when:
+            break
+        since = (since if math.isfinite(since) else at) if ev.get("mode") == mode else math.nan
+    if not math.isfinite(since) and len(before):
+        other = np.nonzero(log.mode[before] != MODES.index(mode))[0]
+        first = int(other[-1]) + 1 if len(other) else 0
+        since = float(t[before[first]]) if first < len(before) else math.nan
+    return when, mode, when - since
 
 
 def _logged_passes(log: MissionLog, plan: Plan) -> tuple[set, dict]:
@@ -759,17 +913,8 @@ def score(log: MissionLog) -> Scorecard:
     if distance_note:
         read_notes.append(distance_note)
 
-    # the legs are judged in auto, not at a hold item's point (station keeping, scored in its own rows; the
-    # daemon logs no xte_m there either); a log whose cycles state no mode at all: every cycle. A log with
-    # modes but never in auto (a held start) has no tracking to score.
-    in_auto = log.mode == MODES.index("auto")
-    if not np.any(log.mode != UNKNOWN_CODE):
-        in_auto = np.ones(len(t), dtype=bool)
-    on_leg = in_auto & ~holding_proper(log)
-    fix = np.zeros(len(t), dtype=bool)
-    fix[log.fix_rows()[0]] = True  # recomputed from the measurements: each fix once
-    xte_rms, xte_max = _rms_max(cross_track_m(log)[on_leg & fix])
-    lxte_rms, lxte_max = _rms_max(log.col("xte_m")[in_auto])
+    (xte_rms, xte_max), (lxte_rms, lxte_max), legs = cross_track_scores(log, hold)
+    stop_t, stop_from, stop_from_s = time_stop(log)
 
     heading = log.col("heading_deg")
     h_age = log.col("heading_age_s")
@@ -829,6 +974,7 @@ def score(log: MissionLog) -> Scorecard:
         heading_stale_after_s=stale_heading_s, position_stale_after_s=stale_position_s,
         missions=[{"number": p.number, "from_t_s": p.from_t_s if math.isfinite(p.from_t_s) else None,
                    "source": p.source, "waypoints": len(p.waypoints_ne_m)} for p in log.plans] if len(log.plans) > 1 else [],
+        legs=legs, time_stop_t_s=stop_t, time_stop_from_mode=stop_from, time_stop_from_mode_s=stop_from_s,
     )
 
 
