@@ -444,8 +444,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             # with a failsafe latched, resume is refused: "resume starts the mission" beside it (an operator audit)
             _console(f"holding zero thrust: {hold_zero}; " + (
                 f"`{ctl} rtl`, `hold` or `stop` are what it takes" if RESUME_REFUSED in hold_zero
-                else f"`{ctl} resume` continues the mission from waypoint {start_index} (`set_current 0`: from its "
-                     "first)" if start_index
+                else f"`{ctl} resume` continues the mission from waypoint {start_index}" if start_index
                 else f"`{ctl} resume` starts the mission"))
         t0_s = clock.now_s()
         events = DeviceEvents(log, clock, t0_s, cfg)
