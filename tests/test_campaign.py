@@ -209,6 +209,9 @@ def test_replay_reproduces_a_runs_scorecard_and_review_reads_its_log(tmp_path, c
     # found by a new-user audit: flown, every run the max_distance failsafe's, a mission the daemon refuses at start
     ({"failsafe": {"max_distance_m": 10}}, ["missions[0]: pond-9.1: waypoint 1 is beyond the max_distance failsafe: "
                                             "26.7 m from the origin (limit 10 m) (the daemon refuses"]),
+    # found by a new-user audit: a file that is not there was named without the key that gave it
+    ({"vessel": {"sysid": "nothere/summary.json"}}, ["vessel.sysid: ", "nothere/summary.json: cannot read"]),
+    ({"vessel": {"file": "nope.yaml"}}, ["vessel.file: ", "nope.yaml: cannot read"]),
 ])
 def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change, named):
     spec = tmp_path / "bad.yaml"
@@ -219,6 +222,17 @@ def test_a_bad_spec_is_refused_naming_the_key_and_range(tmp_path, capsys, change
     for text in named:
         assert text in err, err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name, said", [("1", "YAML reads this name as the number 1; quote it (\"1\":)"),
+                                        ("on", "YAML reads this name as True (yes, no, on, off, true, false); quote")])
+def test_a_condition_name_yaml_reads_as_no_text_is_said_so(tmp_path, capsys, name, said):
+    """Found by a new-user audit: `1:` was refused as not 'letters, digits, ...', which it is."""
+    spec = tmp_path / "bad.yaml"
+    spec.write_text(f"missions: [pond-9.1]\nconditions:\n  {name}: {{}}\n", encoding="utf-8")
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert said in err and "Traceback" not in err, err
 
 
 def test_a_campaign_of_the_distance_failsafe_says_so_and_is_flown_as_the_daemon_would():
@@ -276,6 +290,32 @@ def test_sysid_intervals_become_spreads_and_are_range_checked(tmp_path):
         (tmp_path / "summary.json").write_text(json.dumps(bad))
         with pytest.raises(ConfigError, match=re.escape(words)):
             resolve(_load_spec({**SPEC, "vessel": {"sysid": "summary.json"}}), base_dir=tmp_path)
+
+
+def test_sysid_changes_are_added_to_the_vessel_they_were_identified_on_and_another_boat_is_refused(tmp_path):
+    """Found by a new-user audit: yaw_damping_quadratic's N_rr (a change from the summary's params_file) was added to
+    the campaign's vessel, so a campaign of sysid's own vessel-updated.yaml, where it is written in already, drew the
+    damping twice (70 N m s^2 for 40 identified); a summary of another boat was spread onto this one unsaid."""
+    import dataclasses
+
+    import yaml
+
+    from autopilot.schema import ConfigError, to_dict
+    from autopilot.sim import default_params_path, load_params
+
+    base = load_params(default_params_path())
+    updated = dataclasses.replace(base, yaw_damping_quadratic_nm_s2=base.yaw_damping_quadratic_nm_s2 + 30.0)
+    (tmp_path / "vessel-updated.yaml").write_text(yaml.safe_dump(to_dict(updated)), encoding="utf-8")
+    (tmp_path / "summary.json").write_text(json.dumps({"params_file": str(default_params_path()), "effects": {
+        "yaw_damping_quadratic": {"params": [{"name": "n_rr_nm_s2", "value": 30.0, "ci95": [29.0, 31.0]}]}}}))
+    for vessel_file in ("", "vessel-updated.yaml"):
+        c = resolve(_load_spec({**SPEC, "vessel": {"file": vessel_file, "sysid": "summary.json"}}), base_dir=tmp_path)
+        n_rr = base.yaw_damping_quadratic_nm_s2
+        assert dict(c.vessel_spreads)["yaw_damping_quadratic_nm_s2"].uniform == (n_rr + 29.0, n_rr + 31.0)
+    thesis = default_params_path().with_name("vessel-thesis.yaml")
+    with pytest.raises(ConfigError, match=r"identified on another vessel, .*vessel\.yaml \(params_file\): it differs "
+                                          r"from the campaign.s in resistance_linear_n_s_m, y_v_nd"):
+        resolve(_load_spec({**SPEC, "vessel": {"file": str(thesis), "sysid": "summary.json"}}), base_dir=tmp_path)
 
 
 @pytest.mark.slow
@@ -340,6 +380,22 @@ def test_every_wilson_interval_contains_its_rate_and_ends_exactly_at_0_and_1():
             lo, hi = wilson(k, n)
             assert 0.0 <= lo <= k / n <= hi <= 1.0, (k, n, lo, hi)
     assert wilson(10, 10)[1] == 1.0 and wilson(0, 3)[0] == 0.0
+
+
+def test_the_sensitivity_ranking_says_what_chance_reaches_at_its_runs():
+    """Found by a new-user audit: 60 runs ranked the wind's direction first (circular 0.61) above thrust asymmetry
+    (-0.59), and the report gave no way to tell that both were what quantities that move nothing reach at 12 runs."""
+    import numpy as np
+
+    from autopilot.campaign.results import sensitivity
+
+    rng = np.random.default_rng(4)
+    rows = [{"condition": f"c{i % 2}", "success": bool(rng.random() < 0.8), "closest_max_m": float(rng.random()),
+             "xte_rms_m": float(rng.random()), "x": float(rng.random()), "wind_from_deg": float(rng.uniform(0, 360))}
+            for i in range(50)]
+    chance = {e["input"]: e["rho_chance_95"] for e in sensitivity(rows, ["x", "wind_from_deg"])}
+    assert chance["x"] == pytest.approx(1.959964 / math.sqrt(48), rel=1e-6)
+    assert chance["wind_from_deg"] == pytest.approx(math.sqrt(5.991465 / 48), rel=1e-6)
 
 
 def test_a_direction_that_hurts_across_north_is_found_on_the_circle_not_the_line():

@@ -198,7 +198,9 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
                  "draws); and the success rate in its lowest and highest quartile there. A direction has no low "
                  "and high end (359&deg; and 1&deg; are neighbours): its correlation is the circular-linear one "
                  "(0..1, unsigned), with the direction the outcome is worst from, and the success rate within a "
-                 "quarter turn of that direction and of its opposite.</p>")
+                 "quarter turn of that direction and of its opposite. <b>chance</b>: the |rho| a quantity that "
+                 "moves nothing exceeds 1 time in 20 at these runs (the circular one's is higher): a rho below it "
+                 "is noise, however it ranks.</p>")
 
     def low_high(s):
         if s.get("circular"):
@@ -206,11 +208,11 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
                     f"{_pct(s['success_high_quartile'])} (the opposite quarter)")
         return _pct(s["success_low_quartile"]), _pct(s["success_high_quartile"])
 
-    parts.append(_table(["quantity", "conditions", "runs", "rho success", "rho worst closest", "rho xte RMS",
+    parts.append(_table(["quantity", "conditions", "runs", "rho success", "rho worst closest", "rho xte RMS", "chance",
                          "success, low quartile", "success, high quartile"],
                         [[s["input"] + (" (circular)" if s.get("circular") else ""), ", ".join(s["conditions"]),
                           s["runs"], _num(s["rho_success"]), _num(s["rho_closest_max"]), _num(s["rho_xte_rms"]),
-                          *low_high(s)] for s in sens]))
+                          _num(s["rho_chance_95"]), *low_high(s)] for s in sens]))
     if sens:
         parts.append(f"<img src='data:image/png;base64,{_png(_sensitivity_figure(sens))}'>")
     parts.append("<h2>Sources</h2><ul>" + "".join(f"<li>{esc(s)}</li>" for s in summary["sources"]) + "</ul>")

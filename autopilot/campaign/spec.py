@@ -364,7 +364,11 @@ def _conditions(data: Any) -> tuple[tuple[str, Condition], ...]:
         raise ConfigError("conditions: expected a mapping of condition name -> spreads (at least one)")
     out = []
     for name, value in data.items():
-        if not isinstance(name, str) or not _NAME.match(name):
+        if not isinstance(name, str):  # YAML read `1:` or `on:` as a number or a boolean: "is letters, digits" misled
+            raise ConfigError(f"conditions.{name}: YAML reads this name as " + (
+                f"{name} (yes, no, on, off, true, false); quote it" if isinstance(name, bool) else
+                f"the number {name!r}; quote it (\"{name}\":)") + ", or choose one that starts with a letter")
+        if not _NAME.match(name):
             raise ConfigError(f"conditions.{name}: a condition name is letters, digits, '_', '-', '.' (up to 64)")
         if name == "all":
             raise ConfigError("conditions.all: 'all' names the results' column over every condition; choose another name")
@@ -432,8 +436,32 @@ def _mission(entry: str, base_dir: Path, i: int) -> MissionData:
                        tuple(None if h is None else float(h) for h in m.holds_s), bool(m.rtl), m.home_ne_m)
 
 
+def _sysid_base(summary: dict, path: Path) -> tuple[VesselParams | None, str]:
+    """The vessel the identification started from (summary.json's ``params_file``, as given or relative to the
+    summary) and its name; None when the summary names none or it is not here."""
+    from autopilot.sim import load_params
+
+    name = summary.get("params_file")
+    if not isinstance(name, str) or not name:
+        return None, ""
+    given = Path(name)
+    for p in ([given] if given.is_absolute() else [given, path.parent / given]):
+        if p.is_file():
+            try:
+                return load_params(p), name
+            except ConfigError as exc:
+                raise ConfigError(f"vessel.sysid ({path}): params_file: {exc}") from None
+    return None, name
+
+
 def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[str]]:
-    """(VesselParams field -> Spread, thrust key -> Spread, notes) from a sysid summary.json's 95 % intervals."""
+    """(VesselParams field -> Spread, thrust key -> Spread, notes) from a sysid summary.json's 95 % intervals.
+
+    hydro_refit reports the fields' new values; yaw_damping_quadratic a change from the vessel the identification
+    started from (``params_file``), so it is added to that vessel's: added to the campaign's, a campaign of
+    sysid's own vessel-updated.yaml (where it is written in already) flew it twice (40 N m s^2 identified, 70 drawn;
+    a new-user audit). A campaign vessel that differs from that one in a field the summary does not spread is
+    another boat, refused."""
     from autopilot.userfile import read_text
 
     where = f"vessel.sysid ({path})"
@@ -441,10 +469,15 @@ def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[s
         summary = json.loads(read_text(path, what="sysid summary.json"))
     except json.JSONDecodeError as exc:
         raise ConfigError(f"{where}: not JSON ({exc})") from None
+    except ConfigError as exc:  # it named the file alone, not the key that gave it
+        raise ConfigError(f"vessel.sysid: {exc}") from None
     effects = summary.get("effects") if isinstance(summary, dict) else None
     if not isinstance(effects, dict):
         raise ConfigError(f"{where}: no 'effects' mapping (a summary.json written by autopilot sysid)")
+    base, base_name = _sysid_base(summary, path)
     fields, thrust, notes = {}, {}, []
+    if base is None and base_name:
+        notes.append(f"params_file {base_name}: not found; changes taken from this campaign's vessel")
 
     def interval(effect: str, p: dict) -> tuple[float, float]:
         ci = p.get("ci95")
@@ -465,9 +498,10 @@ def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[s
                 fields[name] = (Spread(uniform=(lo, hi)), f"{where}: hydro_refit.{name}")
             elif effect == "yaw_damping_quadratic" and name == "n_rr_nm_s2":
                 lo, hi = interval(effect, p)
-                base = vessel.yaw_damping_quadratic_nm_s2
-                fields["yaw_damping_quadratic_nm_s2"] = (Spread(uniform=(base + lo, base + hi)),
-                                                         f"{where}: yaw_damping_quadratic.n_rr_nm_s2 (added to the base)")
+                n_rr = (base or vessel).yaw_damping_quadratic_nm_s2
+                fields["yaw_damping_quadratic_nm_s2"] = (Spread(uniform=(n_rr + lo, n_rr + hi)),
+                                                         f"{where}: yaw_damping_quadratic.n_rr_nm_s2 (added to "
+                                                         f"{base_name if base else 'the campaign vessel'}'s)")
             elif effect == "thrust_asymmetry" and name == "asymmetry_nd":
                 thrust["thrust_asymmetry_nd"] = Spread(uniform=interval(effect, p))
             elif effect == "thrust_lag" and name == "time_constant_s":
@@ -480,6 +514,11 @@ def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[s
         raise ConfigError(f"{where}: no identified parameter to spread (verdict none, or no effect the campaign's "
                           "plant has: " + (", ".join(n.split(":")[0] for n in notes) or "no effects") + "); leave "
                           "vessel.sysid empty to fly the vessel as it is")
+    other = [f for f in VESSEL_FIELDS if base is not None and f not in fields and getattr(base, f) != getattr(vessel, f)]
+    if other:
+        raise ConfigError(f"{where}: identified on another vessel, {base_name} (params_file): it differs from the "
+                          f"campaign's in {', '.join(other[:4])}{', ...' if len(other) > 4 else ''}; set vessel.file "
+                          "to it (or to the vessel-updated.yaml sysid wrote beside the summary), or identify this one")
     out = {}
     for name, (spread, key) in fields.items():
         _check_support(key, spread, _meta(VesselParams, name))
@@ -517,7 +556,10 @@ def resolve(spec: CampaignSpec, *, base_dir: str | Path = ".") -> Campaign:
                               f"({spec.missions[first]}): the results are kept by mission name")
     _within_limits(spec, missions)
     vessel_path = (base_dir / spec.vessel.file) if spec.vessel.file else default_params_path()
-    vessel = load_params(vessel_path)
+    try:
+        vessel = load_params(vessel_path)
+    except ConfigError as exc:  # it named the file alone, not the key that gave it
+        raise ConfigError(f"vessel.file: {exc}" if spec.vessel.file else str(exc)) from None
     sources = [f"vessel: {vessel_path}"]
     spreads: dict[str, Spread] = {}
     thrust: dict[str, Spread] = {}
