@@ -58,7 +58,19 @@ import yaml
 
 from autopilot.geo import latlon_to_local
 from autopilot.schema import ConfigError
-from autopilot.userfile import csv_rows, parse_yaml, read_text, too_many_fields, unit_word, units_row, yaml_problem
+from autopilot.userfile import (
+    DEGREES,
+    METRES,
+    METRES_PER_SECOND,
+    SECONDS,
+    csv_rows,
+    parse_yaml,
+    read_text,
+    too_many_fields,
+    unit_mismatch,
+    units_row,
+    yaml_problem,
+)
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
 DUPLICATE_TOLERANCE_M = 0.01
@@ -344,10 +356,9 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
 _CSV_OPTIONS = ("speed_m_s", "hold_s", "name")  # name: the spreadsheet's label, not read
 _CSV_LOOKALIKE = ("hold", "speed", "north", "east", "lat", "lon", "loiter", "wait")
 _CSV_COLUMNS = ("north_m", "east_m", "lat_deg", "lon_deg", *_CSV_OPTIONS)
-_METRES, _DEGREES = ("m", "metre", "metres", "meter", "meters"), ("deg", "°", "degree", "degrees", "dd", "decimal degrees")
-# what a units row under the header may say of each column the mission reads (unit_word's form)
-_CSV_UNITS = {"north_m": _METRES, "east_m": _METRES, "lat_deg": _DEGREES, "lon_deg": _DEGREES,
-              "speed_m_s": ("m/s", "m s-1", "ms-1", "m*s-1"), "hold_s": ("s", "sec", "secs", "second", "seconds")}
+# what a units row under the header may say of each column the mission reads
+_CSV_UNITS = {"north_m": METRES, "east_m": METRES, "lat_deg": DEGREES, "lon_deg": DEGREES,
+              "speed_m_s": METRES_PER_SECOND, "hold_s": SECONDS}
 
 
 def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
@@ -392,11 +403,11 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
 def _check_units(path: Path, units: list[str], cols: list[str]) -> None:
     """A units row's unit for each column the mission reads is the one the column's name says, or none: a north_m in
     ft or km read as metres would fly a different mission."""
-    for k, name in enumerate(cols):
-        said = unit_word(units[k]) if k < len(units) else ""
-        if name in _CSV_UNITS and said and said not in _CSV_UNITS[name]:
-            raise MissionError(f"{path}: the units row under the header gives {name} in {units[k].strip()!r}; the "
-                               f"mission reads {name} in {_CSV_UNITS[name][0]} (convert the column, or correct the unit)")
+    bad = unit_mismatch(units, cols, _CSV_UNITS)
+    if bad is not None:
+        name, unit = bad
+        raise MissionError(f"{path}: the units row under the header gives {name} in {unit!r}; the mission reads "
+                           f"{name} in {_CSV_UNITS[name][0]} (convert the column, or correct the unit)")
 
 
 # ------------------------------------------------------------------------- Mission Planner

@@ -154,6 +154,28 @@ def unit_word(cell: str) -> str:
     return re.sub(r"\s+", " ", cell.strip().strip("[]()").strip().lower())
 
 
+# the ways a units row under a CSV header says each SI unit a column's name gives (unit_word's form; the first is
+# the one said back): a north_m in ft or a sog_m_s in kn read as metres or m/s would fly, or fit, another boat
+SECONDS = ("s", "sec", "secs", "second", "seconds")
+METRES = ("m", "metre", "metres", "meter", "meters")
+DEGREES = ("deg", "°", "degree", "degrees", "dd", "decimal degrees")
+METRES_PER_SECOND = ("m/s", "m s-1", "ms-1", "m*s-1")
+DEGREES_PER_SECOND = ("deg/s", "°/s", "deg s-1", "degrees/s")
+NEWTONS = ("n", "newton", "newtons")
+PERCENT = ("%", "pct", "percent")
+
+
+def unit_mismatch(units: list[str], header: list[str], allowed: dict[str, tuple[str, ...]]) -> tuple[str, str] | None:
+    """(column, its cell as written) of the first column whose unit in a units row under ``header`` is not the one
+    its name says (``allowed``: column -> its unit's words, the first the one to say back), or None (a unit left
+    empty is no contradiction)."""
+    for k, name in enumerate(header):
+        said = unit_word(units[k]) if k < len(units) else ""
+        if name in allowed and said and said not in allowed[name]:
+            return name, units[k].strip()
+    return None
+
+
 MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"
 
 

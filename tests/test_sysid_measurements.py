@@ -68,6 +68,27 @@ def test_held_fixes_are_not_new_measurements(tmp_path, cells, time_column):
     assert np.isfinite(tr.heading_rad).all()  # no heading_time_s column: every heading is a measurement
 
 
+@pytest.mark.parametrize("column, unit", [("sog_m_s", "kn"), ("heading_deg", "rad"), ("t_s", "ms")])
+def test_a_units_row_that_gives_another_unit_is_refused_naming_the_column(tmp_path, column, unit):
+    """Found by a sysid audit: a units row under the header was skipped whatever it said, so a speed over ground in
+    knots was read as m/s (a calm pond log came out 'unexplained', nearest hydro_refit). Units the columns' names
+    say (any case, in brackets, Windows-1252's degree sign) are read as before."""
+    _held_csv(tmp_path / "plain.csv")
+    head, *rows = (tmp_path / "plain.csv").read_text().splitlines()
+    said = {"t_s": "s", "thrust_port_n": "N", "thrust_stbd_n": "[N]", "north_m": "m", "east_m": "(m)",
+            "heading_deg": "\N{DEGREE SIGN}", "sog_m_s": "m/s"}
+    cols = head.split(",") + ["sog_m_s"]
+    rows = [r + ",1.0" for r in rows]
+    ok = tmp_path / "ok.csv"
+    ok.write_bytes("\n".join([",".join(cols), ",".join(said[c] for c in cols), *rows, ""]).encode("cp1252"))
+    assert read_trial(ok).t_s.size == len(rows)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join([",".join(cols), ",".join(unit if c == column else said[c] for c in cols), *rows, ""]))
+    with pytest.raises(ConfigError, match=f"bad.csv: the units row under the header gives {column} in '{unit}'; the "
+                                          f"trial CSV reads {column} in"):
+        read_trial(bad)
+
+
 def test_held_heading_with_its_time_is_not_new(tmp_path):
     t = np.arange(40) * 0.1
     h_time = t.copy()

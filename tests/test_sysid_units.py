@@ -192,6 +192,17 @@ def test_cli_errors(capsys):
     assert main(["sysid", "--table", "config/measured-table.csv", "--effects", "bogus", "--out", "/tmp/none"]) == 2
 
 
+@pytest.mark.parametrize("given", [",", "", " , "])
+def test_effects_naming_no_effect_is_refused_not_answered_none(tmp_path, capsys, given):
+    """Found by a sysid audit: `--effects ,` tested no candidate and printed "verdict: none" (nothing beyond the
+    noise), as if every effect had been tried and ruled out."""
+    csv = Path(__file__).parent / "data" / "no-time-columns" / "pond-9.4-cycles.csv"
+    for args in ([str(csv)], ["--table", "config/measured-table.csv"]):
+        assert main(["sysid", *args, "--effects", given, "--out", str(tmp_path / "out"), "--no-report"]) == 2
+        assert f"--effects {given!r}: no effect named (known: current," in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_cli_table(tmp_path, capsys):
     assert main(["sysid", "--table", "config/measured-table.csv", "--params", str(thesis_params_path()),
                  "--out", str(tmp_path), "--quiet"]) == 0
@@ -400,6 +411,17 @@ def test_a_table_row_outside_its_range_is_refused_naming_row_and_column(tmp_path
     bad = dataclasses.replace(MEASURED_TABLE[3], **{field: value})
     write_table_csv([*MEASURED_TABLE[:3], bad, *MEASURED_TABLE[4:]], tmp_path / "t.csv")
     with pytest.raises(ConfigError, match=re.escape(f"t.csv: data row 4, {field}: {words}")):
+        read_table_csv(tmp_path / "t.csv")
+
+
+def test_a_table_without_moving_rows_is_refused_not_a_division_by_zero(tmp_path):
+    """Found by a sysid audit: a table whose rows all have a speed of 0 (the boat tied up, or the speed column not
+    filled in) ended in 'internal error: ZeroDivisionError' (the model is compared on moving rows only)."""
+    import dataclasses
+
+    still = [dataclasses.replace(r, speed_m_s=0.0) for r in MEASURED_TABLE[:-2]] + list(MEASURED_TABLE[-2:])
+    write_table_csv(still, tmp_path / "t.csv")
+    with pytest.raises(ConfigError, match=r"t.csv: 2 row\(s\) with a speed_m_s above 0 \(need 3\)"):
         read_table_csv(tmp_path / "t.csv")
 
 
@@ -907,3 +929,23 @@ def test_a_trial_whose_fitted_states_fit_worse_than_its_held_out_ones_is_refitte
     again = judge.channels(prep, VESSEL, mended, judge.NoiseBounds(), full=False)["position"]["residual_rms_m"]
     assert again < 0.6 * position
     assert_allclose(list(mended.values().values()), list(fit.values().values()), atol=2e-3)
+
+
+def test_what_is_not_ruled_out_is_reported_as_a_named_effect_is():
+    """Found by a sysid audit: beside `none` on a calm pond log the CLI printed "not ruled out (95 %):
+    hydro_refit.resistance_linear_n_s_m 0.0135..0.52 N s/m": the change, where a named hydro_refit (and the vessel
+    file, 14.07 N s/m) gives the coefficient's new value."""
+    from autopilot.sysid.fit import Fit
+    from autopilot.sysid.identification import not_excluded
+
+    keys = ("hydro_refit.resistance_linear_n_s_m", "hydro_refit.n_r_nd")
+    hydro = Fit(("hydro_refit",), keys, np.array([0.3, -1e-5]), np.array([0.1, 2e-5]), np.zeros((1, 6)), (0,), 1.0, 10)
+    current = Fit(("current",), ("current.north_m_s", "current.east_m_s"), np.array([0.01, -0.02]),
+                  np.array([0.05, 0.05]), np.zeros((1, 6)), (0,), 1.0, 10)
+    rows = {r["param"]: r for r in not_excluded({("hydro_refit",): hydro, ("current",): current}, (), VESSEL)}
+    r1 = rows["hydro_refit.resistance_linear_n_s_m"]
+    assert r1["null"] == VESSEL.resistance_linear_n_s_m
+    assert_allclose(r1["ci95"], VESSEL.resistance_linear_n_s_m + 0.3 + np.array([-1, 1]) * 1.959964 * 0.1, rtol=1e-6)
+    assert_allclose(rows["hydro_refit.n_r_nd"]["ci95"], VESSEL.n_r_nd - 1e-5 + np.array([-1, 1]) * 1.959964 * 2e-5)
+    assert rows["current.north_m_s"]["null"] == 0.0  # effects reported as fitted: unchanged
+    assert_allclose(rows["current.north_m_s"]["ci95"], 0.01 + np.array([-1, 1]) * 1.959964 * 0.05)

@@ -225,7 +225,9 @@ def _small_outcome(listed: tuple, hidden: dict, result) -> dict:
     out = {"outcome": outcome, "right": outcome in ("exact", "none", "inconclusive")}
     rows = [r for r in result.not_excluded if r["effect"] in listed]
     if result.status in ("none", "inconclusive"):
-        cover = {r["param"]: bool(r["ci95"][0] <= hidden[r["param"]] <= r["ci95"][1]) for r in rows if r["param"] in hidden}
+        # the intervals as reported (hydro_refit's the new values): the truth, a change, shifted by the reported null
+        cover = {r["param"]: bool(r["ci95"][0] <= hidden[r["param"]] + r["null"] - PARAM_BY_KEY[r["param"]].null
+                                  <= r["ci95"][1]) for r in rows if r["param"] in hidden}
         out["not_excluded"] = {"listed": bool(rows), "covers": cover,
                                "ci95": {r["param"]: r["ci95"] for r in rows}}
     fitted = [c for c in result.candidates if c.get("delta_bic") is not None]

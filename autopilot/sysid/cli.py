@@ -72,15 +72,18 @@ def _run(args: argparse.Namespace, vessel, params_path: Path) -> int:
 
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     candidates = tuple(EFFECT_NAMES)
-    if args.effects:
-        candidates = tuple(e.strip() for e in args.effects.split(",") if e.strip())
+    if args.effects is not None:
+        candidates = tuple(dict.fromkeys(e.strip() for e in args.effects.split(",") if e.strip()))
         unknown = [e for e in candidates if e not in EFFECT_NAMES]
         if unknown:
             raise ConfigError(f"--effects: unknown effect {unknown[0]!r} (known: {', '.join(EFFECT_NAMES)})")
+        if not candidates:  # "--effects ," tested nothing and answered `none` (a sysid audit)
+            raise ConfigError(f"--effects {args.effects!r}: no effect named (known: {', '.join(EFFECT_NAMES)}; "
+                              "leave --effects out for all)")
     if args.table:
         if args.trials:
             raise ConfigError("give either trial files or --table, not both")
-        return _table(args, vessel, params_path, candidates if args.effects else None, log)
+        return _table(args, vessel, params_path, candidates if args.effects is not None else None, log)
     if not args.trials:
         raise ConfigError("no trial files (or use --table)")
     if args.top_k < 1:

@@ -40,7 +40,7 @@ import numpy as np
 
 from autopilot.sim import VesselParams
 from autopilot.sysid import judge, search
-from autopilot.sysid.effects import EFFECT_NAMES, PARAM_BY_KEY
+from autopilot.sysid.effects import BY_NAME, EFFECT_NAMES, PARAM_BY_KEY
 from autopilot.sysid.fit import Fit, fit_model
 from autopilot.sysid.holdout import (
     MIN_JACKKNIFE_FOLDS,
@@ -369,7 +369,7 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
         rmse_before={"fitted": fitted(base), "held_out": held_before},
         rmse_after={"fitted": fitted(fits[named]), "held_out": held_after if named else held_before},
         adequacy=adequacy, nearest=nearest, notes=notes,
-        not_excluded=not_excluded(fits, named) if status in ("none", "inconclusive") else [],
+        not_excluded=not_excluded(fits, named, vessel) if status in ("none", "inconclusive") else [],
     )
 
 
@@ -392,10 +392,12 @@ def tied_singles(prep, vessel, fits: dict, chosen: tuple, scores, s: Settings) -
             and _delta_bic(scores, fits, k, chosen) < s.bic_margin]
 
 
-def not_excluded(fits: dict, named: tuple) -> list[dict]:
+def not_excluded(fits: dict, named: tuple, vessel) -> list[dict]:
     """Each fitted single candidate not named, with the 95 % interval of each parameter (SI, as the effect
-    declares it): what the trials cannot rule out (a "none" from one short log may still allow a 0.3 m/s
-    current)."""
+    declares it, and as a named effect reports it: hydro_refit's as the coefficients' new values, ``null`` the
+    vessel's own): what the trials cannot rule out (a "none" from one short log may still allow a 0.3 m/s
+    current). Given as the change, hydro_refit's resistance read '0.0135..0.52 N s/m' beside a vessel of 14.07
+    (a sysid audit)."""
     out = []
     for key, f in fits.items():
         if len(key) != 1 or key[0] in named:
@@ -403,7 +405,10 @@ def not_excluded(fits: dict, named: tuple) -> list[dict]:
         for k, (lo, hi) in f.ci95().items():
             p = PARAM_BY_KEY[k]
             if math.isfinite(lo) and math.isfinite(hi):
-                out.append({"effect": key[0], "param": k, "unit": p.unit, "null": p.null, "ci95": [lo, hi]})
+                eff = BY_NAME[key[0]]
+                shift = eff.reported(p.name, p.null, vessel) - p.null  # reported() is the change plus a constant
+                out.append({"effect": key[0], "param": k, "unit": p.unit, "null": p.null + shift,
+                            "ci95": [lo + shift, hi + shift]})
     return out
 
 

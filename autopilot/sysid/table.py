@@ -49,6 +49,7 @@ FAILED_RESIDUAL = 10.0  # a row whose steady state cannot be found (as autopilot
 BIC_MARGIN = 10.0
 MIN_CV_GAIN = 0.05
 FOLDS = 5
+MIN_MOVING_ROWS = 3  # rows with a speed above 0: the rows table_residuals compares
 
 
 def read_table_csv(path) -> tuple[SteadyRow, ...]:
@@ -83,6 +84,10 @@ def read_table_csv(path) -> tuple[SteadyRow, ...]:
         rows.append(SteadyRow(r[col["name"]], *vals))
     if len(rows) < 3:
         raise ConfigError(f"{path}: need at least 3 rows, got {len(rows)}")
+    moving = sum(r.speed_m_s > 0.0 for r in rows)
+    if moving < MIN_MOVING_ROWS:  # a table of zero speeds only was a ZeroDivisionError (a sysid audit)
+        raise ConfigError(f"{path}: {moving} row(s) with a speed_m_s above 0 (need {MIN_MOVING_ROWS}): only a moving "
+                          "row's speed and yaw rate are compared with the model")
     return tuple(rows)
 
 

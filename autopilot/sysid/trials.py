@@ -44,6 +44,7 @@ import numpy as np
 from autopilot.geo import latlon_to_local
 from autopilot.gnc.thrust_curve import ThrustCurve
 from autopilot.schema import ConfigError
+from autopilot.userfile import DEGREES, DEGREES_PER_SECOND, METRES, METRES_PER_SECOND, NEWTONS, PERCENT, SECONDS
 
 MIN_SAMPLES = 20  # rows with a usable time
 MIN_FIXES = 8  # new position fixes (a 1 Hz GPS: eight seconds)
@@ -418,10 +419,26 @@ empty cells are gaps (Excel's ';' and decimal commas, a BOM, Windows-1252 are re
 `autopilot review LOG --export csv` writes a mission log in this form."""
 TRIAL_COLUMNS = ("t_s", "north_m", "east_m", "lat_deg", "lon_deg", "heading_deg", "thrust_port_n", "thrust_stbd_n",
                  "pwm_port_pct", "pwm_stbd_pct", "position_time_s", "heading_time_s", "sog_m_s", "cog_deg", "rot_deg_s")
+# what a units row under the header may say of each column read: a sog_m_s in knots or a heading in radians was
+# skipped as a units row and read as m/s and degrees, 'unexplained' (a sysid audit)
+TRIAL_UNITS = {"t_s": SECONDS, "position_time_s": SECONDS, "heading_time_s": SECONDS, "north_m": METRES,
+               "east_m": METRES, "lat_deg": DEGREES, "lon_deg": DEGREES, "heading_deg": DEGREES, "cog_deg": DEGREES,
+               "thrust_port_n": NEWTONS, "thrust_stbd_n": NEWTONS, "pwm_port_pct": PERCENT, "pwm_stbd_pct": PERCENT,
+               "sog_m_s": METRES_PER_SECOND, "rot_deg_s": DEGREES_PER_SECOND}
+
+
 def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     """Read one trial CSV (columns in the module docstring); a cell that is not a number, a time going back
     or a last row cut off mid-write is refused naming the row."""
-    from autopilot.userfile import csv_rows, number_cell, read_text, too_many_fields, unique_header, units_row
+    from autopilot.userfile import (
+        csv_rows,
+        number_cell,
+        read_text,
+        too_many_fields,
+        unique_header,
+        unit_mismatch,
+        units_row,
+    )
 
     path = Path(path)
     text = read_text(path, what="trial CSV", spreadsheet=True)
@@ -435,6 +452,10 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
         raise ConfigError(f"{path}: {exc}") from None
     width = len(header)
     units = len(table) > 1 and units_row(table[1])  # a row of units under the header (s, m, deg, N): no data
+    if units and (bad := unit_mismatch(table[1], header, TRIAL_UNITS)) is not None:
+        name, unit = bad
+        raise ConfigError(f"{path}: the units row under the header gives {name} in {unit!r}; the trial CSV reads "
+                          f"{name} in {TRIAL_UNITS[name][0]} (convert the column, or correct the unit)")
     if len(table) > 1 and len(table[-1]) < width and not text.endswith(("\n", "\r")):
         raise ConfigError(f"{path}: data row {len(table) - 1} has {len(table[-1])} of {width} fields and the file does "
                           "not end with a new line: cut off mid-write? delete that row")
