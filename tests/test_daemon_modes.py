@@ -244,7 +244,9 @@ def test_position_fault_never_takes_rtl_the_guard_falls_back_to_stop(tmp_path):
             fs = d.events("failsafe")[0]
             assert (fs["cause"], fs["action"], fs["configured"]) == ("position_stale", "stop", "rtl")
             assert fs["fallback"] == "rtl needs a position and a heading: this is a position fault"
-            assert _last_cycle(d)["mode"] == "failsafe" and not d.rig.mbed.thrusting
+            # the cycle's own line comes after its failsafe event's: read between the two, the last was auto (once)
+            await d.wait(lambda: _last_cycle(d).get("mode") == "failsafe", 1.0, "the failsafe's cycle")
+            assert not d.rig.mbed.thrusting
             code, text = await d.ctl("rtl")
             assert code == 1 and text == "rtl refused: position stale", text
             d.rig.sc30.position_dropout = False

@@ -13,7 +13,7 @@ from autopilot.logschema import Mode
 
 def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_lost=0, log_failing=False,
           stop_acknowledged=True, stop_signal=None, hold_zero=None, board_answered=True, finished=None, mode="complete",
-          time_stop_stayed=False):
+          time_stop_stayed=False, time_stop_from=None):
     st = LoopState(cycles=cycles, skipped=skipped, reached=[0, 1, 2] if complete else [], mode=mode,
                    finished=complete if finished is None else finished,
                    closest_m={0: 0.41, 1: 0.27, 2: float("nan")} if complete else {0: 0.41},
@@ -23,7 +23,7 @@ def _loop(*, cycles, skipped, failsafes=(), speedup=100.0, complete=True, lines_
     return SimpleNamespace(state=st, clock=SimpleNamespace(now_s=lambda: 45.0, speedup=speedup), t0_s=5.0,
                            mission=SimpleNamespace(waypoints_ne_m=np.zeros((3, 2))), speedup_held=lambda: held,
                            log=SimpleNamespace(lines_lost=lines_lost, failing=log_failing), hold_zero=hold_zero,
-                           time_stop_stayed=time_stop_stayed,
+                           time_stop_stayed=time_stop_stayed, time_stop_from=time_stop_from,
                            ap=SimpleNamespace(mode=Mode.STOP if hold_zero else Mode.AUTO),
                            thrusters=SimpleNamespace(answered=board_answered))
 
@@ -94,6 +94,13 @@ def test_a_run_stopped_in_its_final_hold_is_not_called_complete():
                         "zero thrust acknowledged by the Mbed")
     done = end_summary(_loop(cycles=400, skipped=0, stop_signal=None), "x", sim=True)
     assert done[1].startswith("mission complete after 40.0 s")
+    # a final hold max_mission_time stopped, the daemon staying up until the signal (logschema.time_stop_words)
+    timed = end_summary(_loop(cycles=400, skipped=0, stop_signal="SIGTERM", finished=False, mode="stop",
+                              time_stop_stayed=True, time_stop_from=("hold", 1560.4)), "x", sim=True)
+    assert "; then in hold for 1560 s until max_mission_time stopped it; stopped by SIGTERM;" in timed[1]
+    moved = end_summary(_loop(cycles=400, skipped=0, stop_signal="SIGTERM", finished=False, mode="rtl",
+                              time_stop_stayed=True, time_stop_from=("hold", 7.25)), "x", sim=True)
+    assert "; then in hold for 7.2 s until max_mission_time stopped it; then in rtl, stopped by SIGTERM;" in moved[1]
 
 
 def test_a_run_that_stayed_up_after_its_mission_says_how_it_ended():
