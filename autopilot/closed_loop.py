@@ -114,7 +114,7 @@ class ControlCycle:
             rest_v = resting_voltage_v(link.battery_v, self.last_cmd.duty_port_pct, self.last_cmd.duty_stbd_pct,
                                        fs_cfg.battery_sag_v)
             decision = self.failsafe.update(steps.observe(
-                nav, mission_time_s=now_s, compass_connected=link.compass_connected,
+                nav, mission_time_s=None if ap.finished else now_s, compass_connected=link.compass_connected,
                 thrusters_connected=link.thrusters_connected, acks_missing_in_a_row=link.acks_missing_in_a_row,
                 compass_garbage_s=link.compass_garbage_s, thruster_garbage_s=link.thruster_garbage_s,
                 battery_v=rest_v, steered_heading_error_rad=self.steered_error_rad))

@@ -196,18 +196,17 @@ def test_a_run_stopped_after_its_route_is_reviewed_as_the_daemon_ends_it(tmp_pat
     assert f"then in {card.end_mode}, stopped by SIGTERM" in said  # the daemon's words
 
 
-@pytest.mark.slow
-def test_a_final_hold_the_time_limit_stopped_is_said_by_the_daemon_and_the_review_alike(tmp_path):
-    """A review audit: a daemon that stayed up (systemd) after max_mission_time stopped its final hold, then got a
-    SIGTERM, said "route complete; then in stop, stopped by SIGTERM", the hold before the stop unsaid."""
+def _under_systemd(tmp_path: Path, final_action: str, max_mission_time_s: float, until):
+    """A run at --speedup max with NOTIFY_SOCKET set (so it stays up after its mission, as under systemd), a mission
+    12 m out, SIGTERM once ``until(records)``: (its standard error, its log's path)."""
     import socket
 
     notify = tmp_path / "notify"
     srv = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
     srv.bind(str(notify))
     cfg = yaml.safe_load(CONFIG.read_text())
-    cfg.setdefault("gnc", {}).setdefault("guidance", {})["final_action"] = "hold"
-    cfg.setdefault("failsafe", {})["max_mission_time_s"] = 60.0
+    cfg.setdefault("gnc", {}).setdefault("guidance", {})["final_action"] = final_action
+    cfg.setdefault("failsafe", {})["max_mission_time_s"] = max_mission_time_s
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(cfg))
     mission = tmp_path / "out.yaml"
     mission.write_text("name: out\nframe: local\nwaypoints:\n  - {north_m: 12.0, east_m: 0.0}\n")
@@ -216,8 +215,7 @@ def test_a_final_hold_the_time_limit_stopped_is_said_by_the_daemon_and_the_revie
                           "--state-dir", str(tmp_path / "state")], cwd=tmp_path, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True, env=dict(os.environ, NOTIFY_SOCKET=str(notify)))
     try:
-        _wait_for(lambda recs: any(r.get("message") == "max_mission_time: stopped, staying up" for r in recs),
-                  tmp_path / "logs", p, limit_s=120.0)
+        _wait_for(until, tmp_path / "logs", p, limit_s=120.0)
         p.send_signal(signal.SIGTERM)
         _, err = p.communicate(timeout=30)
     finally:
@@ -225,12 +223,34 @@ def test_a_final_hold_the_time_limit_stopped_is_said_by_the_daemon_and_the_revie
         if p.poll() is None:
             p.kill()
     assert p.returncode == 0, err[-2000:]
+    (path,) = (tmp_path / "logs").glob("mission-*.jsonl")
+    return err, path
+
+
+@pytest.mark.slow
+def test_a_final_hold_the_time_limit_stopped_is_said_by_the_daemon_and_the_review_alike(tmp_path):
+    """A review audit: a daemon that stayed up (systemd) after max_mission_time stopped its final hold, then got a
+    SIGTERM, said "route complete; then in stop, stopped by SIGTERM", the hold before the stop unsaid."""
+    err, path = _under_systemd(tmp_path, "hold", 60.0, lambda recs: any(
+        r.get("message") == "max_mission_time: stopped, staying up" for r in recs))
     said = next(ln for ln in err.splitlines() if "route complete" in ln)
     held = re.search(r"; then in hold for (\d+) s until max_mission_time stopped it; stopped by SIGTERM", said)
     assert held and 20 <= int(held.group(1)) <= 60, said  # the hold from the waypoint (reached in ~10-30 s) to 60 s
-    (path,) = (tmp_path / "logs").glob("mission-*.jsonl")
     card = score(review_read_log(path))
     assert dict(card.table_rows())["stop"] == f"route complete; {held.group(0)[2:]}"  # the daemon's words
+
+
+@pytest.mark.slow
+def test_a_mission_ended_with_stop_is_not_stopped_again_by_the_time_limit(tmp_path):
+    """A review of 2026-12-06: staying up after its mission's stop (systemd), the daemon tripped max_mission_time at
+    zero thrust, saved the finished run aborted, and the next start held the boat for it."""
+    err, path = _under_systemd(tmp_path, "stop", 40.0, lambda recs: any(
+        r.get("message") == "mission complete: staying up" for r in recs) and recs[-1]["t_s"] > 50.0)
+    recs = read_log(tmp_path / "logs")
+    assert not [r for r in recs if r["event"] in ("fault", "failsafe")], [r for r in recs if r["event"] == "fault"]
+    assert "mission complete after" in err and "then stopped by SIGTERM" in err, err[-2000:]
+    saved = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+    assert saved["status"] == "stopped", saved  # a run that finished: the next start is a new one
 
 
 @pytest.mark.slow

@@ -401,3 +401,13 @@ def test_a_fault_latched_before_a_restart_is_told_apart_from_one_of_this_run():
     d = fs.update(good(0.0, mission_time_s=1e4))  # this run's own
     assert fs.latched == ("geofence", "max_mission_time") and fs.restored == ("geofence",)
     assert {"geofence", "max_mission_time"} <= set(d.active)
+
+
+def test_a_mission_ended_with_stop_has_no_time_to_run_out():
+    """A review of 2026-12-06: a daemon staying up (systemd) after its mission's stop tripped max_mission_time half
+    an hour on at zero thrust, saved the run aborted, and the next boot held the boat for it."""
+    fs = Failsafe(CFG)
+    t = run_until_auto(fs)
+    d = fs.update(good(t, mission_time_s=None))  # the daemon's observation once the mission has ended with stop
+    assert "max_mission_time" not in d.active and d.requests == ()
+    assert "max_mission_time" in fs.update(good(t + 0.1, mission_time_s=600.0)).active  # under way, it trips

@@ -37,12 +37,12 @@ def nav_rules(cfg: DaemonConfig) -> NavRules:
                     fix_confirm_s=fs.position_confirm_s)
 
 
-def observe(nav: Navigation, *, mission_time_s: float, compass_connected: bool, thrusters_connected: bool,
+def observe(nav: Navigation, *, mission_time_s: float | None, compass_connected: bool, thrusters_connected: bool,
             acks_missing_in_a_row: int, compass_garbage_s: float | None, thruster_garbage_s: float | None,
             battery_v: float | None = None, thrusters_disobeying: bool = False,
             steered_heading_error_rad: float | None = None) -> Observation:
-    """What the failsafe judges (times on the daemon's clock); ``steered_heading_error_rad``: the last cycle's
-    (:func:`steered_error_rad`)."""
+    """What the failsafe judges (times on the daemon's clock); ``mission_time_s`` None once the mission has ended
+    with stop; ``steered_heading_error_rad``: the last cycle's (:func:`steered_error_rad`)."""
     return Observation(
         t_s=nav.t_s, heading_age_s=nav.heading_age_s, heading_valid=nav.heading_valid,
         position_age_s=nav.position_age_s, fix_quality=nav.fix_quality,

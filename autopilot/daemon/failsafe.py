@@ -78,7 +78,7 @@ class Observation:
     last_mbed_garbage_t_s: float | None = None
     north_m: float | None = None
     east_m: float | None = None
-    mission_time_s: float = 0.0
+    mission_time_s: float | None = 0.0  # None: no mission under way (it ended with stop: max_mission_time is moot)
     battery_v: float | None = None  # resting voltage estimate (resting_voltage_v); None: the firmware does not report it
     # the position agrees with the fix before it (Navigation.fix_confirmed): only such a position latches the
     # geofence or the distance limit (a first fix, or a jump just re-anchored to, may be a glitch)
@@ -269,7 +269,7 @@ def detect(obs: Observation, cfg: FailsafeConfig, fence_ne_m=None) -> dict[str, 
         faults["mbed_ack_missing"] = f"{obs.ack_consecutive_missing} consecutive commands {how} (limit {cfg.ack_missing_n})"
     if obs.north_m is not None and obs.east_m is not None and obs.fix_quality > 0 and obs.position_confirmed:
         faults.update(position_limits(obs.north_m, obs.east_m, cfg, fence_ne_m))
-    if obs.mission_time_s >= cfg.max_mission_time_s:
+    if obs.mission_time_s is not None and obs.mission_time_s >= cfg.max_mission_time_s:
         faults["max_mission_time"] = f"mission time {obs.mission_time_s:.1f} s (limit {cfg.max_mission_time_s:g} s)"
     return faults
 

@@ -152,7 +152,10 @@ class ControlLoop:
         load = self.thrusters.battery_load_pct or (st.last_cmd.duty_port_pct, st.last_cmd.duty_stbd_pct)
         battery_rest_v = resting_voltage_v(battery_v, *load, self.cfg.failsafe.battery_sag_v)
         decision = self.failsafe.update(steps.observe(
-            nav, mission_time_s=t_s, compass_connected=self.compass.connected,
+            # a mission ended with stop has no time to run out: the daemon staying up after it (systemd, a ground
+            # station) tripped max_mission_time at zero thrust, saved the run aborted, and the next boot held the
+            # boat for it (a review of 2026-12-06)
+            nav, mission_time_s=None if st.finished else t_s, compass_connected=self.compass.connected,
             thrusters_connected=self.thrusters.connected, acks_missing_in_a_row=self.thrusters.consecutive_missing,
             compass_garbage_s=self.compass.last_garbage_s, thruster_garbage_s=self.thrusters.last_garbage_s,
             battery_v=battery_rest_v, thrusters_disobeying=self.thrusters.disobeying,
