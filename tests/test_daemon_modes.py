@@ -585,11 +585,13 @@ def test_a_silent_board_s_last_voltage_under_load_is_not_taken_for_a_resting_one
     asyncio.run(scenario())
 
 
-def test_a_restart_on_the_mission_s_way_home_goes_on_home(tmp_path):
+@pytest.mark.parametrize("resume", [True, False])
+def test_a_restart_on_the_mission_s_way_home_goes_on_home(tmp_path, resume):
     """Left in stop 42's note: a run killed (kill -9) on its mission's own way home, restarted with
     resume_after_restart, flew back out to the last waypoint first and then home again. The progress now says
-    the run was homeward, and the restart goes on home."""
-    cfg = {"failsafe": {"resume_after_restart": True, "start_valid_s": 1.0}}
+    the run was homeward, and the restart goes on home. Held (resume_after_restart false, the default), the start
+    waits for the operator: `ctl rtl` goes on home (resume flew back out to the last waypoint: a review)."""
+    cfg = {"failsafe": {"resume_after_restart": resume, "start_valid_s": 1.0}}
 
     async def scenario():
         d = Daemon(tmp_path, {"name": "out-and-home", "frame": "local", "waypoints": [[26.0, 0.0], "rtl"]}, config=cfg)
@@ -606,8 +608,14 @@ def test_a_restart_on_the_mission_s_way_home_goes_on_home(tmp_path):
             d.proc.kill()
             await d.proc.wait()
             await d.start(fresh=False)
+            if not resume:
+                await d.wait(lambda: _last_cycle(d).get("mode") == "stop", 30.0, "the held start")
+                code, text = await d.ctl("resume")  # the route is done: resume has nothing to fly
+                assert code == 1 and "the mission is complete" in text, text
+                assert await d.ctl("rtl") == (0, "rtl")
             await d.wait(lambda: any(m[1] == "rtl" for m in _modes(d)), 30.0, "rtl after the restart")
-            assert [m[1] for m in _modes(d)][:1] == ["rtl"], _modes(d)  # home at once, never out to W0 first
+            # home at once, never out to W0 first
+            assert [m[1] for m in _modes(d) if m[1] != "stop"][:1] == ["rtl"], _modes(d)
             farthest_m = 0.0
             while not any(m[1] == "hold" for m in _modes(d)):
                 await d.clock.sleep(0.5)

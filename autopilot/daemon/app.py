@@ -439,11 +439,16 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
     try:
         log = MissionLog(log_path(log_dir, opts.mission_path))
         start_index, hold_zero = _resume_index(cfg, opts, store, sha, len(mission.waypoints_ne_m))
+        before = _run_before(opts, store, sha)
+        # the interrupted run was on its mission's own way home: it goes on home (resumed, or held for the operator's
+        # rtl), never back out to the last waypoint first (stop 42's note; held, until a review of 2026-12-06)
+        homeward = bool(before is not None and before.homeward and mission.rtl and start_index == before.wp_index)
         if hold_zero is not None:  # only a JSON line said so, and a bench run sat still for max_mission_time_s
             ctl = f"autopilot ctl --runtime-dir {control.path.parent}"
             # with a failsafe latched, resume is refused: "resume starts the mission" beside it (an operator audit)
             _console(f"holding zero thrust: {hold_zero}; " + (
                 f"`{ctl} rtl`, `hold` or `stop` are what it takes" if RESUME_REFUSED in hold_zero
+                else f"`{ctl} rtl` goes on home (the run was on its mission's way home)" if homeward
                 else f"`{ctl} resume` continues the mission from waypoint {start_index}" if start_index
                 else f"`{ctl} resume` starts the mission"))
         t0_s = clock.now_s()
@@ -466,7 +471,6 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         if lockstep:
             clock.set_quiet(_quiet_check(log, clock, t0_s, lambda: rig.quiet(compass, thrusters) and (
                 ais_driver is None or sim_traffic is None or sim_traffic.quiet(ais_driver))))
-        before = _run_before(opts, store, sha)
         disarmed_why = _disarmed_at_start(opts, store)
         ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, speeds_m_s=mission.speeds_m_s, holds_s=mission.holds_s,
                        rtl=mission.rtl, boat_length_m=boat_length_m, start_index=start_index,
@@ -478,8 +482,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
                            t0_s=t0_s, ais=ais if (ais_driver is not None or cfg.ais.on_compass_line) else None)
         if before is not None:
             loop.failsafe.restore_latched(before.latched)
-            if before.homeward and mission.rtl and hold_zero is None and start_index == before.wp_index:
-                ap.resume_homeward()  # the interrupted run was on its way home: it goes on home
+            if homeward:
+                ap.resume_homeward()
         holder["loop"] = loop
     except BaseException:  # the start failed before the loop ran: no stale socket, no empty log left behind
         await control.close()
