@@ -181,7 +181,7 @@ class Scorecard:
         self.ended_passes: list = []  # every Pass closed, in order (the daemon logs each as waypoint_pass)
         self.passes_open = True
         self.xte_sq = self.xte_max = self.energy_ns = 0.0
-        self.n_cycles = self.n_sat = self.n_track = 0  # n_track: cycles steering to a waypoint (the last not yet reached)
+        self.n_cycles = self.n_sat = self.n_track = 0  # n_track: cycles steering to a waypoint (the route not yet complete)
         self.circling = CirclingMonitor()
         self.completed_at: float | None = None
         self.hold_d: list[float] = []  # per cycle station keeping held: true distance, heading error, |T|+|T|

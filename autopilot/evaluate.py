@@ -8,7 +8,8 @@ heading, ROT at 1 Hz), put together by the daemon's own navigation assembly
 (``autopilot.gnc.navigation.assemble``: dead reckoning, differenced yaw rate). The boat starts at the mission's home (the local
 origin), heading north, at rest. Each run gives a scorecard:
 
-- completed: the autopilot reached the last waypoint within the time limit;
+- completed: the autopilot reached the last waypoint, and held its hold item if it has one, within the time
+  limit (the time is then when the route was complete);
 - closest_approach_m: per waypoint, the closest approach over its pass, from
   the simulated 1 Hz position fixes (:mod:`autopilot.gnc.passes`, the same
   definition the daemon logs and ``autopilot review`` recomputes);

@@ -101,6 +101,11 @@ def test_a_run_stopped_in_its_final_hold_is_not_called_complete():
     moved = end_summary(_loop(cycles=400, skipped=0, stop_signal="SIGTERM", finished=False, mode="rtl",
                               time_stop_stayed=True, time_stop_from=("hold", 7.25)), "x", sim=True)
     assert "; then in hold for 7.2 s until max_mission_time stopped it; then in rtl, stopped by SIGTERM;" in moved[1]
+    # the time limit ended the run there (nothing keeping it up): it said "mission complete", the hold unsaid
+    ended = end_summary(_loop(cycles=400, skipped=0, finished=False, mode="stop", time_stop_from=("hold", 1560.0)),
+                        "x", sim=True)
+    assert ended[1].startswith("route complete after 40.0 s: 3 of 3 waypoint(s) reached; then in hold for 1560 s "
+                               "until max_mission_time stopped it;"), ended[1]
 
 
 def test_a_run_that_stayed_up_after_its_mission_says_how_it_ended():

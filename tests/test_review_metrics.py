@@ -485,15 +485,19 @@ def test_a_final_hold_until_the_mission_time_limit_is_said_before_the_signal(tmp
 
 
 def test_the_other_ends_keep_their_words(tmp_path):
-    """The words the daemon's end summary matches stay: a signal in the final hold before any time stop, a run the
-    time limit ended (no staying up), and a time stop before the route was complete."""
+    """The daemon's end summary's words: a signal in the final hold before any time stop; a run the time limit
+    ended (no staying up) says the hold before it too; a time stop before the route was complete, then a signal,
+    says both (it said only the signal: a review of 2026-12-06)."""
     recs = _final_hold_then_time_stop(hold_s=30.0)
     cut = [r for r in recs if r["t_s"] < 50.0 and r["event"] != "stop"] + [
         {"event": "stop", "t_s": 49.9, "reason": "signal", "signal": "SIGTERM"}]
     assert dict(score(read_log(_write(tmp_path / "h.jsonl", cut))).table_rows())["stop"] == (
         "route complete; then in hold, stopped by SIGTERM")
     ended = _final_hold_then_time_stop(hold_s=30.0, stop_s=0.1, signal=None)
-    assert dict(score(read_log(_write(tmp_path / "e.jsonl", ended))).table_rows())["stop"] == (
-        "route complete; then in stop, max_mission_time")
+    assert dict(score(read_log(_write(tmp_path / "e.jsonl", ended))).table_rows())["stop"].startswith(
+        "route complete; then in hold for ")
+    assert dict(score(read_log(_write(tmp_path / "e.jsonl", ended))).table_rows())["stop"].endswith(
+        " s until max_mission_time stopped it")
     early = [r for r in recs if r.get("event") not in ("mission_complete", "waypoint_reached")]
-    assert dict(score(read_log(_write(tmp_path / "n.jsonl", early))).table_rows())["stop"] == "stopped by SIGTERM"
+    assert dict(score(read_log(_write(tmp_path / "n.jsonl", early))).table_rows())["stop"] == (
+        "stopped by max_mission_time, then by SIGTERM")

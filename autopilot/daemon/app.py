@@ -696,11 +696,12 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
                      "(its own command timeout stops them)")
     # the route done but the run stopped by a signal in what follows it (the final hold, the way
     # home) is not "mission complete": a 300-s hold stopped at 153 s said so (a new-user audit)
-    cut = bool(st.stop_signal) and st.complete and not st.finished
+    timed = loop.time_stop_from is not None  # max_mission_time stopped it (logschema.time_stop_words)
+    cut = (bool(st.stop_signal) or timed) and st.complete and not st.finished
     done = ("route complete" if cut else "mission complete") if st.complete else "mission not complete"
     if not st.stop_signal:
-        stopped = ""
-    elif cut and loop.time_stop_from is not None:  # stayed up after the time limit's stop, then a signal
+        stopped = f"; {time_stop_words(*loop.time_stop_from)}" if cut else ""
+    elif cut and timed:  # stayed up after the time limit's stop, then a signal
         stopped = (f"; {time_stop_words(*loop.time_stop_from)}; "
                    + ("" if st.mode == Mode.STOP.value else f"then in {st.mode}, ") + f"stopped by {st.stop_signal}")
     elif cut:

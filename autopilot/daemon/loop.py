@@ -64,7 +64,7 @@ class LoopState:
     seq: int = -1  # the last Mbed command's sequence number
     driving: bool = False  # the GNC drove in the last cycle
     last_step_s: float | None = None  # clock time of the last GNC step
-    completed_t_s: float | None = None  # mission time the last waypoint was reached
+    completed_t_s: float | None = None  # mission time the route was complete (Autopilot.complete)
     finished: bool = False  # the mission's final action is to stop and it has
     passes_done: bool = False  # the last pass has ended (final_pass_s after completion)
     reached: list[int] = field(default_factory=list)
@@ -319,7 +319,8 @@ class ControlLoop:
             if name == "mode":
                 entered = t_s if self._mode_entered_s is None else self._mode_entered_s
                 self._last_mode_change = (str(fields.get("from")), t_s - entered, str(fields.get("cause")))
-                self._mode_entered_s = t_s
+                if fields.get("mode") != fields.get("from"):  # a mode taken again (set_current, a new hold point)
+                    self._mode_entered_s = t_s  # goes on: the review counts from the first line into it too
             self.log.event(name, t_s=t_s, **fields)
 
     def _status(self, t_s: float, mode, nav, out, decision, battery_v) -> dict:
@@ -527,13 +528,14 @@ class ControlLoop:
             else:
                 self._said_staying = False
             if self.failsafe.action_of("max_mission_time") == "stop":
+                change = self._last_mode_change
+                if (self.time_stop_from is None and change is not None
+                        and change[2] == FAILSAFE_CAUSE_PREFIX + TIME_STOP_CAUSE):
+                    self.time_stop_from = change[:2]
                 if self.stay_when_done is None:
                     return "max_mission_time"
                 if not self.time_stop_stayed:  # as at the mission's end: a ground station kept, at zero thrust
                     self.time_stop_stayed = True
-                    change = self._last_mode_change
-                    if change is not None and change[2] == FAILSAFE_CAUSE_PREFIX + TIME_STOP_CAUSE:
-                        self.time_stop_from = change[:2]
                     self._save("aborted", "max_mission_time")  # a restart does not fly the mission again
                     self.log.event("info", t_s=self.clock.now_s() - self.t0_s,
                                    message="max_mission_time: stopped, staying up", why=self.stay_when_done)
@@ -565,8 +567,9 @@ class ControlLoop:
         saved_reason = reason if status == "aborted" else ""
         if status == "stopped" and self.time_stop_stayed:  # the run ended at its time limit: a signal later (a
             status, saved_reason = "aborted", "max_mission_time"  # shutdown) does not make a reboot fly it again
-        # a held start stopped cleanly, never resumed, keeps the interrupted run's progress (ctl resume may continue
-        # it later), unless that run had latched a failsafe: then resume is refused, and kept it left the boat held at every
+        # a held start stopped cleanly, never taken up (this run saved no progress of its own: a resume, a waypoint set
+        # or a mission uploaded saves it), keeps the interrupted run's (ctl resume may continue it later), unless that
+        # run had latched a failsafe: then resume is refused, and kept it left the boat held at every
         # start until someone with a shell passed --fresh
         if self._saved_running or self.hold_zero is None or status != "stopped" or self.failsafe.latched:
             self._save(status, saved_reason)

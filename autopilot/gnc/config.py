@@ -33,7 +33,7 @@ class GuidanceConfig:
     arrival_slowdown_m: float = param(6.0, unit="m", lo=0.0, hi=200.0, source="chosen in simulation", doc="speed falls linearly to min_speed over this distance before the last waypoint (0 = off)")
     turn_speed_floor_nd: float = param(0.5, unit="-", lo=0.0, hi=1.0, source="chosen in simulation", doc="speed is scaled by max(this, cos(heading error)); 1 = never slow for turns")
     capture_radius_m: float = param(1.0, unit="m", lo=0.0, hi=50.0, source="guard: bearing undefined on top of a waypoint", doc="a waypoint closer than this counts as reached")
-    final_pass_s: float = param(3.0, unit="s", lo=0.0, hi=60.0, source="chosen: three 1 Hz fixes (autopilot.gnc.passes)", doc="after the last waypoint, fixes still count towards its closest approach for this long (zero thrust, or holding); then the mission ends")
+    final_pass_s: float = param(3.0, unit="s", lo=0.0, hi=60.0, source="chosen: three 1 Hz fixes (autopilot.gnc.passes)", doc="after the route is complete (the last waypoint reached, its hold item over), fixes still count towards its closest approach for this long (zero thrust, or holding); then the mission ends")
     fuzzy: FuzzyConfig = param(default_factory=FuzzyConfig, doc="fuzzy guidance universes (thesis ch. 6)")
     los: LosConfig = param(default_factory=LosConfig, doc="line-of-sight baseline (file 004)")
     proportional: ProportionalConfig = param(default_factory=ProportionalConfig, doc="proportional baseline (file 003)")

@@ -209,7 +209,7 @@ class Scorecard:
     ack_missing: float
     lateness_ms: dict  # "p50" ... "max" -> ms
     stop_reason: str | None
-    complete: bool  # the route was complete (a mission_complete line): every waypoint reached or passed
+    complete: bool  # the route was complete (a mission_complete line): every waypoint reached or passed, the last's hold item over
     # the run ended on its own (stop reason "complete"); a route complete but not finished was stopped by a signal (or
     # killed) in what follows the route: the final hold, the way home of an rtl
     finished: bool = False
@@ -321,11 +321,16 @@ class Scorecard:
         how = self.stop_reason or "no stop line (killed?)"
         if self.stop_signal:
             how = f"stopped by {self.stop_signal}"
-        if self.complete and self.stop_signal and self.time_stop_from_mode:
-            # the daemon stayed up at zero thrust after max_mission_time's stop: "then in stop" left the final hold
-            # before it, 1560 s of it, unsaid
+        if self.complete and self.time_stop_from_mode:
+            # max_mission_time stopped what followed the route: "then in stop" left the final hold before it, 1560 s
+            # of it, unsaid; the daemon may have stayed up after it at zero thrust until a signal
+            words = f"route complete; {time_stop_words(self.time_stop_from_mode, self.time_stop_from_mode_s)}"
+            if not self.stop_signal:
+                return words
             after = "" if self.end_mode == Mode.STOP.value else f"then in {self.end_mode or 'an unknown mode'}, "
-            return f"route complete; {time_stop_words(self.time_stop_from_mode, self.time_stop_from_mode_s)}; {after}{how}"
+            return f"{words}; {after}{how}"
+        if not self.complete and self.stop_signal and math.isfinite(self.time_stop_t_s):
+            return f"stopped by {TIME_STOP_CAUSE}, then by {self.stop_signal}"  # the daemon's words
         if self.complete:
             return f"route complete; then in {self.end_mode or 'an unknown mode'}, {how}"
         return how
