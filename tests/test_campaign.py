@@ -316,6 +316,21 @@ def test_sysid_changes_are_added_to_the_vessel_they_were_identified_on_and_anoth
     with pytest.raises(ConfigError, match=r"identified on another vessel, .*vessel\.yaml \(params_file\): it differs "
                                           r"from the campaign.s in resistance_linear_n_s_m, y_v_nd"):
         resolve(_load_spec({**SPEC, "vessel": {"file": str(thesis), "sysid": "summary.json"}}), base_dir=tmp_path)
+    # sysid keeps params_file as it was given: relative to the spec's directory, it is found there too; nowhere,
+    # the change is not added to the campaign's vessel (counted twice again for vessel-updated.yaml): refused
+    (tmp_path / "vessel.yaml").write_text(default_params_path().read_text())
+    (tmp_path / "sid").mkdir()
+    for params_file, found in (("vessel.yaml", True), ("gone/vessel.yaml", False)):
+        (tmp_path / "sid" / "summary.json").write_text(json.dumps({"params_file": params_file, "effects": {
+            "yaw_damping_quadratic": {"params": [{"name": "n_rr_nm_s2", "value": 30.0, "ci95": [29.0, 31.0]}]}}}))
+        spec = _load_spec({**SPEC, "vessel": {"file": "vessel-updated.yaml", "sysid": "sid/summary.json"}})
+        if found:
+            c = resolve(spec, base_dir=tmp_path)
+            assert dict(c.vessel_spreads)["yaw_damping_quadratic_nm_s2"].uniform == (n_rr + 29.0, n_rr + 31.0)
+        else:
+            with pytest.raises(ConfigError, match=r"params_file gone/vessel\.yaml, the vessel the yaw damping's "
+                                                  r"change was identified from, is not found"):
+                resolve(spec, base_dir=tmp_path)
 
 
 @pytest.mark.slow

@@ -436,16 +436,16 @@ def _mission(entry: str, base_dir: Path, i: int) -> MissionData:
                        tuple(None if h is None else float(h) for h in m.holds_s), bool(m.rtl), m.home_ne_m)
 
 
-def _sysid_base(summary: dict, path: Path) -> tuple[VesselParams | None, str]:
-    """The vessel the identification started from (summary.json's ``params_file``, as given or relative to the
-    summary) and its name; None when the summary names none or it is not here."""
+def _sysid_base(summary: dict, path: Path, base_dir: Path) -> tuple[VesselParams | None, str]:
+    """The vessel the identification started from (summary.json's ``params_file``: as given, or relative to the
+    summary or to the campaign spec) and its name; None when the summary names none or it is not here."""
     from autopilot.sim import load_params
 
     name = summary.get("params_file")
     if not isinstance(name, str) or not name:
         return None, ""
     given = Path(name)
-    for p in ([given] if given.is_absolute() else [given, path.parent / given]):
+    for p in ([given] if given.is_absolute() else [given, path.parent / given, base_dir / given]):
         if p.is_file():
             try:
                 return load_params(p), name
@@ -454,7 +454,7 @@ def _sysid_base(summary: dict, path: Path) -> tuple[VesselParams | None, str]:
     return None, name
 
 
-def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[str]]:
+def _sysid_spreads(path: Path, vessel: VesselParams, base_dir: Path = Path(".")) -> tuple[dict, dict, list[str]]:
     """(VesselParams field -> Spread, thrust key -> Spread, notes) from a sysid summary.json's 95 % intervals.
 
     hydro_refit reports the fields' new values; yaw_damping_quadratic a change from the vessel the identification
@@ -474,10 +474,8 @@ def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[s
     effects = summary.get("effects") if isinstance(summary, dict) else None
     if not isinstance(effects, dict):
         raise ConfigError(f"{where}: no 'effects' mapping (a summary.json written by autopilot sysid)")
-    base, base_name = _sysid_base(summary, path)
+    base, base_name = _sysid_base(summary, path, base_dir)
     fields, thrust, notes = {}, {}, []
-    if base is None and base_name:
-        notes.append(f"params_file {base_name}: not found; changes taken from this campaign's vessel")
 
     def interval(effect: str, p: dict) -> tuple[float, float]:
         ci = p.get("ci95")
@@ -498,6 +496,11 @@ def _sysid_spreads(path: Path, vessel: VesselParams) -> tuple[dict, dict, list[s
                 fields[name] = (Spread(uniform=(lo, hi)), f"{where}: hydro_refit.{name}")
             elif effect == "yaw_damping_quadratic" and name == "n_rr_nm_s2":
                 lo, hi = interval(effect, p)
+                if base is None and base_name:  # a change from a vessel not here: added to the campaign's, it was
+                    # counted twice for sysid's own vessel-updated.yaml (a review of 2026-12-06)
+                    raise ConfigError(f"{where}: params_file {base_name}, the vessel the yaw damping's change was "
+                                      "identified from, is not found (as given, beside the summary or the spec): "
+                                      "copy it beside the summary")
                 n_rr = (base or vessel).yaw_damping_quadratic_nm_s2
                 fields["yaw_damping_quadratic_nm_s2"] = (Spread(uniform=(n_rr + lo, n_rr + hi)),
                                                          f"{where}: yaw_damping_quadratic.n_rr_nm_s2 (added to "
@@ -565,7 +568,7 @@ def resolve(spec: CampaignSpec, *, base_dir: str | Path = ".") -> Campaign:
     thrust: dict[str, Spread] = {}
     if spec.vessel.sysid:
         sysid_path = base_dir / spec.vessel.sysid
-        spreads, thrust, notes = _sysid_spreads(sysid_path, vessel)
+        spreads, thrust, notes = _sysid_spreads(sysid_path, vessel, base_dir)
         sources.append(f"sysid intervals: {sysid_path} ({', '.join(sorted(spreads) + sorted(thrust)) or 'none'})")
         sources += notes
     for name, value in (spec.vessel.fields or {}).items():
