@@ -699,3 +699,36 @@ def test_a_held_start_with_a_failsafe_latched_does_not_offer_resume(tmp_path):
     held = [x for x in err.splitlines() if "holding zero thrust" in x]
     assert held and "resume is refused" in held[0] and "resume` starts the mission" not in held[0], err[-1500:]
     assert held[0].endswith("rtl`, `hold` or `stop` are what it takes"), held[0]
+
+
+def test_a_crash_in_a_hold_item_holds_it_again_after_the_restart(tmp_path):
+    """A review of 2026-12-06: the progress saved in a hold item named the waypoint after it (the route had switched
+    on), so a kill -9 during a 30-s station and a restart went on to the next waypoint, the station skipped. The
+    progress names the item's waypoint while it is held, and the next once it is over."""
+    cfg = {"failsafe": {"resume_after_restart": True, "start_valid_s": 1.0}}
+    mission = {"name": "station", "frame": "local",
+               "waypoints": [{"north_m": 14.0, "east_m": 0.0, "hold_s": 30.0}, {"north_m": 14.0, "east_m": 20.0}]}
+
+    async def scenario():
+        d = Daemon(tmp_path, mission, config=cfg)
+        try:
+            await d.start()
+            await d.wait(lambda: sum(bool(r.get("holding")) for r in d.events("cycle")) > 50, 120.0, "5 s held")
+            saved = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
+            assert saved["wp_index"] == 0, saved  # the item's waypoint, not the next
+            d.proc.kill()
+            await d.proc.wait()
+            await d.start(fresh=False)
+            await d.wait(lambda: sum(bool(r.get("holding")) for r in d.events("cycle")) > 250, 120.0, "held again")
+            held = [r for r in d.events("cycle") if r.get("holding")]
+            assert {(r["hold_north_m"], r["hold_east_m"]) for r in held} == {(14.0, 0.0)}  # at W0, its station
+            assert d.events("mission_start")[0]["start_index"] == 0
+            assert not [r for r in d.events("waypoint_reached") if r["wp_index"] == 1]  # not gone on before it
+            await d.wait(lambda: json.loads((tmp_path / "state" / "mission-progress.json").read_text())["wp_index"]
+                         == 1, 60.0, "the item over: the next waypoint saved")
+            d.proc.send_signal(2)
+            assert await d.finish(30.0) == 0
+        finally:
+            await d.close()
+
+    asyncio.run(scenario())

@@ -105,6 +105,7 @@ class ControlLoop:
         self.hold_zero = hold_zero  # an interrupted mission not to be resumed: start stopped (ctl resume starts it)
         self._saved_running = False  # this run's progress is the saved one (a held start keeps the old until then)
         self._saved_homeward = False  # what the saved progress says of the way home (Progress.homeward)
+        self._saved_index = autopilot.wp_index  # the waypoint the saved progress takes the mission up at
         # the mode the operator took the boat off the mission with (Progress.operator); a held start is a stop of
         # theirs until they say otherwise: a jump or an upload saved while held, then a crash, flew the mission
         self.operator_mode = "stop" if hold_zero is not None else ""
@@ -216,7 +217,8 @@ class ControlLoop:
             self._mode_entered_s = t_s
         out = self.ap.step(steps.nav_input(nav) if nav.steerable else None, dt_s, targets=targets, t_s=t_s)
         if self._saved_running and (self.ap.launch_ne_m != launch_before  # rtl's home, for a restart too
-                                    or self._homeward() != self._saved_homeward):  # the way home begun
+                                    or self._homeward() != self._saved_homeward  # the way home begun
+                                    or self.ap.resume_index != self._saved_index):  # a hold item begun or over
             self._save("running")
         # saved before it is logged: a kill between the two must not leave a log that runs ahead of the state
         if out.reached_index is not None:
@@ -444,8 +446,9 @@ class ControlLoop:
         if status == "running":
             self._saved_running = True
         self._saved_homeward = self._homeward()
+        self._saved_index = self.ap.resume_index
         try:
-            self.store.save(Progress(self.mission_path, self.mission_sha256, int(self.ap.wp_index), status,
+            self.store.save(Progress(self.mission_path, self.mission_sha256, int(self._saved_index), status,
                                      latched=self.failsafe.latched,
                                      launch_ne_m=None if launch is None else (float(launch[0]), float(launch[1])),
                                      reason=reason, armed=bool(self.ap.armed), homeward=self._saved_homeward,

@@ -180,6 +180,12 @@ class Autopilot:
         return self.guidance.complete and self.auto.item_keeper is None
 
     @property
+    def resume_index(self) -> int:
+        """The waypoint a restart takes the mission up at: a hold item's under way, else the one steered to (saved
+        as the next, a crash in a hold item skipped the rest of it: a review of 2026-12-06)."""
+        return self.auto.item_index if self.auto.item_keeper is not None else self.guidance.index
+
+    @property
     def finished(self) -> bool:
         """The mission ended with stop: nothing more to do."""
         return self.current.mode is Mode.COMPLETE
