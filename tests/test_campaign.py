@@ -840,3 +840,35 @@ def test_a_normal_spread_that_ends_at_its_bound_is_taken():
     _check_support("current_speed_m_s", Spread(normal=(0.15, 0.05)), meta)
     with pytest.raises(ConfigError, match="outside the allowed range"):
         _check_support("current_speed_m_s", Spread(normal=(0.15, 0.0501)), meta)
+
+
+def test_an_interrupted_replay_leaves_no_log_a_review_would_take_for_a_run(tmp_path):
+    """A campaign audit: a Ctrl-C during --replay left replay-N.jsonl without its stop line, which `autopilot
+    review` reads as a run cut short. The log is written aside and put in place when the run ends."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "c"
+    assert main(["campaign", str(ROOT_SPEC), "--runs", "120", "--jobs", "1", "--out", str(out), "--quiet",
+                 "--no-report"]) == 0
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "campaign", "--replay", str(out), "100"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: (signal.signal(signal.SIGINT, signal.SIG_DFL), os.setpgrp()))
+    try:
+        part = out / ".replay-100.jsonl.part"
+        deadline = time.monotonic() + 60
+        while not part.exists() and p.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert part.exists(), "the replay wrote nothing aside"
+        time.sleep(0.5)  # it flies the chunk's 120 runs, run 100 among them
+        os.killpg(p.pid, signal.SIGINT)
+        _, err = p.communicate(timeout=30)
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
+    assert p.returncode == 130, err[-2000:]
+    assert not (out / "replay-100.jsonl").exists() and not part.exists()
+    assert main(["campaign", "--replay", str(out), "100"]) == 0  # uninterrupted, it is put in place
+    last = json.loads((out / "replay-100.jsonl").read_text().rstrip().splitlines()[-1])
+    assert last["event"] == "stop" and not part.exists()

@@ -12,9 +12,11 @@ are a fixed date plus mission time, so the same run gives the same file.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import json
 import math
+import os
 from pathlib import Path
 
 from autopilot.campaign.draw import draw_run
@@ -45,8 +47,11 @@ class _LogWriter:
     """The mission-log lines of one run, written as it flies."""
 
     def __init__(self, path: Path, campaign, setup, seed: int) -> None:
+        # written aside and put in place at the run's end: a Ctrl-C left a replay-N.jsonl without its stop line,
+        # which `autopilot review` read as a run cut short (a campaign audit)
+        self.path, self.part = path, path.with_name(f".{path.name}.part")
         try:
-            self.f = open(path, "w", encoding="utf-8")  # noqa: SIM115 - closed at the run's end
+            self.f = open(self.part, "w", encoding="utf-8")  # noqa: SIM115 - closed at the run's end
         except OSError as exc:  # before anything is flown
             raise ConfigError(f"cannot write the run's log {path} ({exc.strerror or exc}): give --log FILE in a "
                               "directory you can write") from None
@@ -67,7 +72,7 @@ class _LogWriter:
 
     def line(self, event: str, t_s: float, **fields) -> None:
         stamp = (EPOCH + _dt.timedelta(seconds=t_s)).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
-        with writing(self.f.name):  # a full disk names the file
+        with writing(str(self.path)):  # a full disk names the file
             self.f.write(to_json({"event": event, "t_s": t_s, **fields, "timestamp": stamp}) + "\n")
 
     def __call__(self, t_s: float, flight, c) -> None:
@@ -109,6 +114,14 @@ class _LogWriter:
         self.line("stop", t_s, reason=reason, signal=None, ack_received=True, cycles=self.cycle_no, skipped_cycles=0,
                   late_cycles=0, speedup_held=None, nmea_dropped=0, ack_missing=0, closest_approach_m=closest)
         self.f.close()
+        os.replace(self.part, self.path)
+
+    def discard(self) -> None:
+        """The run did not end (interrupted, an error): no log is left of it."""
+        if not self.f.closed:
+            self.f.close()
+        with contextlib.suppress(OSError):
+            self.part.unlink()
 
 
 def _version() -> str:
@@ -130,7 +143,10 @@ def replay(out_dir, index: int, *, log_path=None) -> tuple[dict, Path, dict | No
     path = Path(log_path) if log_path else out / f"replay-{index}.jsonl"
     writer = _LogWriter(path, campaign, draw_run(campaign, seed, index), seed)
     indices = chunk_indices(campaign, runs, chunk)
-    rows = fly(campaign, seed, indices, watch={index: writer})
+    try:
+        rows = fly(campaign, seed, indices, watch={index: writer})
+    finally:
+        writer.discard()  # a log put in place is kept; a part one is not
     row = rows[list(indices).index(index)]
     table = None
     if (out / "runs.csv").is_file():
