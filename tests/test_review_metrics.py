@@ -385,6 +385,14 @@ def test_cross_track_error_per_leg_by_hand(tmp_path):
     assert rows["cross-track error, leg W1->W2"] == "n/a (not flown)"
     legs = json.loads(json.dumps(card.to_dict(), allow_nan=False))["legs"]
     assert legs[1]["xte_rms_m"] == pytest.approx(math.sqrt(5.25 / 3)) and legs[2]["xte_rms_m"] is None
+    # back to W1's hold item after a pause (the route already on leg 2, station keeping closing on W1, `holding`
+    # false): not leg 2's tracking, 4 m off its line (a review of 2026-12-06: it was counted in leg 2)
+    back = _cycles(10, north_m=10.0, east_m=14.0, wp_index=2, holding=False, hold_north_m=10.0, hold_east_m=10.0)
+    for k, r in enumerate(back):
+        r["t_s"] = round(2.6 + 0.1 * k, 3)
+    card = score(read_log(_write(tmp_path / "back.jsonl", [start] + recs + hold + back)))
+    assert card.legs[2].cycles == card.legs[2].fixes == 0 and math.isnan(card.legs[2].xte_rms_m)
+    assert card.xte_max_m == pytest.approx(2.0)  # the run's figure leaves them out too
     # flown without a fix (the position lost all along the leg): n/a over its time, not 0
     lost = score(read_log(_write(tmp_path / "lost.jsonl", [start] + _cycles(10, wp_index=0))))
     assert lost.legs[0].cycles == 10 and lost.legs[0].fixes == 0

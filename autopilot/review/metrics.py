@@ -537,14 +537,21 @@ def cross_track_scores(log: MissionLog, cycle_s: np.ndarray) -> tuple[tuple[floa
     in_auto = log.mode == MODES.index("auto")
     if not np.any(log.mode != UNKNOWN_CODE):
         in_auto = np.ones(len(t), dtype=bool)
-    on_leg = in_auto & ~holding_proper(log)
+    leg = leg_of_rows(log)
+    n_legs = sum(len(plan.waypoints_ne_m) for plan in log.plans)
+    # station keeping closing on a point that is not the leg's end (back to a hold item left for a pause, the route
+    # already on the next leg) is not tracking that leg: its distance from the leg's line was counted in it
+    ends = np.array([wp for plan in log.plans for wp in plan.waypoints_ne_m] or [(math.nan, math.nan)], dtype=float)
+    hn, he = log.col("hold_north_m"), log.col("hold_east_m")
+    end = ends[np.clip(leg, 0, None)]
+    elsewhere = (np.isfinite(hn) & np.isfinite(he) & (leg >= 0)
+                 & (np.hypot(hn - end[:, 0], he - end[:, 1]) > HOLD_POINT_TOLERANCE_M))
+    on_leg = in_auto & ~holding_proper(log) & ~elsewhere
     fix = np.zeros(len(t), dtype=bool)
     fix[log.fix_rows()[0]] = True
     xte, logged = cross_track_m(log), log.col("xte_m")
     sample = on_leg & fix & np.isfinite(xte)  # a finite xte has a leg (leg_of_rows)
     logged_sample = in_auto & np.isfinite(logged)
-    leg = leg_of_rows(log)
-    n_legs = sum(len(plan.waypoints_ne_m) for plan in log.plans)
 
     def per_leg(rows, values):  # samples, RMS and max of |values| per leg, over the rows with a leg
         rows = rows & (leg >= 0)
