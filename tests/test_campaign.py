@@ -872,3 +872,17 @@ def test_an_interrupted_replay_leaves_no_log_a_review_would_take_for_a_run(tmp_p
     assert main(["campaign", "--replay", str(out), "100"]) == 0  # uninterrupted, it is put in place
     last = json.loads((out / "replay-100.jsonl").read_text().rstrip().splitlines()[-1])
     assert last["event"] == "stop" and not part.exists()
+
+
+def test_a_mission_not_found_says_where_it_was_looked_for(tmp_path, capsys, monkeypatch):
+    """A campaign audit: a mission given relative to the working directory, the spec elsewhere, was refused as "no
+    such file" without the folder it was looked for in."""
+    (tmp_path / "specs").mkdir()
+    (tmp_path / "missions").mkdir()
+    (tmp_path / "missions" / "mine.yaml").write_text("frame: local\nwaypoints:\n  - {north_m: 10, east_m: 0}\n")
+    spec = tmp_path / "specs" / "s.yaml"
+    spec.write_text(json.dumps({**SPEC, "missions": ["missions/mine.yaml"]}), encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "missions[0]: missions/mine.yaml: no such file" in err and f"directory, {tmp_path / 'specs'}," in err, err

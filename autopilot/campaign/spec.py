@@ -429,7 +429,9 @@ def _mission(entry: str, base_dir: Path, i: int) -> MissionData:
     try:
         path, _ = find_mission(entry, base_dir)
     except ConfigError as exc:
-        raise ConfigError(f"missions[{i}]: {exc} (a file relative to the spec, or a shipped name)") from None
+        # where it was looked for: a path given relative to the working directory was refused without it (an audit)
+        raise ConfigError(f"missions[{i}]: {exc} (a file relative to the spec's directory, "
+                          f"{base_dir.resolve()}, or a shipped name)") from None
     m = load_mission(path)
     return MissionData(m.name, tuple((float(n), float(e)) for n, e in m.waypoints_ne_m),
                        tuple(None if s is None else float(s) for s in m.speeds_m_s),
