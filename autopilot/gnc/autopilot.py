@@ -365,7 +365,7 @@ class Autopilot:
         """Into the mission from another mode, or why not (none, or one complete)."""
         if self.mission_cleared:
             return False, f"{command} refused: no mission (it was cleared; upload one)"
-        if self.auto.guidance.complete and not self.auto.item_keeper:
+        if self.complete:
             return False, f"{command} refused: the mission is complete (hold, rtl and stop are available)"
         self._switch(self.auto, cause)
         return True, Mode.AUTO.value
