@@ -184,6 +184,10 @@ class Scorecard:
         self.n_cycles = self.n_sat = self.n_track = 0  # n_track: cycles steering to a waypoint (the route not yet complete)
         self.circling = CirclingMonitor()
         self.completed_at: float | None = None
+        # the helm's last word on whether the mission ended with stop, kept through cycles it does not run (the
+        # daemon's ControlLoop.state.finished): a failsafe in force after completion (the Mbed lost in the final
+        # pass) kept the run open to the time limit, where the daemon ends it complete
+        self.finished = False
         self.hold_d: list[float] = []  # per cycle station keeping held: true distance, heading error, |T|+|T|
         self.hold_h: list[float] = []
         self.hold_t: list[float] = []
@@ -223,7 +227,9 @@ class Scorecard:
         if self.passes_open and self.completed_at is not None and t_s - self.completed_at >= self.final_pass_s - 1e-9:
             self.passes_open = False  # the last pass has ended (autopilot.gnc.passes)
             self._ended(self.passes.finish())
-        return not self.passes_open and out is not None and out.finished
+        if out is not None:
+            self.finished = out.finished
+        return not self.passes_open and self.finished
 
     def _record(self, t, n_m, e_m, psi, u, v, out) -> None:
         for k, val in (("t_s", t), ("north_m", n_m), ("east_m", e_m), ("psi_rad", psi), ("psi_d_rad", out.psi_d_rad),

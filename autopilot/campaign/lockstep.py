@@ -217,6 +217,8 @@ def fly(campaign: Campaign, seed: int, indices, *, watch: dict | None = None, mi
     batch = (_Batch(setups, members) if n >= min_batch else
              _Singles(setups, members, [[*s.mission.home_ne_m, 0.0, 0.0, 0.0, 0.0] for s in setups], [(0.0, 0.0)] * n))
     substeps = flights[0][0].substeps
+    # per run: the failsafes it had taken by the end of the cycle its mission completed in (the rest came after)
+    by_completion: list[int | None] = [None] * n
     t_s = 0.0
     ended_in_batch = 0
     with np.errstate(all="ignore"):
@@ -233,10 +235,12 @@ def fly(campaign: Campaign, seed: int, indices, *, watch: dict | None = None, mi
                 except (ValueError, ArithmeticError) as exc:  # a run that blew up ends alone, marked
                     flight.end_reason = f"error: {type(exc).__name__}: {exc}"[:200]
                     thrust = None
+                if by_completion[j] is None and flight.score.completed_at is not None:
+                    by_completion[j] = len(flight.cycle.failsafe_causes)
                 cb = watch.get(setups[j].index)
                 if thrust is None:
-                    rows[j] = run_row(campaign, setups[j], flight, flight.result(t_s, mission=setups[j].mission.name,
-                                                                                 condition=setups[j].condition))
+                    result = flight.result(t_s, mission=setups[j].mission.name, condition=setups[j].condition)
+                    rows[j] = run_row(campaign, setups[j], flight, result, failsafes_by_completion=by_completion[j])
                     batch.alive[k] = False
                     ended_in_batch += 1
                     if cb is not None:

@@ -126,6 +126,14 @@ def _sensitivity_figure(sens):
     return fig
 
 
+def _failsafes_text(run: dict) -> str:
+    """A run's failsafes: those while its mission was flown, then those after it had completed, said so."""
+    during, after = run["failsafe_causes"], run.get("failsafe_causes_after_completion", "")
+    if not after:
+        return during
+    return (during + " " if during else "") + f"(after completion: {after})"
+
+
 def _table(header, rows) -> str:
     head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>" for r in rows)
@@ -181,15 +189,23 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
     parts.append(_table(["outcome", "law", "runs", "p5", "median", "p95", "max", "infinite"], dist_rows))
     parts.append(f"<img src='data:image/png;base64,{_png(_distributions_figure(rows, laws))}'>")
     fs = summary["failsafes"]
-    parts.append(f"<h2>Failsafes</h2><p>{fs['runs_with_failsafe']} of {summary['rows']} runs took at least one.</p>")
-    parts.append(_table(["cause", "times taken"], sorted(fs["by_cause"].items(), key=lambda kv: -kv[1])))
+    late = fs.get("after_completion") or {"runs": 0, "by_cause": {}}
+    parts.append(f"<h2>Failsafes</h2><p>{fs['runs_with_failsafe']} of {summary['rows']} runs took at least one while "
+                 f"the mission was flown. {late['runs']} took one after their mission had completed (in the final "
+                 "pass, or a fault still in force then): counted apart, in <b>after completion</b>; such a run ended "
+                 "<code>finished</code>, and it is a success or not as its mission was.</p>")
+    by_cause = {c: [n, late["by_cause"].get(c, 0)] for c, n in fs["by_cause"].items()}
+    for c, n in late["by_cause"].items():
+        by_cause.setdefault(c, [0, n])
+    parts.append(_table(["cause", "times taken", "after completion"],
+                        [[c, *n] for c, n in sorted(by_cause.items(), key=lambda kv: (-kv[1][0], -kv[1][1], kv[0]))]))
     parts.append(_table(["how runs ended", "runs"], sorted(summary["ends"].items(), key=lambda kv: -kv[1])))
     parts.append("<h2>Worst runs</h2><p>Re-fly one and review it: <code>autopilot campaign --replay DIR INDEX</code>, "
                  "then <code>autopilot review DIR/replay-INDEX.jsonl --out DIR/review-INDEX</code>.</p>")
     parts.append(_table(["index", "mission", "law", "condition", "success", "end", "worst closest (m)", "xte RMS (m)",
                          "time (s)", "failsafes", "faults"],
                         [[w["index"], w["mission"], w["law"], w["condition"], w["success"], w["end"],
-                          _num(w["closest_max_m"]), _num(w["xte_rms_m"]), _num(w["time_s"], 1), w["failsafe_causes"],
+                          _num(w["closest_max_m"]), _num(w["xte_rms_m"]), _num(w["time_s"], 1), _failsafes_text(w),
                           w["faults"]] for w in summary["worst_runs"]]))
     sens = summary["sensitivity"]
     parts.append("<h2>What moves the outcome</h2><p>Spearman's rank correlation of each drawn quantity with success "

@@ -2,8 +2,9 @@
 
 Row: the run's cell (mission, law, condition), its scorecard (``autopilot evaluate``'s:
 completed, closest approach per waypoint over its pass, cross-track RMS and maximum, time,
-thrust energy, saturation, circling, the hold), what the daemon's failsafe did, how it ended,
-its faults and every quantity a spread drew for it. Floats are written with ``repr``, so the
+thrust energy, saturation, circling, the hold), what the daemon's failsafe did while the mission
+was flown and, apart, after it had completed, how it ended, its faults and every quantity a spread
+drew for it. Floats are written with ``repr``, so the
 file holds the exact bits (two backends give byte-identical tables).
 
 Success: the mission completed, the boat did not circle, and every waypoint's closest
@@ -25,13 +26,14 @@ import numpy as np
 from autopilot.campaign.spec import DIRECTION_TURN, SPREAD_KEYS, Campaign
 
 __all__ = ["RUN_COLUMNS", "OUTCOMES", "run_row", "columns", "write_runs_csv", "read_runs_csv", "wilson",
-           "summarise", "success_of"]
+           "summarise", "success_of", "split_failsafes", "run_end", "FINISHED"]
 
 RUN_COLUMNS: tuple[tuple[str, type], ...] = (
     ("index", int), ("mission", str), ("law", str), ("condition", str), ("success", bool), ("completed", bool),
     ("circled", bool), ("end", str), ("closest_max_m", float), ("closest_approach_m", str), ("xte_rms_m", float),
     ("xte_max_m", float), ("time_s", float), ("energy_ns", float), ("saturation_pct", float), ("failsafes", int),
-    ("failsafe_causes", str), ("faults", str), ("fault_kind", str), ("position_dropouts", int),
+    ("failsafe_causes", str), ("failsafes_after_completion", int), ("failsafe_causes_after_completion", str),
+    ("faults", str), ("fault_kind", str), ("position_dropouts", int),
     ("heading_dropouts", int), ("hold_time_s", float), ("hold_position_error_rms_m", float),
     ("hold_position_error_p95_m", float), ("vrx_score", float), ("cycles", int),
 )
@@ -69,8 +71,36 @@ def _fault_kind(faults, time_s: float, failsafe) -> str:
     return first.kind
 
 
-def run_row(campaign: Campaign, setup, flight, result) -> dict:
-    """The table row of one run (see the module docstring)."""
+FINISHED = "finished"  # Flight.end_reason of a run whose mission ended with stop and whose last pass ended
+
+
+def split_failsafes(causes, by_completion: int | None) -> tuple[list[str], list[str]]:
+    """A run's failsafes (``ControlCycle.failsafe_causes``, in order): (those taken while the mission was flown,
+    those taken after it had completed). ``by_completion``: how many had been taken by the end of the cycle the
+    mission completed in (the failsafe decides before the helm steps), None when it never completed."""
+    causes = list(causes)
+    if by_completion is None:
+        return causes, []
+    return causes[:by_completion], causes[by_completion:]
+
+
+def run_end(flight, completed: bool, after_completion) -> str:
+    """How the run ended (``Flight.end_reason``), except that a run whose mission had completed did not end by a
+    failsafe it took after that: a fault latched in the final pass whose action took the completed boat (battery_low
+    and its rtl) ended the run ``failsafe battery_low``, counted among the failures' ends (4 of 8 runs of a spec
+    with every fault due in the final pass). Such a run ended ``finished``; its failsafes are in
+    ``failsafe_causes_after_completion``."""
+    end = flight.end_reason or ""
+    if completed and after_completion and end.startswith("failsafe "):
+        return FINISHED  # Flight ends a completed run on a latched fault only once its last pass has ended
+    return end
+
+
+def run_row(campaign: Campaign, setup, flight, result, *, failsafes_by_completion: int | None = None) -> dict:
+    """The table row of one run (see the module docstring). ``failsafes_by_completion``: how many failsafes the
+    run had taken by the end of the cycle its mission completed in (:func:`split_failsafes`)."""
+    during, after = split_failsafes(flight.cycle.failsafe_causes,
+                                    failsafes_by_completion if result.completed else None)
     closest = [float(c) for c in result.closest_approach_m]
     finite = [c for c in closest if not math.isnan(c)]
     closest_max = max(finite) if len(finite) == len(closest) else math.inf  # a waypoint without a fix: never passed
@@ -78,11 +108,12 @@ def run_row(campaign: Campaign, setup, flight, result) -> dict:
     row = {
         "index": setup.index, "mission": setup.mission.name, "law": setup.law, "condition": setup.condition,
         "success": success_of(result.completed, result.circled, closest_max, campaign.spec.success_radius_m),
-        "completed": bool(result.completed), "circled": bool(result.circled), "end": flight.end_reason or "",
+        "completed": bool(result.completed), "circled": bool(result.circled), "end": run_end(flight, bool(result.completed), after),
         "closest_max_m": closest_max, "closest_approach_m": ";".join(repr(c) for c in closest),
         "xte_rms_m": float(result.xte_rms_m), "xte_max_m": float(result.xte_max_m), "time_s": float(result.time_s),
         "energy_ns": float(result.energy_ns), "saturation_pct": float(result.saturation_pct),
-        "failsafes": len(flight.cycle.failsafe_causes), "failsafe_causes": ";".join(flight.cycle.failsafe_causes),
+        "failsafes": len(during), "failsafe_causes": ";".join(during),
+        "failsafes_after_completion": len(after), "failsafe_causes_after_completion": ";".join(after),
         "faults": ";".join(f.describe() for f in setup.faults),
         "fault_kind": _fault_kind(setup.faults, float(result.time_s), campaign.spec.failsafe),
         "position_dropouts": len(setup.position_dropouts), "heading_dropouts": len(setup.heading_dropouts),
@@ -305,9 +336,11 @@ def summarise(campaign: Campaign, rows, *, seed: int, runs: int, cols, worst: in
             by_cell[f"{law}/{cond}"] = {"law": law, "condition": cond,
                                         **_rate([r for r in rows if r["law"] == law and r["condition"] == cond])}
     causes: dict[str, int] = {}
+    after: dict[str, int] = {}
     for r in rows:
-        for c in filter(None, r["failsafe_causes"].split(";")):
-            causes[c] = causes.get(c, 0) + 1
+        for key, counts in (("failsafe_causes", causes), ("failsafe_causes_after_completion", after)):
+            for c in filter(None, r[key].split(";")):
+                counts[c] = counts.get(c, 0) + 1
     ends: dict[str, int] = {}
     for r in rows:
         ends[r["end"]] = ends.get(r["end"], 0) + 1
@@ -334,10 +367,15 @@ def summarise(campaign: Campaign, rows, *, seed: int, runs: int, cols, worst: in
         "distributions": {o: {"all": _quantiles([r[o] for r in rows]),
                               **{law: _quantiles([r[o] for r in rows if r["law"] == law]) for law in laws}}
                           for o in OUTCOMES},
-        "failsafes": {"runs_with_failsafe": sum(1 for r in rows if r["failsafes"] > 0), "by_cause": causes},
+        # taken while the mission was flown; those taken after it had completed (the final pass, a fault still in
+        # force) apart: they neither ended nor failed a mission that had succeeded
+        "failsafes": {"runs_with_failsafe": sum(1 for r in rows if r["failsafes"] > 0), "by_cause": causes,
+                      "after_completion": {"runs": sum(1 for r in rows if r["failsafes_after_completion"] > 0),
+                                           "by_cause": after}},
         "ends": ends,
         "worst_runs": [{k: r[k] for k in ("index", "mission", "law", "condition", "success", "end", "closest_max_m",
-                                          "xte_rms_m", "time_s", "failsafe_causes", "faults")}
+                                          "xte_rms_m", "time_s", "failsafe_causes",
+                                          "failsafe_causes_after_completion", "faults")}
                        for r in ranked[:worst]],
         "sensitivity": sensitivity(rows, inputs),
     }
