@@ -175,7 +175,10 @@ def _status_lines(st: dict) -> list[str]:
              + _planner_name(st.get("mode"), cause)
              # why (a held start said only "mode: stop"; --json had it: a new-user audit)
              + (f" - {cause}" if cause and cause != "start" else "")
-             + (" - DISARMED: zero thrust whatever the mode (autopilot ctl arm)" if st.get("armed") is False else ""),
+             + (" - DISARMED: zero thrust whatever the mode (autopilot ctl arm)" if st.get("armed") is False else "")
+             # a mode chosen before control starts is shown as itself: said that it waits (zero thrust until then)
+             + (" - control has not started (waiting for valid data)"
+                if st.get("control_started") is False and st.get("mode") != "waiting" else ""),
              f"mission time: {num('t_s', '.1f', ' s')}, cycle {st.get('cycle')}"]
     if "wp_index" in st:
         done = ", complete" if st.get("mission_complete") else ""

@@ -19,6 +19,7 @@ import dataclasses
 import math
 
 from autopilot.daemon.cycle import answer_failsafe, stop_in_force, stop_stands
+from autopilot.gnc.modes import PendingHold
 from autopilot.logschema import Mode
 
 __all__ = ["apply", "failsafe_action", "replace_key"]
@@ -54,6 +55,9 @@ def apply(loop, request: dict, helm_nav, unavailable: str, decision, t_s: float)
         reply["note"] = "disarmed: zero thrust whatever the mode until armed (autopilot ctl arm)"
     elif ok and decision.mode != "auto" and loop.ap.mode is not Mode.MANUAL:
         reply["note"] = waiting_note(decision, loop.failsafe.cfg.resume_valid_s)
+        pending = loop.ap.current
+        if isinstance(pending, PendingHold) and pending.target_ne_m is None:  # the point is not known yet
+            reply["note"] += "; it holds where the boat is when control starts"
     return reply
 
 

@@ -3,6 +3,7 @@
     NavSample --assemble--> Navigation --observe--> Observation --Failsafe.update--> Decision
     Decision.requests --answer_failsafe--> the helm's mode; operator commands --the helm (Autopilot.request)--> it
     Decision --arbitrate--> drive? --steer (the helm)--> ControlOutput --command--> ThrustCommand
+    the cycle's mode, the helm --reported_mode--> the mode ctl status and the planner show
     everything --cycle_record--> the cycle line (autopilot.logschema.CYCLE)
 
 Each step takes numbers and returns numbers: no I/O, no clock (times are arguments),
@@ -22,7 +23,7 @@ from autopilot.gnc import ControlOutput, NavInput
 from autopilot.gnc.navigation import Navigation, NavRules
 from autopilot.logschema import CYCLE_KEYS, FAILSAFE_CAUSE_PREFIX, Mode
 
-__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "answer_failsafe", "stop_in_force", "stop_stands", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
+__all__ = ["nav_rules", "observe", "steered_error_rad", "arbitrate", "reported_mode", "answer_failsafe", "stop_in_force", "stop_stands", "step_dt_s", "nav_input", "helm_nav", "command", "cycle_record",
            "GNC_FIELDS"]
 
 MAX_STEP_DT_S = 1.0  # a GNC step after a long pause integrates at most this much
@@ -79,6 +80,16 @@ def arbitrate(decision: Decision, *, steerable: bool, manual: bool = False) -> t
     if not decision.thrust_allowed or not steerable:
         return Mode.FAILSAFE, False
     return None, True
+
+
+def reported_mode(mode: Mode, ap) -> Mode:
+    """The mode the operator is shown (``ctl status``, the planner's HEARTBEAT) for a cycle in ``mode``: before
+    control starts, the helm's once something chose it (a LOITER or GUIDED asked for, waiting for control to
+    start; a held start's stop), else WAITING (the planner's INITIALISING: the mission starts by itself). Shown
+    WAITING, a LOITER or GUIDED set before the start looked refused on the planner, though accepted."""
+    if mode is Mode.WAITING and ap.mode_chosen:
+        return ap.mode
+    return mode
 
 
 def stop_in_force(ap) -> str | None:

@@ -340,8 +340,9 @@ class ControlLoop:
         launch_ll = (None, None) if launch is None else local_to_latlon(launch[0], launch[1], *origin)
         item, n_items = self.mission_item_now()
         return {
-            "t_s": round(t_s, 2), "mode": mode.value, "helm_mode": ap.mode.value, "mode_cause": ap.mode_cause,
-            "armed": ap.armed,
+            "t_s": round(t_s, 2), "mode": steps.reported_mode(mode, ap).value, "helm_mode": ap.mode.value,
+            "mode_cause": ap.mode_cause, "armed": ap.armed,
+            "control_started": mode is not Mode.WAITING,  # False: zero thrust, waiting for valid data
             "cycle": self.state.cycles, "wp_index": int(ap.wp_index), "wp_count": len(self.mission.waypoints_ne_m),
             "mission_complete": bool(ap.complete), "mission_cleared": ap.mission_cleared,
             "mission_item": item, "mission_items": n_items,

@@ -32,6 +32,7 @@ from autopilot.gnc.modes import (
     HoldMode,
     ManualMode,
     PausedMode,
+    PendingHold,
     RtlMode,
     Steering,
     StopMode,
@@ -39,7 +40,7 @@ from autopilot.gnc.modes import (
 from autopilot.gnc.pid import HeadingPid
 from autopilot.gnc.speed import SpeedShort, SpeedTrim, along_heading_m_s
 from autopilot.gnc.thrust_curve import ThrustCurve
-from autopilot.logschema import Mode
+from autopilot.logschema import FAILSAFE_CAUSE_PREFIX, Mode
 from autopilot.measured import HULL_LENGTH_M
 
 
@@ -98,6 +99,7 @@ class ControlOutput:
 
 
 _MODE_OF_COMMAND = {"hold": Mode.HOLD, "pause": Mode.PAUSED, "rtl": Mode.RTL, "stop": Mode.STOP}
+START_CAUSE = "start"  # the mode cause of the mission the helm starts in, nobody having chosen another
 
 
 def _own_ship(nav: NavInput) -> OwnShip:
@@ -142,7 +144,8 @@ class Autopilot:
         # occupied waypoint, avoidance's alterations) are kept inside them.
         self.within_limits = within_limits
         self.current = self.auto
-        self.mode_cause = "start"  # why the helm is in its mode (a mode event's cause: "failsafe geofence", "ctl stop")
+        self.started = False  # control has started: the helm has stepped with a position (commands before it wait)
+        self.mode_cause = START_CAUSE  # why the helm is in its mode (a mode event's cause: "failsafe geofence", "ctl stop")
         self.paused_from = None  # the mode a pause interrupted (resume goes back to it)
         self.launch_ne_m = None if launch_ne_m is None else (float(launch_ne_m[0]), float(launch_ne_m[1]))
         self.pid = HeadingPid(config.pid)
@@ -166,6 +169,12 @@ class Autopilot:
     @property
     def mode(self) -> Mode:
         return self.current.mode
+
+    @property
+    def mode_chosen(self) -> bool:
+        """The helm is not in the mission it starts in, untouched: a command, a failsafe or a held start chose its
+        mode (before control starts, that mode is the one reported, not INITIALISING)."""
+        return (self.current.mode, self.mode_cause) != (Mode.AUTO, START_CAUSE)
 
     @property
     def wp_index(self) -> int:
@@ -227,7 +236,9 @@ class Autopilot:
         """An operator's or a failsafe's command -> (accepted, the new mode or the refusal).
 
         ``nav`` is None when the position or the heading cannot be trusted (``unavailable`` says why):
-        then only ``stop``, ``arm``, ``disarm`` and ``manual`` are accepted. ``heading_rad``: the heading a
+        then only ``stop``, ``arm``, ``disarm`` and ``manual`` are accepted, once control has started; before it
+        (no step with a position yet) a hold or a pause waits for it (:class:`PendingHold`), and the mission,
+        resume and rtl (given a launch point) need none. ``heading_rad``: the heading a
         ``hold`` keeps (None = least effort); ``target_ne_m``: where it holds (None = here; MAVLink's
         reposition, "go here").
         """
@@ -256,7 +267,9 @@ class Autopilot:
         if command not in ("hold", "pause", "resume", "continue", "rtl", "auto"):
             return False, (f"{command} refused: unknown command (hold, pause, resume, auto, rtl, stop, arm, disarm, "
                            "manual)")
-        if nav is None:
+        # before control starts an operator's hold waits for it (PendingHold); a failsafe's never does: a fault's
+        # hold or rtl without a position takes stop (the guard, ArduPilot's requires_position)
+        if nav is None and (self.started or cause.startswith(FAILSAFE_CAUSE_PREFIX)):
             return False, f"{command} refused: {unavailable}"
         mode = self.current.mode
         if command == "resume":
@@ -271,6 +284,8 @@ class Autopilot:
             return False, f"pause refused: mode {mode.value} (pause holds a running mission or return)"
         if command == "rtl" and self.launch_ne_m is None:
             return False, "rtl refused: no launch point yet (control has not started)"
+        if not self.started and command in ("hold", "pause"):
+            return self._pending(command, cause, heading_rad=heading_rad, target_ne_m=target_ne_m)
         given = getattr(getattr(self.current, "keeper", None), "heading_rad", None)
         if (command == "hold" and mode is Mode.HOLD and heading_rad is None and target_ne_m is None
                 and given is not None):
@@ -282,14 +297,10 @@ class Autopilot:
             return True, Mode.HOLD.value
         if mode is _MODE_OF_COMMAND[command] and not (command == "hold" and (heading_rad is not None or
                                                                              target_ne_m is not None)):
-            if cause != self.mode_cause:  # the same hold, asked for another reason: a planner's LOITER after its
-                # GUIDED is reported as LOITER from now on (it kept showing GUIDED, the change "failed")
-                self._events.append(("mode", {"mode": mode.value, "from": mode.value, "cause": cause}))
-                self.mode_cause = cause
+            self._same_mode(cause)
             return True, mode.value
-        here = self._stopping_point(nav)
-        if command == "hold":
-            point = here if target_ne_m is None else (float(target_ne_m[0]), float(target_ne_m[1]))
+        if command == "hold":  # (before control starts rtl has no nav: only a hold and a pause need it, pending)
+            point = self._stopping_point(nav) if target_ne_m is None else (float(target_ne_m[0]), float(target_ne_m[1]))
             keeper = getattr(self.current, "keeper", None) if mode in (Mode.HOLD, Mode.PAUSED) else None
             if (target_ne_m is None and keeper is not None and math.hypot(
                     nav.north_m - keeper.target[0], nav.east_m - keeper.target[1]) <= self.config.hold.approach_m):
@@ -301,10 +312,34 @@ class Autopilot:
                          cause)
         elif command == "pause":
             self.paused_from = self.current
-            self._switch(PausedMode(self.config.hold, here, heading_rad=None, initial_heading_rad=nav.psi_rad), cause)
+            self._switch(PausedMode(self.config.hold, self._stopping_point(nav), heading_rad=None,
+                                    initial_heading_rad=nav.psi_rad), cause)
         else:
             self._switch(RtlMode(self.config, self.launch_ne_m, boat_length_m=self.boat_length_m), cause)
         return True, self.current.mode.value
+
+    def _pending(self, command: str, cause: str, *, heading_rad: float | None,
+                 target_ne_m: tuple[float, float] | None) -> tuple[bool, str]:
+        """A hold or pause before control starts: taken now, reported as that mode, placed when control starts
+        (:class:`PendingHold`). Refused before the first fix ("position stale"), LOITER and GUIDED were lost and the
+        boat flew the mission when control started; taken after it, the planner was shown INITIALISING."""
+        cur = self.current
+        if (isinstance(cur, PendingHold) and cur.mode is _MODE_OF_COMMAND[command] and cur.heading_rad == heading_rad
+                and cur.target_ne_m == (None if target_ne_m is None else tuple(map(float, target_ne_m)))):
+            self._same_mode(cause)  # a planner repeats its LOITER until the heartbeat shows it
+            return True, cur.mode.value
+        if command == "pause":
+            self.paused_from = cur
+        self._switch(PendingHold(_MODE_OF_COMMAND[command], heading_rad=heading_rad, target_ne_m=target_ne_m), cause)
+        return True, self.current.mode.value
+
+    def _same_mode(self, cause: str) -> None:
+        """The mode the helm is in, asked for again for another reason: the cause is the new one (a planner's
+        LOITER after its GUIDED is reported as LOITER from then on; it kept showing GUIDED, the change "failed")."""
+        if cause != self.mode_cause:
+            self._events.append(("mode", {"mode": self.current.mode.value, "from": self.current.mode.value,
+                                          "cause": cause}))
+            self.mode_cause = cause
 
     def _stopping_point(self, nav: NavInput) -> tuple[float, float]:
         """Where the boat can stop from its ground speed at station keeping's braking (ArduPilot's loiter
@@ -355,6 +390,8 @@ class Autopilot:
         chosen while paused on an rtl was acknowledged and took the boat home; after a clear, home too (a new-user
         audit). Already in the mission: nothing changes (a hold item goes on)."""
         if self.current is self.auto:
+            if not self.started:  # chosen before control starts: reported as AUTO, not the start's INITIALISING
+                self._same_mode(cause)
             return True, Mode.AUTO.value
         ok, answer = self._to_mission("auto", cause)
         if ok:
@@ -372,7 +409,7 @@ class Autopilot:
 
     def _switch(self, new, cause: str) -> None:
         old = self.current.mode
-        if not isinstance(new, PausedMode):  # a pause ends with whatever replaces it
+        if new.mode is not Mode.PAUSED:  # a pause ends with whatever replaces it
             self.paused_from = None
         if new is self.auto and self.current is not self.auto:  # back to the mission: no stale "passed"
             self.auto.guidance.disarm_pass()
@@ -486,7 +523,12 @@ class Autopilot:
         if self.launch_ne_m is None:
             self.launch_ne_m = (nav.north_m, nav.east_m)
             self._events.append(("launch", {"north_m": nav.north_m, "east_m": nav.east_m, "carried": False}))
+        if not self.started:
+            self.started = True
+            if isinstance(self.current, PendingHold):  # asked for before: it holds from here (said when it was taken)
+                self.current = self.current.begin(self.config.hold, self._stopping_point(nav), nav)
         occupied = self._occupied(nav, targets)
+        self._end_hold_off(nav, targets)
         s = self.current.update(nav, dt_s)
         reached = s.guidance if self.current is self.auto else None  # rtl's own arrival is not a mission waypoint
         if occupied is not None and reached is not None and reached.reached_how == "occupied":
@@ -513,8 +555,40 @@ class Autopilot:
             occ = self.avoidance.occupying(_own_ship(nav), g.waypoints[g.index], targets,
                                            allowed=None if self.within_limits is None else self._may_hold_at)
         g.occupied_reach_m = None if occ is None else occ.reach_m
-        self.auto.occupied_hold_ne_m = None if occ is None else occ.hold_ne_m
+        self.auto.occupied = occ
         return occ
+
+    def _end_hold_off(self, nav: NavInput, targets) -> None:
+        """The hold kept off a waypoint a stopped vessel occupied (AutoMode.holding_off) goes to the waypoint itself
+        once that vessel no longer covers it: no longer among the targets (the AIS table drops a target without a
+        position report for ais.receiver.stale_after_s, its one rule of staleness), or moved off it. Kept off, the
+        boat never went on to the waypoint (a final hold sat 26 m short for good: an operator audit). While the
+        vessel is only silent, the hold stays off: a moored vessel reports every 3 minutes, and silence is no
+        proof the point is free. A hold the operator chose there is theirs (another keeper): it stays."""
+        if self.auto.holding_off is None:
+            return
+        index, keeper = self.auto.holding_off
+        in_force = getattr(self.current, "keeper", None) or (self.auto.item_keeper if self.current is self.auto
+                                                             else None)
+        off = self.auto.held_off.get(index)
+        if keeper is not in_force or off is None:
+            return
+        waypoint = self.auto.guidance.waypoints[index]
+        vessel = next((t for t in targets if t.target_id == off.target_id), None)
+        if vessel is not None and self.avoidance.covers(vessel, waypoint):
+            return
+        free = keeper.least_effort(nav.psi_rad, target_ne_m=(float(waypoint[0]), float(waypoint[1])))
+        if self.current is self.auto:
+            self.auto.item_keeper = free
+        else:
+            self.current.keeper = free
+        self.auto.holding_off = None
+        del self.auto.held_off[index]
+        why = "no longer reported (AIS)" if vessel is None else "no longer on it"
+        # the same mode with a new point (as a jump to a waypoint is said): its cause stays the mode's own
+        self._events.append(("mode", {"mode": self.current.mode.value, "from": self.current.mode.value,
+                                      "cause": f"waypoint {index} free: vessel {off.target_id} {why}: holding at the "
+                                               "waypoint"}))
 
     def _may_hold_at(self, north_m: float, east_m: float) -> bool:
         """A hold the helm places itself may be kept here: the point, and the ring of hold.off_warn_m round it (what

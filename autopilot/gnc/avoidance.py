@@ -390,6 +390,14 @@ class Avoidance:
         candidates.sort(key=lambda c: c[:3])
         return keep + [c[3] for c in candidates[: max(0, MAX_ASSESSED - len(keep))]]
 
+    def need_m(self, tgt: TargetState) -> float:
+        """The distance the rules keep from ``tgt``'s reported position: the safe distance plus its extent (m)."""
+        return self.config.safe_distance_m + tgt.extent_m
+
+    def covers(self, tgt: TargetState, point_ne_m) -> bool:
+        """``point_ne_m`` lies inside ``tgt``'s safe distance: a waypoint there cannot be reached by the rules."""
+        return math.hypot(point_ne_m[0] - tgt.north_m, point_ne_m[1] - tgt.east_m) < self.need_m(tgt)
+
     def occupying(self, own: OwnShip, point_ne_m, targets, allowed=None) -> Occupied | None:
         """The stopped vessel whose safe distance covers ``point_ne_m`` (a waypoint), when own ship is at that
         distance from it (within ``resume_margin`` x): the waypoint cannot be reached by the rules, and the boat
@@ -400,7 +408,7 @@ class Avoidance:
         for tgt in targets:
             if tgt.speed_m_s >= cfg.encounter.stationary_speed_m_s:
                 continue  # a moving vessel leaves the point
-            need = cfg.safe_distance_m + tgt.extent_m
+            need = self.need_m(tgt)
             to_point = math.hypot(point_ne_m[0] - tgt.north_m, point_ne_m[1] - tgt.east_m)
             from_own = math.hypot(own.north_m - tgt.north_m, own.east_m - tgt.east_m)
             if to_point < need and from_own <= cfg.resume_margin * need:

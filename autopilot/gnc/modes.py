@@ -17,6 +17,9 @@ heading fault. The names are :class:`autopilot.logschema.Mode`'s. Pure.
     stop      zero thrust, latched until commanded
     complete  the mission ended with stop: zero thrust, the run may end
     manual    the operator's sticks (MAVLink MANUAL_CONTROL): forward and turn straight to the allocation
+
+A hold or pause asked for before control starts is :class:`PendingHold`: reported as the mode asked for,
+placed when control starts (the helm's first step with a position).
 """
 
 from __future__ import annotations
@@ -29,8 +32,8 @@ from autopilot.gnc.station_keeping import HoldOutput, StationKeeper
 from autopilot.gnc.waypoints import GuidanceOutput
 from autopilot.logschema import MISSION_RTL_CAUSE, RTL_ARRIVED_CAUSE, Mode
 
-__all__ = ["Steering", "Handover", "AutoMode", "HoldMode", "PausedMode", "RtlMode", "StopMode", "CompleteMode",
-           "ManualMode"]
+__all__ = ["Steering", "Handover", "HeldOff", "AutoMode", "HoldMode", "PausedMode", "PendingHold", "RtlMode", "StopMode",
+           "CompleteMode", "ManualMode"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,15 @@ class Handover:
     cause: str
     target_ne_m: tuple[float, float] | None = None  # where a hold holds (None: where the boat is)
     keeper: StationKeeper | None = None  # the keeper that closed on that point (the hold goes on with it)
+
+
+@dataclass(frozen=True)
+class HeldOff:
+    """Where a hold at a waypoint a stopped vessel occupies is kept (Avoidance.occupying's hold_ne_m), and the
+    vessel's identity (AIS MMSI; None: not known), so that the hold can go to the waypoint once it is gone."""
+
+    point_ne_m: tuple[float, float]
+    target_id: int | None
 
 
 @dataclass(frozen=True)
@@ -143,6 +155,31 @@ class PausedMode(HoldMode):
     mode = Mode.PAUSED
 
 
+class PendingHold:
+    """A hold (or a pause) asked for before control starts, kept until it does. Before the first confirmed fix
+    there is no position to hold at (a first fix may be a glitch: the launch point waits for it too), so the
+    point is taken where control starts: the boat's stopping point then, or the point given (a "go here").
+    Refused, the boat flew the mission from its start as if the operator had said nothing (QGroundControl saw
+    "position stale"); taken with the unconfirmed fix it was held there and reported as INITIALISING."""
+
+    requires_position = True
+
+    def __init__(self, mode: Mode, *, heading_rad: float | None = None,
+                 target_ne_m: tuple[float, float] | None = None) -> None:
+        self.mode = mode  # Mode.HOLD or Mode.PAUSED
+        self.heading_rad = heading_rad
+        self.target_ne_m = None if target_ne_m is None else (float(target_ne_m[0]), float(target_ne_m[1]))
+
+    def begin(self, hold_config, stopping_point_ne_m, nav) -> HoldMode:
+        """The hold itself, now that control starts (``stopping_point_ne_m``: where the boat can stop)."""
+        point = stopping_point_ne_m if self.target_ne_m is None else self.target_ne_m
+        kind = PausedMode if self.mode is Mode.PAUSED else HoldMode
+        return kind(hold_config, point, heading_rad=self.heading_rad, initial_heading_rad=nav.psi_rad)
+
+    def update(self, nav, dt_s: float) -> Steering:  # pragma: no cover - the helm begins it before a step
+        raise RuntimeError("a pending hold begins at the helm's first step")
+
+
 class RtlMode:
     """Back to the launch point with the mission's guidance law, then a hold there."""
 
@@ -185,8 +222,11 @@ class AutoMode:
         self.item_returning = False  # ... on the way back to it after the mission was left (back_to_item)
         self.item_left_s = 0.0
         self.item_index: int | None = None
-        self.held_off_ne_m: dict[int, tuple[float, float]] = {}  # waypoint reached "occupied" -> where it is held
-        self.occupied_hold_ne_m: tuple[float, float] | None = None  # this cycle's (Avoidance.occupying), set by the helm
+        self.held_off: dict[int, HeldOff] = {}  # waypoint reached "occupied" -> where it is held, off which vessel
+        self.occupied = None  # this cycle's Avoidance.occupying (an Occupied, or None), set by the helm
+        # (waypoint, the keeper made to hold off it) while that hold is the one made: the helm moves it onto the
+        # waypoint once the vessel is gone (Autopilot._end_hold_off)
+        self.holding_off: tuple[int, StationKeeper] | None = None
 
     def end_item_hold(self) -> bool:
         """Resume: end a hold item early (True if there was one)."""
@@ -220,9 +260,11 @@ class AutoMode:
         g = self.guidance.update(nav, dt_s)
         i = g.reached_index
         if i is not None and g.reached_how == "occupied":
-            self.held_off_ne_m[i] = self.occupied_hold_ne_m or (nav.north_m, nav.east_m)
+            occ = self.occupied
+            self.held_off[i] = (HeldOff((nav.north_m, nav.east_m), None) if occ is None
+                                else HeldOff(occ.hold_ne_m, occ.target.target_id))
         elif i is not None:  # reached as any other (a mission set back to it, the vessel gone)
-            self.held_off_ne_m.pop(i, None)
+            self.held_off.pop(i, None)
         if i is not None and self._hold_s(i) is not None:
             self.item_index, self.item_left_s = i, self._hold_s(i)
             self.item_keeper = self._keeper_at(i, nav)
@@ -240,8 +282,12 @@ class AutoMode:
         (Occupied.hold_ne_m): held at the waypoint, the boat left and came back at the vessel's safe distance for
         the whole hold (found by an AIS audit)."""
         keeper = self.closing.take(self.guidance.waypoints[i], nav)
-        off = self.held_off_ne_m.get(i)
-        return keeper if off is None else keeper.least_effort(nav.psi_rad, target_ne_m=off)
+        off = self.held_off.get(i)
+        if off is None:
+            return keeper
+        keeper = keeper.least_effort(nav.psi_rad, target_ne_m=off.point_ne_m)
+        self.holding_off = (i, keeper)
+        return keeper
 
     def _stops_at(self, i: int) -> bool:
         """The boat holds at waypoint i: a hold item, or the last waypoint when the mission ends holding."""

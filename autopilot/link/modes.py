@@ -9,7 +9,7 @@ follows Rover's: Rover's HOLD stops the motors (our ``stop``), Rover's LOITER ho
 (our ``hold``).
 
     ours       Rover          set from the planner as
-    waiting    INITIALISING   -
+    waiting    INITIALISING   - (before control starts; a mode chosen meanwhile is reported as itself)
     auto       AUTO (10)      AUTO: the mission (not back to what a pause interrupted: DO_PAUSE_CONTINUE)
     hold       LOITER (5)     LOITER: hold here
     paused     LOITER (5)     (MAV_CMD_DO_PAUSE_CONTINUE 0)

@@ -4,7 +4,8 @@ The status is :meth:`autopilot.daemon.loop.ControlLoop._status` (SI, degrees for
 message carries, in MAVLink's units (1e7 degrees, centidegrees, cm/s, mV):
 
     HEARTBEAT             surface boat, ArduPilot Rover's mode number (autopilot.link.modes), armed flag,
-                          state: BOOT waiting, CRITICAL failsafe, STANDBY stopped or disarmed, else ACTIVE
+                          state: BOOT until control starts (the mode then INITIALISING, or the one chosen
+                          before it), CRITICAL failsafe, STANDBY stopped or disarmed, else ACTIVE
     SYS_STATUS            sensors present/healthy from the failsafe's view: GPS (position faults), compass
                           (heading faults), motor outputs (Mbed faults), battery (battery faults); voltage
     GLOBAL_POSITION_INT   the last fix (lat, lon), velocity from SOG/COG, heading
@@ -64,7 +65,7 @@ def heartbeat(mav, st: dict):
         base |= mavlink.MAV_MODE_FLAG_AUTO_ENABLED | mavlink.MAV_MODE_FLAG_GUIDED_ENABLED
     if mode is Mode.MANUAL:
         base |= mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
-    if mode is Mode.WAITING:
+    if mode is Mode.WAITING or not st.get("control_started", True):  # a mode chosen before the start, too
         state = mavlink.MAV_STATE_BOOT
     elif mode is Mode.FAILSAFE:
         state = mavlink.MAV_STATE_CRITICAL
