@@ -63,7 +63,10 @@ from autopilot.userfile import (
     METRES,
     METRES_PER_SECOND,
     SECONDS,
+    coordinate_hint,
     csv_rows,
+    degrees_minutes,
+    other_file_kind,
     parse_yaml,
     read_text,
     too_many_fields,
@@ -136,13 +139,18 @@ class _RawPoint:
     hold: Any = None  # seconds, or math.inf (until commanded)
 
 
+_ANGLE_LIMIT_DEG = {"latitude": 90.0, "longitude": 180.0}
+
+
 def _num(where: str, what: str, value: Any) -> float:
     if isinstance(value, bool):
         raise MissionError(f"{where}: {what} is not a number ({value!r})")
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise MissionError(f"{where}: {what} is not a number ({value!r})") from None
+        # "4807.038N" or "52°00.006'N" copied from a receiver or a chart: say what to write instead
+        hint = coordinate_hint(value, _ANGLE_LIMIT_DEG[what]) if what in _ANGLE_LIMIT_DEG else ""
+        raise MissionError(f"{where}: {what} is not a number ({value!r}){hint}") from None
     if not math.isfinite(x):
         raise MissionError(f"{where}: {what} is {value!r}, not a finite number")
     return x
@@ -224,15 +232,33 @@ def _point(where: str, p: _RawPoint, k: int, latlon: bool, origin, max_range_m: 
     dist = math.hypot(n, e)
     if dist > max_range_m:
         raise MissionError(f"{where}: {dist:.6g} m from the origin, farther than the allowed range {max_range_m:g} m "
-                           "(the configuration's max_mission_range_m)")
-    if before and math.hypot(n - before[-1][0], e - before[-1][1]) < DUPLICATE_TOLERANCE_M:
-        raise MissionError(f"{where}: same position as waypoint {k - 1} (duplicate consecutive waypoint)")
+                           f"(the configuration's max_mission_range_m){_swapped_hint(a, b, origin, max_range_m, latlon)}")
+    if before:
+        apart_m = math.hypot(n - before[-1][0], e - before[-1][1])
+        if apart_m < DUPLICATE_TOLERANCE_M:
+            # two points a few millimetres apart, not equal, are degrees written as metres: [52.0001, 4.4001] and
+            # [52.0002, 4.4001] were "the same position" and nothing said why (a new-user audit)
+            hint = ("; latitude/longitude in a local-frame mission? give them as lat_deg, lon_deg with frame: latlon"
+                    if apart_m > 0.0 and not latlon else "")
+            raise MissionError(f"{where}: same position as waypoint {k - 1} (duplicate consecutive waypoint){hint}")
     speed = None
     if p.speed is not None:
         speed = _num(where, "speed_m_s", p.speed)
         if not 0.0 < speed <= MAX_SPEED_M_S:
             raise MissionError(f"{where}: speed {speed:g} m/s outside (0, {MAX_SPEED_M_S:g}] m/s")
     return n, e, speed, _hold_s(where, p.hold)
+
+
+def _swapped_hint(a: float, b: float, origin, max_range_m: float, latlon: bool) -> str:
+    """"; latitude and longitude swapped? ..." when the point read the other way round lies within the range: the
+    refusal sent the user to raise max_mission_range_m for a waypoint 6000 km off (a new-user audit)."""
+    o_lat, o_lon = origin
+    if not latlon or o_lat is None or o_lon is None or not -90.0 <= b <= 90.0:
+        return ""
+    n, e = latlon_to_local(b, a, o_lat, o_lon)
+    if math.hypot(n, e) > max_range_m:
+        return ""
+    return f"; latitude and longitude swapped? ({b:g}, {a:g}) would be {math.hypot(n, e):.0f} m from the origin"
 
 
 def _frames_agree(path, key: str, file_ll: tuple[float, float], given_ll) -> None:
@@ -270,10 +296,12 @@ def _unset_home(lat: Any, lon: Any) -> bool:
 
 
 def _check_latlon(where: str, lat: float, lon: float) -> None:
-    if not -90.0 <= lat <= 90.0:
-        raise MissionError(f"{where}: latitude {lat:g} outside -90..90 deg")
-    if not -180.0 <= lon <= 180.0:
-        raise MissionError(f"{where}: longitude {lon:g} outside -180..180 deg")
+    for what, value, limit in (("latitude", lat, 90.0), ("longitude", lon, 180.0)):
+        if not -limit <= value <= limit:
+            deg = degrees_minutes(value, limit)  # 4807.038: a GGA's ddmm.mmm copied as it is
+            hint = (f" ({value:.10g} is degrees and minutes as NMEA writes them? that is {deg:.6f} deg: give "
+                    "decimal degrees)") if deg is not None else ""
+            raise MissionError(f"{where}: {what} {value:g} outside -{limit:g}..{limit:g} deg{hint}")
 
 
 # ------------------------------------------------------------------------- YAML
@@ -290,7 +318,11 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
         raise MissionError(f"{path}: expected a mapping with 'waypoints'")
     unknown = sorted(set(data) - _YAML_KEYS)
     if unknown:
-        raise MissionError(f"{path}: {unknown[0]}: unknown key (allowed: {', '.join(sorted(_YAML_KEYS))})")
+        # the daemon's configuration or a vessel file given as the mission said only "ais: unknown key"
+        what = other_file_kind(path) if "waypoints" not in data else None
+        where = "--config and --mission swapped?" if what and what.startswith("a daemon") else "sim.vessel names it"
+        hint = f"; {path} is {what}, not a mission ({where})" if what else ""
+        raise MissionError(f"{path}: {unknown[0]}: unknown key (allowed: {', '.join(sorted(_YAML_KEYS))}){hint}")
     frame = data.get("frame", "local")
     if frame not in ("local", "latlon"):
         raise MissionError(f"{path}: frame: {frame!r} is not 'local' or 'latlon'")
@@ -314,8 +346,13 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
         if isinstance(w, dict):
             extra = sorted(set(w) - {*keys, *_WAYPOINT_OPTIONS})
             if extra:
+                # the frame defaults to local: a latitude/longitude mission without `frame: latlon` said only
+                # "unknown key 'lat_deg'" (a new-user audit)
+                other = ({"lat_deg", "lon_deg"}, "frame: latlon") if not latlon else ({"north_m", "east_m"}, "frame: local")
+                hint = (f"; the waypoints are read in frame {frame!r}: for {extra[0]} say {other[1]}"
+                        if extra[0] in other[0] else "")
                 raise MissionError(f"{path}: waypoint {k}: unknown key {extra[0]!r} (allowed: {', '.join(keys)}, "
-                                   f"{', '.join(_WAYPOINT_OPTIONS)})")
+                                   f"{', '.join(_WAYPOINT_OPTIONS)}){hint}")
             missing = [key for key in keys if key not in w]
             if missing:
                 raise MissionError(f"{path}: waypoint {k}: missing {missing[0]}")
@@ -383,7 +420,9 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
         raise MissionError(f"{path}: column {unknown[0]!r} is not one the mission reads (allowed: {', '.join(allowed)}; "
                            "other columns are labels, not read)")
     at = {c: k for k, c in enumerate(cols)}
-    if len(rows) > 1 and units_row(rows[1]):
+    # "4807.038N" is not a unit: a row of coordinates with hemisphere letters was taken as a units row and refused
+    # as "gives lat_deg in '4807.038N'" (a new-user audit); as data it is refused saying what to write instead
+    if len(rows) > 1 and units_row(rows[1]) and not any(coordinate_hint(c, 180.0) for c in rows[1]):
         _check_units(path, rows[1], cols)
         del rows[1]  # a spreadsheet's units row under the header: no waypoint (it was "north_m is not a number ('m')")
     for k, r in enumerate(rows[1:], start=1):

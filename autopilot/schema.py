@@ -69,7 +69,14 @@ def _check_number(key: str, value: Any, want: type, meta: Mapping[str, Any]) -> 
                                                                           if bounded else ""))
     lo, hi = meta.get("lo"), meta.get("hi")
     if (lo is not None and value < lo) or (hi is not None and value > hi):
-        raise ConfigError(f"{key}: {value!r} is outside the allowed range {_range_text(meta)}")
+        hint = ""
+        if meta.get("unit") == "deg" and lo is not None and hi is not None and -lo == hi and hi in (90.0, 180.0):
+            from autopilot.userfile import degrees_minutes
+
+            deg = degrees_minutes(float(value), float(hi))  # origin_lat_deg: 4807.038, a GGA's ddmm.mmm as it is
+            if deg is not None:
+                hint = f" ({value!r} is degrees and minutes as NMEA writes them? that is {deg:.6f} deg)"
+        raise ConfigError(f"{key}: {value!r} is outside the allowed range {_range_text(meta)}{hint}")
     return int(value) if want is int else float(value)
 
 
@@ -93,9 +100,15 @@ def _convert(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
             raise ConfigError(f"{key}: expected true or false, got {value!r}")
         return value
     if tp is str:
-        if not isinstance(value, str):
-            raise ConfigError(f"{key}: expected a string, got {value!r}")
         choices = meta.get("choices")
+        if not isinstance(value, str):
+            # `position: no` is YAML's false and `sc30_port:` with nothing is null: "expected a string, got False"
+            # named neither what to write nor that YAML had read a word as something else (a new-user audit)
+            want = f"one of {', '.join(choices)}" if choices else "a string"
+            got = ("nothing (write '' for empty)" if value is None and not choices else "nothing" if value is None
+                   else f"{value!r} (YAML reads yes/no/on/off as true/false: quote the word)" if isinstance(value, bool)
+                   else repr(value))
+            raise ConfigError(f"{key}: expected {want}, got {got}")
         if choices and value not in choices:
             raise ConfigError(f"{key}: {value!r} is not one of {', '.join(choices)}")
         return value

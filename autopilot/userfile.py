@@ -20,7 +20,7 @@ from pathlib import Path
 from autopilot.schema import ConfigError
 
 __all__ = ["read_text", "check_file", "check_text_head", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES",
-           "number_cell", "unique_header", "too_many_fields", "MISSING_CELLS"]
+           "number_cell", "unique_header", "too_many_fields", "MISSING_CELLS", "degrees_minutes", "coordinate_hint", "other_file_kind"]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")  # what the figures can be saved as
 
@@ -49,8 +49,9 @@ def check_file(path: str | Path, *, what: str = "file") -> Path:
     return p
 
 
-def check_text_head(p: Path, head: bytes, *, what: str = "file") -> None:
-    """ConfigError naming ``p`` when its first bytes are UTF-16 text or binary data (not a UTF-8 ``what``)."""
+def check_text_head(p: Path, head: bytes, *, what: str = "file", binary_ok: bool = False) -> None:
+    """ConfigError naming ``p`` when its first bytes are UTF-16 text or binary data (not a UTF-8 ``what``).
+    ``binary_ok``: stray binary bytes are let through (a serial capture's line noise), UTF-16 and gzip are not."""
     if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
         excel = " (in Excel: 'CSV UTF-8')" if p.suffix.lower() == ".csv" else ""
         raise ConfigError(f"{p}: UTF-16 text; save the {what} as UTF-8{excel}")
@@ -62,7 +63,8 @@ def check_text_head(p: Path, head: bytes, *, what: str = "file") -> None:
         odd, even = sniff[1::2], sniff[0::2]
         if len(sniff) >= 8 and odd.count(0) >= 0.9 * len(odd) and even.count(0) <= 0.1 * len(even):
             raise ConfigError(f"{p}: UTF-16 text (without a byte-order mark); save the {what} as UTF-8")
-        raise ConfigError(f"{p}: binary data, not a text {what}")
+        if not binary_ok:
+            raise ConfigError(f"{p}: binary data, not a text {what}")
 
 
 def read_text(path: str | Path, *, what: str = "file", spreadsheet: bool = False) -> str:
@@ -200,6 +202,49 @@ def number_cell(text: str, row: int, column: str) -> float:
     return value
 
 
+def degrees_minutes(value: float, limit_deg: float) -> float | None:
+    """``value`` read as NMEA's degrees and minutes (4807.038 = 48 deg 07.038 min, 01131.000 = 11 deg 31 min), in
+    decimal degrees, when it is outside +-``limit_deg`` as a plain number but a valid angle that way (minutes below
+    60); else None. A latitude copied from a GGA sentence or a receiver's display was refused only as "outside
+    -90..90 deg" (a new-user audit)."""
+    import math
+
+    if not math.isfinite(value) or abs(value) <= limit_deg:
+        return None
+    whole_deg, minutes = divmod(abs(value), 100.0)
+    if minutes >= 60.0 or whole_deg > limit_deg:
+        return None
+    deg = whole_deg + minutes / 60.0
+    return math.copysign(deg, value) if deg <= limit_deg else None
+
+
+_HEMISPHERE = re.compile(r"\s*([-+]?\d+(?:\.\d+)?)\s*([NSEWnsew])\s*")
+_DEGREE_SIGN = re.compile(r"\s*([-+]?\d+(?:\.\d+)?)\s*°\s*(?:(\d+(?:\.\d+)?)\s*['′]?)?\s*([NSEWnsew])?\s*")
+
+
+def coordinate_hint(text: str, limit_deg: float) -> str:
+    """What to write instead of a latitude or longitude given with a hemisphere letter, a degree sign or in degrees
+    and minutes ("4807.038N", "52°00.006'N"), as " (...)" to add to its refusal; "" when ``text`` is none of them."""
+    text = str(text).strip()
+    m = _DEGREE_SIGN.fullmatch(text)
+    if m is not None:
+        deg = abs(float(m.group(1))) + (float(m.group(2)) / 60.0 if m.group(2) else 0.0)
+        negative = m.group(1).startswith("-") or (m.group(3) or "").upper() in ("S", "W")
+    else:
+        m = _HEMISPHERE.fullmatch(text)
+        if m is None:
+            return ""
+        value = abs(float(m.group(1)))
+        whole_deg, minutes = divmod(value, 100.0)
+        # degrees and minutes as NMEA writes them (4807.038N, 00030.500E): four or more digits before the point
+        ddmm = len(m.group(1).lstrip("+-").split(".")[0]) >= 4 and minutes < 60.0
+        deg = whole_deg + minutes / 60.0 if ddmm else value
+        negative = m.group(1).startswith("-") or m.group(2).upper() in ("S", "W")
+    if deg > limit_deg:
+        return " (write decimal degrees, negative for south and west)"
+    return f" (write decimal degrees, negative for south and west: {text} is {-deg if negative else deg:.6f})"
+
+
 def unique_header(header: list[str], wanted) -> None:
     """ConfigError when a column the reader uses appears twice (the last copy silently won)."""
     for name in wanted:
@@ -288,6 +333,24 @@ def _unique_key_loader():
             list("-+0123456789"))
         _LOADER = UniqueKeyLoader
     return _LOADER
+
+
+def other_file_kind(path: str | Path) -> str | None:
+    """What the YAML file at ``path`` is when it is one of the project's other files (a mission, a vessel parameter
+    set, the daemon's configuration), by its top-level keys; None when it is none of them or cannot be read."""
+    try:
+        data = parse_yaml(read_text(path))
+    except Exception:  # noqa: BLE001 - only a hint: the refusal itself stands whatever this finds
+        return None
+    if not isinstance(data, dict):
+        return None
+    if "waypoints" in data:
+        return "a mission (it has waypoints)"
+    if "mass_kg" in data:
+        return "a vessel parameter set (it has mass_kg)"
+    if {"serial", "failsafe", "rate_hz"} & set(data):
+        return "a daemon configuration (it has " + next(k for k in ("serial", "failsafe", "rate_hz") if k in data) + ")"
+    return None
 
 
 NO_ROOM_ERRNOS = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS})  # the disk, not the program

@@ -314,6 +314,70 @@ class DeviceEvents:
         self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message=name, device=device, **fields)
 
 
+def _compass_heard(compass) -> bool:
+    """The compass has given a heading or a position (valid or not): what the loop's readiness asks of it."""
+    sample = compass.sample()
+    return sample.heading_rad is not None or sample.position is not None
+
+
+def device_silence(compass, thrusters, cfg: DaemonConfig, waited_s: float) -> list[str]:
+    """Plain sentences, one per device that has not answered after ``waited_s``: what arrived on its port and what
+    that points at (nothing at all, bytes that are not its protocol, the other device's output). A port that opens
+    but carries the wrong device, the wrong baud rate or nothing was one JSON line, ``devices not answering`` with
+    two booleans, after ready_timeout_s, and an end summary that named the Mbed alone (a new-user audit: silent,
+    garbage-sending and swapped ports looked alike). A port that never opened was said already (cannot open)."""
+    s, lines = cfg.serial, []
+    waited = f"{waited_s:.0f} s" if waited_s >= 1.0 else f"{waited_s:.1f} s"
+    nmea_check = f"`autopilot nmea {compass.port_path} --baud {s.sc30_baud}` shows what arrives"
+    compass_silent = False
+    if compass.transport.opens and not _compass_heard(compass):
+        st = compass.stats
+        if st["bytes_in"] == 0:
+            compass_silent = True
+            lines.append(f"sc30: {compass.port_path} is open at {s.sc30_baud} baud but nothing arrived in {waited}: "
+                         f"is the SC-30 powered, its NMEA output wired to this port? ({nmea_check})")
+        elif st["lines_ok"] == 0:
+            lines.append(f"sc30: {st['bytes_in']} bytes arrived on {compass.port_path} in {waited} but no NMEA "
+                         f"sentence ({st['dropped']} line(s) rejected): the SC-30 at another baud rate than "
+                         f"serial.sc30_baud ({s.sc30_baud}; it sends at 4800, 9600, 19200 or 38400), or another device "
+                         f"on this port ({nmea_check})")
+        else:
+            lines.append(f"sc30: NMEA arrives on {compass.port_path} ({st['lines_ok']} sentence(s) in {waited}) but "
+                         "none with a true heading (THS, HDT, $PFEC,GPatt) or a position (GGA, RMC, GLL): set the "
+                         f"SC-30's output sentences (docs/sc30.md; {nmea_check})")
+    if thrusters.transport.opens and not thrusters.answered:
+        st, got = thrusters.stats, thrusters.transport.bytes_in
+        asked = f"{st['sent']} command(s) sent"
+        if got == 0:
+            lines.append(f"mbed: {thrusters.port_path} is open at {s.mbed_baud} baud, {asked}, but nothing came back "
+                         f"in {waited}: is it the Mbed (USB 0d28:0204) running the firmware of docs/mbed-protocol.md?")
+        elif st["nmea_lines"]:
+            lines.append(f"mbed: NMEA sentences arrive on {thrusters.port_path} ({st['nmea_lines']} line(s)): that "
+                         "is the compass's output, so serial.sc30_port and serial.mbed_port are swapped?")
+        elif st["acks_rejected"] and not st["acks_ok"]:
+            lines.append(f"mbed: the board on {thrusters.port_path} rejects every command ({st['acks_rejected']} "
+                         "REJ): its firmware speaks another version of docs/mbed-protocol.md?")
+        else:
+            swapped = ("; or the two ports swapped (the SC-30 port is silent and this one talks unasked)"
+                       if compass_silent else "")
+            lines.append(f"mbed: {got} bytes came back on {thrusters.port_path} in {waited} ({asked}) but no "
+                         f"acknowledgement ({st['bad_lines']} malformed line(s)): another baud rate than "
+                         f"serial.mbed_baud ({s.mbed_baud}), or another device on this port{swapped}")
+    if lines:
+        lines.append("thrust stays at zero until both devices answer")
+    return lines
+
+
+def _tell_silence(loop: ControlLoop, cfg: DaemonConfig):
+    """A log listener that says :func:`device_silence` at the terminal when the loop logs `devices not answering`
+    (after ready_timeout_s)."""
+    def listener(name: str, t_s: float, fields: dict) -> None:
+        if name == "info" and fields.get("message") == "devices not answering":
+            for line in device_silence(loop.compass, loop.thrusters, cfg, t_s):
+                _console(line)
+    return listener
+
+
 def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: str, n_waypoints: int):
     """(waypoint to start at, reason to hold zero thrust or None) from the saved progress (StateStore.interrupted)."""
     if opts.fresh:
@@ -485,6 +549,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             if homeward:
                 ap.resume_homeward()
         holder["loop"] = loop
+        log.listeners.append(_tell_silence(loop, cfg))
     except BaseException:  # the start failed before the loop ran: no stale socket, no empty log left behind
         await control.close()
         if log is not None:
@@ -718,6 +783,9 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
         ca = st.closest_m.get(i)
         got = "reached" if i in reached else "not reached"
         lines.append(f"  W{i}: {got}, closest approach " + (f"{ca:.2f} m" if ca is not None and math.isfinite(ca) else "n/a"))
+    compass = getattr(loop, "compass", None)
+    if compass is not None and not st.ready:  # the devices never both answered: which one, and what came instead
+        lines += ["  " + line for line in device_silence(compass, loop.thrusters, loop.cfg, t_s)[:-1]]
     if loop.hold_zero is not None and loop.ap.mode is Mode.STOP and not reached:
         lines.append(f"  the boat waited at zero thrust from the start: {loop.hold_zero}")
     causes = list(st.failsafe_causes)

@@ -22,6 +22,7 @@ from autopilot.link.config import MavlinkConfig
 from autopilot.logschema import FAILSAFE_ACTIONS
 from autopilot.measured import HULL_LENGTH_M
 from autopilot.schema import ConfigError, load_yaml, param
+from autopilot.userfile import other_file_kind
 
 __all__ = [
     "SerialConfig",
@@ -306,8 +307,16 @@ def load_config(path: str | Path) -> DaemonConfig:
     """Read and check the whole configuration file (raises ConfigError naming file and key)."""
     # an empty file (a copy cut short, a config management template never filled) flew on every default
     # without a word: the boat's own failsafe limits and origin silently replaced by the shipped ones
-    cfg = load_yaml(DaemonConfig, path, empty="the configuration is empty (no setting at all); to run on every "
-                    "default say so with {} in the file, or start from config/autopilot.yaml")
+    try:
+        cfg = load_yaml(DaemonConfig, path, empty="the configuration is empty (no setting at all); to run on every "
+                        "default say so with {} in the file, or start from config/autopilot.yaml")
+    except ConfigError as exc:
+        # a mission or a vessel file given as the configuration was refused as "frame: unknown key": say what it is
+        what = other_file_kind(path)
+        if what is not None and not what.startswith("a daemon configuration") and ": unknown key (allowed: " in str(exc):
+            where = "--config and --mission swapped?" if what.startswith("a mission") else "sim.vessel names it"
+            raise ConfigError(f"{exc}; {path} is {what}, not the daemon's configuration ({where})") from None
+        raise
     if not math.isfinite(cfg.period_s):  # pragma: no cover - rate_hz is range-checked
         raise ConfigError("rate_hz: not finite")
     return cfg

@@ -18,10 +18,11 @@ import math
 import os
 import stat
 import sys
+from pathlib import Path
 
 from autopilot.schema import ConfigError
 from autopilot.units import m_s_to_knots, rad_s_to_deg_min
-from autopilot.userfile import check_file
+from autopilot.userfile import check_file, check_text_head
 
 _FIELDS = ("lat_deg", "lon_deg", "heading_deg", "rot_deg_min", "sog_kn", "cog_deg", "fix_quality")
 
@@ -51,6 +52,9 @@ def update_record(u, t_s: float) -> dict:
            "rot_deg_min": None if u.yaw_rate_rad_s is None else round(rad_s_to_deg_min(u.yaw_rate_rad_s), 6),
            "sog_kn": None if u.sog_m_s is None else round(m_s_to_knots(u.sog_m_s), 6), "cog_deg": _deg(u.cog_rad),
            "fix_quality": u.fix_quality}
+    # HDM's magnetic heading printed nothing ("APHDM" alone): a compass set to HDM looked dead while wiring it, and
+    # the daemon, which steers by true heading only, waited for a heading it would never get (a new-user audit)
+    rec["heading_mag_deg"] = _deg(u.heading_mag_rad)
     rec.update(
         source=u.sentence,
         talker=u.talker,
@@ -67,6 +71,9 @@ def _text(rec: dict) -> str:
     for k in (*_FIELDS, "pitch_deg", "roll_deg", "utc"):
         if rec[k] is not None:
             parts.append(f"{k}={rec[k]}")
+    if rec.get("heading_mag_deg") is not None:
+        parts.append(f"heading_mag_deg={rec['heading_mag_deg']} (magnetic: not steered by; the daemon needs THS, HDT or "
+                     "$PFEC,GPatt)")
     if rec["valid"] is not None:
         parts.append("valid" if rec["valid"] else "INVALID")
     return " ".join(parts)
@@ -128,6 +135,10 @@ def run_nmea(args) -> int:
     port = stat.S_ISCHR(mode)
     if not port:
         check_file(args.source, what="capture file or serial port")
+        # a capture saved as UTF-16 by a Windows terminal, or gzipped, said only "no NMEA sentence decoded"; line
+        # noise (a NUL as the port opened) is the decoder's to drop, not a reason to refuse the file
+        with open(args.source, "rb") as f:
+            check_text_head(Path(args.source), f.read(8192), what="NMEA capture", binary_ok=True)
     lines = 0
     try:
         if port:

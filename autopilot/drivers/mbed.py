@@ -11,6 +11,7 @@ firmware's own stop timeout (0.5 s) stops the motors while the link is down.
 from __future__ import annotations
 
 import asyncio
+import re
 from collections import OrderedDict
 from typing import Any
 
@@ -27,6 +28,9 @@ _SENT_RECENT = 1024  # sequence numbers remembered as ours (~100 s at 10 Hz)
 _MAX_PENDING = 256  # commands awaiting an ack; older ones are counted missing
 BATTERY_STALE_S = 2.0  # a battery voltage older than this is not reported
 _ECHO_TOLERANCE_PCT = 0.05  # half the line's 0.1 %: an echo of what was sent matches exactly
+# an NMEA 0183 sentence's start ($GPGGA, $HEHDT, !AIVDM): on the Mbed's port it is the compass (or an AIS receiver)
+# talking, the two ports swapped in the configuration; "$MB" lines are the board's own
+_NMEA_START = re.compile(rb"^[$!](?!MB)[A-Z][A-Z0-9]{4,5},")
 
 
 def _signed_duty_pct(duty_pct: float, reverse: bool) -> float:
@@ -65,6 +69,7 @@ class MbedDriver(LineDevice):
         self._acked_recent: OrderedDict[int, bool] = OrderedDict()  # seq -> applied (OK)
         self._framer = LineFramer(MAX_LINE_CHARS)
         self._malformed = 0
+        self.nmea_lines = 0  # malformed lines that are NMEA sentences: another device's output on this port
         self._ack_missing = 0
         self._consecutive_missing = 0
         self.last_ack_seq: int | None = None
@@ -109,6 +114,7 @@ class MbedDriver(LineDevice):
             acks_mismatched=self.acks_mismatched,
             ack_missing=self.ack_missing,
             bad_lines=self.bad_lines,
+            nmea_lines=self.nmea_lines,
             reconnects=self._link.losses,
             opens=self._link.opens,
         )
@@ -200,6 +206,8 @@ class MbedDriver(LineDevice):
             ack = decode_ack(line)
         except ProtocolError:
             self._malformed += 1
+            if _NMEA_START.match(line):
+                self.nmea_lines += 1
             return
         if ack is None:
             return
