@@ -24,11 +24,12 @@ from pathlib import Path
 from autopilot.clock import Clock, SimClock
 from autopilot.daemon.config import DaemonConfig
 from autopilot.daemon.control import check_socket_path
+from autopilot.daemon.failsafe import position_limits
 from autopilot.daemon.loop import ControlLoop
 from autopilot.daemon.missionlog import MissionLog, log_path
 from autopilot.daemon.sd_notify import Notifier
 from autopilot.daemon.state import RESUME_REFUSED, StateStore, file_sha256
-from autopilot.geo import latlon_to_local
+from autopilot.geo import latlon_to_local, local_to_latlon
 from autopilot.logschema import Mode, time_stop_words
 from autopilot.resources import package_version
 from autopilot.schema import ConfigError, to_dict
@@ -378,6 +379,40 @@ def _tell_silence(loop: ControlLoop, cfg: DaemonConfig):
     return listener
 
 
+START_LIMIT_CAUSES = ("max_distance", "geofence")  # a position limit a boat can already be beyond where it starts
+
+
+def started_beyond_limits(loop: ControlLoop) -> str | None:
+    """A sentence when the boat's launch point (its position where control started) is beyond a position limit:
+    most likely the configured origin is not the launch site. A configuration copied from another lake stopped the
+    boat at once with a JSON fault line and an end summary saying only "failsafes: 1 (max_distance)" (a new-user
+    audit)."""
+    launch = loop.ap.launch_ne_m
+    if launch is None:
+        return None
+    beyond = position_limits(launch[0], launch[1], loop.cfg.failsafe, loop.failsafe.fence_ne_m)
+    if not beyond:
+        return None
+    lat, lon = local_to_latlon(launch[0], launch[1], loop.cfg.origin_lat_deg, loop.cfg.origin_lon_deg)
+    cause = next(c for c in START_LIMIT_CAUSES if c in beyond)
+    return (f"the boat started beyond the {cause} limit: at {lat:.6f}, {lon:.6f}, {beyond[cause]}. Is the "
+            f"configuration's origin_lat_deg/origin_lon_deg ({loop.cfg.origin_lat_deg:g}, {loop.cfg.origin_lon_deg:g})"
+            " the launch site" + (", and its geofence this water's?" if cause == "geofence" else "?"))
+
+
+def _tell_start_limits(loop: ControlLoop):
+    """A log listener that says :func:`started_beyond_limits` at the terminal when control starts beyond a limit."""
+    said = []
+
+    def listener(name: str, t_s: float, fields: dict) -> None:
+        if name == "launch" and not said and not fields.get("carried"):
+            text = started_beyond_limits(loop)
+            if text is not None:
+                said.append(text)
+                _console(text)
+    return listener
+
+
 def _resume_index(cfg: DaemonConfig, opts: RunOptions, store: StateStore, sha: str, n_waypoints: int):
     """(waypoint to start at, reason to hold zero thrust or None) from the saved progress (StateStore.interrupted)."""
     if opts.fresh:
@@ -550,6 +585,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
                 ap.resume_homeward()
         holder["loop"] = loop
         log.listeners.append(_tell_silence(loop, cfg))
+        log.listeners.append(_tell_start_limits(loop))
     except BaseException:  # the start failed before the loop ran: no stale socket, no empty log left behind
         await control.close()
         if log is not None:
@@ -789,6 +825,8 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     if loop.hold_zero is not None and loop.ap.mode is Mode.STOP and not reached:
         lines.append(f"  the boat waited at zero thrust from the start: {loop.hold_zero}")
     causes = list(st.failsafe_causes)
+    if any(c in START_LIMIT_CAUSES for c in causes) and (text := started_beyond_limits(loop)) is not None:
+        lines.append("  " + text)
     lines.append(f"failsafes: {len(causes)}" + (f" ({', '.join(causes[:5])}{', ...' if len(causes) > 5 else ''})" if causes else ""))
     total = st.cycles + st.skipped
     if total:
