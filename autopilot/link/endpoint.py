@@ -85,29 +85,33 @@ class Endpoint:
 
     def __init__(self, spec: EndpointSpec, rx_queue_bytes: int) -> None:
         self.spec = spec
-        self.rx: collections.deque[bytes] = collections.deque()
+        # (bytes, where they came from): the sender's UDP address, None for a radio. Two planners on one udpin port
+        # may have the same system and component ids (QGC and Mission Planner are both 255/190): only the address
+        # tells them apart
+        self.rx: collections.deque[tuple[bytes, object]] = collections.deque()
         self.rx_bytes = 0
         self.rx_limit = int(rx_queue_bytes)
         self.rx_dropped = 0  # datagrams (or reads) dropped because the queue was full
         self.tx_errors = 0
         self.wakeup = asyncio.Event()
 
-    def _queue(self, data: bytes) -> None:
+    def _queue(self, data: bytes, source=None) -> None:
         if self.rx_bytes + len(data) > self.rx_limit:
             self.rx_dropped += 1
             return
-        self.rx.append(data)
+        self.rx.append((data, source))
         self.rx_bytes += len(data)
         self.wakeup.set()
 
-    def take(self, max_bytes: int) -> list[bytes]:
-        """Up to about ``max_bytes`` of what was received, as it came (datagrams, or reads of a byte stream)."""
+    def take(self, max_bytes: int) -> list[tuple[bytes, object]]:
+        """Up to about ``max_bytes`` of what was received, as it came (datagrams, or reads of a byte stream), each
+        with its source (the sender's address; None for a radio)."""
         out = []
         n = 0
         while self.rx and n < max_bytes:
-            chunk = self.rx.popleft()
+            chunk, source = self.rx.popleft()
             self.rx_bytes -= len(chunk)
-            out.append(chunk)
+            out.append((chunk, source))
             n += len(chunk)
         if not self.rx:
             self.wakeup.clear()
@@ -116,7 +120,8 @@ class Endpoint:
     async def open(self) -> None:  # pragma: no cover - interface
         raise NotImplementedError
 
-    def send(self, data: bytes) -> None:  # pragma: no cover - interface
+    def send(self, data: bytes, to=None) -> None:  # pragma: no cover - interface
+        """``to``: the source (from :meth:`take`) of the one station a reply is for; None: everyone."""
         raise NotImplementedError
 
     async def close(self) -> None:  # pragma: no cover - interface
@@ -129,7 +134,7 @@ class _Datagrams(asyncio.DatagramProtocol):
 
     def datagram_received(self, data: bytes, addr) -> None:
         self.owner.peers[addr] = time.monotonic()
-        self.owner._queue(data)
+        self.owner._queue(data, addr)
 
     def error_received(self, exc: Exception) -> None:  # ICMP port unreachable: no ground station yet
         self.owner.tx_errors += 1
@@ -156,12 +161,16 @@ class UdpEndpoint(Endpoint):
     def local_port(self) -> int:
         return self.transport.get_extra_info("sockname")[1] if self.transport is not None else 0
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes, to=None) -> None:
         if self.transport is None:
             return
         try:
             if self.spec.kind == "udpout":
                 self.transport.sendto(data, (self.spec.host, self.spec.port))
+            elif to is not None and to in self.peers:
+                # a reply to one station of several on this port: a DENIED meant for a second planner went to the
+                # one uploading too, with the same ids (both 255/190), and ended that station's upload
+                self.transport.sendto(data, to)
             else:
                 now = time.monotonic()
                 for addr, seen in list(self.peers.items()):
@@ -199,7 +208,7 @@ class SerialEndpoint(Endpoint):
         if data:
             self._queue(data)
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes, to=None) -> None:  # a radio: one link, everyone on it hears
         if self.port is None:
             return
         try:

@@ -162,6 +162,10 @@ GLOBAL_FRAMES = frozenset({mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RE
                            mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
                            mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT})
 POSITION_IGNORED = mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE
+# what an operator can do instead of a command that is not supported, said with its refusal
+UNSUPPORTED_HINTS = {
+    mavlink.MAV_CMD_DO_CHANGE_SPEED: ": a leg's speed is the mission's (its change speed items, 178) or WP_SPEED",
+}
 
 
 class _Port:
@@ -173,7 +177,8 @@ class _Port:
         self.endpoint, self.mav = endpoint, mav
         self.on_unencodable = on_unencodable
 
-    def send(self, msg) -> None:
+    def send(self, msg, to=None) -> None:
+        """``to``: the source of the one station it answers (the endpoint's :meth:`send`); None: everyone."""
         try:
             data = msg.pack(self.mav)
         except Exception as exc:  # noqa: BLE001 - a message that does not encode is a bug here, never a stop
@@ -181,7 +186,10 @@ class _Port:
             self.on_unencodable(msg.get_type(), exc)
             return
         try:
-            self.endpoint.send(data)
+            if to is None:  # to everyone: any endpoint's send(data) (a stand-in one's too)
+                self.endpoint.send(data)
+            else:
+                self.endpoint.send(data, to)
         except Exception:  # noqa: BLE001 - the endpoints count their own OSErrors; anything else, never a stop
             self.endpoint.tx_errors += 1
 
@@ -372,7 +380,7 @@ class MavlinkLink:
         ep = port.endpoint
         while True:
             await ep.wakeup.wait()
-            for data in ep.take(RX_SLICE_BYTES):
+            for data, source in ep.take(RX_SLICE_BYTES):
                 try:
                     msgs = port.mav.parse_buffer(data) or []
                 except Exception:  # noqa: BLE001 - robust parsing should not raise; a frame that does is dropped
@@ -388,7 +396,7 @@ class MavlinkLink:
                         await asyncio.sleep(0)
                         t_slice = time.perf_counter()
                     try:
-                        self._handle(port, msg)
+                        self._handle(port, msg, source)
                     except Exception as exc:  # noqa: BLE001 - one bad message must not end the link
                         self.stats["handler_errors"] += 1
                         kind = f"{msg.get_type()}: {type(exc).__name__}"
@@ -406,7 +414,8 @@ class MavlinkLink:
         component = getattr(msg, "target_component", 0)
         return target in (0, self.cfg.system_id) and component in (0, self.cfg.component_id)
 
-    def _handle(self, port: _Port, msg) -> None:
+    def _handle(self, port: _Port, msg, source=None) -> None:
+        """One message; ``source`` is where it came from on the port (the sender's UDP address, None on a radio)."""
         t = msg.get_type()
         self.stats["rx_" + t.lower()] += 1
         if t == "BAD_DATA":
@@ -433,6 +442,14 @@ class MavlinkLink:
                 return
             self._set_mode(port, msg, msg.custom_mode)
         elif t == "MANUAL_CONTROL":
+            if msg.get_srcSystem() != self.cfg.gcs_system_id:
+                # only the ground station's sticks drive, as ArduPilot's (SYSID_MYGCS): a second planner's joystick
+                # (system 254) drove the boat in MANUAL, and its stream kept the manual timeout from ever firing once
+                # the operator's station went quiet (a link audit)
+                self._said_every_10_s("manual_other", "manual", f"MANUAL_CONTROL from system {msg.get_srcSystem()} "
+                                      f"ignored: only the ground station's (mavlink.gcs_system_id "
+                                      f"{self.cfg.gcs_system_id}) drives")
+                return
             # ArduPilot Rover's axes: z the throttle (0 stop, -1000 full astern), y the steering (+1000 full to
             # starboard). x and r (a multicopter's pitch and yaw) drove it before, and a planner's joystick set up for
             # a Rover did nothing while its pitch stick drove the boat (a GCS audit)
@@ -440,7 +457,7 @@ class MavlinkLink:
             self.submit({"command": "manual", "forward_nd": z / 1000.0, "turn_nd": y / 1000.0, "source": "mavlink"},
                         lambda reply: None)  # a refusal is logged, and the log's listener shows it
         elif t.startswith("MISSION_"):
-            self.missions.handle(port, msg)
+            self.missions.handle(port, msg, source)
         elif t in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
             self._param(port, msg)
         elif t == "RC_CHANNELS_OVERRIDE":  # Mission Planner's joystick: ignored without a word before (a GCS audit)
@@ -595,6 +612,13 @@ class MavlinkLink:
             port.send(reply)
         else:
             self._ack(port, msg, mavlink.MAV_RESULT_UNSUPPORTED)
+            # said (once every 10 s a command): a planner's DO_CHANGE_SPEED or DO_SET_SERVO left no trace in the log
+            # and no reason on the screen (a link audit); numbers MAVLink does not define share one turn, so that a
+            # flood of them cannot fill the log
+            known = mavlink.enums["MAV_CMD"]
+            name = known[c].name.removeprefix("MAV_CMD_") if c in known else f"command {c}"
+            self._said_every_10_s(f"unsupported {c if c in known else 'unknown'}", name,
+                                  f"{name} not supported{UNSUPPORTED_HINTS.get(c, '')}")
 
     def _set_mode(self, port: _Port, msg, custom_mode: int) -> None:
         """A mode change (DO_SET_MODE or SET_MODE ``msg``), answered with COMMAND_ACK."""

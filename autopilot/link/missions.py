@@ -7,11 +7,13 @@
                                             an error code naming the item (and a STATUSTEXT saying why)
     download   GCS: MISSION_REQUEST_LIST -> us: MISSION_COUNT; GCS: MISSION_REQUEST(_INT) k -> MISSION_ITEM_INT k
     clear      GCS: MISSION_CLEAR_ALL    -> the loop clears it (holds if it was flying it) -> MISSION_ACK
+               (or MISSION_COUNT 0)         (DENIED while another station uploads; the uploader's own ends its upload)
     current    GCS: MISSION_SET_CURRENT  -> the loop jumps there -> MISSION_CURRENT
     go here    GCS: MISSION_ITEM(_INT) with current = 2 (a guided goto) -> hold there -> MISSION_ACK
 
 Item 0 is home, as ArduPilot's planners write it; fence and rally items (mission types 1, 2) are not
-supported (MAV_MISSION_UNSUPPORTED).
+supported (MAV_MISSION_UNSUPPORTED). One upload at a time: a station is its ids, its endpoint and its address
+on it (two planners on one port may both be 255/190), and the upload's requests and acks go to it alone.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ _ERROR_CODE = {
 class _Upload:
     peer: tuple[int, int]  # (system, component) of the ground station uploading
     count: int
+    source: object = None  # where its datagrams come from on its endpoint (its UDP address; None: a radio)
     items: list = field(default_factory=list)
     asked_at: float = 0.0
     retries: int = 0
@@ -63,7 +66,8 @@ class MissionProtocol:
         self.download_items: list | None = None
         self._download_of: tuple | None = None  # (the loop's mission, cleared) the download's items are of
 
-    def handle(self, ep, msg) -> None:
+    def handle(self, ep, msg, source=None) -> None:
+        """One mission message from endpoint ``ep``; ``source`` is the sender's address on it (None: a radio)."""
         t = msg.get_type()
         mission_type = getattr(msg, "mission_type", 0)
         peer = (msg.get_srcSystem(), msg.get_srcComponent())
@@ -72,23 +76,19 @@ class MissionProtocol:
             if mission_type != mavlink.MAV_MISSION_TYPE_MISSION:
                 self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
                 return
+            if self._another_uploads(ep, peer, source, "mission"):
+                return
+            # a count from the station uploading starts its upload again (as ArduPilot's): its empty mission's
+            # clear left the old upload asking it for items for 9 s, then acked CANCELLED (a link audit)
+            self.uploads.pop(ep, None)
             if msg.count == 0:  # an empty mission: MAVLink's way to clear it, as MISSION_CLEAR_ALL
-                self._clear(ep, peer)
+                self._clear(ep, peer, to=source)
                 return
             if not 1 <= msg.count <= MAX_ITEMS:
                 self.link.refused("mission", f"mission refused: {msg.count} items (1..{MAX_ITEMS})")
-                self._ack(ep, peer, mavlink.MAV_MISSION_NO_SPACE)
+                self._ack(ep, peer, mavlink.MAV_MISSION_NO_SPACE, to=source)
                 return
-            # one upload at a time: two stations' items once filled one mission, acked to the other; a station
-            # on another endpoint is another even with the same ids (QGC and Mission Planner are both 255/190)
-            busy = [(u.peer, e is not ep) for e, u in self.uploads.items() if e is not ep or u.peer != peer]
-            if busy:
-                (system, _), elsewhere = busy[0]
-                where = " on another link" if elsewhere else ""
-                self.link.refused("mission", f"mission refused: system {system}{where} is uploading one")
-                self._ack(ep, peer, mavlink.MAV_MISSION_DENIED)
-                return
-            self.uploads[ep] = _Upload(peer, msg.count)
+            self.uploads[ep] = _Upload(peer, msg.count, source)
             self._ask(ep)
         elif t in ("MISSION_ITEM_INT", "MISSION_ITEM") and msg.current == 2:
             # a guided "fly to here" (Mission Planner's, ArduPilot's convention): not a mission item
@@ -102,7 +102,7 @@ class MissionProtocol:
                                                      else mavlink.MAV_MISSION_ERROR))
         elif t in ("MISSION_ITEM_INT", "MISSION_ITEM"):
             up = self.uploads.get(ep)
-            if up is None or up.peer != peer or msg.seq != len(up.items):
+            if up is None or (up.peer, up.source) != (peer, source) or msg.seq != len(up.items):
                 return  # not asked for (a duplicate, or not from the station uploading): the next request follows
             up.items.append(item_of(msg))
             up.retries = 0
@@ -141,7 +141,13 @@ class MissionProtocol:
             if mission_type not in (mavlink.MAV_MISSION_TYPE_MISSION, mavlink.MAV_MISSION_TYPE_ALL):
                 self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
                 return
-            self._clear(ep, peer, mission_type)
+            # while another station uploads, refused (ArduPilot refuses any clear while it receives): that upload
+            # would have replaced the cleared mission moments later; the uploading station's own clear ends its
+            # upload (it went on asking for items for 9 s, then acked CANCELLED)
+            if self._another_uploads(ep, peer, source, "mission clear", mission_type):
+                return
+            self.uploads.pop(ep, None)
+            self._clear(ep, peer, mission_type, to=source)
         elif t in ("MISSION_WRITE_PARTIAL_LIST", "MISSION_REQUEST_PARTIAL_LIST"):
             # answered, not left to the planner's timeout (ArduPilot takes them; here a mission is whole)
             self.link.refused("mission", f"{t} not supported: send the whole mission (MISSION_COUNT) or ask for "
@@ -149,7 +155,7 @@ class MissionProtocol:
             self._ack(ep, peer, mavlink.MAV_MISSION_UNSUPPORTED, mission_type)
         elif t == "MISSION_ACK":
             up = self.uploads.get(ep)
-            if up is not None and up.peer == peer:
+            if up is not None and (up.peer, up.source) == (peer, source):
                 # the uploading station ends its upload (OPERATION_CANCELLED, or any other outcome of its own): the
                 # boat kept asking it for the next item for 9 s, and another station's upload was refused meanwhile
                 # (a new-user audit); the mission being flown stays
@@ -165,11 +171,27 @@ class MissionProtocol:
             self.link.submit({"command": "set_current", "index": index, "item": seq, "source": "mavlink"},
                              lambda reply: self.link.send_mission_current())
 
-    def _clear(self, ep, peer, mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION) -> None:
+    def _another_uploads(self, ep, peer, source, what: str, mission_type: int = 0) -> bool:
+        """True, and ``what`` refused (DENIED, logged and shown), while a station other than this one uploads.
+
+        One upload at a time: two stations' items once filled one mission, acked to the other. A station on another
+        endpoint, or at another address on the same one, is another even with the same ids: QGC and Mission Planner
+        are both 255/190, and on one udpin port the second's MISSION_COUNT restarted the first's upload, which
+        then took either's items and acked both ACCEPTED (a link audit)."""
+        for e, up in self.uploads.items():
+            if e is ep and (up.peer, up.source) == (peer, source):
+                continue
+            where = " on another link" if e is not ep else " at another address" if up.peer == peer else ""
+            self.link.refused("mission", f"{what} refused: system {up.peer[0]}{where} is uploading one")
+            self._ack(ep, peer, mavlink.MAV_MISSION_DENIED, mission_type, to=source)
+            return True
+        return False
+
+    def _clear(self, ep, peer, mission_type: int = mavlink.MAV_MISSION_TYPE_MISSION, to=None) -> None:
         # the ack echoes the request's type, as ArduPilot does: QGC ignored one of type 0 for a clear of 255
         self.link.submit({"command": "mission_clear", "source": "mavlink"},
                          lambda reply: self._ack(ep, peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"]
-                                                 else mavlink.MAV_MISSION_DENIED, mission_type))
+                                                 else mavlink.MAV_MISSION_DENIED, mission_type, to=to))
 
     def tick(self, now_s: float) -> None:
         """Re-ask a missing item; give up after ITEM_RETRIES (the running mission stays)."""
@@ -179,7 +201,7 @@ class MissionProtocol:
             if up.retries >= ITEM_RETRIES:
                 del self.uploads[ep]
                 self.link.refused("mission", f"mission upload abandoned: item {len(up.items)} never came")
-                self._ack(ep, up.peer, mavlink.MAV_MISSION_OPERATION_CANCELLED)
+                self._ack(ep, up.peer, mavlink.MAV_MISSION_OPERATION_CANCELLED, to=up.source)
                 continue
             up.retries += 1
             self._ask(ep)
@@ -191,10 +213,11 @@ class MissionProtocol:
     def _ask(self, ep) -> None:
         up = self.uploads[ep]
         up.asked_at = time.monotonic()
-        ep.send(ep.mav.mission_request_int_encode(up.peer[0], up.peer[1], len(up.items)))
+        ep.send(ep.mav.mission_request_int_encode(up.peer[0], up.peer[1], len(up.items)), to=up.source)
 
-    def _ack(self, ep, peer, code: int, mission_type: int = 0) -> None:
-        ep.send(ep.mav.mission_ack_encode(peer[0], peer[1], code, mission_type))
+    def _ack(self, ep, peer, code: int, mission_type: int = 0, to=None) -> None:
+        """MISSION_ACK to ``peer``; ``to``: its source on the endpoint, so that only it hears (None: everyone)."""
+        ep.send(ep.mav.mission_ack_encode(peer[0], peer[1], code, mission_type), to=to)
 
     def _finish(self, ep, up: _Upload) -> None:
         origin = self.link.origin()
@@ -203,10 +226,11 @@ class MissionProtocol:
                                          max_range_m=self.link.max_range_m())
         except MissionItemError as exc:
             self.link.refused("mission", str(exc))
-            self._ack(ep, up.peer, _ERROR_CODE.get(exc.field, mavlink.MAV_MISSION_INVALID))
+            self._ack(ep, up.peer, _ERROR_CODE.get(exc.field, mavlink.MAV_MISSION_INVALID), to=up.source)
             return
 
         def answer(reply: dict) -> None:
-            self._ack(ep, up.peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"] else mavlink.MAV_MISSION_DENIED)
+            self._ack(ep, up.peer, mavlink.MAV_MISSION_ACCEPTED if reply["ok"] else mavlink.MAV_MISSION_DENIED,
+                      to=up.source)
 
         self.link.submit({"command": "mission", "mission": mission, "source": "mavlink"}, answer)
