@@ -3,9 +3,10 @@
 The daemon is a subprocess without --sim (tests/test_failsafe_faults.py's rig, clock 10x), its AIS receiver
 a pseudo-terminal this test writes position reports to, decoded by the daemon's own driver and target table.
 The mission ends holding at its one waypoint; a vessel moored on it makes the boat hold off, on its side of
-the vessel. Found by an operator audit: when the vessel's reports stopped and its target timed out, the hold
-stayed off and the boat never went on to the waypoint. Now it goes there once the AIS table drops the target
-(``ais.receiver.stale_after_s``, shortened here), and stays off while the vessel is merely silent.
+the vessel. Found by an operator audit: when the vessel sailed off, the hold stayed off and the boat never went
+on to the waypoint. Now it goes there once the vessel is reported clear of it; a vessel that falls silent, even
+dropped from the AIS table (``ais.receiver.stale_after_s``, shortened here), may still lie there: the hold stays
+off (a review: released on silence, the hold went onto a vessel whose AIS was off).
 The pure part: tests/test_avoidance_occupied_gone.py.
 """
 
@@ -38,10 +39,14 @@ def _hold_point(d) -> tuple[float, float] | None:
     return None if c.get("hold_north_m") is None else (c["hold_north_m"], c["hold_east_m"])
 
 
-def test_the_hold_off_a_moored_vessel_goes_to_the_waypoint_once_its_target_is_stale(tmp_path):
-    lat, lon = local_to_latlon(*WAYPOINT, *ORIGIN)
-    report = ("\r\n".join(encode_ais({"msg_type": 1, "mmsi": MMSI, "lat": lat, "lon": lon, "speed": 0.0, "course": 0.0,
-                                      "heading": 0, "status": 5})) + "\r\n").encode()  # status 5: moored
+def test_the_hold_off_a_moored_vessel_stays_while_it_is_silent_and_goes_to_the_waypoint_once_it_sails_off(tmp_path):
+    def report_at(north_m: float, speed_kn: float, status: int) -> bytes:
+        lat, lon = local_to_latlon(north_m, WAYPOINT[1], *ORIGIN)
+        return ("\r\n".join(encode_ais({"msg_type": 1, "mmsi": MMSI, "lat": lat, "lon": lon, "speed": speed_kn,
+                                         "course": 0.0, "heading": 0, "status": status})) + "\r\n").encode()
+
+    moored = report_at(WAYPOINT[0], 0.0, 5)  # status 5: moored
+    sailed = report_at(WAYPOINT[0] + 60.0, 4.0, 0)  # under way, 60 m on: clear of the waypoint
 
     async def scenario():
         ais = PtyEndpoint(tmp_path / "ais-dev", "ais")
@@ -49,7 +54,7 @@ def test_the_hold_off_a_moored_vessel_goes_to_the_waypoint_once_its_target_is_st
                    config={"gnc": {"guidance": {"final_action": "hold"}},
                            "ais": {"port": ais.path, "receiver": {"stale_after_s": STALE_AFTER_S}}})
 
-        async def send_until(stop) -> float:
+        async def send_until(stop, report=moored) -> float:
             """The vessel reports every REPORT_EVERY_S until ``stop()``; the time of its last report."""
             last = -math.inf
             while not stop():
@@ -69,16 +74,20 @@ def test_the_hold_off_a_moored_vessel_goes_to_the_waypoint_once_its_target_is_st
             spot = _hold_point(d)
             off_m = math.hypot(spot[0] - WAYPOINT[0], spot[1] - WAYPOINT[1])
             assert off_m > occ["need_m"]  # held off, on the boat's side of the vessel
-            # reported for 20 s more: off; then silent
+            # reported for 20 s more: off; then silent, past the AIS table's stale_after_s: still off
             t_quiet = d.clock.now_s() + 20.0
             last = await send_until(lambda: d.clock.now_s() >= t_quiet)
-            await d.clock.sleep(STALE_AFTER_S - 10.0 - (d.clock.now_s() - last))
-            assert _hold_point(d) == spot  # silent, not yet stale: no proof the point is free
+            await d.clock.sleep(STALE_AFTER_S + 10.0 - (d.clock.now_s() - last))
+            assert _hold_point(d) == spot  # dropped from the table, never reported clear: no proof the point is free
+            assert not [r for r in d.events("mode") if r["cause"].startswith("waypoint 0 free")]
+            # it reports again, under way and 60 m on: clear of the waypoint
+            t_sailed = d.clock.now_s()
+            ais.write(sailed)
             t_free = await d.wait(lambda: _hold_point(d) == WAYPOINT, 30.0, "the hold at the waypoint")
-            assert STALE_AFTER_S - 1.0 <= t_free - last <= STALE_AFTER_S + 3.0, t_free - last
+            assert t_free - t_sailed <= 3.0, t_free - t_sailed
             freed = [r for r in d.events("mode") if r["cause"].startswith("waypoint 0 free")]
             assert [(r["from"], r["mode"], r["cause"]) for r in freed] == [
-                ("hold", "hold", f"waypoint 0 free: vessel {MMSI} no longer reported (AIS): holding at the waypoint")]
+                ("hold", "hold", f"waypoint 0 free: vessel {MMSI} reported clear of it: holding at the waypoint")]
 
             def boat_off_m() -> float:
                 return math.hypot(float(d.rig.boat.state[0]) - WAYPOINT[0], float(d.rig.boat.state[1]) - WAYPOINT[1])

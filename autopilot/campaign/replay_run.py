@@ -21,7 +21,7 @@ from pathlib import Path
 
 from autopilot.campaign.draw import draw_run
 from autopilot.campaign.lockstep import GNC_RATE_HZ, chunk_indices, fly, run_gnc
-from autopilot.campaign.results import RUN_COLUMNS, read_runs_csv, run_end, split_failsafes
+from autopilot.campaign.results import RUN_COLUMNS, read_runs_csv
 from autopilot.daemon.cycle import cycle_record
 from autopilot.daemon.missionlog import to_json
 from autopilot.schema import ConfigError, to_dict
@@ -56,7 +56,6 @@ class _LogWriter:
             raise ConfigError(f"cannot write the run's log {path} ({exc.strerror or exc}): give --log FILE in a "
                               "directory you can write") from None
         self.setup, self.n_passes, self.cycle_no = setup, 0, 0
-        self.by_completion: int | None = None  # the failsafes taken by the cycle the mission completed in (fly's)
         m = setup.mission
         spec = campaign.spec
         self.line("mission_start", 0.0, mission=f"campaign:{spec.name}#{setup.index}", mission_name=m.name,
@@ -78,8 +77,6 @@ class _LogWriter:
 
     def __call__(self, t_s: float, flight, c) -> None:
         """After each control cycle of the run (``c`` None: the run ended at ``t_s``)."""
-        if self.by_completion is None and flight.score.completed_at is not None:
-            self.by_completion = len(flight.cycle.failsafe_causes)
         if c is None:
             if flight.cycles > self.cycle_no:  # the cycle that ended the run
                 self._cycle(t_s, flight, flight.last)
@@ -108,16 +105,10 @@ class _LogWriter:
         self.cycle_no += 1
 
     def _stop(self, t_s: float, flight) -> None:
-        # the row's end: a failsafe taken after the mission had completed did not end it (results.run_end)
-        completed = flight.score.completed_at is not None
-        after = split_failsafes(flight.cycle.failsafe_causes, self.by_completion if completed else None)[1]
-        end = run_end(flight, completed, after)
+        end = flight.end_reason or ""
         reason = {"finished": "complete", "time": "max_mission_time"}.get(end, "signal")
         if reason == "signal":
             self.line("info", t_s, message=f"campaign run ended: {end}")
-        elif end != (flight.end_reason or ""):
-            self.line("info", t_s, message=f"campaign run ended ({flight.end_reason}) after its mission had completed; "
-                                           f"failsafes taken after completion: {', '.join(after)}")
         closest = [None if not math.isfinite(v) else v for v in
                    (flight.score.closest_by_wp.get(i, math.inf) for i in range(len(flight.score.wps)))]
         self.line("stop", t_s, reason=reason, signal=None, ack_received=True, cycles=self.cycle_no, skipped_cycles=0,

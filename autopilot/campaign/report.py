@@ -192,8 +192,9 @@ def write_report(summary: dict, rows, path, *, campaign_data: dict, run_info: di
     late = fs.get("after_completion") or {"runs": 0, "by_cause": {}}
     parts.append(f"<h2>Failsafes</h2><p>{fs['runs_with_failsafe']} of {summary['rows']} runs took at least one while "
                  f"the mission was flown. {late['runs']} took one after their mission had completed (in the final "
-                 "pass, or a fault still in force then): counted apart, in <b>after completion</b>; such a run ended "
-                 "<code>finished</code>, and it is a success or not as its mission was.</p>")
+                 "pass, or a fault still in force then): counted apart, in <b>after completion</b>; such a run is a "
+                 "success or not as its mission was (a latched fault's action that took the completed boat, battery_low's "
+                 "rtl, is still how the run ended, as the daemon flies it).</p>")
     by_cause = {c: [n, late["by_cause"].get(c, 0)] for c, n in fs["by_cause"].items()}
     for c, n in late["by_cause"].items():
         by_cause.setdefault(c, [0, n])

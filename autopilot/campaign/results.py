@@ -26,7 +26,7 @@ import numpy as np
 from autopilot.campaign.spec import DIRECTION_TURN, SPREAD_KEYS, Campaign
 
 __all__ = ["RUN_COLUMNS", "OUTCOMES", "run_row", "columns", "write_runs_csv", "read_runs_csv", "wilson",
-           "summarise", "success_of", "split_failsafes", "run_end", "FINISHED"]
+           "summarise", "success_of", "split_failsafes"]
 
 RUN_COLUMNS: tuple[tuple[str, type], ...] = (
     ("index", int), ("mission", str), ("law", str), ("condition", str), ("success", bool), ("completed", bool),
@@ -71,9 +71,6 @@ def _fault_kind(faults, time_s: float, failsafe) -> str:
     return first.kind
 
 
-FINISHED = "finished"  # Flight.end_reason of a run whose mission ended with stop and whose last pass ended
-
-
 def split_failsafes(causes, by_completion: int | None) -> tuple[list[str], list[str]]:
     """A run's failsafes (``ControlCycle.failsafe_causes``, in order): (those taken while the mission was flown,
     those taken after it had completed). ``by_completion``: how many had been taken by the end of the cycle the
@@ -82,18 +79,6 @@ def split_failsafes(causes, by_completion: int | None) -> tuple[list[str], list[
     if by_completion is None:
         return causes, []
     return causes[:by_completion], causes[by_completion:]
-
-
-def run_end(flight, completed: bool, after_completion) -> str:
-    """How the run ended (``Flight.end_reason``), except that a run whose mission had completed did not end by a
-    failsafe it took after that: a fault latched in the final pass whose action took the completed boat (battery_low
-    and its rtl) ended the run ``failsafe battery_low``, counted among the failures' ends (4 of 8 runs of a spec
-    with every fault due in the final pass). Such a run ended ``finished``; its failsafes are in
-    ``failsafe_causes_after_completion``."""
-    end = flight.end_reason or ""
-    if completed and after_completion and end.startswith("failsafe "):
-        return FINISHED  # Flight ends a completed run on a latched fault only once its last pass has ended
-    return end
 
 
 def run_row(campaign: Campaign, setup, flight, result, *, failsafes_by_completion: int | None = None) -> dict:
@@ -108,7 +93,7 @@ def run_row(campaign: Campaign, setup, flight, result, *, failsafes_by_completio
     row = {
         "index": setup.index, "mission": setup.mission.name, "law": setup.law, "condition": setup.condition,
         "success": success_of(result.completed, result.circled, closest_max, campaign.spec.success_radius_m),
-        "completed": bool(result.completed), "circled": bool(result.circled), "end": run_end(flight, bool(result.completed), after),
+        "completed": bool(result.completed), "circled": bool(result.circled), "end": flight.end_reason or "",
         "closest_max_m": closest_max, "closest_approach_m": ";".join(repr(c) for c in closest),
         "xte_rms_m": float(result.xte_rms_m), "xte_max_m": float(result.xte_max_m), "time_s": float(result.time_s),
         "energy_ns": float(result.energy_ns), "saturation_pct": float(result.saturation_pct),

@@ -355,6 +355,17 @@ def device_silence(compass, thrusters, cfg: DaemonConfig, waited_s: float) -> li
         elif st["nmea_lines"]:
             lines.append(f"mbed: NMEA sentences arrive on {thrusters.port_path} ({st['nmea_lines']} line(s)): that "
                          "is the compass's output, so serial.sc30_port and serial.mbed_port are swapped?")
+        elif st["acks_late"]:  # valid MBACK lines at the right baud rate, after ack_timeout_s (a review)
+            lines.append(f"mbed: the board on {thrusters.port_path} answers, but late ({st['acks_late']} "
+                         f"acknowledgement(s) after serial.ack_timeout_s, {cfg.serial.ack_timeout_s:g} s): a slow USB "
+                         "bridge or a busy firmware? (docs/mbed-protocol.md)")
+        elif st["acks_mismatched"]:
+            lines.append(f"mbed: the board on {thrusters.port_path} acknowledges other duties than those sent "
+                         f"({st['acks_mismatched']} time(s)): its firmware speaks another version of "
+                         "docs/mbed-protocol.md?")
+        elif st["acks_unexpected"]:
+            lines.append(f"mbed: acknowledgements arrive on {thrusters.port_path} for commands not sent "
+                         f"({st['acks_unexpected']}): another program on this port?")
         elif st["acks_rejected"] and not st["acks_ok"]:
             lines.append(f"mbed: the board on {thrusters.port_path} rejects every command ({st['acks_rejected']} "
                          "REJ): its firmware speaks another version of docs/mbed-protocol.md?")

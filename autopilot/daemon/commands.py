@@ -87,6 +87,11 @@ def _helm(loop, request, helm_nav, unavailable, cause):
     beyond = None if target is None else _beyond_limits(loop, *_way_to(loop, helm_nav, target), legs=True)
     if beyond:  # a point given is a planner's "go here" (it was said "hold refused" for one: a GCS audit)
         return False, f"{'go here' if command == 'hold' else command} refused: {beyond}"
+    if target is not None and helm_nav is None and not loop.ap.started and loop.failsafe.fence_ne_m is not None:
+        # before control starts there is no position to check the way there against a geofence (a concave one may
+        # lie across it): taken, the boat crossed an L-shaped fence's corner once control started (a review)
+        return False, ("go here refused: no position yet to check the way there against the geofence (control has "
+                       "not started); ask again once it has, or hold here")
     return loop.ap.request(command, helm_nav, cause=cause, unavailable=unavailable, target_ne_m=target,
                            heading_rad=None if heading is None else math.radians(float(heading)))
 

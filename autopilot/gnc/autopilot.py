@@ -560,11 +560,12 @@ class Autopilot:
 
     def _end_hold_off(self, nav: NavInput, targets) -> None:
         """The hold kept off a waypoint a stopped vessel occupied (AutoMode.holding_off) goes to the waypoint itself
-        once that vessel no longer covers it: no longer among the targets (the AIS table drops a target without a
-        position report for ais.receiver.stale_after_s, its one rule of staleness), or moved off it. Kept off, the
-        boat never went on to the waypoint (a final hold sat 26 m short for good: an operator audit). While the
-        vessel is only silent, the hold stays off: a moored vessel reports every 3 minutes, and silence is no
-        proof the point is free. A hold the operator chose there is theirs (another keeper): it stays."""
+        once that vessel is reported clear of it (by avoidance's resume margin: Avoidance.clear_of). Kept off, the
+        boat never went on to the waypoint after the vessel sailed away (a final hold sat 26 m short for good: an
+        operator audit). Silence is no proof the point is free: a vessel no longer reported (its AIS off, the receiver
+        unplugged, dropped from the table after ais.receiver.stale_after_s) may still lie there, and the hold there
+        went onto it with avoidance blind (a review); the operator may move the hold. A hold the operator chose there
+        is theirs (another keeper): it stays."""
         if self.auto.holding_off is None:
             return
         index, keeper = self.auto.holding_off
@@ -575,7 +576,7 @@ class Autopilot:
             return
         waypoint = self.auto.guidance.waypoints[index]
         vessel = next((t for t in targets if t.target_id == off.target_id), None)
-        if vessel is not None and self.avoidance.covers(vessel, waypoint):
+        if vessel is None or not self.avoidance.clear_of(vessel, waypoint):
             return
         free = keeper.least_effort(nav.psi_rad, target_ne_m=(float(waypoint[0]), float(waypoint[1])))
         if self.current is self.auto:
@@ -584,11 +585,10 @@ class Autopilot:
             self.current.keeper = free
         self.auto.holding_off = None
         del self.auto.held_off[index]
-        why = "no longer reported (AIS)" if vessel is None else "no longer on it"
         # the same mode with a new point (as a jump to a waypoint is said): its cause stays the mode's own
         self._events.append(("mode", {"mode": self.current.mode.value, "from": self.current.mode.value,
-                                      "cause": f"waypoint {index} free: vessel {off.target_id} {why}: holding at the "
-                                               "waypoint"}))
+                                      "cause": f"waypoint {index} free: vessel {off.target_id} reported clear of it: "
+                                               "holding at the waypoint"}))
 
     def _may_hold_at(self, north_m: float, east_m: float) -> bool:
         """A hold the helm places itself may be kept here: the point, and the ring of hold.off_warn_m round it (what

@@ -394,9 +394,12 @@ class Avoidance:
         """The distance the rules keep from ``tgt``'s reported position: the safe distance plus its extent (m)."""
         return self.config.safe_distance_m + tgt.extent_m
 
-    def covers(self, tgt: TargetState, point_ne_m) -> bool:
-        """``point_ne_m`` lies inside ``tgt``'s safe distance: a waypoint there cannot be reached by the rules."""
-        return math.hypot(point_ne_m[0] - tgt.north_m, point_ne_m[1] - tgt.east_m) < self.need_m(tgt)
+    def clear_of(self, tgt: TargetState, point_ne_m) -> bool:
+        """``point_ne_m`` lies beyond ``tgt``'s safe distance by ``resume_margin`` x (the hysteresis avoidance lets go
+        with): a vessel reported so is off a waypoint it occupied. At the bare safe distance one AIS report 2 m
+        off (its receiver's noise, the swing of its mooring) freed a waypoint still occupied (a review)."""
+        return math.hypot(point_ne_m[0] - tgt.north_m, point_ne_m[1] - tgt.east_m) > (
+            self.config.resume_margin * self.need_m(tgt))
 
     def occupying(self, own: OwnShip, point_ne_m, targets, allowed=None) -> Occupied | None:
         """The stopped vessel whose safe distance covers ``point_ne_m`` (a waypoint), when own ship is at that
