@@ -93,3 +93,15 @@ def test_a_failsafe_hold_before_the_start_is_refused_and_its_fault_takes_stop():
     req = Request(cause="geofence", action="hold", configured="hold")
     assert answer_failsafe(ap, req, None, "position stale") == ("stop", "hold refused: position stale")
     assert ap.mode is Mode.STOP
+
+
+def test_the_link_s_lost_station_action_before_the_start_is_kept_as_an_operator_s():
+    """README's modes table: the link's own action (ground station lost) is not a latched fault's, and is kept."""
+    from autopilot.gnc.modes import RtlMode
+
+    ap = helm()
+    assert ap.request("hold", None, cause="mavlink: ground station lost", unavailable="position stale") == (True, "hold")
+    assert isinstance(ap.current, PendingHold)
+    ap = Autopilot(GncConfig(), [(30.0, 0.0)], launch_ne_m=(0.0, 0.0))  # a restart carrying its launch point
+    assert ap.request("rtl", None, cause="mavlink: ground station lost", unavailable="position stale") == (True, "rtl")
+    assert isinstance(ap.current, RtlMode)
