@@ -228,6 +228,10 @@ def _small_outcome(listed: tuple, hidden: dict, result) -> dict:
         # the intervals as reported (hydro_refit's the new values): the truth, a change, shifted by the reported null
         cover = {r["param"]: bool(r["ci95"][0] <= hidden[r["param"]] + r["null"] - PARAM_BY_KEY[r["param"]].null
                                   <= r["ci95"][1]) for r in rows if r["param"] in hidden}
+        for r in rows:  # a speed's upper bound (the wind near none): the hidden components' speed under it
+            eff = r["param"].rsplit(".", 1)[0]
+            if r.get("upper_bound") and f"{eff}.north_m_s" in hidden:
+                cover[r["param"]] = bool(math.hypot(hidden[f"{eff}.north_m_s"], hidden[f"{eff}.east_m_s"]) <= r["ci95"][1])
         out["not_excluded"] = {"listed": bool(rows), "covers": cover,
                                "ci95": {r["param"]: r["ci95"] for r in rows}}
     fitted = [c for c in result.candidates if c.get("delta_bic") is not None]

@@ -243,7 +243,8 @@ def _print(summary: dict, out) -> None:
                           for ch, a in (c.get("adequacy") or {}).items() if not a["adequate"])
         print(f"  nearest: {c['effect']} (delta BIC {c['delta_bic']:+.0f}; still not adequate: {worst or 'see summary.json'})")
     if summary.get("not_excluded"):
-        shown = ", ".join(f"{c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} {c['unit']}" for c in summary["not_excluded"][:6])
+        shown = ", ".join(f"{c['param']} <= {c['ci95'][1]:.3g} {c['unit']}" if c.get("upper_bound") else
+                          f"{c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} {c['unit']}" for c in summary["not_excluded"][:6])
         print(f"  not ruled out (95 %): {shown}")
     for part in ("fitted", "held_out"):
         b, a = summary["rmse_before"][part], summary["rmse_after"][part]

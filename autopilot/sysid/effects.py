@@ -86,6 +86,9 @@ class Effect:
     vessel_fields: bool = False  # written into vessel-updated.yaml (VesselParams fields), else effects.yaml
     sensed_order: int = 0  # order of the ``sensed`` hooks (delay, then lever arm, then bias)
     multimodal: bool = False  # the cost has several minima: a fit stuck above the noise is retried from each start
+    # a velocity (north_m_s, east_m_s) whose curvature interval means nothing near no effect: what the trials cannot
+    # rule out is given as an upper bound of its speed, probed (intervals.speed_bound)
+    speed_bounded: bool = False
 
     def key(self, param: EffectParam) -> str:
         return f"{self.name}.{param.name}"
@@ -132,13 +135,37 @@ def param_row(name, unit, value, sigma) -> dict:
 
 def polar_rows(value: dict, sigma: dict, direction: str, turn_deg: float) -> list[dict]:
     """Speed and direction rows of a velocity given as ``north_m_s``, ``east_m_s`` (the direction it goes towards
-    plus ``turn_deg``: 180 for where a wind blows from), intervals by the delta method."""
+    plus ``turn_deg``: 180 for where a wind blows from). Sigmas by the delta method; the 95 % intervals are the
+    range of the speed and of the direction over the components' 95 % ellipse (:func:`speed_interval`): a speed
+    is never below 0 (the delta method gave "-0.02 .. 0.06 m/s" for a current of 0.02 +- 0.02 per component),
+    and when the ellipse holds no velocity at all the direction is any (0 .. 360)."""
     vn, ve, sn, se = value["north_m_s"], value["east_m_s"], sigma["north_m_s"], sigma["east_m_s"]
     speed = math.hypot(vn, ve)
     s_speed = math.sqrt((vn * sn) ** 2 + (ve * se) ** 2) / max(speed, 1e-9)
     s_dir = math.degrees(math.sqrt((ve * sn) ** 2 + (vn * se) ** 2)) / max(speed**2, 1e-12)
     angle = (math.degrees(math.atan2(ve, vn)) + turn_deg) % 360.0
-    return [param_row("speed_m_s", "m/s", speed, s_speed), param_row(direction, "deg", angle, s_dir)]
+    speed_row, dir_row = param_row("speed_m_s", "m/s", speed, s_speed), param_row(direction, "deg", angle, s_dir)
+    lo, hi, turn = speed_interval(vn, ve, sn, se)
+    if math.isfinite(lo):
+        speed_row["ci95"] = [lo, hi]
+        dir_row["ci95"] = [0.0, 360.0] if turn is None else [angle - turn[0], angle + turn[1]]
+    return [speed_row, dir_row]
+
+
+def speed_interval(vn: float, ve: float, sn: float, se: float) -> tuple[float, float, tuple | None]:
+    """(lowest, highest speed, (degrees the direction turns one way, the other) or None when it may be any) over
+    the 95 % ellipse of a velocity's components (each +- Z_95 sigma, their correlation not kept): under a quadratic
+    cost the range of a function of the parameters over that region is its profile interval. NaN when a sigma is."""
+    if not (math.isfinite(sn) and math.isfinite(se)):
+        return math.nan, math.nan, None
+    a = np.linspace(0.0, 2.0 * math.pi, 721)
+    n, e = vn + Z_95 * sn * np.cos(a), ve + Z_95 * se * np.sin(a)
+    speed = np.hypot(n, e)
+    inside = (vn / max(Z_95 * sn, 1e-300)) ** 2 + (ve / max(Z_95 * se, 1e-300)) ** 2 <= 1.0
+    if inside:
+        return 0.0, float(speed.max()), None
+    turn = np.degrees(np.angle(np.exp(1j * (np.arctan2(e, n) - math.atan2(ve, vn)))))  # from the estimate's
+    return float(speed.min()), float(speed.max()), (float(max(-turn.min(), 0.0)), float(max(turn.max(), 0.0)))
 
 
 class Current(Effect):
@@ -173,7 +200,10 @@ class WindForce(Effect):
 
 
 class Wind(Effect):
-    name, kind, multimodal = "wind", "force", True
+    name, kind, multimodal, speed_bounded = "wind", "force", True, True
+    # near no wind its curvature interval is read across the windage's switch (no wind, no force: the boat's own air
+    # drag comes on with any wind): a calm pond's "not ruled out" was wind.north_m_s -0.029 .. 0.029 m/s, which no
+    # data can say of a force that goes with the wind's square; intervals.speed_bound probes the speeds instead
     # the force goes with the air's velocity squared: a fit started near no wind went the wrong way (5 m/s from the
     # east fitted 4.3 m/s from the south-west at chi-square 7.4, the truth at 1.7): screened from a 3 x 3 grid
     # (from the four quadrants alone, 1 of 6 realistic draws was found)

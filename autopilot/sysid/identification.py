@@ -112,6 +112,7 @@ def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: in
     for note in cut:
         say(note)
     prep = prepare(trials, dt_s=dt_s)
+    cut = cut + outlier_notes(prep)
     x0_init = initial_states(prep)
     prep, base = baseline(prep, vessel, x0_init, s, say)
     scores = judge.Scores(prep, vessel, s.bounds)
@@ -304,6 +305,107 @@ def _honest_curvature(prep, vessel, fit: Fit, notes: list) -> Fit:
     return widened
 
 
+MAX_RUNS_SHOWN = 6  # outlier runs named per trial in a note (the rest counted)
+
+
+def outlier_runs(prep: Prepared, channel: str = "position") -> list[dict]:
+    """Per trial, the rejected samples of ``channel`` as runs of consecutive ones: ``{"trial", "t_s": [first,
+    last] on the file's clock, "count", "gated"}`` (``gated``: how many the daemon's fix gate refused)."""
+    out = []
+    for tr, m in zip(prep.trials, prep.measured):
+        s = m.get(channel)
+        if s is None or not s.rejected:
+            continue
+        step = float(np.median(np.diff(s.t_s))) if s.t_s.size > 1 else 1.0
+        t, gated = s.rejected_t_s, s.gated
+        cuts = np.flatnonzero(np.diff(t) > 1.5 * step) + 1  # a kept sample between: another run
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, t.size]):
+            out.append({"trial": tr.name, "t_s": [float(t[a] + tr.t0_s), float(t[b - 1] + tr.t0_s)],
+                        "count": int(b - a), "gated": int(gated[a:b].sum())})
+    return out
+
+
+def outlier_notes(prep: Prepared) -> list[str]:
+    """A note per trial naming the position fixes left out as outliers: how many, when (t_s of the file), how
+    many the daemon's fix gate refused. They were only counted in summary.json: a log with multipath bursts came
+    out ``unexplained`` and nothing pointed at the fixes."""
+    from autopilot.gnc.navigation import NavRules
+
+    rules = NavRules()
+    by_trial: dict = {}
+    for run in outlier_runs(prep):
+        by_trial.setdefault(run["trial"], []).append(run)
+    notes = []
+    for name, runs in by_trial.items():
+        total, gated = sum(r["count"] for r in runs), sum(r["gated"] for r in runs)
+        shown = [f"{r['t_s'][0]:.1f} s" if r["count"] == 1 else
+                 f"{r['t_s'][0]:.1f}-{r['t_s'][1]:.1f} s ({r['count']} in a row)" for r in runs[:MAX_RUNS_SHOWN]]
+        more = f" and {len(runs) - MAX_RUNS_SHOWN} more" if len(runs) > MAX_RUNS_SHOWN else ""
+        gate = (f"; {gated} of them beyond the daemon's fix gate ({rules.position_jump_m:g} m plus the speed over "
+                f"ground and {rules.jump_speed_margin_m_s:g} m/s times the time since the fix before: a jump no boat "
+                "makes, multipath?)" if gated else "")
+        what = f"{total} position fixes left out as GPS outliers" if total > 1 else "1 position fix left out as a GPS outlier"
+        notes.append(f"{name}: {what}, at t_s "
+                     f"{', '.join(shown)}{more}{gate}")
+    return notes
+
+
+MISFIT_SIGMAS = 5.0  # a fix this many robust sigmas off the run of the fit's residuals around it stands out
+MISFIT_SHARE = 0.2  # ... and those fixes holding this share of the squared position residual drive the misfit
+MISFIT_NEIGHBOURS = 15  # fixes a side whose median residual is the run a fix is judged against
+
+
+def misfit_outliers(prep: Prepared, vessel, fit: Fit) -> list[str]:
+    """A note when the position misfit of ``fit`` sits much in a few fixes that stand off the run of its
+    residuals around them (by MISFIT_SIGMAS robust sigmas of those steps and OUTLIER_POSITION_M) and hold
+    MISFIT_SHARE or more of the squared residual: GPS outliers the screens did not catch (a burst under the fix
+    gate's radius, longer than the model-free test sees) look like that; a missing effect moves the residuals
+    smoothly. A log with bursts of 10 fixes 20 m off came out ``unexplained``, and the notes said only that no
+    listed effect fitted."""
+    from autopilot.sysid.channels import POSITION
+    from autopilot.sysid.judge import predict_fit
+    from autopilot.sysid.prediction import OUTLIER_POSITION_M, channel_residuals
+
+    pred = predict_fit(prep, vessel, fit)
+    series = []
+    for run, i in enumerate(fit.trials):
+        parts = channel_residuals(prep, i, pred, [run], POSITION)
+        if not parts or parts[0].shape[1] < 2 * MISFIT_NEIGHBOURS:
+            continue
+        r = np.vstack([parts[0][0], parts[1][0]])
+        if not np.isfinite(r).all():
+            continue
+        k = MISFIT_NEIGHBOURS
+        level = np.array([np.median(r[:, max(j - k, 0):j + k + 1], axis=1) for j in range(r.shape[1])]).T
+        series.append((i, r, np.hypot(*(r - level))))
+    if not series:
+        return []
+    dev = np.concatenate([d for _, _, d in series])
+    limit = max(MISFIT_SIGMAS * 1.4826 * float(np.median(dev)), OUTLIER_POSITION_M)
+    runs, far_sq, all_sq = [], 0.0, 0.0
+    for i, r, d in series:
+        far = d > limit
+        far_sq += float(np.sum(d[far] ** 2))
+        all_sq += float(np.sum(r ** 2))
+        tr, t = prep.trials[i], prep.measured[i].get("position").t_s
+        edges = np.flatnonzero(np.diff(np.r_[0, far.astype(int), 0]))
+        for a, b in zip(edges[::2], edges[1::2]):
+            runs.append((tr.name, t[a] + tr.t0_s, t[b - 1] + tr.t0_s, b - a, float(d[a:b].min()), float(d[a:b].max())))
+    share = far_sq / max(all_sq, 1e-12)
+    if not runs or share < MISFIT_SHARE:
+        return []
+    shown = [f"{name} at t_s {a:.1f} s" if n == 1 else f"{name} at t_s {a:.1f}-{b:.1f} s ({n} in a row)"
+             for name, a, b, n, _, _ in runs[:MAX_RUNS_SHOWN]]
+    more = f" and {len(runs) - MAX_RUNS_SHOWN} more" if len(runs) > MAX_RUNS_SHOWN else ""
+    count = sum(run[3] for run in runs)
+    off = f"{min(run[4] for run in runs):.0f}-{max(run[5] for run in runs):.0f} m"
+    return [f"{share:.0%} of the position misfit of {'+'.join(fit.effects) or 'no effect'} sits in {count} fixes "
+            f"standing {off} off the residuals around them (the others within {limit:.1f} m): {', '.join(shown)}"
+            f"{more}. GPS outliers the screens did not catch (a multipath burst under the fix gate's radius) look "
+            "like this, a missing effect does not: check those fixes; if they are glitches, delete their rows and "
+            "run again"]
+
+
 def _few_trials(n_trials: int, fit, notes: list[str]) -> None:
     """Too few trials for the jackknife that widens the intervals (holdout.with_jackknife): say so."""
     if fit.keys:
@@ -354,6 +456,8 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
         worst = [ch for ch, c in adequacy.items() if not c["adequate"]]
         notes.append(f"no listed effect brings the {' and '.join(worst)} residual down to the noise: verdict unexplained"
                      + (f" (nearest: {', '.join(c['effect'] for c in nearest)})" if nearest else ""))
+        if "position" in worst:
+            notes += misfit_outliers(prep, vessel, fits[chosen])
     held_before = cv[()].rmse(prep, vessel)
     held_after = cv[chosen].rmse(prep, vessel) if chosen in cv else held_before
     from autopilot.sysid.judge import predict_fit
@@ -369,7 +473,7 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
         rmse_before={"fitted": fitted(base), "held_out": held_before},
         rmse_after={"fitted": fitted(fits[named]), "held_out": held_after if named else held_before},
         adequacy=adequacy, nearest=nearest, notes=notes,
-        not_excluded=not_excluded(fits, named, vessel) if status in ("none", "inconclusive") else [],
+        not_excluded=not_excluded(fits, named, vessel, prep) if status in ("none", "inconclusive") else [],
     )
 
 
@@ -392,20 +496,36 @@ def tied_singles(prep, vessel, fits: dict, chosen: tuple, scores, s: Settings) -
             and _delta_bic(scores, fits, k, chosen) < s.bic_margin]
 
 
-def not_excluded(fits: dict, named: tuple, vessel) -> list[dict]:
+def not_excluded(fits: dict, named: tuple, vessel, prep: Prepared | None = None) -> list[dict]:
     """Each fitted single candidate not named, with the 95 % interval of each parameter (SI, as the effect
     declares it, and as a named effect reports it: hydro_refit's as the coefficients' new values, ``null`` the
     vessel's own): what the trials cannot rule out (a "none" from one short log may still allow a 0.3 m/s
     current). Given as the change, hydro_refit's resistance read '0.0135..0.52 N s/m' beside a vessel of 14.07
-    (a sysid audit)."""
+    (a sysid audit).
+
+    An effect whose speed is bounded (``Effect.speed_bounded``: the wind), near no effect (its components' 95 %
+    ellipse holds zero, or they have no interval), with ``prep`` given: one row, ``<effect>.speed_m_s`` from 0 to
+    its probed upper bound (intervals.speed_bound; ``upper_bound``: true), in place of its components' intervals
+    (a symmetric "-0.029 .. 0.029 m/s" of each component, read across the windage's switch at no wind)."""
+    from autopilot.sysid.effects import speed_interval
+    from autopilot.sysid.intervals import speed_bound
+
     out = []
     for key, f in fits.items():
         if len(key) != 1 or key[0] in named:
             continue
+        eff = BY_NAME[key[0]]
+        if eff.speed_bounded and prep is not None:
+            v = f.values()
+            k_n, k_e = f.keys.index(f"{eff.name}.north_m_s"), f.keys.index(f"{eff.name}.east_m_s")
+            lo, _, _ = speed_interval(v[f.keys[k_n]], v[f.keys[k_e]], float(f.sigma[k_n]), float(f.sigma[k_e]))
+            if not lo > 0.0:  # zero inside, or NaN
+                out.append({"effect": eff.name, "param": f"{eff.name}.speed_m_s", "unit": "m/s", "null": 0.0,
+                            "ci95": [0.0, speed_bound(prep, vessel, f, eff.name)], "upper_bound": True})
+                continue
         for k, (lo, hi) in f.ci95().items():
             p = PARAM_BY_KEY[k]
             if math.isfinite(lo) and math.isfinite(hi):
-                eff = BY_NAME[key[0]]
                 shift = eff.reported(p.name, p.null, vessel) - p.null  # reported() is the change plus a constant
                 out.append({"effect": key[0], "param": k, "unit": p.unit, "null": p.null + shift,
                             "ci95": [lo + shift, hi + shift]})

@@ -19,7 +19,8 @@ The noise (s_w, s_g, tau) of a channel is shared by all trials (one receiver, on
 estimated by restricted maximum likelihood from a fitted model's residuals (:func:`estimate`,
 each series' mean removed as the initial state's offset absorbs it), inside the bounds a real
 sensor has (:class:`NoiseBounds`): a residual that needs more than that is model error, not noise.
-Outliers (single fixes and short bursts) are rejected before any fit, without a model (:func:`outliers`).
+Outliers (single fixes and short bursts) are rejected before any fit, without a model (:func:`outliers`),
+and before them the fixes the daemon's fix gate refuses, judged with hindsight (:func:`gated_fixes`).
 """
 
 from __future__ import annotations
@@ -237,7 +238,7 @@ def estimate(series, bounds: tuple, start: ChannelNoise | None = None, time_prio
 
 
 def outliers(t_s: np.ndarray, y: np.ndarray, *, neighbours: int, window_s: float, floor: float,
-             k: float = 6.0, skip: int = 0) -> np.ndarray:
+             k: float = 6.0, skip: int = 0, bad: np.ndarray | None = None) -> np.ndarray:
     """Outliers of a smooth series, without a model: each sample against a quadratic through its
     ``neighbours`` nearest valid neighbours within ``window_s`` (itself left out); flagged above
     max(k robust sigmas, ``floor``), the worst first, the others judged again without it.
@@ -248,9 +249,9 @@ def outliers(t_s: np.ndarray, y: np.ndarray, *, neighbours: int, window_s: float
     the plain fit through its own members, hiding the burst and flagging the clean fixes beside it,
     but not this one. A sample's score is the larger of its two errors, each over its own limit;
     flagged one at a time, a burst goes from the middle out, up to about 2 (skip + 1) fixes long.
-    Returns a boolean mask."""
+    ``bad``: samples already left out (no one's neighbour; flagged in the mask returned). Returns a boolean mask."""
     t, y = np.asarray(t_s, float), np.asarray(y, float)
-    bad = np.zeros(t.size, dtype=bool)
+    bad = np.zeros(t.size, dtype=bool) if bad is None else np.array(bad, dtype=bool)
     if t.size < neighbours + 4:
         return bad
     half = max(neighbours // 2, 1)
@@ -340,3 +341,80 @@ def white_scale(t_s: np.ndarray, y: np.ndarray, *, neighbours: int, window_s: fl
     if ok.sum() < 5:
         return None
     return float(1.4826 * np.median(np.abs(err[ok]) / np.sqrt(1.0 + gain[ok])))
+
+
+def gated_fixes(t_s: np.ndarray, north_m: np.ndarray, east_m: np.ndarray, sog_m_s: np.ndarray | None = None,
+                rules=None) -> np.ndarray:
+    """Fixes beyond the daemon's fix gate (:func:`autopilot.gnc.navigation.gate_fix`, its rule and its
+    ``NavRules``: a fix farther from the last one used than ``position_jump_m`` plus the receiver's speed over
+    ground and a margin times the time between them), judged with hindsight over the whole series. Returns a
+    boolean mask.
+
+    The series is cut where a fix fails the gate from the fix before it, or lies, an epoch after it, farther
+    from it than CUT_FRACTION of ``position_jump_m`` (a burst 28 m off passes on the speed allowance; a burst
+    20 m off inside one 35 m off leaves it by a step the gate passes, and uncut, the clean fixes after it
+    were left out with it). Each cut is a jump: the
+    step between the fixes beside it less the boat's own motion (the velocity of the fixes before it). The part
+    with the most fixes is the track; a part whose jumps from it add up to more than ``position_jump_m`` is left
+    out. On line the daemon believes a second fix that agrees with a refused one (the boat may have moved): a
+    multipath burst of several fixes 40 m off was refused at its first fix only, and the identification,
+    taking the rest, answered ``unexplained``. With hindsight the jump out and the jump back cancel, and the
+    fixes after the burst join the track again. ``sog_m_s``: the receiver's speed over ground at each fix;
+    where it has none, the median speed between the fixes around it (FIX_SPEED_NEIGHBOURS a side: a burst's two
+    jumps do not move the median; the daemon, without one, allows its largest speed, 10 m/s, and a 6-fix burst
+    30 m off passed: 25 m + 10 m/s x 1 s)."""
+    from autopilot.devices import Stamped
+    from autopilot.geo import local_to_latlon
+    from autopilot.gnc.navigation import NavMemory, NavRules, gate_fix
+
+    rules = rules or NavRules()
+    t = np.asarray(t_s, dtype=float)
+    north_m, east_m = np.asarray(north_m, dtype=float), np.asarray(east_m, dtype=float)
+    bad = np.zeros(t.size, dtype=bool)
+    if t.size < 3:
+        return bad
+    lat, lon = local_to_latlon(north_m, east_m, 0.0, 0.0)
+    sog = np.full(t.size, np.nan) if sog_m_s is None else np.array(sog_m_s, dtype=float)
+    if not np.isfinite(sog).all():
+        sog = np.where(np.isfinite(sog), sog, _fix_speeds(t, north_m, east_m))
+
+    def passes(i: int, j: int) -> bool:
+        """Fix j passes the gate with fix i, before it, the last one used."""
+        last = Stamped((float(lat[i]), float(lon[i])), float(t[i]), "GGA", True)
+        pos = Stamped((float(lat[j]), float(lon[j])), float(t[j]), "GGA", True)
+        memory = NavMemory(fix=last, judged_t_s=last.t_s, anchored_t_s=last.t_s, confirmed=True)
+        return gate_fix(pos, memory, rules, float(sog[j])).jump is None
+
+    dt = np.diff(t)
+    epoch_s = 1.5 * float(np.median(dt))
+    step = np.hypot(np.diff(north_m), np.diff(east_m))
+    cuts = [k for k in range(t.size - 1)
+            if (step[k] > CUT_FRACTION * rules.position_jump_m and dt[k] <= epoch_s) or not passes(k, k + 1)]
+    if not cuts:
+        return bad
+    ne = np.column_stack([north_m, east_m])
+    starts = [0] + [k + 1 for k in cuts]
+    parts = [np.arange(a, b) for a, b in zip(starts, starts[1:] + [t.size])]
+    jumps = []
+    for before, after in zip(parts, parts[1:]):
+        a, b = before[-1], after[0]
+        v = ((ne[a] - ne[a - 1]) / max(t[a] - t[a - 1], MIN_DT_S) if before.size > 1 else
+             (ne[b + 1] - ne[b]) / max(t[b + 1] - t[b], MIN_DT_S) if after.size > 1 else np.zeros(2))
+        jumps.append(ne[b] - ne[a] - v * (t[b] - t[a]))
+    offset = np.vstack([np.zeros(2), np.cumsum(jumps, axis=0)])  # each part's, from the first
+    track = max(range(len(parts)), key=lambda q: parts[q].size)
+    for q, part in enumerate(parts):
+        if np.hypot(*(offset[q] - offset[track])) > rules.position_jump_m:
+            bad[part] = True
+    return bad
+
+
+CUT_FRACTION = 0.5  # gated_fixes: a step of this share of position_jump_m within an epoch is a jump (a WAM-V: <= 4 m)
+FIX_SPEED_NEIGHBOURS = 5  # fix-to-fix speeds a side whose median stands in for a missing speed over ground
+
+
+def _fix_speeds(t: np.ndarray, north: np.ndarray, east: np.ndarray) -> np.ndarray:
+    """Per fix the median of the fix-to-fix speeds (m/s) within FIX_SPEED_NEIGHBOURS intervals a side."""
+    step = np.hypot(np.diff(north), np.diff(east)) / np.maximum(np.diff(t), MIN_DT_S)
+    k = FIX_SPEED_NEIGHBOURS
+    return np.array([float(np.median(step[max(i - k, 0):i + k])) for i in range(t.size)])

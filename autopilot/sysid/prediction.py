@@ -10,7 +10,8 @@ through their own hooks (:mod:`autopilot.sysid.effects`); this module names none
 Measurements are compared at the times they were measured (``Trial.position_time_s``,
 ``heading_time_s``; the prediction interpolated on the grid), weighted by the
 noise model of :mod:`autopilot.sysid.noise` (wandering + white, one per channel).
-Single-fix outliers are rejected here, before any fit, and counted.
+Outliers are rejected here, before any fit: the fixes beyond the daemon's fix gate (noise.gated_fixes), then
+single samples and short bursts without a model (noise.outliers); counted, and their times kept for the notes.
 
 Initial state of a run: (north_m, east_m, psi_rad, u_m_s, v_m_s, r_rad_s) at
 the trial's first row, u and v over ground (the shared state contract).
@@ -21,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -33,7 +34,7 @@ from autopilot.sysid.effects import (
     SENSED_EFFECTS,
     THRUST_EFFECTS,
 )
-from autopilot.sysid.noise import ChannelNoise, Whitener, outliers, white_scale
+from autopilot.sysid.noise import ChannelNoise, Whitener, gated_fixes, outliers, white_scale
 from autopilot.sysid.trials import Trial
 
 SCALAR_MAX_RUNS = 24  # below this many runs the scalar loop beats numpy batching
@@ -77,8 +78,10 @@ class Samples:
     t_s: np.ndarray  # (n,)
     values: np.ndarray  # (components, n), SI (the heading unwrapped as measured, wrapped in residuals)
     at: tuple[np.ndarray, np.ndarray]  # (grid index k, weight of k + 1)
-    rejected: int  # single-sample outliers rejected
+    rejected: int  # outliers rejected (single samples and bursts; the gated fixes among them)
     white: float | None  # model-free estimate of the white noise (noise.white_scale), None when too short
+    rejected_t_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  # when the rejected ones were measured
+    gated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))  # which of them the fix gate refused
 
     @property
     def size(self) -> int:
@@ -225,8 +228,10 @@ def _raw_samples(tr: Trial) -> dict:
 
 
 def _samples(channel: str, t: np.ndarray, values: np.ndarray, end_s: float, dt_s: float, size: int,
-             reject: bool) -> Samples:
-    """One channel's measurements inside the trial, in time order, outliers rejected (any component)."""
+             reject: bool, sog_m_s: np.ndarray | None = None) -> Samples:
+    """One channel's measurements inside the trial, in time order, outliers rejected (any component): for
+    positions first the fixes the daemon's fix gate refuses (noise.gated_fixes; ``sog_m_s`` per fix bounds the
+    speed), then the model-free test on the rest."""
     inside = (t >= 0.0) & (t <= end_s)
     t, values = t[inside], values[:, inside]
     order = np.argsort(t, kind="stable")
@@ -235,18 +240,25 @@ def _samples(channel: str, t: np.ndarray, values: np.ndarray, end_s: float, dt_s
         values = np.unwrap(values, axis=1)
     neighbours, window_s, floor = LOCAL_FIT[channel]
     bad = np.zeros(t.size, dtype=bool)
+    gated = np.zeros(t.size, dtype=bool)
     if reject:
+        if channel == "position":
+            gated = gated_fixes(t, values[0], values[1], None if sog_m_s is None else sog_m_s[inside][order])
+        bad |= gated
         for y in values:
-            bad |= outliers(t, y, neighbours=neighbours, window_s=window_s, floor=floor, skip=OUTLIER_SKIP[channel])
+            bad |= outliers(t, y, neighbours=neighbours, window_s=window_s, floor=floor, skip=OUTLIER_SKIP[channel],
+                            bad=gated)
+    rejected_t, gated = t[bad], gated[bad]
     t, values = t[~bad], values[:, ~bad]
     scales = [white_scale(t, y, neighbours=neighbours, window_s=window_s) for y in values]
     white = None if any(w is None for w in scales) else math.sqrt(sum(w * w for w in scales) / len(scales))
-    return Samples(t, values, _grid_weights(t, dt_s, size), int(bad.sum()), white)
+    return Samples(t, values, _grid_weights(t, dt_s, size), int(rejected_t.size), white, rejected_t, gated)
 
 
 def _measured(tr: Trial, dt_s: float, size: int, reject: bool) -> Measured:
     end = tr.t_s[-1]
-    return Measured({name: _samples(name, t, values, end, dt_s, size, reject)
+    sog = None if tr.sog_m_s is None else tr.sog_m_s[tr.fix_rows]  # the speed the receiver gave with each fix
+    return Measured({name: _samples(name, t, values, end, dt_s, size, reject, sog if name == "position" else None)
                      for name, (t, values) in _raw_samples(tr).items()})
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from autopilot.sysid.effects import BY_NAME
 from autopilot.sysid.fit import Fit
+from autopilot.sysid.identification import outlier_runs
 from autopilot.sysid.judge import noise_summary, predict_fit
 from autopilot.sysid.locate import locate
 
@@ -37,6 +38,8 @@ def _counts(prep) -> dict:
         for name, samples in m.series.items():
             key = f"rejected_{name}_outliers"
             total[key] = total.get(key, 0) + samples.rejected
+            if name == "position":  # of those, the fixes the daemon's fix gate refuses (noise.gated_fixes)
+                total["gated_position_fixes"] = total.get("gated_position_fixes", 0) + int(samples.gated.sum())
     return total
 
 
@@ -79,6 +82,8 @@ def summarise(ident, *, params_file: str = "", seconds: float | None = None) -> 
         "n_measurements": base.n_obs,
         "noise": noise_summary(prep.noise),
         "measurements": _counts(prep),
+        # the position fixes left out as outliers, per trial in runs (t_s: the first and last, on the file's clock)
+        "position_outliers": outlier_runs(prep),
         "locate": locate(prep, predict_fit(prep, ident.vessel, final), final.trials, range(len(final.trials))),
         "locate_baseline": locate(prep, predict_fit(prep, ident.vessel, base), base.trials, range(len(base.trials))),
         "notes": ident.notes,

@@ -7,19 +7,23 @@ Measurements as they were taken (issue 12, "Build" 1; the rules agreed with
 time it was measured (``position_time_s`` / ``heading_time_s`` of the
 :class:`Trial`, NaN on the rows that carry none):
 
-- a row whose position cells are empty, or repeat the previous fix, is not a new
-  fix (a GPS gives a fix a second; a 10 Hz log repeats it on every row between:
-  a held fix is ~0.45 s old on average and fitted as new it mimics an antenna
-  aft of the centre); the fix was measured at ``position_time_s`` when the file
+- a row whose position cells are empty is not a new fix, nor is one whose fix
+  time (``position_time_s``) did not advance, nor, on a row without a fix time,
+  one that repeats the previous fix (a GPS gives a fix a second; a 10 Hz log
+  repeats it on every row between: a held fix is ~0.45 s old on average and
+  fitted as new it mimics an antenna aft of the centre). With a fix time the time
+  alone decides: at rest a receiver gives new fixes with the same coordinates.
+  The fix was measured at ``position_time_s`` when the file
   has it, else half a row before the row where it first appears (it arrived at
   some moment since the row before: dated at the row, a fix is on average half a
   row late, which the speed and course over ground measured with it feel most:
   a turning boat's velocity changes by a few cm/s in 50 ms);
 - with a ``heading_time_s`` column, a heading whose time did not advance is
   held, not new; without it every heading cell is a measurement at its row;
-- a speed and course over ground are new where they change (a receiver sends them
-  once an epoch, in RMC/VTG, often a sentence after the epoch's GGA: the row of a new
-  fix may still hold the last epoch's), measured with the latest fix at or before
+- a speed and course over ground are new where they change or follow an empty cell (a
+  receiver sends them once an epoch, in RMC/VTG, often a sentence after the epoch's GGA:
+  the row of a new fix may still hold the last epoch's), and once each epoch where they
+  stay unchanged through STEADY_EPOCHS epochs (at rest, or steady), measured with the latest fix at or before
   their row (one epoch, one solution), or, a whole epoch or more after that fix, in their own epoch
   (its fix was lost: the latest fix's time plus whole epochs); fewer than MIN_VELOCITIES: no velocity channel;
 - rows the caller excludes (``make_trial(exclude=...)``: a mission log's
@@ -51,6 +55,7 @@ MIN_FIXES = 8  # new position fixes (a 1 Hz GPS: eight seconds)
 MIN_HEADINGS = 20
 MIN_VELOCITIES = 8  # new speed/course pairs for a velocity channel (eight seconds of a 1 Hz receiver)
 SAME_TIME_S = 1e-4  # a measurement time that moved less than this did not advance
+STEADY_EPOCHS = 2  # a speed/course pair unchanged through this many epochs is a reading each epoch (new_velocities)
 OPTIONAL_ROW_COLUMNS = ("sog_m_s", "cog_deg", "rot_deg_s")
 
 
@@ -81,6 +86,7 @@ class Trial:
     commands_held: bool = False  # a row missing between two rows: the motors held the command (mission logs)
     counts: dict = field(default_factory=dict)
     read_notes: tuple = ()  # what reading the file skipped, in words (a mission log's damaged lines)
+    t0_s: float = 0.0  # the file's t_s of the first row (t_s here starts at 0): how notes name a time in the file
 
     @property
     def duration_s(self) -> float:
@@ -182,17 +188,24 @@ def _increasing_rows(t: np.ndarray) -> np.ndarray:
 
 
 def new_fixes(north_m: np.ndarray, east_m: np.ndarray, t_row_s: np.ndarray, fix_time_s: np.ndarray | None):
-    """(is_new, fix_time_s) per row: a fix is new when its cells are set and differ from the last fix."""
+    """(is_new, fix_time_s) per row: a fix is new when its cells are set and its fix time advanced past the last
+    fix's; on a row without a fix time, when its cells differ from the last fix (and its row is later).
+
+    With a fix time the time alone decides: a boat at rest at the dock or keeping station, its receiver's
+    coordinates printed to a finite resolution (or pinned by a static hold), gives new fixes with the
+    coordinates of the one before. Dropped as held, a 30-s stay's 30 fixes were one, 39 fixes of a 70-s trial's 70
+    kept (tests/test_sysid_real_logs.py)."""
     is_new = np.zeros(t_row_s.size, dtype=bool)
     times = np.full(t_row_s.size, np.nan)
     last_ne, last_t = None, -math.inf
     for k in np.flatnonzero(np.isfinite(north_m) & np.isfinite(east_m)):
         ne = (north_m[k], east_m[k])
-        if fix_time_s is not None and math.isfinite(fix_time_s[k]):
+        timed = fix_time_s is not None and math.isfinite(fix_time_s[k])
+        if timed:
             t = fix_time_s[k]
         else:  # it arrived at some moment since the row before: the middle, not the row's end
             t = t_row_s[k] - 0.5 * (t_row_s[k] - t_row_s[k - 1] if k > 0 else 0.0)
-        if ne == last_ne or t <= last_t + SAME_TIME_S:
+        if (ne == last_ne and not timed) or t <= last_t + SAME_TIME_S:
             continue
         is_new[k], times[k] = True, t
         last_ne, last_t = ne, t
@@ -216,13 +229,22 @@ def new_headings(heading: np.ndarray, t_row_s: np.ndarray, heading_time_s: np.nd
 
 def new_velocities(sog: np.ndarray | None, cog: np.ndarray | None, fix_new: np.ndarray, fix_time_s: np.ndarray,
                    t_row_s: np.ndarray):
-    """(is_new, time_s) per row: a speed/course pair is new where it changes, measured in the epoch of the
-    latest fix at or before its row (module docstring); none before the first fix.
+    """(is_new, time_s) per row: a speed/course pair is new where it changes, or where it follows an empty cell (a
+    log that writes each pair once), measured in the epoch of the latest fix at or before its row (module
+    docstring); none before the first fix.
 
     A pair that arrives a whole epoch (the median interval between fixes) or more after the latest fix is of a
     later epoch whose fix was lost (a GGA garbled on the line, the RMC after it intact): it is dated on the
     epochs' grid, the latest fix's time plus whole epochs. Given the lost fix's time, one course measured at
     38.1 s was fitted as if at 37.1 s, a degree off in a turn, and the sensor delay came out 0.10 s for 0.14 s.
+
+    A pair held unchanged through STEADY_EPOCHS epochs or more is a steady reading, one measurement each epoch
+    that has its fix (dated with it, on the epoch's last row): a boat at rest (a receiver prints 0.00 kn and holds its
+    course) or at a speed and course steady to the print's resolution reports the same pair every epoch. Taken
+    only where it changed, a 30-s stay gave one pair (tests/test_sysid_real_logs.py). Unchanged through one
+    epoch only, it is not taken: there a lost RMC (the pair of the epoch before, held) is likelier than a
+    repeat (0.01 kn and 0.1 deg repeat by chance about once in a thousand epochs at cruise), and dated an
+    epoch late it is a turn's second of course wrong.
     """
     n = fix_new.size
     is_new, times = np.zeros(n, dtype=bool), np.full(n, np.nan)
@@ -231,14 +253,33 @@ def new_velocities(sog: np.ndarray | None, cog: np.ndarray | None, fix_new: np.n
     fix_times = fix_time_s[fix_new]
     epoch_s = float(np.median(np.diff(fix_times))) if fix_times.size >= 3 else math.inf
     last_fix_t = _forward_fill_after(np.where(fix_new, fix_time_s, np.nan))
-    last = None
-    for k in np.flatnonzero(np.isfinite(sog) & np.isfinite(cog) & np.isfinite(last_fix_t)):
-        pair = (sog[k], cog[k])
-        if pair == last:
-            continue
+    has_pair = np.isfinite(sog) & np.isfinite(cog)
+    last, taken_epoch = None, None
+    steady: list[list] = []  # [epoch time, its last row] of the epochs since the last pair taken, the pair unchanged
+
+    def take(k: int, epoch_t: float) -> None:
+        is_new[k], times[k] = True, min(epoch_t, t_row_s[k])
+
+    def end_steady(changed_in: float | None) -> None:
+        run = [e for e in steady if e[0] != changed_in]  # the epoch of a change had its own pair
+        if len(run) >= STEADY_EPOCHS:
+            for epoch_t, k in run:
+                take(k, epoch_t)
+        steady.clear()
+
+    for k in np.flatnonzero(has_pair & np.isfinite(last_fix_t)):
         epochs_later = math.floor((t_row_s[k] - last_fix_t[k]) / epoch_s) if epoch_s > 0.0 else 0
-        is_new[k], last = True, pair
-        times[k] = min(last_fix_t[k] + max(epochs_later, 0) * epoch_s, t_row_s[k])
+        epoch_t = last_fix_t[k] + max(epochs_later, 0) * epoch_s
+        pair = (sog[k], cog[k])
+        if pair != last or k == 0 or not has_pair[k - 1]:
+            end_steady(epoch_t)
+            take(k, epoch_t)
+            last, taken_epoch = pair, epoch_t
+        elif steady and steady[-1][0] == epoch_t:
+            steady[-1][1] = k
+        elif epoch_t != taken_epoch and epochs_later <= 0:  # an epoch without its fix: its sentences lost?
+            steady.append([epoch_t, k])
+    end_steady(None)
     return is_new, times
 
 
@@ -333,6 +374,7 @@ def make_trial(
         commands_held=commands_held,
         counts=counts,
         read_notes=_coarse_rows_note(t_sel, heading_time_s is not None),
+        t0_s=float(t0),
     )
 
 
@@ -549,7 +591,7 @@ def window(tr: Trial, start: float, window_s: float) -> Trial | None:
         times.append("velocity_time_s")
     for name in times:
         fields[name] = fields[name] - start
-    return dataclasses.replace(tr, name=f"{tr.name}@{start - tr.t_s[0]:.0f}s", **fields)
+    return dataclasses.replace(tr, name=f"{tr.name}@{start - tr.t_s[0]:.0f}s", t0_s=tr.t0_s + start, **fields)
 
 
 LONG_TRIAL_S = 150.0  # a trial longer than this is cut into pieces (cut_long)
