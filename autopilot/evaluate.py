@@ -270,6 +270,8 @@ def run_closed_loop(
         for _ in range(flight.substeps):
             x = step(params, x, thrust[0], thrust[1], dt_s, t_s=t, env=env, external_force=external_force)
             t += dt_s
+        if not math.isfinite(x.sum()):  # a set too stiff for the step: it was "internal error: ValueError: NavInput"
+            raise FloatingPointError("the simulation diverged (NaN or infinite state); check the parameters and dt_s")
     return flight.result(t, mission=mission, condition=condition)
 
 
@@ -395,25 +397,11 @@ HEADER = (
 
 
 def _gnc_config(path):
-    """The GNC settings of ``path``: a file of GncConfig keys, or one with a ``gnc:`` section (the daemon's
-    configuration, which `autopilot files` ships: it was refused as "ais: unknown key", so a tuned gnc block
-    could not be evaluated without copying it out by hand)."""
-    from autopilot.gnc import GncConfig
-    from autopilot.schema import load, load_yaml
-    from autopilot.userfile import parse_yaml, read_text
+    """The GNC settings of ``path`` (:func:`autopilot.gnc.cli.load_gnc_config`: GncConfig keys, or the daemon's
+    configuration with its ``gnc:`` section)."""
+    from autopilot.gnc.cli import load_gnc_config
 
-    try:
-        data = parse_yaml(read_text(path, what="YAML file"))
-    except Exception:  # noqa: BLE001 - load_yaml below says what is wrong with it, naming the file
-        data = None
-    if isinstance(data, dict) and "gnc" in data:
-        from autopilot.daemon.config import DaemonConfig
-
-        try:  # the whole daemon configuration checked, its gnc section taken
-            return load(DaemonConfig, data).gnc
-        except ConfigError as exc:
-            raise ConfigError(f"{path}: {exc}") from None
-    return load_yaml(GncConfig, path)
+    return load_gnc_config(path)
 
 
 def _mission_arg(given: str) -> Path:
@@ -451,24 +439,34 @@ def _cmd(args: argparse.Namespace) -> int:
         if args.guidance:  # ignored without a word too: the suite flies the configuration's law
             raise ConfigError(f"--guidance is not for --traffic: the encounter suite flies the configuration's law "
                               f"({base.guidance.law}); give another with --config (guidance: law:)")
-        return _traffic(args, params, base, list(dict.fromkeys(args.condition or TRAFFIC_CONDITIONS)))
-    if args.plot:
+        try:
+            return _traffic(args, params, base, list(dict.fromkeys(args.condition or TRAFFIC_CONDITIONS)))
+        except FloatingPointError:
+            from autopilot.sim.params import diverged_error
+
+            raise diverged_error(args.vessel or default_params_path(), SIM_DT_S) from None
+    if args.plot is not None:  # --plot "" (an unset shell variable) drew nothing and said nothing
         from autopilot.userfile import output_dir
 
         output_dir(args.plot, what="--plot")
     runs = evaluate(missions, laws, conds, params=params, base_config=base, record=bool(args.plot))
     if not args.json:
         print(HEADER)
-    for r in runs:
-        if args.json:
-            print(json.dumps(r.as_json()))
-        else:
-            print(format_row(r))
-        sys.stdout.flush()
-        if args.plot:
-            from autopilot.gnc.plots import plot_run
+    try:
+        for r in runs:
+            if args.json:
+                print(json.dumps(r.as_json()))
+            else:
+                print(format_row(r))
+            sys.stdout.flush()
+            if args.plot:
+                from autopilot.gnc.plots import plot_run
 
-            plot_run(r, Path(args.plot) / f"{r.mission}-{r.guidance}-{r.condition}.png")
+                plot_run(r, Path(args.plot) / f"{r.mission}-{r.guidance}-{r.condition}.png")
+    except FloatingPointError:  # the vessel set's, not a bug of ours: name the file and what to look at
+        from autopilot.sim.params import diverged_error
+
+        raise diverged_error(args.vessel or default_params_path(), SIM_DT_S) from None
     return 0
 
 

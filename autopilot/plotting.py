@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["pyplot", "track_frame", "MAX_EQUAL_ASPECT"]
+__all__ = ["pyplot", "track_frame", "MAX_EQUAL_ASPECT", "MIN_TRACK_SPAN_M"]
 
 MAX_EQUAL_ASPECT = 8.0  # a track longer than this many times its width is drawn stretched, not as a strip
+# A track that stays within this (a boat spinning in place) is drawn in a square this wide round it: matplotlib
+# scaled the axes to the data, and `model manoeuvre spin` showed floating-point noise as circles 1e-11 m across.
+MIN_TRACK_SPAN_M = 2.0
 
 
 def pyplot():
@@ -35,7 +38,13 @@ def track_frame(ax, north_m, east_m, *, title: str = "") -> None:
     long_side, short_side = max(span_n, span_e), max(min(span_n, span_e), 1.0)
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
-    if long_side / short_side <= MAX_EQUAL_ASPECT:
+    if ok.any() and long_side < MIN_TRACK_SPAN_M:
+        mid_n = 0.5 * (float(n[ok].min()) + float(n[ok].max()))
+        mid_e = 0.5 * (float(e[ok].min()) + float(e[ok].max()))
+        ax.set_xlim(mid_e - MIN_TRACK_SPAN_M / 2, mid_e + MIN_TRACK_SPAN_M / 2)
+        ax.set_ylim(mid_n - MIN_TRACK_SPAN_M / 2, mid_n + MIN_TRACK_SPAN_M / 2)
+        ax.set_aspect("equal", adjustable="box")
+    elif long_side / short_side <= MAX_EQUAL_ASPECT:
         ax.set_aspect("equal", adjustable="datalim")
     else:
         title = (title + " " if title else "") + "(axes not to the same scale)"

@@ -157,12 +157,15 @@ def simulate(
     if batched:
         x = tuple(np.array(x0_arr[:, k]) for k in range(6))
         out[:, 0, :] = x0_arr
-        for k in range(t.size - 1):
-            h = (t[k + 1] - t[k]) / steps[k]
-            p_k, s_k = tp[:, k], ts[:, k]
-            for j in range(steps[k]):
-                x = _rk4(rhs, t[k] + j * h, h, x, p_k, s_k)
-            out[:, k + 1, :] = np.stack(x, axis=-1)
+        # a run that blows up is found below and said once; numpy's overflow warnings on the way printed
+        # "RuntimeWarning: overflow encountered in multiply" and a line of model.py above that message
+        with np.errstate(over="ignore", invalid="ignore"):
+            for k in range(t.size - 1):
+                h = (t[k + 1] - t[k]) / steps[k]
+                p_k, s_k = tp[:, k], ts[:, k]
+                for j in range(steps[k]):
+                    x = _rk4(rhs, t[k] + j * h, h, x, p_k, s_k)
+                out[:, k + 1, :] = np.stack(x, axis=-1)
     else:
         x = tuple(float(c) for c in x0_arr)
         out[0] = x

@@ -22,11 +22,16 @@ from autopilot.sim.params import VesselParams
 from autopilot.userfile import writing
 
 NAMES = ("speed", "zigzag", "spin", "<two letters, e.g. AF, BD, Fb>")
+DEFAULT_DT_S = 0.05
+MAX_DURATION_S = 3600.0
+TURN_TAIL_S = 30.0  # a turning test's steady figures are the mean over its last 30 s
+ZIGZAG_REVERSALS = 4  # overshoots a zig-zag reports
 
 
 @dataclass(frozen=True)
 class ManoeuvreResult:
-    """Time histories and the figures of a manoeuvre."""
+    """Time histories and the figures of a manoeuvre; ``warnings``: why a figure is not what its name says
+    (a run too short to settle, a zig-zag with fewer reversals than asked)."""
 
     name: str
     t_s: np.ndarray
@@ -34,6 +39,31 @@ class ManoeuvreResult:
     thrust_port_n: np.ndarray
     thrust_stbd_n: np.ndarray
     figures: dict
+    warnings: tuple[str, ...] = ()
+
+
+def still_changing(params: VesselParams, t_s: np.ndarray, series) -> bool:
+    """True when a run ends before its steady state: a value's mean over the last AVERAGE_OVER_S differs from
+    the one before by more than SETTLED_REL, scaled by the surge time constant as ``model check`` does
+    (``series``: (values, the smallest magnitude that counts) pairs). A run shorter than two windows is."""
+    from autopilot.sim.steady import AVERAGE_OVER_S, SETTLED_REL
+
+    if t_s[-1] - t_s[0] < 2 * AVERAGE_OVER_S:
+        return True
+    last = t_s >= t_s[-1] - AVERAGE_OVER_S
+    before = (t_s >= t_s[-1] - 2 * AVERAGE_OVER_S) & ~last
+    r1 = params.resistance_linear_n_s_m
+    ahead = max(1.0, (params.mass_x_kg / r1 if r1 > 0 else MAX_DURATION_S) / AVERAGE_OVER_S)
+    for values, floor in series:
+        now, then = float(np.mean(values[last])), float(np.mean(values[before]))
+        if ahead * abs(now - then) > SETTLED_REL * max(abs(now), floor):
+            return True
+    return False
+
+
+def _not_steady(name: str, duration_s: float) -> str:
+    return (f"{name}: still changing at the end of the {duration_s:g} s run: its figures are not a steady state "
+            f"(give a longer --duration-s)")
 
 
 def _is_letter_pair(name: str) -> bool:
@@ -54,8 +84,12 @@ def _turning_figures(out: dict, t: np.ndarray) -> dict:
     }
 
 
-def run(params: VesselParams, name: str, *, duration_s: float | None = None, dt_s: float = 0.05, zigzag_angle_deg: float = 20.0, zigzag_differential_n: float = 20.0) -> ManoeuvreResult:
-    """Simulate a named manoeuvre from rest (speed, spin, two-letter turn) or from steady speed (zig-zag)."""
+def run(params: VesselParams, name: str, *, duration_s: float | None = None, dt_s: float = DEFAULT_DT_S, zigzag_angle_deg: float = 20.0, zigzag_differential_n: float = 20.0) -> ManoeuvreResult:
+    """Simulate a named manoeuvre from rest (speed, spin, two-letter turn) or from steady speed (zig-zag).
+    ``duration_s`` within [dt_s, MAX_DURATION_S] (a zig-zag of 0.01 s stopped on an IndexError)."""
+    if duration_s is not None and not (dt_s <= duration_s <= MAX_DURATION_S):
+        raise ValueError(f"duration_s: {duration_s:g} is outside the allowed range [{dt_s:g}, {MAX_DURATION_S:g}] s "
+                         f"(at least one {dt_s:g} s step)")
     if name == "speed":
         duration = duration_s or 120.0
         t = np.arange(0.0, duration + dt_s / 2, dt_s)
@@ -63,9 +97,12 @@ def run(params: VesselParams, name: str, *, duration_s: float | None = None, dt_
         out = simulate(params, t, tp, tp, dt_s=dt_s)
         u = out["u_m_s"]
         u_end = float(u[-1])
-        rise = t[np.argmax(u >= 0.632 * u_end)] if u_end > 0 else math.nan
-        figures = {"final_speed_m_s": round(u_end, 5), "time_constant_s": round(float(rise), 3)}
-        return ManoeuvreResult(name, t, out, tp, tp, figures)
+        # None, not NaN, when the boat never moved: --json printed "time_constant_s": NaN, which is not JSON
+        rise = round(float(t[np.argmax(u >= 0.632 * u_end)]), 3) if u_end > 0 else None
+        figures = {"final_speed_m_s": round(u_end, 5), "time_constant_s": rise}
+        # a 5 s run printed "final speed 0.80 m/s, time constant 3.05 s" (3.47 and 19 s settled) without a word
+        warnings = (_not_steady(name, duration),) if still_changing(params, t, ((u, 0.05),)) else ()
+        return ManoeuvreResult(name, t, out, tp, tp, figures, warnings)
     if name == "spin":
         name = "Ff"
     if _is_letter_pair(name):
@@ -74,15 +111,29 @@ def run(params: VesselParams, name: str, *, duration_s: float | None = None, dt_
         tp = np.full(t.size, level_thrust_n(name[0]))
         ts = np.full(t.size, level_thrust_n(name[1]))
         out = simulate(params, t, tp, ts, dt_s=dt_s)
-        return ManoeuvreResult(name, t, out, tp, ts, _turning_figures(out, t))
+        speed = np.hypot(out["u_m_s"], out["v_m_s"])
+        # AF for 1 s printed "steady" 0.045 m/s and a 2.78 m turning circle (1.50 m/s, 4.25 m settled)
+        warnings = (_not_steady(name, duration),) if (duration < 2 * TURN_TAIL_S or still_changing(
+            params, t, ((speed, 0.05), (out["r_rad_s"], 0.01)))) else ()
+        return ManoeuvreResult(name, t, out, tp, ts, _turning_figures(out, t), warnings)
     if name == "zigzag":
         return _zigzag(params, duration_s or 120.0, dt_s, zigzag_angle_deg, zigzag_differential_n)
     raise ValueError(f"manoeuvre {name!r}: expected one of speed, zigzag, spin or two command letters A-F/a-f such as AF, BD, Fb")
 
 
+def steady_speed_m_s(params: VesselParams, thrust_each_n: float) -> float:
+    """Steady straight-line speed with ``thrust_each_n`` on both thrusters: (1 - t_P) 2 T = r1 U + r2 U^2
+    (SPEC 5). With the linear term alone it read r1 U and divided by zero on a set fitted quadratic."""
+    force = (1 - params.thrust_deduction) * 2 * thrust_each_n
+    r1, r2 = params.resistance_linear_n_s_m, params.resistance_quadratic_n_s2_m2
+    if r2 == 0:
+        return force / r1
+    return (-r1 + math.sqrt(r1 * r1 + 4 * r2 * force)) / (2 * r2)
+
+
 def _zigzag(params: VesselParams, duration_s: float, dt_s: float, angle_deg: float, differential_n: float) -> ManoeuvreResult:
     common_n = 0.5 * params.max_thrust_n
-    speed0 = (1 - params.thrust_deduction) * 2 * common_n / params.resistance_linear_n_s_m
+    speed0 = steady_speed_m_s(params, common_n)
     x = np.array([0.0, 0.0, 0.0, speed0, 0.0, 0.0])
     n_steps = int(round(duration_s / dt_s))
     t = np.arange(n_steps + 1) * dt_s
@@ -103,15 +154,23 @@ def _zigzag(params: VesselParams, duration_s: float, dt_s: float, angle_deg: flo
         tp_hist[k], ts_hist[k] = tp, ts
         x = step(params, x, tp, ts, dt_s, t_s=t[k], env=CALM)
         hist[k + 1] = x
+    if not np.all(np.isfinite(hist)):  # simulate() says so; stepping by hand, a stiff set printed "overshoot_deg = []"
+        raise FloatingPointError("the simulation diverged (NaN or infinite state); check the parameters and dt_s")
     overshoots = zigzag_overshoots_deg(hist[:, 2], switches, angle_deg)
     tp_hist[-1], ts_hist[-1] = tp_hist[-2], ts_hist[-2]
     out = {"t_s": t, **{n: hist[:, i] for i, n in enumerate(STATE_NAMES)}}
     figures = {
         "angle_deg": angle_deg,
         "differential_thrust_n": differential_n,
-        "overshoot_deg": [round(o, 3) for o in overshoots[:4]],
+        "overshoot_deg": [round(o, 3) for o in overshoots[:ZIGZAG_REVERSALS]],
     }
-    return ManoeuvreResult("zigzag", t, out, tp_hist, ts_hist, figures)
+    warnings = ()
+    if len(overshoots) < ZIGZAG_REVERSALS:  # "overshoot_deg = []" alone did not say why
+        warnings = (f"zigzag: {len(overshoots)} of {ZIGZAG_REVERSALS} reversals completed in the {duration_s:g} s "
+                    f"run, so {len(overshoots)} overshoots; give a longer --duration-s"
+                    + (f" (or a larger --differential-n: the heading never reached {angle_deg:g} deg)" if not switches
+                       else ""),)
+    return ManoeuvreResult("zigzag", t, out, tp_hist, ts_hist, figures, warnings)
 
 
 def zigzag_overshoots_deg(psi_rad: np.ndarray, switches, angle_deg: float) -> list[float]:

@@ -82,6 +82,11 @@ def nomoto(params: VesselParams, speed_m_s: float) -> NomotoModel:
     q3 = y_v * n_r - n_v * (y_r - m_x)
     q4 = -n_p * y_v
     q5 = m_y * n_p
+    if q4 == 0:  # Y'_v = 0: was a ZeroDivisionError in T3 = q5/q4 ("internal error" from `model nomoto`)
+        raise ValueError("y_v_nd = 0 and sway_damping_linear_n_s_m = 0: the linear model has no sway damping, so "
+                         "a steady turn cannot hold its side-slip and there is no Nomoto model (K' = q4/q3 = 0, "
+                         "T'3 = q5/q4 undefined; SPEC 3); give y_v_nd a negative value or "
+                         "sway_damping_linear_n_s_m a positive one")
     if q3 == 0:
         raise ValueError(f"the linear model is marginally course-stable at {u} m/s (q3 = 0): no Nomoto gain")
     # q3 < 0 (course-unstable) gives a negative T1, as for unstable ships; callers decide.

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from autopilot.measured import HULL_LENGTH_M, MAX_THRUST_N
 from autopilot.resources import default_params_path, thesis_params_path  # noqa: F401 - the model's files, re-exported
-from autopilot.schema import load_yaml, param
+from autopilot.schema import ConfigError, load_yaml, param
 
 _T51 = "Table 5.1 (x 1e-3 as printed)"
 _ZERO_SPEED = "project: damping at zero speed (SPEC 3, file 003 Eq 4-6); MMG terms vanish with U"
@@ -100,10 +100,67 @@ class VesselParams:
         return self.yaw_inertia_kg_m2 * (1.0 + self.added_inertia_ratio)
 
 
+# Each axis needs a damping term: any one field below may be 0 (a set fitted without it), but with all of an
+# axis's at 0 a steady thrust or moment speeds the boat up without bound. Such a set used to load:
+# `model manoeuvre speed` printed 21.8 m/s, AF and `model check` stopped on "internal error: the simulation
+# diverged", the zig-zag on a division by zero, and `evaluate` flew it without a word.
+# Sway is not among them: with all its terms at 0 the simulated boat stays bounded (side-slip is turned into
+# surge, which the resistance damps); with yaw's at 0 a constant moment spins it ever faster (-4 rad/s after
+# 200 s of AC, -20 after 1000 s).
+# axis -> the fields that damp it, each with the sign that damps (an MMG derivative damps when negative)
+DAMPING_FIELDS = {
+    "surge": (("resistance_linear_n_s_m", 1.0), ("resistance_quadratic_n_s2_m2", 1.0)),
+    "yaw": (("n_r_nd", -1.0), ("yaw_damping_linear_nm_s", 1.0), ("yaw_damping_quadratic_nm_s2", 1.0)),
+}
+
+
+def undamped_axis(params: VesselParams) -> str | None:
+    """A message naming the first axis of ``params`` that nothing damps, or None when every axis has a term."""
+    for axis, fields in DAMPING_FIELDS.items():
+        if all(sign * getattr(params, name) <= 0.0 for name, sign in fields):
+            values = ", ".join(f"{name} = {getattr(params, name):g}" for name, _ in fields)
+            how = ("a positive value (SPEC 5: R/U = 14.05-14.10 N s/m was measured)" if axis == "surge" else
+                   f"a damping value ({fields[0][0]} negative, the others positive)")
+            return (f"{values}: nothing damps {axis}, so a steady {'moment' if axis == 'yaw' else 'force'} would "
+                    f"speed the boat up without bound; give one of them {how}")
+    return None
+
+
 def load_params(path: str | Path) -> VesselParams:
-    """Load a vessel parameter YAML file (refuses unknown and missing keys, NaN, out-of-range values).
+    """Load a vessel parameter YAML file (refuses unknown and missing keys, NaN, out-of-range values,
+    and a set with an axis that nothing damps).
 
     Every parameter must be given: a file with ``n_r_nd`` left out used to fly with the thesis's value
     in its place (yaw-rate error 13 % -> 96 % in ``model check``), and one with only ``mass_kg`` as
     the thesis's boat."""
-    return load_yaml(VesselParams, path, require_all=True)
+    from autopilot.userfile import other_file_kind
+
+    try:
+        params = load_yaml(VesselParams, path, require_all=True)
+    except ConfigError as exc:
+        # the daemon's configuration or a mission given as the vessel file was refused as "ais: unknown key"
+        # with the 34 vessel keys listed, not a word on what the file was
+        what = other_file_kind(path)
+        if what is not None and not what.startswith("a vessel") and ": unknown key (allowed: " in str(exc):
+            where = ("its sim.vessel names the vessel file" if what.startswith("a daemon")
+                     else "a vessel file is vessel.yaml or vessel-thesis.yaml, `autopilot files`")
+            unknown = str(exc).split(" (allowed: ", 1)[0]
+            raise ConfigError(f"{unknown}; {path} is {what}, not a vessel parameter set ({where})") from None
+        raise
+    problem = undamped_axis(params)
+    if problem is not None:
+        raise ConfigError(f"{path}: {problem}")
+    return params
+
+
+def diverged_error(path: str | Path, dt_s: float) -> ConfigError:
+    """The ConfigError for a simulation of the vessel set in ``path`` that blew up at the step ``dt_s``.
+
+    Every field can be within its range and the set still too stiff for a fixed RK4 step: a 1-kg boat
+    under the shipped cross-flow damping (653 N s^2/m^2) has a sway time constant of milliseconds. That
+    was "internal error: FloatingPointError ... (a bug: please report it)"; it is the set's, and fixable."""
+    return ConfigError(
+        f"{path}: the simulation of this vessel set diverged (a state grew without bound at the {dt_s:g} s step): "
+        "a mass or inertia small against its damping (mass_kg, yaw_inertia_kg_m2 against the sway_damping_* and "
+        "yaw_damping_* terms) makes the model too stiff for the simulator's fixed step; check those values "
+        "against the shipped vessel.yaml (`autopilot files`)")
