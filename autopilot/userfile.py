@@ -163,6 +163,7 @@ METRES = ("m", "metre", "metres", "meter", "meters")
 DEGREES = ("deg", "°", "degree", "degrees", "dd", "decimal degrees")
 METRES_PER_SECOND = ("m/s", "m s-1", "ms-1", "m*s-1")
 DEGREES_PER_SECOND = ("deg/s", "°/s", "deg s-1", "degrees/s")
+RADIANS_PER_SECOND = ("rad/s", "rad s-1", "radians/s")
 NEWTONS = ("n", "newton", "newtons")
 PERCENT = ("%", "pct", "percent")
 

@@ -53,8 +53,20 @@ MIN_MOVING_ROWS = 3  # rows with a speed above 0: the rows table_residuals compa
 
 
 def read_table_csv(path) -> tuple[SteadyRow, ...]:
-    """Read a steady-state table CSV."""
-    from autopilot.userfile import csv_rows, number_cell, read_text, too_many_fields, unique_header
+    """Read a steady-state table CSV (a row of units under the header is checked against the columns' and skipped:
+    it was refused as "data row 1, thrust_port_n: 'N' is not a number", where the trial CSV and the mission read it)."""
+    from autopilot.userfile import (
+        METRES_PER_SECOND,
+        NEWTONS,
+        RADIANS_PER_SECOND,
+        csv_rows,
+        number_cell,
+        read_text,
+        too_many_fields,
+        unique_header,
+        unit_mismatch,
+        units_row,
+    )
 
     path = Path(path)
     table = csv_rows(read_text(path, what="steady-state table CSV", spreadsheet=True))
@@ -63,8 +75,16 @@ def read_table_csv(path) -> tuple[SteadyRow, ...]:
     if missing:
         raise ConfigError(f"{path}: missing column(s) {', '.join(missing)} (need {', '.join(COLUMNS)})")
     col = {c: header.index(c) for c in COLUMNS}
+    allowed = {"thrust_port_n": NEWTONS, "thrust_stbd_n": NEWTONS, "yaw_rate_rad_s": RADIANS_PER_SECOND,
+               "speed_m_s": METRES_PER_SECOND}
+    units = len(table) > 1 and units_row([c for k, c in enumerate(table[1]) if k != col["name"]])
+    if units and (bad := unit_mismatch(table[1], header, allowed)) is not None:
+        raise ConfigError(f"{path}: the units row under the header gives {bad[0]} in {bad[1]!r}; the table reads "
+                          f"{bad[0]} in {allowed[bad[0]][0]} (convert the column, or correct the unit)")
     rows = []
     for k, r in enumerate(table[1:], start=1):
+        if k == 1 and units:
+            continue
         try:
             unique_header(header, COLUMNS)
             if len(r) < len(header):
