@@ -81,7 +81,7 @@ def find_mission(given: str, base_dir: Path | None = None) -> tuple[Path, bool]:
     from autopilot.schema import ConfigError
 
     path = Path(given) if base_dir is None else base_dir / given
-    if path.is_file():
+    if path.is_file() or path.is_dir():  # a directory: the mission reader says so (it was "no such file")
         return path, False
     shipped = shipped_mission(given)
     if shipped is not None:
