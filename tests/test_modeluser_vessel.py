@@ -50,7 +50,7 @@ def test_a_set_without_yaw_damping_is_refused(tmp_path, capsys):
     1000 s of AC), silently."""
     path = vessel_with(tmp_path, n_r_nd="0.0", yaw_damping_linear_nm_s="0.0", yaw_damping_quadratic_nm_s2="0.0")
     err = refused(capsys, ["model", "manoeuvre", "AC", "--params", path])
-    assert "nothing damps yaw" in err and "n_r_nd negative" in err
+    assert "nothing damps yaw" in err and "the damping at zero speed" in err
 
 
 def test_a_set_with_quadratic_resistance_only_flies_the_zigzag(tmp_path, capsys):
@@ -138,3 +138,21 @@ def test_calibrate_says_when_its_fit_misses_what_the_default_set_must_meet(tmp_p
     err = capsys.readouterr().err
     assert out.exists() and "warning: the fitted set does not reproduce the measured table" in err
     assert "turning speed RMS" in err and "> 10 %" in err
+
+
+def test_a_set_damped_in_yaw_only_by_n_r_nd_is_refused(tmp_path):
+    """N'_r vanishes with the speed (params.py _ZERO_SPEED): a set whose only yaw damping it is spun in place to
+    130 rad/s in 1000 s, and loaded (a review)."""
+    import dataclasses
+
+    import yaml
+
+    from autopilot.schema import ConfigError, to_dict
+    from autopilot.sim.params import load_params
+
+    v = dataclasses.replace(load_params("config/vessel.yaml"), yaw_damping_linear_nm_s=0.0,
+                            yaw_damping_quadratic_nm_s2=0.0)
+    path = tmp_path / "vessel.yaml"
+    path.write_text(yaml.safe_dump(to_dict(v)))
+    with pytest.raises(ConfigError, match="nothing damps yaw"):
+        load_params(path)

@@ -270,14 +270,17 @@ class MissionLog:
         return _new_samples(self.col("t_s"), self.col("position_age_s"), have, (n, e, lat, lon))
 
     def velocity_rows(self) -> np.ndarray:
-        """Row indices of the cycles with a new speed and course over ground: where the pair changes (a
-        receiver reports them once an epoch, in RMC/VTG, often a sentence after the epoch's GGA; they are
-        measured with that epoch's fix: autopilot.sysid.trials)."""
-        sog, cog = self.col("sog_m_s"), self.col("cog_deg")
-        rows = np.nonzero(np.isfinite(sog) & np.isfinite(cog))[0]
-        new = np.ones(rows.size, dtype=bool)
-        new[1:] = (sog[rows[1:]] != sog[rows[:-1]]) | (cog[rows[1:]] != cog[rows[:-1]])
-        return rows[new]
+        """Row indices of the cycles with a new speed and course over ground, by the identification's one rule
+        (:func:`autopilot.sysid.trials.new_velocities`: where the pair changes, and once an epoch where it stays
+        the same through epochs with their own fixes). Where it changed only, the export of a stay at rest kept
+        1 of its 31 readings (0.00 kn every epoch), which the log itself gave sysid (a review)."""
+        from autopilot.sysid.trials import new_velocities
+
+        fix, fix_t = self.fix_rows()
+        fix_new, fix_time_s = np.zeros(self.n_cycles, dtype=bool), np.full(self.n_cycles, np.nan)
+        fix_new[fix], fix_time_s[fix] = True, fix_t
+        is_new, _ = new_velocities(self.col("sog_m_s"), self.col("cog_deg"), fix_new, fix_time_s, self.col("t_s"))
+        return np.flatnonzero(is_new)
 
     def heading_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """(row indices, measurement times) of the cycles with a new heading sample (see :meth:`fix_rows`).

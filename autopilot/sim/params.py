@@ -110,7 +110,9 @@ class VesselParams:
 # axis -> the fields that damp it, each with the sign that damps (an MMG derivative damps when negative)
 DAMPING_FIELDS = {
     "surge": (("resistance_linear_n_s_m", 1.0), ("resistance_quadratic_n_s2_m2", 1.0)),
-    "yaw": (("n_r_nd", -1.0), ("yaw_damping_linear_nm_s", 1.0), ("yaw_damping_quadratic_nm_s2", 1.0)),
+    # n_r_nd scales with the speed (zero at rest: _ZERO_SPEED): with only it, a spin in place sped up to 130 rad/s
+    # in 1000 s (a review)
+    "yaw": (("yaw_damping_linear_nm_s", 1.0), ("yaw_damping_quadratic_nm_s2", 1.0)),
 }
 
 
@@ -120,7 +122,7 @@ def undamped_axis(params: VesselParams) -> str | None:
         if all(sign * getattr(params, name) <= 0.0 for name, sign in fields):
             values = ", ".join(f"{name} = {getattr(params, name):g}" for name, _ in fields)
             how = ("a positive value (SPEC 5: R/U = 14.05-14.10 N s/m was measured)" if axis == "surge" else
-                   f"a damping value ({fields[0][0]} negative, the others positive)")
+                   "a positive value (the damping at zero speed: n_r_nd vanishes with the speed)")
             return (f"{values}: nothing damps {axis}, so a steady {'moment' if axis == 'yaw' else 'force'} would "
                     f"speed the boat up without bound; give one of them {how}")
     return None

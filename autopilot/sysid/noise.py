@@ -385,30 +385,57 @@ def gated_fixes(t_s: np.ndarray, north_m: np.ndarray, east_m: np.ndarray, sog_m_
         memory = NavMemory(fix=last, judged_t_s=last.t_s, anchored_t_s=last.t_s, confirmed=True)
         return gate_fix(pos, memory, rules, float(sog[j])).jump is None
 
+    ne = np.column_stack([north_m, east_m])
     dt = np.diff(t)
     epoch_s = 1.5 * float(np.median(dt))
     step = np.hypot(np.diff(north_m), np.diff(east_m))
-    cuts = [k for k in range(t.size - 1)
-            if (step[k] > CUT_FRACTION * rules.position_jump_m and dt[k] <= epoch_s) or not passes(k, k + 1)]
+
+    def velocity_before(k: int, start: int) -> np.ndarray:
+        """The boat's velocity over ground (m/s) at fix k, from the fixes of its part (from ``start``) up to
+        VELOCITY_BASELINE_S back (one pair of fixes 0.2 s apart carries the wander's step tenfold); 0 alone."""
+        a = max(start, int(np.searchsorted(t, t[k] - VELOCITY_BASELINE_S)))
+        return (ne[k] - ne[a]) / (t[k] - t[a]) if t[k] - t[a] >= MIN_BASELINE_S else np.zeros(2)
+
+    # cut where the gate refuses a fix after the one before it, where a fix lies an epoch after it farther than
+    # CUT_FRACTION of position_jump_m, and, across a gap, where a part that began with a jump comes back by more than
+    # that to within position_jump_m of the track an earlier part was on (after a 3-s dropout the gate had grown
+    # with the gap, 25 m + 4 m/s x 4 s, and the 40-m way back from a burst passed it: the clean fixes after were
+    # joined to the burst and left out with it, a review). Not on a gap alone: a 5-s dropout in a 6-m turn at 3 m/s
+    # lies ~20 m off the straight motion
+    cuts, jumps, start, offsets = [], [], 0, [np.zeros(2)]
+    for k in range(t.size - 1):
+        off = ne[k + 1] - ne[k] - velocity_before(k, start) * dt[k]
+        back = (dt[k] > epoch_s and start > 0 and np.hypot(*off) > CUT_FRACTION * rules.position_jump_m
+                and any(np.hypot(*(offsets[-1] + off - o)) <= rules.position_jump_m for o in offsets[:-1]))
+        if (step[k] > CUT_FRACTION * rules.position_jump_m and dt[k] <= epoch_s) or not passes(k, k + 1) or back:
+            cuts.append(k)
+            jumps.append(off)
+            offsets.append(offsets[-1] + off)
+            start = k + 1
     if not cuts:
         return bad
-    ne = np.column_stack([north_m, east_m])
     starts = [0] + [k + 1 for k in cuts]
     parts = [np.arange(a, b) for a, b in zip(starts, starts[1:] + [t.size])]
-    jumps = []
-    for before, after in zip(parts, parts[1:]):
-        a, b = before[-1], after[0]
-        v = ((ne[a] - ne[a - 1]) / max(t[a] - t[a - 1], MIN_DT_S) if before.size > 1 else
-             (ne[b + 1] - ne[b]) / max(t[b + 1] - t[b], MIN_DT_S) if after.size > 1 else np.zeros(2))
-        jumps.append(ne[b] - ne[a] - v * (t[b] - t[a]))
-    offset = np.vstack([np.zeros(2), np.cumsum(jumps, axis=0)])  # each part's, from the first
-    track = max(range(len(parts)), key=lambda q: parts[q].size)
+    offset = np.array(offsets)  # each part's, from the first
+    # the track is the largest group of parts whose offsets agree within position_jump_m (the way out to a burst
+    # and back cancel): taken as the single largest part, a burst longer than the clean stretch on either side
+    # was kept and the 21 clean fixes around it left out (a review)
+    groups: list[list[int]] = []
+    for q in range(len(parts)):
+        home = next((g for g in groups if np.hypot(*(offset[q] - offset[g[0]])) <= rules.position_jump_m), None)
+        if home is None:
+            groups.append([q])
+        else:
+            home.append(q)
+    track = max(groups, key=lambda g: (sum(parts[q].size for q in g), -g[0]))
     for q, part in enumerate(parts):
-        if np.hypot(*(offset[q] - offset[track])) > rules.position_jump_m:
+        if q not in track:
             bad[part] = True
     return bad
 
 
+VELOCITY_BASELINE_S = 3.0  # gated_fixes: the boat's motion at a cut from its fixes up to this far back
+MIN_BASELINE_S = 0.5  # ... over at least this long (else none)
 CUT_FRACTION = 0.5  # gated_fixes: a step of this share of position_jump_m within an epoch is a jump (a WAM-V: <= 4 m)
 FIX_SPEED_NEIGHBOURS = 5  # fix-to-fix speeds a side whose median stands in for a missing speed over ground
 
