@@ -849,18 +849,19 @@ def test_an_interrupted_replay_leaves_no_log_a_review_would_take_for_a_run(tmp_p
     import sys
 
     out = tmp_path / "c"
-    assert main(["campaign", str(ROOT_SPEC), "--runs", "120", "--jobs", "1", "--out", str(out), "--quiet",
-                 "--no-report"]) == 0
-    p = subprocess.Popen([sys.executable, "-m", "autopilot", "campaign", "--replay", str(out), "100"],
+    spec = tmp_path / "spec.yaml"  # one chunk of 48 runs: the replay flies them all, run 40 among them (~2 s)
+    spec.write_text(json.dumps({**SPEC, "runs": 48, "chunk_runs": 48}), encoding="utf-8")
+    assert main(["campaign", str(spec), "--jobs", "1", "--out", str(out), "--quiet", "--no-report"]) == 0
+    p = subprocess.Popen([sys.executable, "-m", "autopilot", "campaign", "--replay", str(out), "40"],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          preexec_fn=lambda: (signal.signal(signal.SIGINT, signal.SIG_DFL), os.setpgrp()))
     try:
-        part = out / ".replay-100.jsonl.part"
+        part = out / ".replay-40.jsonl.part"
         deadline = time.monotonic() + 60
         while not part.exists() and p.poll() is None and time.monotonic() < deadline:
             time.sleep(0.01)
         assert part.exists(), "the replay wrote nothing aside"
-        time.sleep(0.5)  # it flies the chunk's 120 runs, run 100 among them
+        time.sleep(0.5)  # it flies the chunk's 48 runs, run 40 among them
         os.killpg(p.pid, signal.SIGINT)
         _, err = p.communicate(timeout=30)
     finally:
@@ -868,9 +869,9 @@ def test_an_interrupted_replay_leaves_no_log_a_review_would_take_for_a_run(tmp_p
             os.killpg(p.pid, signal.SIGKILL)
             p.wait()
     assert p.returncode == 130, err[-2000:]
-    assert not (out / "replay-100.jsonl").exists() and not part.exists()
-    assert main(["campaign", "--replay", str(out), "100"]) == 0  # uninterrupted, it is put in place
-    last = json.loads((out / "replay-100.jsonl").read_text().rstrip().splitlines()[-1])
+    assert not (out / "replay-40.jsonl").exists() and not part.exists()
+    assert main(["campaign", "--replay", str(out), "40"]) == 0  # uninterrupted, it is put in place
+    last = json.loads((out / "replay-40.jsonl").read_text().rstrip().splitlines()[-1])
     assert last["event"] == "stop" and not part.exists()
 
 

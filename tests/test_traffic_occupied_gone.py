@@ -26,7 +26,7 @@ Daemon = partial(FaultRigDaemon, injects_link_faults=False)
 
 WAYPOINT = (40.0, 0.0)
 MMSI = 244000902
-STALE_AFTER_S = 30.0  # ais.receiver.stale_after_s (shipped 360 s, twice the longest AIS reporting interval)
+STALE_AFTER_S = 12.0  # ais.receiver.stale_after_s (shipped 360 s, twice the longest AIS reporting interval)
 REPORT_EVERY_S = 5.0
 
 
@@ -74,10 +74,10 @@ def test_the_hold_off_a_moored_vessel_stays_while_it_is_silent_and_goes_to_the_w
             spot = _hold_point(d)
             off_m = math.hypot(spot[0] - WAYPOINT[0], spot[1] - WAYPOINT[1])
             assert off_m > occ["need_m"]  # held off, on the boat's side of the vessel
-            # reported for 20 s more: off; then silent, past the AIS table's stale_after_s: still off
-            t_quiet = d.clock.now_s() + 20.0
+            # reported for 10 s more: off; then silent, past the AIS table's stale_after_s: still off
+            t_quiet = d.clock.now_s() + 10.0
             last = await send_until(lambda: d.clock.now_s() >= t_quiet)
-            await d.clock.sleep(STALE_AFTER_S + 10.0 - (d.clock.now_s() - last))
+            await d.clock.sleep(STALE_AFTER_S + 5.0 - (d.clock.now_s() - last))
             assert _hold_point(d) == spot  # dropped from the table, never reported clear: no proof the point is free
             assert not [r for r in d.events("mode") if r["cause"].startswith("waypoint 0 free")]
             # it reports again, under way and 60 m on: clear of the waypoint
