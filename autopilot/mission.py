@@ -70,8 +70,8 @@ from autopilot.userfile import (
     parse_yaml,
     read_text,
     too_many_fields,
-    unit_mismatch,
     units_row,
+    units_row_refusal,
     yaml_problem,
 )
 
@@ -442,11 +442,9 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
 def _check_units(path: Path, units: list[str], cols: list[str]) -> None:
     """A units row's unit for each column the mission reads is the one the column's name says, or none: a north_m in
     ft or km read as metres would fly a different mission."""
-    bad = unit_mismatch(units, cols, _CSV_UNITS)
-    if bad is not None:
-        name, unit = bad
-        raise MissionError(f"{path}: the units row under the header gives {name} in {unit!r}; the mission reads "
-                           f"{name} in {_CSV_UNITS[name][0]} (convert the column, or correct the unit)")
+    refusal = units_row_refusal(path, units, cols, _CSV_UNITS, "mission")
+    if refusal is not None:
+        raise MissionError(refusal)
 
 
 # ------------------------------------------------------------------------- Mission Planner

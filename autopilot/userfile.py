@@ -20,7 +20,7 @@ from pathlib import Path
 from autopilot.schema import ConfigError
 
 __all__ = ["read_text", "check_file", "check_text_head", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES",
-           "number_cell", "unique_header", "too_many_fields", "MISSING_CELLS", "degrees_minutes", "coordinate_hint", "other_file_kind"]
+           "number_cell", "unique_header", "too_many_fields", "MISSING_CELLS", "units_row_refusal", "degrees_minutes", "coordinate_hint", "other_file_kind"]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")  # what the figures can be saved as
 
@@ -177,6 +177,18 @@ def unit_mismatch(units: list[str], header: list[str], allowed: dict[str, tuple[
         if name in allowed and said and said not in allowed[name]:
             return name, units[k].strip()
     return None
+
+
+def units_row_refusal(path, units: list[str], header: list[str], allowed: dict[str, tuple[str, ...]],
+                      what: str) -> str | None:
+    """Why a units row under ``header`` is refused (:func:`unit_mismatch`: a column whose unit is not the one its
+    name says), naming the file and the column, or None; ``what``: the file's kind ("mission", "trial CSV")."""
+    bad = unit_mismatch(units, header, allowed)
+    if bad is None:
+        return None
+    name, unit = bad
+    return (f"{path}: the units row under the header gives {name} in {unit!r}; the {what} reads {name} in "
+            f"{allowed[name][0]} (convert the column, or correct the unit)")
 
 
 MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"

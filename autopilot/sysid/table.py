@@ -64,8 +64,8 @@ def read_table_csv(path) -> tuple[SteadyRow, ...]:
         read_text,
         too_many_fields,
         unique_header,
-        unit_mismatch,
         units_row,
+        units_row_refusal,
     )
 
     path = Path(path)
@@ -78,9 +78,8 @@ def read_table_csv(path) -> tuple[SteadyRow, ...]:
     allowed = {"thrust_port_n": NEWTONS, "thrust_stbd_n": NEWTONS, "yaw_rate_rad_s": RADIANS_PER_SECOND,
                "speed_m_s": METRES_PER_SECOND}
     units = len(table) > 1 and units_row([c for k, c in enumerate(table[1]) if k != col["name"]])
-    if units and (bad := unit_mismatch(table[1], header, allowed)) is not None:
-        raise ConfigError(f"{path}: the units row under the header gives {bad[0]} in {bad[1]!r}; the table reads "
-                          f"{bad[0]} in {allowed[bad[0]][0]} (convert the column, or correct the unit)")
+    if units and (refusal := units_row_refusal(path, table[1], header, allowed, "table")) is not None:
+        raise ConfigError(refusal)
     rows = []
     for k, r in enumerate(table[1:], start=1):
         if k == 1 and units:

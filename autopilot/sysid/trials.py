@@ -478,8 +478,8 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
         read_text,
         too_many_fields,
         unique_header,
-        unit_mismatch,
         units_row,
+        units_row_refusal,
     )
 
     path = Path(path)
@@ -494,10 +494,8 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
         raise ConfigError(f"{path}: {exc}") from None
     width = len(header)
     units = len(table) > 1 and units_row(table[1])  # a row of units under the header (s, m, deg, N): no data
-    if units and (bad := unit_mismatch(table[1], header, TRIAL_UNITS)) is not None:
-        name, unit = bad
-        raise ConfigError(f"{path}: the units row under the header gives {name} in {unit!r}; the trial CSV reads "
-                          f"{name} in {TRIAL_UNITS[name][0]} (convert the column, or correct the unit)")
+    if units and (refusal := units_row_refusal(path, table[1], header, TRIAL_UNITS, "trial CSV")) is not None:
+        raise ConfigError(refusal)
     if len(table) > 1 and len(table[-1]) < width and not text.endswith(("\n", "\r")):
         raise ConfigError(f"{path}: data row {len(table) - 1} has {len(table[-1])} of {width} fields and the file does "
                           "not end with a new line: cut off mid-write? delete that row")
