@@ -82,7 +82,7 @@ ACCEPT_TURN_YAW_RATE_RMS = 0.20
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from autopilot.sim.steady import check_table
+    from autopilot.sim.steady import CHECK_DT_S, check_table
 
     params = _params(args.params)
     try:
@@ -90,7 +90,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     except FloatingPointError:
         from autopilot.sim.params import diverged_error
 
-        raise diverged_error(_source(args.params), 0.1) from None
+        raise diverged_error(_source(args.params), CHECK_DT_S) from None
     if args.json:
         print(json.dumps({"params": params.name, "rows": [r.as_dict() for r in result.rows], **result.summary()}))
         return 0
@@ -121,7 +121,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         load_params,
         thesis_params_path,
     )
-    from autopilot.sim.steady import check_table
+    from autopilot.sim.steady import CHECK_DT_S, check_table
     from autopilot.userfile import output_file
 
     out = output_file(args.out, what="--out", suffixes=(".yaml", ".yml"))
@@ -136,7 +136,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     except FloatingPointError:
         from autopilot.sim.params import diverged_error
 
-        raise diverged_error(args.base or thesis_params_path(), 0.1) from None
+        raise diverged_error(args.base or thesis_params_path(), CHECK_DT_S) from None
     write_params(fitted, out)
     s = check.summary()
     print(f"wrote {out}")

@@ -109,7 +109,10 @@ class TableCheck:
         }
 
 
-def check_table(params: VesselParams, rows=MEASURED_TABLE, *, dt_s: float = 0.1) -> TableCheck:
+CHECK_DT_S = 0.1  # check_table's simulation step (s)
+
+
+def check_table(params: VesselParams, rows=MEASURED_TABLE, *, dt_s: float = CHECK_DT_S) -> TableCheck:
     """Simulate every row to steady state (batched) and compare with the measurements."""
     settle_s = settle_time_s(params)
     t = np.arange(0.0, settle_s + dt_s / 2, dt_s)
