@@ -21,12 +21,14 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import sys
 from pathlib import Path
 
 import yaml
 
 from autopilot.schema import ConfigError, to_dict
 from autopilot.sim import VesselParams
+from autopilot.sim.params import undamped_axis
 from autopilot.sysid.effects import BY_NAME, EFFECTS, by_effect
 
 FIELD_EFFECTS = tuple(e.name for e in EFFECTS if e.vessel_fields)
@@ -53,8 +55,13 @@ def write_vessel_updated(vessel: VesselParams, values: dict, verdict, path, *, s
             f"verdict {', '.join(verdict) or 'none'}; written into fields: {', '.join(written) or 'nothing'}"
             + (f"; in effects.yaml (no VesselParams field): {', '.join(others)}" if others else ""))
     new = dataclasses.replace(new, name=f"{vessel.name}-sysid", description=desc)
+    problem = undamped_axis(new)
+    if problem is not None:  # a fit on a bound (hydro_refit's linear resistance at 0): said, not written as loadable
+        print(f"autopilot sysid: warning: {path}: {problem}; the fit sits on a bound: the model lacks what damps "
+              "it, or the trials do not show it (load_params refuses this file)", file=sys.stderr)
     header = ("# Vessel parameters updated by `autopilot sysid` (autopilot/sysid/output.py).\n"
-              "# Loadable by autopilot.sim.load_params; effects without a VesselParams field: effects.yaml.\n")
+              + ("# Loadable by autopilot.sim.load_params; effects without a VesselParams field: effects.yaml.\n"
+                 if problem is None else f"# NOT LOADABLE as it stands (autopilot.sim.load_params refuses it): {problem}\n"))
     Path(path).write_text(header + yaml.safe_dump(to_dict(new), sort_keys=False, width=100), encoding="utf-8")
     return new
 
