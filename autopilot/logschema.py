@@ -112,7 +112,7 @@ FAULT_CAUSES: tuple[str, ...] = (
 LATCHED_CAUSES = frozenset({"geofence", "max_mission_time", "max_distance", "battery_low", "battery_critical"})
 # what a failsafe may do (ArduPilot's FS_ACTION); "stop" needs nothing, the others a position and a heading
 FAILSAFE_ACTIONS: tuple[str, ...] = ("stop", "hold", "rtl")
-COMMANDS: tuple[str, ...] = ("status", "hold", "pause", "resume", "rtl", "stop", "arm", "disarm")  # autopilot ctl's
+COMMANDS: tuple[str, ...] = ("status", "hold", "pause", "resume", "rtl", "stop", "arm", "disarm", "speed")  # autopilot ctl's
 STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_time")
 INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("port_opened, port_lost, port_open_failed, nmea_garbage, mbed_garbage, nmea_old_epoch, mbed_echo_mismatch",
@@ -300,6 +300,10 @@ EVENTS: tuple[EventSpec, ...] = (
         _f("source", "string", "-", "`ctl` (the Unix socket) or `mavlink`"),
         _f("accepted", "bool", "-", "the command was carried out"),
         _f("answer", "string", "-", "the new mode, or the refusal (`rtl refused: position stale`)"),
+    )),
+    EventSpec("speed", "the operator's speed for the legs of the mission and of a return set, or the planned speeds given back", (
+        _f("speed_m_s", "float", "m/s", "the speed over ground wanted on every leg (turns and arrivals still slow it); null: the mission's planned speeds"),
+        _f("cause", "string", "-", "who: `ctl speed`, `mavlink speed` (DO_CHANGE_SPEED), `mavlink mission` (a new mission gives its own back), a restart carrying the run on"),
     )),
     EventSpec("arming", "armed or disarmed (disarmed: zero thrust, latched until armed)", (
         _f("avoid_active", "bool", "-", "collision avoidance changed the course or the speed this cycle (null: no targets, or not steering)"),

@@ -76,6 +76,12 @@ from autopilot.userfile import (
 )
 
 MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
+SPEED_RANGE = f"(0, {MAX_SPEED_M_S:g}] m/s"  # as the refusals say it
+
+
+def is_speed(value) -> bool:
+    """A leg speed the boat can be asked for: a number (not a bool) in (0, MAX_SPEED_M_S] m/s (NaN is not)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 < value <= MAX_SPEED_M_S
 DUPLICATE_TOLERANCE_M = 0.01
 ORIGIN_AGREE_M = 1.0  # a local-frame file's own origin and the configuration's: farther apart, refused
 NAV_WAYPOINT = 16
@@ -85,6 +91,7 @@ LOITER_ITEMS = (NAV_LOITER_UNLIM, NAV_LOITER_TIME)  # at latitude and longitude 
 NAV_RETURN_TO_LAUNCH = 20
 DO_CHANGE_SPEED = 178
 NO_SPEED_CHANGE = -1.0  # DO_CHANGE_SPEED param2 -1: "no change" (MAVLink common.xml)
+DEFAULT_SPEED_CHANGE = -2.0  # ... -2: "return to the default speed" (the planned speeds, for the link's command)
 
 
 def _speed_change(speed, value):

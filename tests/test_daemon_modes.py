@@ -714,18 +714,30 @@ def test_a_crash_in_a_hold_item_holds_it_again_after_the_restart(tmp_path):
         try:
             await d.start()
             await d.wait(lambda: sum(bool(r.get("holding")) for r in d.events("cycle")) > 50, 120.0, "5 s held")
+            # the operator's speed (DO_CHANGE_SPEED, ctl speed) is carried over too: the boat slowed near swimmers
+            # must not go on at its planned speed after a crash
+            assert (await d.ctl("speed", "0.6"))[0] == 0
             saved = json.loads((tmp_path / "state" / "mission-progress.json").read_text())
             assert saved["wp_index"] == 0, saved  # the item's waypoint, not the next
+            assert saved["speed_m_s"] == 0.6
             d.proc.kill()
             await d.proc.wait()
             await d.start(fresh=False)
             await d.wait(lambda: sum(bool(r.get("holding")) for r in d.events("cycle")) > 250, 120.0, "held again")
+            assert [(r["speed_m_s"], r["cause"].startswith("restart")) for r in d.events("speed")] == [(0.6, True)]
+            assert [r for r in d.events("info") if "keeps the operator's speed of the run before, 0.6 m/s" in r["message"]]
             held = [r for r in d.events("cycle") if r.get("holding")]
             assert {(r["hold_north_m"], r["hold_east_m"]) for r in held} == {(14.0, 0.0)}  # at W0, its station
             assert d.events("mission_start")[0]["start_index"] == 0
             assert not [r for r in d.events("waypoint_reached") if r["wp_index"] == 1]  # not gone on before it
             await d.wait(lambda: json.loads((tmp_path / "state" / "mission-progress.json").read_text())["wp_index"]
                          == 1, 60.0, "the item over: the next waypoint saved")
+            def leg():
+                return [r for r in d.events("cycle") if r["wp_index"] == 1 and r.get("speed_cmd_m_s")
+                        and not r.get("holding")]
+
+            await d.wait(lambda: len(leg()) > 80, 30.0, "8 s on the next leg (turned onto it)")
+            assert max(r["speed_cmd_m_s"] for r in leg()) == pytest.approx(0.6, abs=0.01)  # flown at it (the planned 1.0)
             d.proc.send_signal(2)
             assert await d.finish(30.0) == 0
         finally:

@@ -11,6 +11,7 @@ import math
 import os
 import time
 
+import pytest
 from pymavlink.dialects.v10 import ardupilotmega as mavlink1
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -59,28 +60,48 @@ def test_only_the_ground_stations_sticks_drive(tmp_path):
         assert boat.stop() == 0
 
 
-def test_an_unsupported_command_is_answered_and_said(tmp_path):
-    """Found by the audit: Mission Planner's Change Speed (MAV_CMD_DO_CHANGE_SPEED, any speed: -3, 10^9, 1 m/s) and
-    any other command the boat does not carry out were answered MAV_RESULT_UNSUPPORTED and nothing else: no line
-    in the log, no reason on the screen. Now said, once every 10 s a command, and nothing changes."""
+def test_change_speed_is_flown_a_bad_one_denied_and_an_unsupported_command_said(tmp_path):
+    """Mission Planner's and QGroundControl's Change Speed (MAV_CMD_DO_CHANGE_SPEED) was answered UNSUPPORTED (stop
+    47's note): it is now the speed over ground of every leg, as ArduPilot Rover's desired speed; param2 -1 changes
+    nothing, -2 gives the planned speeds back; a speed outside (0, 3.5] m/s, a NaN or a climb speed (param1 2) is
+    DENIED naming the parameter. Found by an earlier audit: a command the boat does not carry out (DO_SET_SERVO, a
+    number MAVLink does not define) was answered UNSUPPORTED and nothing else; now said, once every 10 s a command."""
     boat = Boat(tmp_path)
     try:
         boat.mode_is("auto")
         n = len(boat.log())
-        ack = boat.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, 1, -3.0, -1, 0)
-        assert ack.result == mavlink.MAV_RESULT_UNSUPPORTED
+        assert boat.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, 1, 1.6, -1, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        # told to every station (read first: wait_log's heartbeats read past it)
+        assert boat.recv("STATUSTEXT", pred=lambda m: m.text == "speed 1.6 m/s on every leg (mavlink speed)")
+        said = boat.wait_log(lambda r: r["event"] == "speed", what="the speed set", after=n)
+        assert (said["speed_m_s"], said["cause"]) == (1.6, "mavlink speed")
+        boat.wait_log(lambda r: r["event"] == "cycle" and r["t_s"] > said["t_s"] + 6.0, what="6 s at it", after=n)
+        flown = [r["speed_cmd_m_s"] for r in boat.log()[n:] if r["event"] == "cycle" and r["t_s"] > said["t_s"]
+                 and r["mode"] == "auto" and r.get("speed_cmd_m_s")]
+        assert max(flown) == pytest.approx(1.6, abs=0.01), flown  # the pond mission's planned 1.0 m/s before
+        for params, why in (((1, -3.0), "param2 (speed, m/s) -3 is not in (0, 3.5] m/s"),
+                            ((1, 1e9), "param2 (speed, m/s) 1e+09 is not in (0, 3.5]"),
+                            ((0, NAN), "param2 (speed, m/s) nan is not"),
+                            ((2, 1.0), "param1 (speed type) 2 is not 0 (airspeed) or 1 (ground speed)")):
+            assert boat.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, *params, -1, 0).result == mavlink.MAV_RESULT_DENIED
+            boat.wait_log(lambda r, w=why: r["event"] == "command" and w in str(r.get("answer")), what=why, after=n)
+        assert boat.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, 0, -1.0, -1, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        assert boat.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, 1, -2.0, -1, 0).result == mavlink.MAV_RESULT_ACCEPTED
+        boat.wait_log(lambda r: r["event"] == "speed" and r["speed_m_s"] is None, what="the planned speeds", after=n)
+        assert [r["speed_m_s"] for r in boat.log()[n:] if r["event"] == "speed"] == [1.6, None]  # -1: no change
+
+        n = len(boat.log())
+        assert boat.command(mavlink.MAV_CMD_DO_SET_SERVO, 9, 1500).result == mavlink.MAV_RESULT_UNSUPPORTED
         # read before the next command: Boat.command drains what came before it (at 8x the text came in that gap)
-        text = boat.recv("STATUSTEXT", pred=lambda m: m.text.startswith("DO_CHANGE_SPEED not supported"))
+        text = boat.recv("STATUSTEXT", pred=lambda m: m.text.startswith("DO_SET_SERVO not supported"))
         assert text.severity == mavlink.MAV_SEVERITY_WARNING
-        for speed_m_s in (1e9, 1.0):
-            ack = boat.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, 1, speed_m_s, -1, 0)
-            assert ack.result == mavlink.MAV_RESULT_UNSUPPORTED
+        assert boat.command(mavlink.MAV_CMD_DO_SET_SERVO, 9, 1900).result == mavlink.MAV_RESULT_UNSUPPORTED
         assert boat.command(55555).result == mavlink.MAV_RESULT_UNSUPPORTED  # no MAV_CMD at all
         boat.wait_log(lambda r: r["event"] == "command" and r["answer"] == "command 55555 not supported",
                       what="the unknown command", after=n)
-        said = [r for r in boat.log()[n:] if r["event"] == "command" and r["command"] == "DO_CHANGE_SPEED"]
-        assert len(said) == 1 and not said[0]["accepted"] and "WP_SPEED" in said[0]["answer"]
-        assert not [r for r in boat.log()[n:] if r["event"] in ("mode", "param", "arming")]
+        said = [r for r in boat.log()[n:] if r["event"] == "command" and r["command"] == "DO_SET_SERVO"]
+        assert len(said) == 1 and not said[0]["accepted"] and "two thrusters" in said[0]["answer"]
+        assert not [r for r in boat.log()[n:] if r["event"] in ("mode", "param", "arming", "speed")]
         boat.mode_is("auto")
     finally:
         assert boat.stop() == 0

@@ -592,6 +592,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
                            t0_s=t0_s, ais=ais if (ais_driver is not None or cfg.ais.on_compass_line) else None)
         if before is not None:
             loop.failsafe.restore_latched(before.latched)
+            if before.speed_m_s is not None:
+                ap.set_speed(before.speed_m_s, cause="restart: the operator's speed of the run before")
             if homeward:
                 ap.resume_homeward()
         holder["loop"] = loop
@@ -617,6 +619,9 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         why = disarmed_why or "disarmed when the last run ended"
         said.append(f"{why}: zero thrust whatever the mode until armed (`autopilot ctl arm`, or ARM from the ground "
                     "station; --fresh starts armed)")
+    if ap.speed_m_s is not None:
+        said.append(f"the run carried on keeps the operator's speed of the run before, {ap.speed_m_s:g} m/s on every leg "
+                    "(`autopilot ctl speed mission` gives back the planned speeds; --fresh starts with them)")
     for text in said:  # in the log and on the console (the journal) alike
         log.event("info", t_s=0.0, message=text)
         _console(text)

@@ -9,6 +9,8 @@ __all__ = ["register"]
 
 
 def register(subparsers) -> None:
+    from autopilot.logschema import COMMANDS
+
     p = subparsers.add_parser(
         "run",
         help="run the autopilot daemon on a mission (real devices, or --sim)",
@@ -39,7 +41,7 @@ def register(subparsers) -> None:
 
     c = subparsers.add_parser(
         "ctl",
-        help="command the running daemon: status, hold, pause, resume, rtl, stop",
+        help="command the running daemon: status, hold, pause, resume, rtl, stop, speed",
         description=(
             "Talk to the running daemon over its control socket (/run/wamv-autopilot/control.sock for the "
             "service; members of its group may use it). Each command answers with the new mode or a refusal "
@@ -47,11 +49,15 @@ def register(subparsers) -> None:
             "hold: keep station here (least-effort heading, or --heading); pause: hold here, resume continues "
             "the mission from the same waypoint; resume: back to the mission (ends a hold item early); rtl: "
             "return to the launch point and hold there; stop: zero thrust until the next command; disarm: zero thrust "
-            "whatever the mode until arm. "
+            "whatever the mode until arm; speed M_S: the speed over ground on every leg of the mission and of a return "
+            "in place of the planned ones (turns and arrivals still slow it), until `speed mission` gives them back or a "
+            "new mission comes. "
             "Exit 0 accepted, 1 refused, 3 no daemon."
         ),
     )
-    c.add_argument("command", choices=("status", "hold", "pause", "resume", "rtl", "stop", "arm", "disarm"))
+    c.add_argument("command", choices=COMMANDS)
+    c.add_argument("value", nargs="?", metavar="M_S", help="speed: the legs' speed in m/s, or `mission` for the "
+                   "mission's planned speeds")
     c.add_argument("--heading", type=float, metavar="DEG", help="hold: the heading to keep (deg from north)")
     c.add_argument("--runtime-dir", metavar="DIR", help="the daemon's runtime directory (default: the service's, "
                    "then $XDG_RUNTIME_DIR/autopilot)")
@@ -118,8 +124,20 @@ def _ctl(args: argparse.Namespace) -> int:
     import sys
 
     from autopilot.daemon.control import request, socket_candidates
+    from autopilot.mission import SPEED_RANGE
 
     req: dict = {"command": args.command}
+    if (args.value is None) != (args.command != "speed"):
+        print("autopilot ctl: error: " + ("speed needs a speed in m/s, or `mission`" if args.value is None
+                                          else f"a value ({args.value}) is for speed only"), file=sys.stderr)
+        return 2
+    if args.command == "speed":
+        speed = None if args.value.strip().lower() == "mission" else _ctl_speed(args.value)
+        if speed is False:
+            print(f"autopilot ctl: error: speed: {args.value!r} is not a speed in {SPEED_RANGE} or "
+                  "`mission`", file=sys.stderr)
+            return 2
+        req["speed_m_s"] = speed
     if args.heading is not None:
         if args.command != "hold":
             print("autopilot ctl: error: --heading is for hold only", file=sys.stderr)
@@ -164,6 +182,17 @@ def _ctl(args: argparse.Namespace) -> int:
     return 0 if reply.get("ok") else 1
 
 
+def _ctl_speed(text: str):
+    """A speed (m/s) the boat can be asked for (autopilot.mission.is_speed), or False."""
+    from autopilot.mission import is_speed
+
+    try:
+        v = float(text.replace(",", "."))  # 1,5 as a European keyboard gives it
+    except ValueError:
+        return False
+    return v if is_speed(v) else False
+
+
 def _status_lines(st: dict) -> list[str]:
     def num(key, fmt, unit=""):
         v = st.get(key)
@@ -183,6 +212,9 @@ def _status_lines(st: dict) -> list[str]:
     if "wp_index" in st:
         done = ", complete" if st.get("mission_complete") else ""
         lines.append(f"waypoint: {st['wp_index']} of {st.get('wp_count')}{done}")
+    if st.get("speed_set_m_s") is not None:
+        lines.append(f"speed: {st['speed_set_m_s']:g} m/s on every leg, the operator's (`autopilot ctl speed mission`: "
+                     "the planned speeds)")
     lines.append(f"position: north {num('north_m', '.1f', ' m')}, east {num('east_m', '.1f', ' m')}; heading "
                  f"{num('heading_deg', '.1f', ' deg')}; speed {num('sog_m_s', '.2f', ' m/s')}")
     if st.get("hold_north_m") is not None:

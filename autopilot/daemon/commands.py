@@ -9,6 +9,7 @@ reply (``ok``, ``answer``, ``mode``). Each is logged as a ``command`` event, acc
     pause | resume | rtl | stop | arm | disarm
     manual forward_nd turn_nd              the sticks (-1..1); the first puts the boat in manual
     set_current index                      fly the mission from that waypoint
+    speed speed_m_s                        the legs' speed (None: the mission's planned ones)
     mission (a Mission) | mission_clear    replace the running mission at this safe point
     param_set key value name               a configuration value, already range-checked
 """
@@ -21,6 +22,7 @@ import math
 from autopilot.daemon.cycle import answer_failsafe, stop_in_force, stop_stands
 from autopilot.gnc.modes import PendingHold
 from autopilot.logschema import Mode
+from autopilot.mission import SPEED_RANGE, is_speed
 
 __all__ = ["apply", "failsafe_action", "replace_key"]
 
@@ -210,5 +212,17 @@ def _param_set(loop, request, helm_nav, unavailable, cause):
         f"{request.get('name', key)} = {value}"
 
 
+def _speed(loop, request, helm_nav, unavailable, cause):
+    """The operator's speed for the mission's and a return's legs (MAVLink DO_CHANGE_SPEED, `ctl speed`)."""
+    speed = request.get("speed_m_s")
+    if speed is not None and not is_speed(speed):
+        return False, f"speed refused: speed_m_s {speed!r} outside {SPEED_RANGE}"
+    flown = loop.ap.set_speed(speed, cause=cause)
+    mode = loop.ap.mode
+    # said when it does not move the boat now: a hold, a stop or manual keep their own speeds
+    later = "" if mode in (Mode.AUTO, Mode.RTL) else f"; flown once the mission or a return goes on (now {mode.value})"
+    return True, f"speed: {flown} on every leg{later}"
+
+
 _HANDLERS = {"manual": _manual, "set_current": _set_current, "mission": _mission, "mission_clear": _mission_clear,
-             "param_set": _param_set}
+             "param_set": _param_set, "speed": _speed}

@@ -29,6 +29,7 @@ import socket
 from pathlib import Path
 
 from autopilot.logschema import COMMANDS
+from autopilot.mission import SPEED_RANGE, is_speed
 from autopilot.schema import ConfigError
 
 __all__ = ["SOCKET_NAME", "MAX_REQUEST_BYTES", "READ_TIMEOUT_S", "SYSTEMD_RUNTIME_DIR", "daemon_runtime_dir",
@@ -42,7 +43,8 @@ MAX_CLIENTS = 8
 REFUSALS_LOGGED_PER_S = 10  # beyond: counted, and said in one line a second (a looping client filled the disk)
 ALWAYS_SERVED = frozenset({"stop", "disarm"})  # served however many connections are open
 SYSTEMD_RUNTIME_DIR = Path("/run/wamv-autopilot")  # RuntimeDirectory=wamv-autopilot in the unit
-FIELDS = {"command": "one of " + ", ".join(COMMANDS), "heading_deg": "hold: the heading to keep, [0, 360) deg"}
+FIELDS = {"command": "one of " + ", ".join(COMMANDS), "heading_deg": "hold: the heading to keep, [0, 360) deg",
+          "speed_m_s": f"speed: the legs' speed, {SPEED_RANGE}, or null for the mission's planned ones"}
 
 
 def daemon_runtime_dir(configured: str | None = None) -> Path:
@@ -87,6 +89,14 @@ def check_request(req) -> str | None:
     cmd = req.get("command")
     if cmd not in COMMANDS:
         return f"malformed request: command {str(cmd)[:32]!r} is not one of {', '.join(COMMANDS)}"
+    if cmd == "speed" and "speed_m_s" not in req:
+        return "malformed request: speed needs speed_m_s (a speed in m/s, or null for the mission's planned ones)"
+    if "speed_m_s" in req:
+        v = req["speed_m_s"]
+        if cmd != "speed":
+            return f"malformed request: speed_m_s is for speed only, not {cmd}"
+        if v is not None and not is_speed(v):
+            return f"malformed request: speed_m_s {repr(v)[:32]} outside {SPEED_RANGE}"
     h = req.get("heading_deg")
     if h is not None:
         if cmd != "hold":

@@ -168,10 +168,11 @@ class ControlLoop:
         if decision.requests and self._saved_running:  # a latched fault is remembered across a restart
             self._save("running")
         armed_before, mode_before, cause_before = self.ap.armed, self.ap.mode, self.ap.mode_cause
+        speed_before = self.ap.speed_m_s
         for _ in range(min(len(self.commands), COMMANDS_PER_CYCLE)):
             request, answer = self.commands.popleft()
             answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
-        if self.ap.armed != armed_before:  # a disarm is remembered across a restart
+        if (self.ap.armed, self.ap.speed_m_s) != (armed_before, speed_before):  # remembered across a restart
             self._save_armed()
         if (self.ap.mode, self.ap.mode_cause) != (mode_before, cause_before):  # the operator's mode, likewise
             self._operator_chose()
@@ -365,6 +366,7 @@ class ControlLoop:
             "psi_d_deg": None if out is None else math.degrees(out.psi_d_rad) % 360.0,
             "xte_m": None if out is None else out.xte_m,
             "speed_cmd_m_s": None if out is None else out.speed_cmd_m_s,
+            "speed_set_m_s": ap.speed_m_s,  # the operator's for every leg (ctl speed, DO_CHANGE_SPEED); None: planned
             "tau_com_n": None if out is None else out.tau_com_n, "max_forward_n": ap.allocator.upper_n,
             "thrust_port_n": None if out is None else out.thrust_port_n,
             "thrust_stbd_n": None if out is None else out.thrust_stbd_n,
@@ -453,7 +455,7 @@ class ControlLoop:
                                      latched=self.failsafe.latched,
                                      launch_ne_m=None if launch is None else (float(launch[0]), float(launch[1])),
                                      reason=reason, armed=bool(self.ap.armed), homeward=self._saved_homeward,
-                                     operator=self.operator_mode))
+                                     operator=self.operator_mode, speed_m_s=self.ap.speed_m_s))
         except OSError as exc:
             self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="state not saved", error=str(exc))
 
@@ -479,9 +481,9 @@ class ControlLoop:
             self.ap.mode is Mode.RTL or (self.ap.mode is Mode.HOLD and self.ap.mode_cause == RTL_ARRIVED_CAUSE)))
 
     def _save_armed(self) -> None:
-        """The operator's arm or disarm, saved now. In a held start the file is still the interrupted run's
-        (kept for a resume): only its ``armed`` changes, or a crash before this run saves would bring back
-        the armed state the file had."""
+        """The operator's arm or disarm (and speed), saved now. In a held start the file is still the interrupted
+        run's (kept for a resume): only its ``armed`` and ``speed_m_s`` change, or a crash before this run saves
+        would bring back the state the file had."""
         if self._saved_running:
             self._save("running")
             return
@@ -489,7 +491,7 @@ class ControlLoop:
         if saved is None:  # unreadable, kept as it is: the next start holds zero over it, disarmed (app._armed_at_start)
             return
         try:
-            self.store.save(replace(saved, armed=bool(self.ap.armed)))
+            self.store.save(replace(saved, armed=bool(self.ap.armed), speed_m_s=self.ap.speed_m_s))
         except OSError as exc:
             self.log.event("info", t_s=self.clock.now_s() - self.t0_s, message="state not saved", error=str(exc))
 

@@ -16,6 +16,8 @@ import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from autopilot.mission import SPEED_RANGE, is_speed
+
 __all__ = ["Progress", "StateStore", "file_sha256", "save_uploaded_mission", "UPLOADED_MISSION"]
 
 STATE_FILE = "mission-progress.json"
@@ -50,6 +52,9 @@ class Progress:
     # resume_after_restart flew the mission again after a crash in the operator's stop, hold or rtl (an operator
     # audit); it holds zero thrust now
     operator: str = ""
+    # the operator's speed (m/s) for the legs, in place of the planned ones (Autopilot.speed_m_s); None: planned.
+    # A restart carrying the run on keeps it (the boat slowed near swimmers went on at its planned speed)
+    speed_m_s: float | None = None
 
 
 class StateStore:
@@ -86,6 +91,9 @@ class StateStore:
             operator = data.get("operator", "")
             if operator not in OPERATOR_MODES:
                 raise ValueError(f"operator {operator!r} is not one of {', '.join(repr(m) for m in OPERATOR_MODES)}")
+            speed = data.get("speed_m_s")
+            if speed is not None and not is_speed(speed):
+                raise ValueError(f"speed_m_s {speed!r} is not a speed in {SPEED_RANGE}")
             launch = data.get("launch_ne_m")
             if launch is not None:
                 launch = tuple(float(v) for v in launch)
@@ -94,7 +102,7 @@ class StateStore:
             return Progress(mission=str(data["mission"]), mission_sha256=str(data["mission_sha256"]),
                             wp_index=index, status=str(data["status"]), latched=latched, launch_ne_m=launch,
                             reason=str(data.get("reason") or ""), armed=armed, homeward=homeward,
-                            operator=operator), None
+                            operator=operator, speed_m_s=None if speed is None else float(speed)), None
         except (OSError, ValueError, KeyError, TypeError, AttributeError, OverflowError) as exc:
             return None, f"{type(exc).__name__}: {exc}"
 

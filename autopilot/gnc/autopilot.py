@@ -164,6 +164,9 @@ class Autopilot:
         self.hold_across_feasible_rad: float | None = None
         self._hold_off_s = 0.0  # how long the hold has been farther than hold.off_warn_m from its point
         self._hold_off_said = False
+        # the operator's speed over ground (m/s) for the legs of the mission and of the return, in place of the
+        # planned ones, until given back or a new mission comes (MAVLink DO_CHANGE_SPEED, `ctl speed`); None: planned
+        self.speed_m_s: float | None = None
 
     # ---------------------------------------------------------------- state
     @property
@@ -452,6 +455,7 @@ class Autopilot:
                              boat_length_m=self.boat_length_m)
         self.guidance = self.auto.guidance
         self.mission_cleared = False
+        self.set_speed(None, cause=cause)  # the new mission's own speeds
         if self.paused_from is old:
             self.paused_from = self.auto
         if self.current is old:
@@ -460,6 +464,7 @@ class Autopilot:
     def clear_mission(self, nav: NavInput | None, *, cause: str, unavailable: str = "no position") -> str:
         """No mission: running it, the boat holds where it is (stops without a position)."""
         self.mission_cleared = True
+        self.set_speed(None, cause=cause)
         if self.current is self.auto or self.paused_from is self.auto:
             self.paused_from = None
             ok, _ = self.request("hold", nav, cause=cause, unavailable=unavailable)
@@ -485,6 +490,24 @@ class Autopilot:
         self._events.append(("mode", {"mode": self.current.mode.value, "from": self.current.mode.value,
                                       "cause": f"{cause}: {said}"}))
         return True, said
+
+    def set_speed(self, speed_m_s: float | None, *, cause: str) -> str:
+        """The operator's speed (m/s, > 0; checked by the caller against the mission's limit) for every leg of the
+        mission and of a return, from the next step on, surviving pauses, holds and restarts of the mission; None:
+        the mission's planned speeds again. Turns and arrivals still slow the boat below it. A new or cleared
+        mission gives the planned speeds back (ArduPilot's AUTO starts at WP_SPEED). Returns what is flown."""
+        speed = None if speed_m_s is None else float(speed_m_s)
+        if speed != self.speed_m_s:
+            self.speed_m_s = speed
+            self._events.append(("speed", {"speed_m_s": speed, "cause": cause}))
+        return "the mission's planned speeds" if speed is None else f"{speed:g} m/s"
+
+    def _route_speed(self) -> None:
+        """The operator's speed to the routes the helm may steer this cycle (the mission's, a return's)."""
+        self.auto.guidance.speed_override_m_s = self.speed_m_s
+        guidance = getattr(self.current, "guidance", None)
+        if guidance is not None:
+            guidance.speed_override_m_s = self.speed_m_s
 
     def set_config(self, config: GncConfig) -> None:
         """New gains and limits, from the next step on (a parameter set between cycles)."""
@@ -529,6 +552,7 @@ class Autopilot:
                 self.current = self.current.begin(self.config.hold, self._stopping_point(nav), nav)
         occupied = self._occupied(nav, targets)
         self._end_hold_off(nav, targets)
+        self._route_speed()
         s = self.current.update(nav, dt_s)
         reached = s.guidance if self.current is self.auto else None  # rtl's own arrival is not a mission waypoint
         if occupied is not None and reached is not None and reached.reached_how == "occupied":
@@ -540,6 +564,7 @@ class Autopilot:
             if s.then is None:
                 break
             self._hand_over(s.then, nav)
+            self._route_speed()
             s = self.current.update(nav, dt_s)
         self._check_hold_heading(s)
         self._check_hold_off(s, dt_s)

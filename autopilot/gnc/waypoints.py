@@ -11,7 +11,7 @@ must be the same for every law so that laws can be compared fairly:
 - when a waypoint is reached, how (``capture``: within the radius; ``passed``:
   the law's own test) and the distance then are reported (the closest approach
   over the whole pass is :mod:`autopilot.gnc.passes`' job);
-- the wanted speed: per-leg speed or the default, slowed in large heading
+- the wanted speed: the operator's (``speed_override_m_s``), else the per-leg speed or the default, slowed in large heading
   errors (``turn_speed_floor_nd``) and on the approach to the last waypoint and
   to every waypoint it stops at to hold (``stop_indices``);
 - the last waypoint: zero thrust and ``complete``; what follows (stop, hold,
@@ -94,6 +94,9 @@ class WaypointGuidance:
         self.config = config
         self.waypoints = wps
         self.speeds = [None if s is None else float(s) for s in speeds]
+        # the operator's speed (m/s) for every leg in place of the planned one (MAVLink DO_CHANGE_SPEED, `ctl
+        # speed`), set by the helm each cycle; None: the route's own. Turns and the arrival still slow it
+        self.speed_override_m_s: float | None = None
         self.boat_length_m = float(boat_length_m)
         # the boat slows on the approach to these (and to the last): it stops there to hold
         self.stop_indices = frozenset(int(i) for i in stop_indices) | {len(wps) - 1}
@@ -137,7 +140,8 @@ class WaypointGuidance:
 
     def _speed_m_s(self, i: int, distance_m: float, heading_error_rad: float, factor: float) -> float:
         cfg = self.config
-        v = self.speeds[i] if self.speeds[i] is not None else cfg.default_speed_m_s
+        v = (self.speed_override_m_s if self.speed_override_m_s is not None
+             else self.speeds[i] if self.speeds[i] is not None else cfg.default_speed_m_s)
         if cfg.turn_speed_floor_nd < 1.0:
             v *= max(cfg.turn_speed_floor_nd, math.cos(heading_error_rad))
         if i in self.stop_indices and cfg.arrival_slowdown_m > 0.0:

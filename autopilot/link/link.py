@@ -164,7 +164,7 @@ GLOBAL_FRAMES = frozenset({mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RE
 POSITION_IGNORED = mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE | mavlink.POSITION_TARGET_TYPEMASK_Y_IGNORE
 # what an operator can do instead of a command that is not supported, said with its refusal
 UNSUPPORTED_HINTS = {
-    mavlink.MAV_CMD_DO_CHANGE_SPEED: ": a leg's speed is the mission's (its change speed items, 178) or WP_SPEED",
+    mavlink.MAV_CMD_DO_SET_SERVO: ": the boat's only outputs are its two thrusters",
 }
 
 
@@ -577,6 +577,8 @@ class MavlinkLink:
                 self._ask_loop(port, msg, {"command": "set_current", "index": index, "item": seq})
             elif seq is not None:
                 self._ack(port, msg, mavlink.MAV_RESULT_DENIED)
+        elif c == mavlink.MAV_CMD_DO_CHANGE_SPEED:
+            self._change_speed(port, msg)
         elif c == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
             mid, interval_us = self._whole(port, msg, p1, "param1 (message id)", "a whole number"), msg.param2
             if mid is None:
@@ -619,6 +621,28 @@ class MavlinkLink:
             name = known[c].name.removeprefix("MAV_CMD_") if c in known else f"command {c}"
             self._said_every_10_s(f"unsupported {c if c in known else 'unknown'}", name,
                                   f"{name} not supported{UNSUPPORTED_HINTS.get(c, '')}")
+
+    def _change_speed(self, port: _Port, msg) -> None:
+        """DO_CHANGE_SPEED (Mission Planner's and QGroundControl's Change Speed): param2 the speed over ground for
+        every leg of the mission and of a return (as ArduPilot Rover's desired speed), -1 no change, -2 the planned
+        speeds; param1 the speed's kind, air (0) or ground (1) speed both taken as over ground (a boat has no
+        airspeed to fly), a climb or descent speed refused. It was answered UNSUPPORTED (stop 47's note)."""
+        from autopilot.link.params import as_typed
+        from autopilot.mission import DEFAULT_SPEED_CHANGE, NO_SPEED_CHANGE, SPEED_RANGE, is_speed
+
+        kind = self._whole(port, msg, msg.param1, "param1 (speed type)", "0 (airspeed) or 1 (ground speed): a boat "
+                           "has no climb or descent", lambda k: k in (0, 1))
+        if kind is None:
+            return
+        speed = as_typed(msg.param2) if math.isfinite(msg.param2) else msg.param2
+        if speed == NO_SPEED_CHANGE:
+            self._ack(port, msg, mavlink.MAV_RESULT_ACCEPTED)
+            return
+        if speed != DEFAULT_SPEED_CHANGE and not is_speed(speed):
+            self._whole(port, msg, speed, "param2 (speed, m/s)", f"in {SPEED_RANGE}, -1 (no change) or -2 "
+                        "(the planned speeds)", lambda k: False)
+            return
+        self._ask_loop(port, msg, {"command": "speed", "speed_m_s": None if speed == DEFAULT_SPEED_CHANGE else speed})
 
     def _set_mode(self, port: _Port, msg, custom_mode: int) -> None:
         """A mode change (DO_SET_MODE or SET_MODE ``msg``), answered with COMMAND_ACK."""

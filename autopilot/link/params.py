@@ -98,6 +98,13 @@ def _type_name(param_type: int) -> str:
     return f"{param_type} ({entry.name})" if entry is not None else str(param_type)
 
 
+def as_typed(wire_value: float) -> float:
+    """A float32 field as the operator typed it. PARAM_SET and COMMAND_LONG carry float32: 0.06 arrives as
+    0.05999999865889549, 1.6 m/s as 1.600000023841858. The shortest decimal that is the same float32 (7
+    significant digits) is what the operator typed, and what the log and the answers show."""
+    return float(f"{wire_value:.7g}")
+
+
 def check_set(cfg, p: Param, wire_value: float, param_type: int = WIRE_TYPE):
     """The configuration value a PARAM_SET means, checked with the key's range; ConfigError names both.
 
@@ -121,9 +128,7 @@ def check_set(cfg, p: Param, wire_value: float, param_type: int = WIRE_TYPE):
         if wire_value not in (0.0, 1.0):
             raise ConfigError(f"{p.name} ({p.key}): {wire_value:g} is not 0 or 1")
         return bool(wire_value)
-    # PARAM_SET carries a float32: 0.06 arrives as 0.05999999865889549. The shortest decimal that is the same
-    # float32 (7 significant digits) is what the operator typed, and what the log and the answers show.
-    wire_value = float(f"{wire_value:.7g}")
+    wire_value = as_typed(wire_value)
     value = int(wire_value) if tp is int and float(wire_value).is_integer() else wire_value
     try:
         return _convert(p.key, value, tp, meta)

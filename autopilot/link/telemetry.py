@@ -237,6 +237,10 @@ def event_text(name: str, fields: dict) -> tuple[int, str] | None:
         return mavlink.MAV_SEVERITY_WARNING, str(f.get("answer"))
     if name == "arming":
         return mavlink.MAV_SEVERITY_NOTICE, ("armed" if f.get("armed") else "disarmed") + f" ({f.get('cause')})"
+    if name == "speed":  # every station sees it, and a new or cleared mission giving the planned speeds back
+        v = f.get("speed_m_s")
+        return mavlink.MAV_SEVERITY_NOTICE, (f"speed {v:g} m/s on every leg" if v is not None
+                                             else "speed: the mission's planned speeds") + f" ({f.get('cause')})"
     if name == "gcs":
         action = f.get("action")
         return mavlink.MAV_SEVERITY_WARNING, f"ground station {f.get('state')}" + (f": {action}" if action else "")
