@@ -355,6 +355,10 @@ def device_silence(compass, thrusters, cfg: DaemonConfig, waited_s: float) -> li
         elif st["nmea_lines"]:
             lines.append(f"mbed: NMEA sentences arrive on {thrusters.port_path} ({st['nmea_lines']} line(s)): that "
                          "is the compass's output, so serial.sc30_port and serial.mbed_port are swapped?")
+        elif st["commands_echoed"]:  # it said "another baud rate", which a loopback has right (stop 47's note)
+            lines.append(f"mbed: the commands sent come back unchanged on {thrusters.port_path} "
+                         f"({st['commands_echoed']} of {st['sent']}): the port echoes them (a loopback plug, RX wired "
+                         "to TX, a terminal program's echo), no Mbed firmware answers on it (docs/mbed-protocol.md)")
         elif st["acks_late"]:  # valid MBACK lines at the right baud rate, after ack_timeout_s (a review)
             lines.append(f"mbed: the board on {thrusters.port_path} answers, but late ({st['acks_late']} "
                          f"acknowledgement(s) after serial.ack_timeout_s, {cfg.serial.ack_timeout_s:g} s): a slow USB "

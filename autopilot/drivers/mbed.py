@@ -19,7 +19,14 @@ from autopilot.clock import Clock
 from autopilot.devices import EventSink, ThrustCommand
 from autopilot.drivers.framing import LineFramer
 from autopilot.drivers.line_device import LineDevice
-from autopilot.drivers.mbed_protocol import MAX_LINE_CHARS, Ack, ProtocolError, decode_ack, encode_command
+from autopilot.drivers.mbed_protocol import (
+    MAX_LINE_CHARS,
+    Ack,
+    ProtocolError,
+    decode_ack,
+    decode_command,
+    encode_command,
+)
 
 __all__ = ["MbedDriver"]
 
@@ -31,6 +38,15 @@ _ECHO_TOLERANCE_PCT = 0.05  # half the line's 0.1 %: an echo of what was sent ma
 # an NMEA 0183 sentence's start ($GPGGA, $HEHDT, !AIVDM): on the Mbed's port it is the compass (or an AIS receiver)
 # talking, the two ports swapped in the configuration; "$MB" lines are the board's own
 _NMEA_START = re.compile(rb"^[$!](?!MB)[A-Z][A-Z0-9]{4,5},")
+
+
+def _is_command(line: bytes) -> bool:
+    """A whole $MBCMD line (what the daemon sends), coming back."""
+    try:
+        decode_command(line)
+    except ProtocolError:
+        return False
+    return True
 
 
 def _signed_duty_pct(duty_pct: float, reverse: bool) -> float:
@@ -70,6 +86,7 @@ class MbedDriver(LineDevice):
         self._framer = LineFramer(MAX_LINE_CHARS)
         self._malformed = 0
         self.nmea_lines = 0  # malformed lines that are NMEA sentences: another device's output on this port
+        self.commands_echoed = 0  # our own $MBCMD lines coming back: a port that echoes (a loopback, a terminal)
         self._ack_missing = 0
         self._consecutive_missing = 0
         self.last_ack_seq: int | None = None
@@ -115,6 +132,7 @@ class MbedDriver(LineDevice):
             ack_missing=self.ack_missing,
             bad_lines=self.bad_lines,
             nmea_lines=self.nmea_lines,
+            commands_echoed=self.commands_echoed,
             reconnects=self._link.losses,
             opens=self._link.opens,
         )
@@ -210,6 +228,8 @@ class MbedDriver(LineDevice):
                 self.nmea_lines += 1
             return
         if ack is None:
+            if _is_command(line):  # another $MB line is a newer firmware's status: ignored, as the protocol says
+                self.commands_echoed += 1
             return
         self._expire(now_s)
         if ack.seq not in self._pending:
