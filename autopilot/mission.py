@@ -57,7 +57,7 @@ import numpy as np
 import yaml
 
 from autopilot.geo import latlon_to_local
-from autopilot.schema import ConfigError
+from autopilot.schema import ConfigError, unknown_key
 from autopilot.userfile import (
     DEGREES,
     METRES,
@@ -329,7 +329,7 @@ def _parse_yaml(path: Path, text: str, origin, max_range_m: float) -> Mission:
         what = other_file_kind(path) if "waypoints" not in data else None
         where = "--config and --mission swapped?" if what and what.startswith("a daemon") else "sim.vessel names it"
         hint = f"; {path} is {what}, not a mission ({where})" if what else ""
-        raise MissionError(f"{path}: {unknown[0]}: unknown key (allowed: {', '.join(sorted(_YAML_KEYS))}){hint}")
+        raise MissionError(f"{path}: {unknown[0]}: {unknown_key(unknown[0], _YAML_KEYS)}{hint}")
     frame = data.get("frame", "local")
     if frame not in ("local", "latlon"):
         raise MissionError(f"{path}: frame: {frame!r} is not 'local' or 'latlon'")

@@ -19,7 +19,7 @@ from typing import Any
 
 import yaml
 
-__all__ = ["ConfigError", "param", "load", "load_yaml", "to_dict", "describe"]
+__all__ = ["ConfigError", "param", "load", "load_yaml", "to_dict", "describe", "unknown_key"]
 
 
 class ConfigError(ValueError):
@@ -125,6 +125,16 @@ def _convert(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
     raise ConfigError(f"{key}: unsupported parameter type {tp!r}")  # pragma: no cover - programming error
 
 
+
+def unknown_key(key, allowed) -> str:
+    """"unknown key (allowed: ...)" for ``key``, with the allowed key it most likely misspells: among 34 vessel keys
+    a `yaw_inertia_kgm2` or a `sc30_prot` left the user to spot the right one in the list."""
+    import difflib
+
+    text = f"unknown key (allowed: {', '.join(sorted(allowed))})"
+    close = difflib.get_close_matches(str(key), [str(k) for k in allowed], n=1, cutoff=0.75)
+    return text + (f"; did you mean {close[0]}?" if close else "")
+
 def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "", require_all: bool = False) -> Any:
     """Build the frozen dataclass ``cls`` from ``data``, checking every key.
 
@@ -142,9 +152,7 @@ def load(cls: type, data: Mapping[str, Any] | None, *, where: str = "", require_
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(data) - set(fields))
     if unknown:
-        raise ConfigError(
-            f"{where}{unknown[0]}: unknown key (allowed: {', '.join(sorted(fields))})"
-        )
+        raise ConfigError(f"{where}{unknown[0]}: {unknown_key(unknown[0], fields)}")
     kwargs: dict[str, Any] = {}
     for name, f in fields.items():
         key = f"{where}{name}"

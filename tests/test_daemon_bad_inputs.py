@@ -63,7 +63,7 @@ CLI_CASES = [
     ("configuration", "a key twice", GOOD_CONFIG + "rate_hz: 10\nrate_hz: 20\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: not valid YAML (rate_hz: duplicate key (lines 4 and 5))"),
     ("configuration", "unknown key (typo)", "rate_hx: 10\n", GOOD_MISSION, [],
-     "autopilot run: error: {dir}/c.yaml: rate_hx: unknown key (allowed: ais, boat_length_m, dead_reckon_max_s, failsafe, geofence, gnc, log_dir, mavlink, max_mission_range_m, origin_lat_deg, origin_lon_deg, rate_hz, ready_timeout_s, runtime_dir, serial, sim, state_dir, stop_ack_timeout_s)"),
+     "autopilot run: error: {dir}/c.yaml: rate_hx: unknown key (allowed: ais, boat_length_m, dead_reckon_max_s, failsafe, geofence, gnc, log_dir, mavlink, max_mission_range_m, origin_lat_deg, origin_lon_deg, rate_hz, ready_timeout_s, runtime_dir, serial, sim, state_dir, stop_ack_timeout_s); did you mean rate_hz?"),
     ("configuration", "rate out of range", "rate_hz: 100\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: rate_hz: 100 is outside the allowed range [4, 50] Hz"),
     # found by an on-boat audit: at 1-2 Hz the Mbed's 0.5-s stop timeout cut the motors between every two commands

@@ -61,3 +61,29 @@ def test_a_typo_in_a_real_configuration_is_not_called_another_file(tmp_path):
     assert _refusal(tmp_path, "rate_hz: 10\nserial: {sc30_prot: /dev/x}\n").startswith(
         f"{tmp_path / 'c.yaml'}: serial.sc30_prot: unknown key (allowed: ")
     assert "not the daemon's configuration" not in _refusal(tmp_path, "rate_hz: 10\nserail: {}\n")
+
+
+def test_a_misspelt_key_is_told_the_key_it_most_likely_means(tmp_path):
+    """Stop 47's note: a misspelt key got "unknown key (allowed: ...)" and the whole list (34 keys in a vessel file),
+    the user left to spot the right one; now the closest allowed key is named, in any file the schema reads and in
+    a mission. A key like none of them gets the list alone."""
+    import pytest
+
+    from autopilot.mission import MissionError, load_mission
+    from autopilot.schema import ConfigError
+    from autopilot.sim import default_params_path, load_params
+
+    vessel = default_params_path().read_text(encoding="utf-8")
+    key = next(line.split(":")[0] for line in vessel.splitlines() if line.startswith("mass"))
+    (tmp_path / "v.yaml").write_text(vessel.replace(f"{key}:", f"{key}s:", 1), encoding="utf-8")
+    with pytest.raises(ConfigError) as exc:
+        load_params(tmp_path / "v.yaml")
+    assert str(exc.value).endswith(f"; did you mean {key}?"), str(exc.value)
+    (tmp_path / "m.yaml").write_text("name: m\nwaypiont:\n  - [10, 0]\n", encoding="utf-8")
+    with pytest.raises(MissionError) as exc:
+        load_mission(tmp_path / "m.yaml")
+    assert "waypiont: unknown key (allowed: " in str(exc.value) and "did you mean waypoints?" in str(exc.value)
+    (tmp_path / "v.yaml").write_text(vessel + "\nzzz_colour: red\n", encoding="utf-8")
+    with pytest.raises(ConfigError) as exc:
+        load_params(tmp_path / "v.yaml")
+    assert "zzz_colour: unknown key (allowed: " in str(exc.value) and "did you mean" not in str(exc.value)
