@@ -239,7 +239,10 @@ def trial_columns(log: MissionLog) -> dict[str, np.ndarray]:
     A position appears on the row where its fix first reached the daemon, with
     ``position_time_s`` the time it was measured (``t_s - position_age_s``); the rows that
     only repeat a held fix leave it empty. Likewise the heading and ``heading_time_s``. Speed
-    and course over ground appear where they change (``MissionLog.velocity_rows``).
+    and course over ground appear once per reading, by sysid's own rule (``MissionLog.velocity_rows``:
+    where they change, and once each fix epoch where they stay the same through STEADY_EPOCHS epochs),
+    each after an empty cell, so that ``autopilot sysid`` reads the CSV's readings at the times it reads
+    the log's.
     """
     lat_row, lon_row = track_latlon(log)
     n = log.n_cycles

@@ -158,6 +158,7 @@ class MissionLog:
     last_timestamp: str | None = None
     avoid_situation: np.ndarray | None = None  # None: all UNKNOWN_CODE (a log built by hand)
     line_numbers: np.ndarray | None = None  # each cycle's line in the file (1-based; None: a log built by hand)
+    event_lines: list[int] | None = None  # each event's line in the file, as ``events`` (None: a log built by hand)
 
     def __post_init__(self) -> None:
         if self.avoid_situation is None:
@@ -193,13 +194,33 @@ class MissionLog:
         """Every mission the boat was given, in order: ``mission_start``'s, then each ``mission_replaced``.
         Reviewed against the first alone, a mission uploaded from QGroundControl mid-run was scored against
         waypoints the boat no longer steered to ("1 of 1 reached" for the daemon's "4 of 4")."""
-        changes = sorted((float(ev["t_s"]), k, ev) for k, ev in enumerate(self.events_named("mission_replaced"))
-                         if _is_number(ev.get("t_s")) and isinstance(ev.get("waypoints"), list))
+        lines = self.event_lines if self.event_lines is not None and len(self.event_lines) == len(self.events) \
+            else [None] * len(self.events)
+        changes = sorted((self._applied_at(float(ev["t_s"]), line), k, ev)
+                         for k, (ev, line) in enumerate(zip(self.events, lines))
+                         if ev.get("event") == "mission_replaced" and _is_number(ev.get("t_s"))
+                         and isinstance(ev.get("waypoints"), list))
         starts = [-math.inf] + [t for t, _, _ in changes]
         ends = starts[1:] + [math.inf]
         sources = [None] + [str(ev.get("source") or "") or None for _, _, ev in changes]
         waypoints = [self.waypoints_ne_m] + [_waypoint_array(ev["waypoints"]) for _, _, ev in changes]
         return [Plan(k + 1, a, b, w, src) for k, (a, b, w, src) in enumerate(zip(starts, ends, waypoints, sources))]
+
+    def _applied_at(self, event_t_s: float, line: int | None) -> float:
+        """When a ``mission_replaced`` took effect: the ``t_s`` of the cycle that applied it, the first cycle line
+        after it in the file, when that is earlier than the line's own time. The daemon applies the replacement
+        inside a cycle, before its step, and dates the line by the clock, later than the cycle's ``t_s`` (the
+        cycle's start): on the boat's real clock (a MAVLink upload at 10x: 13 ms later; at 20x even after the next
+        cycle's start, the upload's saving having delayed it) the first cycle steered by the new mission, its
+        ``wp_index`` already the new one's, was counted in the old one, and the new mission's leg 0 began a cycle
+        late (a review audit, 2026-12-06). Under the simulated clock of ``--speedup max`` the two are equal; a
+        line before a hole in the log keeps its own time."""
+        if line is None or self.line_numbers is None or len(self.line_numbers) != self.n_cycles:
+            return event_t_s
+        k = int(np.searchsorted(self.line_numbers, line))
+        if k >= self.n_cycles:
+            return event_t_s
+        return min(event_t_s, float(self.col("t_s")[k]))
 
     def plan_at(self, t_s: float) -> Plan:
         """The plan in force at ``t_s``."""
@@ -616,6 +637,7 @@ def read_log(path, *, keep_reversals: bool = False) -> MissionLog:
     cols = _Columns(size // _MIN_BYTES_PER_CYCLE + 16)
     start: dict | None = None
     events: list[dict] = []
+    event_lines: list[int] = []
     rows: list = []
     modes: list = []
     sources: list = []
@@ -709,6 +731,7 @@ def read_log(path, *, keep_reversals: bool = False) -> MissionLog:
                     stats.bad_events[event] += 1
                     stats._skip(lineno, f"{event} line without a usable MMSI, time or position")
                 events.append(rec)
+                event_lines.append(lineno)
                 ts = rec.get("timestamp")
             else:
                 stats.unknown_events[event] += 1
@@ -745,6 +768,6 @@ def read_log(path, *, keep_reversals: bool = False) -> MissionLog:
         data, mode, source, situation = data[:, later], mode[later], source[later], situation[later]
     stats.cycles = int(data.shape[1])
     stats.unknown_modes = int(np.count_nonzero(mode == UNKNOWN_CODE))
-    return MissionLog(path=path, start=start, events=events, data=data, mode=mode,
+    return MissionLog(path=path, start=start, events=events, event_lines=event_lines, data=data, mode=mode,
                       heading_source=source, stats=stats, first_timestamp=first_ts,
                       last_timestamp=last_ts, avoid_situation=situation, line_numbers=line_numbers)
