@@ -2,7 +2,7 @@
 
 Mission Planner's and QGroundControl's Change Speed was answered UNSUPPORTED (stop 47's note): an operator who
 had to slow the boat near swimmers or a moored vessel could only pause it, or edit and upload the mission again.
-The flights through the daemon and the link are in tests/test_link_audit_commands.py and tests/test_restart.py.
+The flights through the daemon and the link are in tests/test_link_audit_commands.py and tests/test_daemon_modes.py.
 """
 
 from __future__ import annotations
@@ -63,6 +63,7 @@ def test_it_survives_a_pause_and_flies_the_return_a_new_mission_gives_the_planne
     assert ap.request("rtl", away, cause="ctl rtl") == (True, "rtl")
     out = ap.step(away, 0.1)
     assert out.mode is Mode.RTL and out.speed_cmd_m_s == pytest.approx(1.5)
+    assert ap.request("hold", away, cause="ctl hold")[0]  # (on a return, the return keeps it: below)
     ap.replace_mission([(30.0, 0.0)], cause="mavlink mission")
     assert ap.speed_m_s is None
     assert [f for name, f in ap.pop_events() if name == "speed"][-1] == {"speed_m_s": None, "cause": "mavlink mission"}
@@ -109,3 +110,149 @@ def test_ctl_status_says_the_operators_speed():
     base = {"mode": "auto", "t_s": 1.0, "cycle": 10, "wp_index": 1, "wp_count": 3}
     assert not [line for line in _status_lines(base) if line.startswith("speed:")]
     assert "speed: 1.5 m/s on every leg, the operator's" in "\n".join(_status_lines({**base, "speed_set_m_s": 1.5}))
+
+
+# ---------------------------------------------------------------------------------------------- found by a review
+
+
+def _loop(tmp_path):
+    """The daemon's control loop on a clock the test steps, the boat steaming north (tests.test_daemon_cycle)."""
+    import numpy as np
+
+    from autopilot.clock import SimClock
+    from autopilot.daemon.config import DaemonConfig
+    from autopilot.daemon.loop import ControlLoop
+    from autopilot.daemon.missionlog import MissionLog
+    from autopilot.daemon.sd_notify import Notifier
+    from autopilot.mission import Mission
+    from tests.test_daemon_cycle import ORIGIN, FakeCompass, FakeThrusters
+
+    cfg, clock = DaemonConfig(), SimClock()
+    mission = Mission("north", np.array([(200.0, 0.0), (300.0, 0.0)]), (None, None), None, *ORIGIN)
+    loop = ControlLoop(cfg, clock=clock, autopilot=Autopilot(cfg.gnc, mission.waypoints_ne_m), mission=mission,
+                       mission_path="m.yaml", mission_sha256="x", compass=FakeCompass(clock), thrusters=FakeThrusters(),
+                       log=MissionLog(tmp_path / "l.jsonl", console=None), notifier=Notifier(None),
+                       store=StateStore(tmp_path / "state"))
+    loop.save_progress("running")  # as run() does at its start
+    t = [0.0]
+
+    def cycles(n: int) -> None:
+        for _ in range(n):
+            t[0] += 0.1
+            clock.advance_to(t[0])
+            loop.cycle(t[0], 0.0)
+
+    def command(**request) -> dict:
+        replies = []
+        loop.submit({"source": "ctl", **request}, replies.append)
+        cycles(1)
+        return replies[-1]
+
+    cycles(60)  # control has started
+    return loop, command
+
+
+@pytest.mark.parametrize("first", ["hold", None])
+def test_a_clear_with_the_operators_speed_set_is_saved_cleared(tmp_path, first):
+    """The clear gives the planned speeds back; the loop saw the speed change and saved the progress "running" over
+    the clear's "cleared" (as the clear's own hold did in the mission): a crash, and a restart with
+    resume_after_restart flew the cleared mission (or an uploaded one) again instead of holding."""
+    loop, command = _loop(tmp_path)
+    if first:
+        assert command(command=first)["ok"]
+    assert command(command="speed", speed_m_s=0.6)["ok"]
+    assert loop.store.load().speed_m_s == 0.6
+    assert command(command="mission_clear")["ok"]
+    saved = loop.store.load()
+    assert (saved.status, saved.speed_m_s) == ("cleared", None)
+    assert loop.store.interrupted("x", 2)[1].startswith("the last run's mission was cleared")
+    assert command(command="arm")["ok"] and command(command="speed", speed_m_s=1.0)["ok"]
+    assert loop.store.load().status == "cleared"  # whatever is saved while the run goes on without a mission
+
+
+def test_the_speed_answer_while_the_mission_is_cleared_says_a_new_one_has_its_own(tmp_path):
+    """'flown once the mission or a return goes on' with no mission: the only way to one, an upload, gives the
+    planned speeds back."""
+    _, command = _loop(tmp_path)
+    assert command(command="mission_clear")["ok"]
+    answer = command(command="speed", speed_m_s=0.6)["answer"]
+    assert "flown on a return (now hold): the mission is cleared, and a new one is flown at its planned speeds" \
+        in answer, answer
+
+
+def test_a_mission_uploaded_or_cleared_on_a_return_leaves_the_return_its_speed():
+    """The boat slowed to 0.6 m/s near swimmers on its way home sped up to WP_SPEED when the planner uploaded the
+    next mission (or cleared it); the planned speeds come back when the new mission is flown."""
+    ap = helm()
+    ap.step(ON_LEG, 0.1)
+    away = dataclasses.replace(ON_LEG, north_m=45.0, psi_rad=math.pi, course_rad=math.pi)
+    ap.set_speed(0.6, cause="ctl speed")
+    assert ap.request("rtl", away, cause="ctl rtl") == (True, "rtl")
+    ap.replace_mission([(30.0, 0.0)], cause="mavlink mission")
+    assert ap.speed_m_s == 0.6 and ap.step(away, 0.1).speed_cmd_m_s == pytest.approx(0.6)
+    assert ap.request("pause", away, cause="ctl pause")[0] and ap.request("resume", away, cause="ctl resume")[1] == "rtl"
+    assert ap.step(away, 0.1).speed_cmd_m_s == pytest.approx(0.6)  # still the way home
+    ap.pop_events()
+    assert ap.request("auto", away, cause="mavlink auto") == (True, "auto")  # the new mission
+    assert ap.speed_m_s is None
+    assert [f for name, f in ap.pop_events() if name == "speed"] == [
+        {"speed_m_s": None, "cause": "mavlink auto: the mission uploaded on a return"}]
+    # cleared on the way home: the same
+    ap.set_speed(0.6, cause="ctl speed")
+    assert ap.request("rtl", away, cause="ctl rtl")[0]
+    ap.clear_mission(away, cause="mavlink mission_clear")
+    assert ap.speed_m_s == 0.6 and ap.step(away, 0.1).speed_cmd_m_s == pytest.approx(0.6)
+    # elsewhere (here paused in the mission) a new mission gives the planned speeds back at once, as before
+    ap.replace_mission([(30.0, 0.0)], cause="mavlink mission")
+    assert ap.request("auto", away, cause="ctl") == (True, "auto")
+    ap.set_speed(0.6, cause="ctl speed")
+    assert ap.request("pause", away, cause="ctl pause")[0]
+    ap.replace_mission([(40.0, 0.0)], cause="mavlink mission")
+    assert ap.speed_m_s is None
+
+
+def _fly(speed_m_s, waypoints, *, rtl=False, holds_s=None, t_max_s=150.0, commands=()):
+    """A closed-loop flight (the simulated boat, calm water): (t, mode, speed over ground, distance from the
+    launch point, distance from the first waypoint) each cycle."""
+    import numpy as np
+
+    from autopilot.daemon.cycle import nav_input
+    from autopilot.gnc.navigation import NavMemory, NavRules, assemble
+    from autopilot.sim import default_params_path, load_params, step
+    from autopilot.sim.sensors import SensorModel
+
+    params = load_params(default_params_path())
+    ap = Autopilot(GncConfig(), waypoints, rtl=rtl, holds_s=holds_s, boat_length_m=params.length_m)
+    if speed_m_s is not None:
+        ap.set_speed(speed_m_s, cause="ctl speed")
+    sensors, memory, rules = SensorModel(52.0, 4.4), NavMemory(), NavRules()
+    x, t, rows, todo = np.zeros(6), 0.0, [], list(commands)
+    while t < t_max_s:
+        nav, memory = assemble(sensors.observe(t, x), t, memory, rules, origin_lat_deg=52.0, origin_lon_deg=4.4)
+        while todo and t >= todo[0][0]:
+            ap.request(todo.pop(0)[1], nav_input(nav), cause="ctl")
+        out = ap.step(nav_input(nav), 0.1)
+        rows.append((t, out.mode, math.hypot(x[3], x[4]), math.hypot(x[0], x[1]),
+                     math.hypot(x[0] - waypoints[0][0], x[1] - waypoints[0][1])))
+        for _ in range(2):
+            x = step(params, x, out.thrust_port_n, out.thrust_stbd_n, 0.05, t_s=t)
+            t += 0.05
+    return rows
+
+
+def test_the_closing_on_a_point_the_boat_stops_at_is_no_faster_than_the_operators_speed():
+    """The last hold.approach_m (8 m) to the launch point of a return, and the way back to a hold item's point, are
+    station keeping's, at up to hold.approach_speed_m_s (1 m/s): the boat slowed to 0.5 m/s near swimmers sped up
+    to 0.92 m/s right at the launch point (and flew back to a hold item at 1 m/s)."""
+    rows = _fly(0.5, [(30.0, 0.0)], rtl=True)
+    home = [sog for _, mode, sog, d_home, _ in rows if mode is Mode.RTL and d_home <= 8.0]
+    assert home and max(home) < 0.55, max(home)
+    assert max(sog for _, mode, sog, *_ in rows if mode is Mode.AUTO) < 0.55
+    # a hold item at 25 m, an rtl taken from it, then back into the mission: back to the item's point, and held
+    rows = _fly(0.5, [(25.0, 0.0), (25.0, 25.0)], holds_s=[600.0, None], t_max_s=260.0,
+                commands=[(80.0, "rtl"), (160.0, "resume")])
+    back = [sog for t, mode, sog, *_ in rows if t > 160.0 and mode is Mode.AUTO]
+    assert back and max(back) < 0.7, max(back)  # (0.61: the speed trim's overshoot from rest; it went up to 0.99)
+    # without the operator's speed, as before: the approach's own
+    rows = _fly(None, [(30.0, 0.0)], rtl=True)
+    assert max(sog for _, mode, sog, d_home, _ in rows if mode is Mode.RTL and d_home <= 8.0) > 0.8

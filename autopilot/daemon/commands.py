@@ -220,7 +220,11 @@ def _speed(loop, request, helm_nav, unavailable, cause):
     flown = loop.ap.set_speed(speed, cause=cause)
     mode = loop.ap.mode
     # said when it does not move the boat now: a hold, a stop or manual keep their own speeds
-    later = "" if mode in (Mode.AUTO, Mode.RTL) else f"; flown once the mission or a return goes on (now {mode.value})"
+    if speed is not None and loop.ap.mission_cleared:  # "once the mission goes on": an upload gives its own speeds
+        later = ("" if mode is Mode.RTL else f"; flown on a return (now {mode.value})") + \
+            ": the mission is cleared, and a new one is flown at its planned speeds"
+    else:
+        later = "" if mode in (Mode.AUTO, Mode.RTL) else f"; flown once the mission or a return goes on (now {mode.value})"
     return True, f"speed: {flown} on every leg{later}"
 
 

@@ -448,6 +448,11 @@ class ControlLoop:
         launch = self.ap.launch_ne_m
         if status == "running":
             self._saved_running = True
+            if self.ap.mission_cleared:
+                # the run goes on without a mission: still "cleared" (a restart holds, and does not fly it again).
+                # An operator's speed given back by the clear, a speed, an arm or the clear's own hold then saved
+                # "running" over it, and a restart with resume_after_restart flew the cleared mission (a review)
+                status = "cleared"
         self._saved_homeward = self._homeward()
         self._saved_index = self.ap.resume_index
         try:

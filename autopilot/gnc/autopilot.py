@@ -167,6 +167,9 @@ class Autopilot:
         # the operator's speed over ground (m/s) for the legs of the mission and of the return, in place of the
         # planned ones, until given back or a new mission comes (MAVLink DO_CHANGE_SPEED, `ctl speed`); None: planned
         self.speed_m_s: float | None = None
+        # a new or cleared mission came while the boat was on a return: the operator's speed stays the return's, and
+        # the planned speeds come back when the new mission is flown (Autopilot._mission_speeds)
+        self._speed_until_mission = False
 
     # ---------------------------------------------------------------- state
     @property
@@ -417,6 +420,8 @@ class Autopilot:
         if new is self.auto and self.current is not self.auto:  # back to the mission: no stale "passed"
             self.auto.guidance.disarm_pass()
             self.auto.back_to_item()
+            if self._speed_until_mission:  # a mission that came on a return is flown at its planned speeds
+                self.set_speed(None, cause=f"{cause}: the mission uploaded on a return")
         self.current = new
         self.mode_cause = cause
         self.reset_integrator()
@@ -455,7 +460,7 @@ class Autopilot:
                              boat_length_m=self.boat_length_m)
         self.guidance = self.auto.guidance
         self.mission_cleared = False
-        self.set_speed(None, cause=cause)  # the new mission's own speeds
+        self._mission_speeds(cause)  # the new mission's own speeds
         if self.paused_from is old:
             self.paused_from = self.auto
         if self.current is old:
@@ -464,7 +469,7 @@ class Autopilot:
     def clear_mission(self, nav: NavInput | None, *, cause: str, unavailable: str = "no position") -> str:
         """No mission: running it, the boat holds where it is (stops without a position)."""
         self.mission_cleared = True
-        self.set_speed(None, cause=cause)
+        self._mission_speeds(cause)
         if self.current is self.auto or self.paused_from is self.auto:
             self.paused_from = None
             ok, _ = self.request("hold", nav, cause=cause, unavailable=unavailable)
@@ -495,12 +500,23 @@ class Autopilot:
         """The operator's speed (m/s, > 0; checked by the caller against the mission's limit) for every leg of the
         mission and of a return, from the next step on, surviving pauses, holds and restarts of the mission; None:
         the mission's planned speeds again. Turns and arrivals still slow the boat below it. A new or cleared
-        mission gives the planned speeds back (ArduPilot's AUTO starts at WP_SPEED). Returns what is flown."""
+        mission gives the planned speeds back (ArduPilot's AUTO starts at WP_SPEED; on a return, once the new mission
+        is flown: _mission_speeds). Returns what is flown."""
         speed = None if speed_m_s is None else float(speed_m_s)
+        self._speed_until_mission = False
         if speed != self.speed_m_s:
             self.speed_m_s = speed
             self._events.append(("speed", {"speed_m_s": speed, "cause": cause}))
         return "the mission's planned speeds" if speed is None else f"{speed:g} m/s"
+
+    def _mission_speeds(self, cause: str) -> None:
+        """A new or cleared mission gives the planned speeds back: now, or, on a return (rtl, or paused on one), once
+        the new mission is flown. A mission uploaded or cleared on the way home sped the boat the operator had slowed
+        near swimmers up to WP_SPEED for the rest of the way home, which no mission's speed is for (a review)."""
+        if self.speed_m_s is not None and (self.current.mode is Mode.RTL or self.paused_on_rtl):
+            self._speed_until_mission = True
+            return
+        self.set_speed(None, cause=cause)
 
     def _route_speed(self) -> None:
         """The operator's speed to the routes the helm may steer this cycle (the mission's, a return's)."""
@@ -673,7 +689,10 @@ class Autopilot:
                 s = dataclasses.replace(s, psi_d_rad=a.psi_d_rad, speed_cmd_m_s=a.speed_cmd_m_s)
         else:
             ref = s.hold.psi_ref_rad if s.hold is not None else nav.psi_rad
-            a = self.avoidance.step(own, list(targets), ref, self.config.hold.approach_speed_m_s, t_s, self.within_limits)
+            speed = self.config.hold.approach_speed_m_s
+            if self.speed_m_s is not None and self.current.mode in (Mode.AUTO, Mode.RTL):  # closing on a stop there
+                speed = min(speed, self.speed_m_s)  # (station keeping's approach is kept to it too: modes.keep_station)
+            a = self.avoidance.step(own, list(targets), ref, speed, t_s, self.within_limits)
             if a.active:
                 s = dataclasses.replace(s, kind="course", psi_d_rad=a.psi_d_rad, speed_cmd_m_s=a.speed_cmd_m_s)
         self._log_encounters(a)

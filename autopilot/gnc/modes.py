@@ -73,9 +73,12 @@ class Steering:
 
 
 def keep_station(keeper: StationKeeper, nav, dt_s: float, guidance: GuidanceOutput | None = None, *,
-                 holding: bool = True) -> Steering:
-    """One station-keeping step as a Steering."""
-    h = keeper.step(nav.north_m, nav.east_m, nav.psi_rad, nav.speed_m_s, nav.course_rad, dt_s)
+                 holding: bool = True, max_speed_m_s: float | None = None) -> Steering:
+    """One station-keeping step as a Steering. ``max_speed_m_s``: the operator's speed, which a closing on a point
+    the mission or a return stops at, and a hold item, do not exceed (they went up to hold.approach_speed_m_s, 1 m/s,
+    in the last approach_m of a boat slowed to 0.5 m/s near swimmers: a review of the operator's speed)."""
+    h = keeper.step(nav.north_m, nav.east_m, nav.psi_rad, nav.speed_m_s, nav.course_rad, dt_s,
+                    max_speed_m_s=max_speed_m_s)
     kind = "off" if h.drifting else "course" if h.approach else "force"
     return Steering(kind, psi_d_rad=h.psi_d_rad, speed_cmd_m_s=h.speed_cmd_m_s, tau_com_n=h.tau_com_n,
                     guidance=guidance, hold=h, hold_target_ne_m=keeper.target, holding=holding)
@@ -199,7 +202,8 @@ class RtlMode:
             return Steering("off", psi_d_rad=nav.psi_rad, guidance=g,
                             then=Handover(Mode.HOLD, RTL_ARRIVED_CAUSE, self.launch, self.arrived_keeper))
         if self.closing.near(nav, self.launch):
-            return keep_station(self.closing.keeper_for(self.launch, nav), nav, dt_s, guidance=g, holding=False)
+            return keep_station(self.closing.keeper_for(self.launch, nav), nav, dt_s, guidance=g, holding=False,
+                                max_speed_m_s=self.guidance.speed_override_m_s)
         return Steering("course", psi_d_rad=g.psi_d_rad, speed_cmd_m_s=g.speed_cmd_m_s, guidance=g)
 
 
@@ -252,8 +256,9 @@ class AutoMode:
                 self.item_returning = False
             if not self.item_returning:
                 self.item_left_s -= dt_s
-            if self.item_left_s > 0.0:
-                return keep_station(self.item_keeper, nav, dt_s, holding=not self.item_returning)
+            if self.item_left_s > 0.0:  # held (and gone back to) no faster than the operator's speed
+                return keep_station(self.item_keeper, nav, dt_s, holding=not self.item_returning,
+                                    max_speed_m_s=self.guidance.speed_override_m_s)
             self.end_item_hold()
         if self.guidance.complete:
             return self._end(nav)
@@ -268,12 +273,13 @@ class AutoMode:
         if i is not None and self._hold_s(i) is not None:
             self.item_index, self.item_left_s = i, self._hold_s(i)
             self.item_keeper = self._keeper_at(i, nav)
-            return keep_station(self.item_keeper, nav, dt_s, guidance=g)
+            return keep_station(self.item_keeper, nav, dt_s, guidance=g, max_speed_m_s=self.guidance.speed_override_m_s)
         if g.complete:
             return self._end(nav, g)
         target = self.guidance.waypoints[g.wp_index]
         if self._stops_at(g.wp_index) and self.closing.near(nav, target):
-            return keep_station(self.closing.keeper_for(target, nav), nav, dt_s, guidance=g, holding=False)
+            return keep_station(self.closing.keeper_for(target, nav), nav, dt_s, guidance=g, holding=False,
+                                max_speed_m_s=self.guidance.speed_override_m_s)
         return Steering("course", psi_d_rad=g.psi_d_rad, speed_cmd_m_s=g.speed_cmd_m_s, guidance=g)
 
     def _keeper_at(self, i: int, nav) -> StationKeeper:

@@ -176,8 +176,11 @@ class StationKeeper:
         return keeper
 
     def step(self, north_m: float, east_m: float, psi_rad: float, sog_m_s: float, cog_rad: float,
-             dt_s: float) -> HoldOutput:
+             dt_s: float, *, max_speed_m_s: float | None = None) -> HoldOutput:
+        """``max_speed_m_s``: the operator's speed (ctl speed, DO_CHANGE_SPEED) when the mission or a return closes on a
+        point it stops at: the approach goes no faster (None: approach_speed_m_s)."""
         cfg = self.config
+        approach_m_s = cfg.approach_speed_m_s if max_speed_m_s is None else min(cfg.approach_speed_m_s, max_speed_m_s)
         north_m, east_m = self._smoothed(north_m, east_m, sog_m_s, cog_rad, dt_s)
         en, ee = self.target[0] - north_m, self.target[1] - east_m
         d = math.hypot(en, ee)
@@ -190,7 +193,7 @@ class StationKeeper:
         if self._drifting:
             return self._out(psi_rad, 0.0, 0.0, False, True, d)
         if d > cfg.approach_m:
-            return self._out(math.atan2(ee, en), 0.0, cfg.approach_speed_m_s, True, False, d)
+            return self._out(math.atan2(ee, en), 0.0, approach_m_s, True, False, d)
         # drifting and driving back (radius_m), the drive back is no holding to learn from: only when slow there
         below = cfg.learn_below_m_s if cfg.radius_m <= 0.0 else min(cfg.learn_below_m_s, cfg.radius_slow_m_s)
         slow = not math.isfinite(sog_m_s) or sog_m_s < below
@@ -208,8 +211,7 @@ class StationKeeper:
         c, s = math.cos(psi_rad), math.sin(psi_rad)
         e_a = en * c + ee * s  # the thrust acts along the hull as it lies now
         v_a = sog_m_s * math.cos(cog_rad - psi_rad) if math.isfinite(sog_m_s) else 0.0
-        v_ref = clamp(sqrt_controller(e_a, cfg.speed_gain_per_s, cfg.brake_m_s2), -cfg.approach_speed_m_s,
-                      cfg.approach_speed_m_s)
+        v_ref = clamp(sqrt_controller(e_a, cfg.speed_gain_per_s, cfg.brake_m_s2), -approach_m_s, approach_m_s)
         tau_com = cfg.kv_n_s_per_m * (v_ref - v_a) + self._d_n[0] * c + self._d_n[1] * s
         if self._lining_up:  # psi_ref is the line; the thrust along the hull closes as the hull comes round
             return self._out(self._psi_ref, tau_com, 0.0, False, False, d)
