@@ -509,3 +509,23 @@ def test_the_other_ends_keep_their_words(tmp_path):
     early = [r for r in recs if r.get("event") not in ("mission_complete", "waypoint_reached")]
     assert dict(score(read_log(_write(tmp_path / "n.jsonl", early))).table_rows())["stop"] == (
         "stopped by max_mission_time, then by SIGTERM")
+
+
+def test_deadlines_the_loop_skipped_are_a_scorecard_row(tmp_path):
+    """A review audit (2026-12-06): a 20x run skipped 25 deadlines (the daemon's summary said so) and its report showed
+    only "gaps in the log 0.0 s". The cycles' `skipped_cycles` count (cumulative) and the stop line's are read."""
+    path = tmp_path / "run.jsonl"
+    write_synthetic_log(path, duration_s=30.0)
+    lines = [json.loads(x) for x in path.read_text().splitlines()]
+    for k, rec in enumerate(lines):
+        if rec["event"] == "cycle" and k > len(lines) // 2:
+            rec["skipped_cycles"] = 3
+        if rec["event"] == "stop":
+            rec["skipped_cycles"] = 4  # one skipped after the last cycle line was written
+    path.write_text("".join(json.dumps(rec) + "\n" for rec in lines))
+    rows = dict(score(read_log(path)).table_rows())
+    assert rows["deadlines skipped (the loop a period or more behind)"] == "4"
+    for rec in lines:
+        rec.pop("skipped_cycles", None)
+    path.write_text("".join(json.dumps(rec) + "\n" for rec in lines))
+    assert dict(score(read_log(path)).table_rows())["deadlines skipped (the loop a period or more behind)"] == "n/a (not logged)"

@@ -230,6 +230,9 @@ class Scorecard:
     missions: list = field(default_factory=list)  # one per plan when the mission was replaced: number, from_t_s, source, waypoints
     heading_stale_after_s: float = math.nan  # the ages above which a sample counted stale (stale_limits_s)
     speedup: str = ""  # mission_start's --speedup when not real time ("10", "max"): the log's times are simulated
+    # deadlines the loop skipped, more than a period behind (the cycles' skipped_cycles and the stop line's; NaN: not
+    # logged). The daemon's summary said 25 for a 20x run whose report showed only "gaps in the log 0.0 s" (an audit)
+    skipped_cycles: float = math.nan
     start_index: int = 0  # the waypoint this run started at (mission_start's: a restart that carried a run on)
     position_stale_after_s: float = math.nan
     legs: list = field(default_factory=list)  # [LegScore], every plan's legs in order
@@ -294,6 +297,7 @@ class Scorecard:
             ("GPS jumps refused / re-anchored", f"{self.gps_jumps_refused} / {self.gps_jumps_reanchored}"),
             ("loop lateness p50 / p99 / max" + (f" (simulated ms: --speedup {self.speedup})" if self.speedup else ""),
              f"{_fmt(lat.get('p50'), 'ms', 2)} / {_fmt(lat.get('p99'), 'ms', 2)} / {_fmt(lat.get('max'), 'ms', 2)}"),
+            ("deadlines skipped (the loop a period or more behind)", _fmt_count(self.skipped_cycles)),
             ("thrust unknown (not logged)", _fmt(self.thrust_unknown_s, "s", 1)),
             ("time per mode", ", ".join(f"{m} {v:.1f} s" for m, v in self.mode_time_s.items() if v > 0) or "n/a"),
             ("station keeping", _fmt_holds(self.holds)),
@@ -305,7 +309,7 @@ class Scorecard:
         ]
         if self.cycles == 0:  # times over no cycles read "0.0 s", as a clean run's do (a review audit: an empty log)
             over_cycles = ("heading lost", "position lost", "gaps in the log", "time in failsafe", "dropped NMEA",
-                           "missing Mbed acks", "loop lateness", "thrust unknown")
+                           "missing Mbed acks", "loop lateness", "deadlines skipped", "thrust unknown")
             rows = [(label, "n/a (no cycles in the log)" if label.startswith(over_cycles) else value)
                     for label, value in rows]
         return rows
@@ -982,6 +986,7 @@ def score(log: MissionLog) -> Scorecard:
         failsafes=failsafes, faults=_fault_times(log, t_end),
         nmea_dropped=_max_count(log, "nmea_dropped", "nmea_dropped"),
         ack_missing=_max_count(log, "ack_missing", "ack_missing"),
+        skipped_cycles=_max_count(log, "skipped_cycles", "skipped_cycles"),
         lateness_ms=lateness, stop_reason=stop_reason if isinstance(stop_reason, str) else None,
         speedup=_speedup_words((log.start or {}).get("speedup")),
         start_index=_start_index(log),
