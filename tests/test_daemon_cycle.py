@@ -310,3 +310,33 @@ def test_the_missions_own_way_home_paused_and_resumed_stays_the_missions(tmp_pat
     assert ap.request("resume", there, cause="ctl resume") == (True, "rtl")
     loop._operator_chose()
     assert loop.operator_mode == "" and loop._homeward()
+
+
+def test_a_mission_uploaded_on_the_missions_own_way_home_is_not_flown_by_a_restart(tmp_path):
+    """Found reviewing c235c48: a mission uploaded while the boat went home on the old mission's own rtl was saved
+    "running" with no operator's mode and homeward false (the new mission's route is not done), so a crash and a
+    restart with resume_after_restart flew the new mission from its first waypoint, where the boat had been going
+    home. The return is the operator's now: a restart holds zero thrust until told."""
+    from autopilot.gnc.autopilot import NavInput
+
+    cfg = DaemonConfig()
+    mission = Mission("out-and-home", np.array([(10.0, 0.0)]), (None,), None, *ORIGIN, rtl=True)
+    ap = Autopilot(cfg.gnc, mission.waypoints_ne_m, rtl=True)
+    store = StateStore(tmp_path / "state")
+    loop = ControlLoop(cfg, clock=SimClock(), autopilot=ap, mission=mission, mission_path="m.yaml",
+                       mission_sha256="x", compass=FakeCompass(SimClock()), thrusters=FakeThrusters(),
+                       log=MissionLog(tmp_path / "l.jsonl", console=None), notifier=Notifier(None), store=store)
+    home = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    there = NavInput(north_m=10.0, east_m=0.0, psi_rad=math.pi, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    ap.step(home, 0.1)
+    for _ in range(3):
+        ap.step(there, 0.1)
+    loop.state.completed_t_s = 1.0
+    assert ap.mode is Mode.RTL and loop._homeward()
+    new = Mission("square", np.array([(30.0, 0.0), (30.0, 30.0)]), (None, None), None, *ORIGIN)
+    loop.replace_mission(new, source="mavlink", cause="mavlink mission")
+    assert ap.mode is Mode.RTL  # still going home: the new mission waits for resume
+    saved = store.load()
+    assert saved.status == "running" and saved.operator == "rtl" and not saved.homeward
+    wp, why = store.interrupted(saved.mission_sha256, 2)
+    assert wp == 0 and "operator's rtl was in force" in why, why

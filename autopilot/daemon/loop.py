@@ -277,6 +277,10 @@ class ControlLoop:
         st = self.state
         st.completed_t_s, st.finished, st.passes_done, st.reached, st.closest_m = None, False, False, [], {}
         self.passes_restart()
+        # a mission uploaded on the old one's own way home (or in its final hold) is not flown yet: the return is no
+        # longer the mission's (homeward), so it is the operator's. Saved with no operator's mode, a crash and a
+        # restart with resume_after_restart flew the new mission from its first waypoint (a review of c235c48)
+        self._operator_chose()
         self.log.event("mission_replaced", t_s=self.clock.now_s() - self.t0_s, source=source,
                        waypoints=[[float(n), float(e)] for n, e in mission.waypoints_ne_m], path=str(path),
                        sha256=sha)
