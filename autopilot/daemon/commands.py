@@ -216,7 +216,7 @@ def _speed(loop, request, helm_nav, unavailable, cause):
     """The operator's speed for the mission's and a return's legs (MAVLink DO_CHANGE_SPEED, `ctl speed`)."""
     speed = request.get("speed_m_s")
     if speed is not None and not is_speed(speed):
-        return False, f"speed refused: speed_m_s {speed!r} outside {SPEED_RANGE}"
+        return False, f"speed refused: speed_m_s {speed!r} is not a speed in {SPEED_RANGE}"
     flown = loop.ap.set_speed(speed, cause=cause)
     mode = loop.ap.mode
     # said when it does not move the boat now: a hold, a stop or manual keep their own speeds

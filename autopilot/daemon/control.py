@@ -96,7 +96,7 @@ def check_request(req) -> str | None:
         if cmd != "speed":
             return f"malformed request: speed_m_s is for speed only, not {cmd}"
         if v is not None and not is_speed(v):
-            return f"malformed request: speed_m_s {repr(v)[:32]} outside {SPEED_RANGE}"
+            return f"malformed request: speed_m_s {repr(v)[:32]} is not a speed in {SPEED_RANGE}"
     h = req.get("heading_deg")
     if h is not None:
         if cmd != "hold":
