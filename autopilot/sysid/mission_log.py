@@ -37,6 +37,8 @@ F_POSITION_AGE, F_HEADING_AGE = "position_age_s", "heading_age_s"
 F_THRUST_PORT, F_THRUST_STBD = "thrust_port_n", "thrust_stbd_n"
 F_SOG, F_COG, F_RATE = "sog_m_s", "cog_deg", "yaw_rate_deg_s"
 F_SKIPPED = "skipped_cycles"
+F_CYCLE = "cycle"
+LOST_CYCLES = 3  # this many cycle lines missing in a row (the counter jumped; skipped deadlines do not count): cut
 MODE_FITTED = "auto"
 GAP_PERIODS = 1.5  # a cycle this many periods after the previous one followed skipped deadlines
 
@@ -58,6 +60,18 @@ def after_skipped_deadlines(log, t_s: np.ndarray) -> np.ndarray:
     if skipped is not None and np.isfinite(skipped).any():
         after |= np.r_[False, np.diff(np.nan_to_num(skipped, nan=0.0)) > 0]
     return after
+
+
+def lost_stretches(log, t_s: np.ndarray, rows: slice) -> tuple:
+    """(t_s before, t_s after) of each stretch of LOST_CYCLES or more cycle lines missing between two rows of
+    ``rows`` (the ``cycle`` counter jumped: the daemon ran those cycles and sent their commands, but their lines
+    never reached the file, a write failed or the file was cut), on the trial's time base (its first row at 0)."""
+    cycle = _column(log, F_CYCLE)
+    if cycle is None:
+        return ()
+    cycle, t = cycle[rows], t_s[rows]
+    jumps = np.flatnonzero(np.isfinite(cycle[1:]) & np.isfinite(cycle[:-1]) & (np.diff(cycle) > LOST_CYCLES))
+    return tuple((float(t[k] - t[0]), float(t[k + 1] - t[0])) for k in jumps)
 
 
 def _fitted_modes(log) -> np.ndarray:
@@ -92,11 +106,14 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
             position_time_s=(t - c(F_POSITION_AGE))[keep], heading_time_s=(t - c(F_HEADING_AGE))[keep],
             thrust_port_n=c(F_THRUST_PORT)[keep], thrust_stbd_n=c(F_THRUST_STBD)[keep],
             exclude=exclude, sog_m_s=c(F_SOG)[keep], cog_deg=c(F_COG)[keep], rot_deg_s=c(F_RATE)[keep],
-            curve=curve, commands_held=True, row_name=lambda i: _line_name(log, first + i),
+            curve=curve, commands_held=True, row_name=lambda i: _line_name(log, first + i), wall_clock=False,
         )
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from exc
     trial.counts["cut_not_auto_rows"] = int(log.n_cycles - (last + 1 - first))
+    lost = lost_stretches(log, t, keep)
+    if lost:
+        trial = dataclasses.replace(trial, lost_s=lost)
     notes = []
     if log.stats.skipped:  # review said so of a damaged log; the identification said nothing
         trial.counts["log_lines_skipped"] = int(log.stats.skipped)

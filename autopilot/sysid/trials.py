@@ -87,6 +87,9 @@ class Trial:
     counts: dict = field(default_factory=dict)
     read_notes: tuple = ()  # what reading the file skipped, in words (a mission log's damaged lines)
     t0_s: float = 0.0  # the file's t_s of the first row (t_s here starts at 0): how notes name a time in the file
+    # (last row before, first row after) on t_s of each stretch whose rows were lost (a mission log's lines a failed
+    # write lost: the daemon sent commands then, none known here); cut_at_lost (in cut_long) cuts the trial there
+    lost_s: tuple = ()
 
     @property
     def duration_s(self) -> float:
@@ -119,6 +122,8 @@ def _held_commands(x: np.ndarray) -> np.ndarray:
     return np.nan_to_num(_forward_fill_after(x), nan=0.0)
 
 
+# t_s going back to more than this after the first row's is a clock stepped back, not a second trial's start
+CLOCK_STEP_BACK_S = 5.0
 GAP_MIN_S = 5.0  # a step in t_s longer than this and than GAP_STEPS typical steps is a gap in the record
 GAP_STEPS = 10.0
 # rows a median interval outside these apart are not seconds: milliseconds (a 10 Hz log's rows 100 "s" apart,
@@ -129,11 +134,12 @@ ROW_INTERVAL_S = (1e-3, 10.0)
 THRUST_SLACK = 0.5
 
 
-def check_times(t: np.ndarray, row_name) -> None:
+def check_times(t: np.ndarray, row_name, *, wall_clock: bool = True) -> None:
     """ConfigError naming the row when the times of one trial are not one record: a row without a time, a time
     repeated or going back, or a gap (the logger stopped). Each was once dropped or flown over without a word:
     a 60-s gap replayed as one trial came out 'unexplained' (heading 5 deg against noise 0.9), a time going
-    back in a mission log kept only the rows before it. ``row_name(i)``: how the user finds row i."""
+    back in a mission log kept only the rows before it. ``row_name(i)``: how the user finds row i. ``wall_clock``:
+    the times may come from a clock that can be set back (another tool's; the daemon's are monotonic)."""
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise ConfigError(f"{row_name(bad[0])}, t_s: no time (every row needs one)")
@@ -146,6 +152,11 @@ def check_times(t: np.ndarray, row_name) -> None:
         if dt[i] == 0.0:
             raise ConfigError(f"t_s repeats {t[i]:g} s at {row_name(i)} and {row_name(i + 1)}: each row is a moment "
                               "of its own (a row written twice? delete one)")
+        if wall_clock and t[i + 1] > t[0] + CLOCK_STEP_BACK_S:  # not back to the start: a clock stepped
+            raise ConfigError(f"t_s goes back {t[i] - t[i + 1]:.3g} s, from {t[i]:g} s ({row_name(i)}) to "
+                              f"{t[i + 1]:g} s ({row_name(i + 1)}), not to the start: the logger's clock set back "
+                              "(a wall clock stepped by NTP or GPS time?); one trial's rows in time order: shift the "
+                              "rows after it by the step, or split the file there, each part a trial of its own")
         raise ConfigError(f"t_s goes back from {t[i]:g} s ({row_name(i)}) to {t[i + 1]:g} s ({row_name(i + 1)}): one "
                           "trial's rows in time order (two trials in one file? give each its own file)")
     median_s = float(np.median(dt))
@@ -280,6 +291,12 @@ def new_velocities(sog: np.ndarray | None, cog: np.ndarray | None, fix_new: np.n
         elif epoch_t != taken_epoch and epochs_later <= 0:  # an epoch without its fix: its sentences lost?
             steady.append([epoch_t, k])
     end_steady(None)
+    taken = np.flatnonzero(is_new)
+    if taken.size >= 2 and times[taken[0]] == times[taken[1]] and taken[0] == np.flatnonzero(has_pair)[0]:
+        # the trial's first pair and the next one dated in one epoch: the first was there before the trial began
+        # (a mission log cut at its first cycle in auto, whose row still held the epoch before's pair), not a
+        # reading of this epoch: dated with it, a second's speed and course late (a sysid audit, 2026-12-06)
+        is_new[taken[0]], times[taken[0]] = False, np.nan
     return is_new, times
 
 
@@ -311,15 +328,16 @@ def make_trial(
     curve: ThrustCurve | None = None,
     commands_held: bool = False,
     row_name=lambda i: f"data row {i + 1}",
+    wall_clock: bool = True,
 ) -> Trial:
     """Build a :class:`Trial` from raw per-row columns (degrees and duty only at this edge).
 
     ``exclude``: rows whose measurements are not used (their commands are). ``row_name(i)``: row i as the
-    user finds it in the file (check_times' messages).
+    user finds it in the file (check_times' messages); ``wall_clock``: check_times'.
     """
     curve = curve or ThrustCurve()
     t = np.asarray(t_s, dtype=float)
-    check_times(t, row_name)
+    check_times(t, row_name, wall_clock=wall_clock)
     sel = _increasing_rows(t)
     if sel.size < MIN_SAMPLES:
         raise ConfigError(f"trial {name}: only {sel.size} samples with a usable t_s (need {MIN_SAMPLES})")
@@ -436,13 +454,30 @@ def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = Non
         north, east = latlon_to_local(lat, lon, float(lat[i0]), float(lon[i0]))
     if get("heading_deg") is None:
         raise ConfigError("needs a heading_deg column")
-    return make_trial(
+    trial = make_trial(
         name, cols["t_s"], north_m=north, east_m=east, heading_deg=get("heading_deg"),
         thrust_port_n=get("thrust_port_n"), thrust_stbd_n=get("thrust_stbd_n"),
         pwm_port_pct=get("pwm_port_pct"), pwm_stbd_pct=get("pwm_stbd_pct"),
         position_time_s=get("position_time_s"), heading_time_s=get("heading_time_s"),
         sog_m_s=get("sog_m_s"), cog_deg=get("cog_deg"), rot_deg_s=get("rot_deg_s"), curve=curve, row_name=row_name,
     )
+    lost = rows_lost(trial.t_s)
+    return dataclasses.replace(trial, lost_s=lost) if lost else trial
+
+
+LOST_MIN_S = 0.5  # a CSV's rows this far apart, and LOST_STEPS typical steps, were lost: the commands then unknown
+LOST_STEPS = 4.0
+
+
+def rows_lost(t_s: np.ndarray) -> tuple:
+    """(t_s before, t_s after) of each step between a CSV's rows longer than LOST_MIN_S and LOST_STEPS typical
+    steps: rows lost (a mission log's lines a failed write lost, exported), over which the commands are unknown
+    and a replay on them interpolated drifts (cut_at_lost). A missing row or two is interpolated (_commands)."""
+    dt = np.diff(t_s)
+    if dt.size == 0:
+        return ()
+    limit_s = max(LOST_MIN_S, LOST_STEPS * float(np.median(dt)))
+    return tuple((float(t_s[k]), float(t_s[k + 1])) for k in np.flatnonzero(dt > limit_s))
 
 
 # the trial CSV's columns, once: ``autopilot sysid --help`` shows them (an installed user has no source to read)
@@ -597,6 +632,54 @@ PIECE_MAX_S = 75.0
 PIECE_MIN_S = 20.0  # a piece's start moves past a dropout at most until this is left of it
 
 
+def _first_window(tr: Trial, a: float, b: float) -> tuple[float, Trial] | None:
+    """(start, piece) of the rows in [a, b): the piece beginning at ``a``, or after a dropout at its edge at the
+    first whole second that begins with fixes and headings (window), at most until PIECE_MIN_S is left; None when
+    none does."""
+    s = a
+    while True:
+        piece = window(tr, s, b - s)
+        if piece is not None:
+            return s, piece
+        if s + 1.0 + PIECE_MIN_S >= b:
+            return None
+        s += 1.0
+
+
+def cut_at_lost(trials) -> tuple[list[Trial], list[str]]:
+    """The trials, each with rows lost (``Trial.lost_s``) cut there into parts, each replayed from its own
+    initial state; and a note per trial cut.
+
+    The commands over lost lines are unknown: held open loop across them (the motors' last logged command, while
+    the daemon went on steering), 2-2.5 s of a mission log's lines lost to failed writes in each of three pond
+    logs turned a current into 'unexplained', heading 8.6 deg against noise 0.9 (a sysid audit, 2026-12-06).
+    A part too short to fit (window) is left out, said in the note."""
+    out, notes = [], []
+    for tr in trials:
+        if not tr.lost_s:
+            out.append(tr)
+            continue
+        end_s = float(tr.t_s[-1]) + 1.0
+        edges = [float(tr.t_s[0])] + [float(after) for _, after in tr.lost_s]
+        ends = [float(after) for _, after in tr.lost_s] + [end_s]
+        parts = [_first_window(tr, a, b) for a, b in zip(edges, ends)]
+        kept = [p for _, p in filter(None, parts)]
+        lost = ", ".join(f"{tr.t0_s + before:.1f}-{tr.t0_s + after:.1f} s" for before, after in tr.lost_s)
+        if not kept:
+            out.append(tr)
+            notes.append(f"{tr.name}: rows lost at t_s {lost} (lines the log never got: the commands then are "
+                         "unknown, held here) and no part between long enough to fit alone: replayed whole, the "
+                         "verdict may show the lost commands")
+            continue
+        kept = [dataclasses.replace(p, counts={**tr.counts, "lost_rows_parts": len(kept)}) if k == 0
+                else dataclasses.replace(p, counts={}, read_notes=()) for k, p in enumerate(kept)]
+        out += kept
+        left = f"; {len(parts) - len(kept)} too short to fit left out" if len(kept) < len(parts) else ""
+        notes.append(f"{tr.name}: rows lost at t_s {lost} (lines the log never got: the commands then are "
+                     f"unknown): cut there into {len(kept)} part(s), each replayed from its own state{left}")
+    return out, notes
+
+
 def cut_long(trials) -> tuple[list[Trial], list[str]]:
     """The trials, each longer than LONG_TRIAL_S cut into even pieces of at most PIECE_MAX_S, each replayed from
     its own initial state; and a note per trial cut.
@@ -607,7 +690,8 @@ def cut_long(trials) -> tuple[list[Trial], list[str]]:
     2026-12-05), its nearest candidate wind within 0.2 m/s of the truth, while the same log cut into ~60-s
     pieces was named wind. The pieces are trials of their own: held out in turn, and their jackknife widens
     the intervals. Their counts stay on the first piece (the summary adds them up)."""
-    out, notes = [], []
+    trials, notes = cut_at_lost(trials)
+    out = []
     for tr in trials:
         span = float(tr.t_s[-1] - tr.t_s[0])
         if span <= LONG_TRIAL_S:

@@ -1,0 +1,131 @@
+"""A sysid audit (2026-12-06) with logs made the way a real boat makes them: the daemon's own mission logs
+(``autopilot run --sim --speedup max``), then degraded as reality does."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from autopilot.cli import main
+from autopilot.sim import default_params_path
+from autopilot.sysid import read_trial
+from autopilot.sysid.closed_loop import fly_pond_logs
+from autopilot.sysid.trials import write_trial_csv
+
+
+def _lose_lines_in_a_turn(src, dst, span_s: float = 2.5) -> tuple[float, float]:
+    """The mission log with ``span_s`` of cycle lines lost where the helm turns hardest (a failed write: the
+    daemon goes on and says so with a 'log writes resumed' line, docs/log-schema.md); the lost stretch's t_s."""
+    lines = src.read_text().splitlines()
+    recs = [json.loads(s) for s in lines]
+    cyc = [(i, r) for i, r in enumerate(recs) if r.get("event") == "cycle" and r.get("mode") == "auto"]
+    t = np.array([r["t_s"] for _, r in cyc])
+    turn = np.array([abs(r["thrust_port_n"] - r["thrust_stbd_n"]) for _, r in cyc])
+    inside = (t > t[0] + 10.0) & (t < t[-1] - 10.0 - span_s)
+    best = max(np.flatnonzero(inside), key=lambda k: turn[(t >= t[k]) & (t < t[k] + span_s)].sum())
+    gone = {i for (i, r) in cyc if t[best] <= r["t_s"] < t[best] + span_s}
+    out = []
+    for i, s in enumerate(lines):
+        if i in gone:
+            continue
+        if i - 1 in gone and i not in gone:
+            out.append(json.dumps({"t_s": recs[i].get("t_s"), "message": "log writes resumed",
+                                   "lines_lost": len(gone), "event": "info"}))
+        out.append(s)
+    dst.write_text("\n".join(out) + "\n")
+    return float(t[best]), float(t[best] + span_s)
+
+
+@pytest.fixture(scope="module")
+def lost_log(tmp_path_factory):
+    """A pond-9.1 mission flown by the daemon in a 0.25 m/s current towards 060, with 2.5 s of its cycle lines
+    lost in a turn; (the log, the lost stretch's t_s)."""
+    tmp = tmp_path_factory.mktemp("lost")
+    (log,) = fly_pond_logs(tmp / "flown", 20261206, n_logs=1, current_speed_m_s=0.25,
+                           current_towards_deg=60.0, speedup="max")
+    damaged = tmp / "lost.jsonl"
+    return damaged, _lose_lines_in_a_turn(log, damaged)
+
+
+def _identify_current(path, out) -> dict:
+    assert main(["sysid", str(path), "--params", str(default_params_path()), "--effects", "current",
+                 "--out", str(out), "--no-report", "--quiet"]) == 0
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_a_mission_log_with_lines_lost_is_cut_there_not_replayed_on_held_commands(lost_log, tmp_path):
+    """2-2.5 s of a mission log's cycle lines lost (a failed write) in a turn: the commands then are unknown.
+    Held open loop across the gap, a current in the daemon's own pond logs came out 'unexplained' (one pond-9.4
+    log: heading 24 deg against noise 0.9; three: nearest wind+wind_force), and this pond-9.1 log's current
+    left 2.5 deg of heading residual; the trial is now cut there, each part replayed from its own state, and
+    the note says so."""
+    damaged, (a, b) = lost_log
+    summary = _identify_current(damaged, tmp_path / "out")
+    assert summary["verdict"] == ["current"] and summary["adequate"] is True
+    # held across the gap: 2.5 deg of heading residual, the heading wander at its 1-deg bound to swallow it
+    assert summary["rmse_after"]["fitted"]["heading_deg"] < 0.5
+    assert any("rows lost" in n and "cut there into 2 part(s)" in n for n in summary["notes"])
+    speed = {p["name"]: p for p in summary["effects"]["current"]["params"]}["speed_m_s"]
+    assert speed["ci95"][0] - 0.03 < 0.25 < speed["ci95"][1] + 0.03
+    trial = read_trial(damaged)
+    assert len(trial.lost_s) == 1
+    before, after = (trial.t0_s + x for x in trial.lost_s[0])
+    assert before < a and b <= after < b + 0.15
+
+
+def test_a_trial_csv_with_rows_lost_is_cut_there_not_replayed_on_interpolated_commands(lost_log, tmp_path):
+    """The same log's rows as a trial CSV (the rows the log kept, a 2.5-s step between two of them at 10 Hz): the
+    commands across it were interpolated, 2.5 deg of heading left; now cut there as the mission log is."""
+    damaged, _ = lost_log
+    csv_path = tmp_path / "lost.csv"
+    write_trial_csv(read_trial(damaged), csv_path)
+    summary = _identify_current(csv_path, tmp_path / "out")
+    assert summary["verdict"] == ["current"] and summary["adequate"] is True
+    assert summary["rmse_after"]["fitted"]["heading_deg"] < 0.5
+    assert any("rows lost" in n and "cut there into 2 part(s)" in n for n in summary["notes"])
+
+
+def test_the_first_rows_speed_and_course_of_the_epoch_before_are_not_dated_with_the_first_fix():
+    """A mission log is read from its first cycle in auto: there (as in the daemon's pond logs) the row holds a new
+    fix while its speed and course are still the epoch before's, the RMC of the new epoch a few rows later. Both
+    pairs were dated with the first fix: the first a second's speed and course late, two readings at one time."""
+    from autopilot.sysid.trials import make_trial
+
+    t = 0.05 + 0.1 * np.arange(300)
+    fix_epoch = np.floor(t - 0.05 + 1e-9)  # epochs at k - 0.1 s, each fix on the wire at k + 0.05 s
+    pair_epoch = np.floor(t - 0.25 + 1e-9)  # its RMC at k + 0.25 s
+    trial = make_trial("first-row", t, north_m=fix_epoch * 1.0, east_m=np.zeros_like(t),
+                       heading_deg=np.zeros_like(t), position_time_s=fix_epoch - 0.1, heading_time_s=t,
+                       thrust_port_n=np.full_like(t, 10.0),
+                       thrust_stbd_n=np.full_like(t, 10.0), sog_m_s=1.0 + 0.01 * pair_epoch,
+                       cog_deg=(10.0 * pair_epoch) % 360.0, commands_held=True)
+    rows = trial.velocity_rows
+    when = trial.velocity_time_s[rows] + trial.t0_s
+    assert np.all(np.diff(when) > 0.5)  # one reading an epoch
+    # each reading dated in its own epoch: the speed says which
+    assert np.allclose(when, (trial.sog_m_s[rows] - 1.0) / 0.01 - 0.1)
+
+
+def test_a_csv_whose_clock_was_set_back_is_not_said_to_hold_two_trials(tmp_path):
+    """Another tool's logger on a wall clock that NTP set back 0.8 s in the middle of a trial: refused (t_s must
+    increase) as 'two trials in one file? give each its own file', which it is not; now the step is named."""
+    from autopilot.schema import ConfigError
+
+    t = 0.1 * np.arange(1, 401)
+    t[200:] -= 0.8
+    rows = ["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg"]
+    rows += [f"{x:.2f},10,10,{0.5 * x:.2f},0,0.0" for x in t]
+    path = tmp_path / "stepped.csv"
+    path.write_text("\n".join(rows) + "\n")
+    with pytest.raises(ConfigError) as err:
+        read_trial(path)
+    assert "two trials" not in str(err.value)
+    assert "goes back 0.7 s" in str(err.value) and "clock set back" in str(err.value)
+    assert "data row 200" in str(err.value) and "data row 201" in str(err.value)
+    t[200:] -= 30.0  # back before the first row: a second trial's rows after the first's
+    path.write_text("\n".join(["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg"]
+                              + [f"{x:.2f},10,10,{0.5 * x:.2f},0,0.0" for x in t]) + "\n")
+    with pytest.raises(ConfigError, match="two trials in one file"):
+        read_trial(path)
