@@ -340,3 +340,38 @@ def test_a_mission_uploaded_on_the_missions_own_way_home_is_not_flown_by_a_resta
     assert saved.status == "running" and saved.operator == "rtl" and not saved.homeward
     wp, why = store.interrupted(saved.mission_sha256, 2)
     assert wp == 0 and "operator's rtl was in force" in why, why
+
+
+def test_a_mission_uploaded_after_the_old_one_ended_stopped_is_not_flown_by_a_restart(tmp_path):
+    """Found reviewing 1503182: a mission uploaded after the old one ended with its stop (mode complete, zero thrust)
+    waits there for resume, but was saved "running" with no operator's mode (complete counted as the mission's own
+    end, though the new mission's route is not flown): a crash and a restart with resume_after_restart flew the new
+    mission from its first waypoint, unasked. The stop is the operator's now: a restart holds zero thrust."""
+    from autopilot.gnc.autopilot import NavInput
+
+    cfg = DaemonConfig()
+    mission = Mission("out", np.array([(10.0, 0.0)]), (None,), None, *ORIGIN)
+    ap = Autopilot(cfg.gnc, mission.waypoints_ne_m)
+    store = StateStore(tmp_path / "state")
+    loop = ControlLoop(cfg, clock=SimClock(), autopilot=ap, mission=mission, mission_path="m.yaml",
+                       mission_sha256="x", compass=FakeCompass(SimClock()), thrusters=FakeThrusters(),
+                       log=MissionLog(tmp_path / "l.jsonl", console=None), notifier=Notifier(None), store=store)
+    home = NavInput(north_m=0.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    there = NavInput(north_m=10.0, east_m=0.0, psi_rad=0.0, speed_m_s=0.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    ap.step(home, 0.1)
+    for _ in range(3):
+        ap.step(there, 0.1)
+    loop.state.completed_t_s = 1.0
+    assert ap.mode is Mode.COMPLETE
+    loop._operator_chose()  # the old mission's own end: not the operator's
+    assert loop.operator_mode == ""
+    new = Mission("square", np.array([(30.0, 0.0), (30.0, 30.0)]), (None, None), None, *ORIGIN)
+    loop.replace_mission(new, source="mavlink", cause="mavlink mission")
+    assert ap.mode is Mode.COMPLETE and ap.step(there, 0.1).thrust_port_n == 0.0  # stopped: waits for resume
+    saved = store.load()
+    assert saved.status == "running" and saved.operator == "stop"
+    wp, why = store.interrupted(saved.mission_sha256, 2)
+    assert wp == 0 and "operator's stop was in force" in why, why
+    assert ap.request("resume", there, cause="ctl resume") == (True, "auto")
+    loop._operator_chose()  # resumed: the new mission's own again
+    assert loop.operator_mode == "" and store.load().operator == ""

@@ -471,8 +471,13 @@ class ControlLoop:
     def _operator_chose(self) -> None:
         """A command changed the helm's mode: the operator's mode (Progress.operator) is it, or none for the mission."""
         mode = self.ap.mode
-        # the mission's own way home (an rtl resumed after a pause too) is the mission's: homeward carries it over
-        chosen = "" if mode in (Mode.AUTO, Mode.COMPLETE) or self._homeward() else mode.value
+        # the mission's own way home (an rtl resumed after a pause too) is the mission's: homeward carries it over.
+        # Its end (complete) is the mission's only while its route is done: a mission uploaded after the old one
+        # ended stopped waits there for resume, the boat stopped; saved with no operator's mode, a crash and a
+        # restart with resume_after_restart flew the new mission unasked (a review of 1503182)
+        ended = mode is Mode.COMPLETE and self.ap.complete
+        chosen = ("" if mode is Mode.AUTO or ended or self._homeward()
+                  else "stop" if mode is Mode.COMPLETE else mode.value)
         if chosen not in OPERATOR_MODES or chosen == self.operator_mode:
             return
         self.operator_mode = chosen
