@@ -524,8 +524,8 @@ def test_deadlines_the_loop_skipped_are_a_scorecard_row(tmp_path):
             rec["skipped_cycles"] = 4  # one skipped after the last cycle line was written
     path.write_text("".join(json.dumps(rec) + "\n" for rec in lines))
     rows = dict(score(read_log(path)).table_rows())
-    assert rows["deadlines skipped (the loop a period or more behind)"] == "4"
+    assert rows["deadlines skipped (the loop more than a period behind)"] == "4"
     for rec in lines:
         rec.pop("skipped_cycles", None)
     path.write_text("".join(json.dumps(rec) + "\n" for rec in lines))
-    assert dict(score(read_log(path)).table_rows())["deadlines skipped (the loop a period or more behind)"] == "n/a (not logged)"
+    assert dict(score(read_log(path)).table_rows())["deadlines skipped (the loop more than a period behind)"] == "n/a (not logged)"

@@ -129,3 +129,43 @@ def test_a_csv_whose_clock_was_set_back_is_not_said_to_hold_two_trials(tmp_path)
                               + [f"{x:.2f},10,10,{0.5 * x:.2f},0,0.0" for x in t]) + "\n")
     with pytest.raises(ConfigError, match="two trials in one file"):
         read_trial(path)
+
+
+def test_the_fixes_a_cut_at_lost_rows_leaves_out_are_counted(tmp_path):
+    """Found reviewing 94737f3: a trial cut where its rows were lost left out a part too short to fit (and the fixes
+    before a part's moved start), yet summary.json's measurements said every fix of the trial was used (cut_long
+    counts its own: long_trial_fixes_left_out). The fixes left out are counted and said."""
+    from autopilot.sim import load_params
+    from autopilot.sysid.realistic import make_realistic_trials, write_columns_csv
+    from autopilot.sysid.trials import cut_long
+
+    tr, = make_realistic_trials(load_params(default_params_path()), {}, 11, n_trials=1, duration_s=60.0)
+    keep = (tr.t_s < 55.0) | (tr.t_s >= 57.0)  # 2 s of rows lost, 3 s before the end: too short to fit
+    cols = {"t_s": tr.t_s[keep], "thrust_port_n": tr.thrust_port_n[keep], "thrust_stbd_n": tr.thrust_stbd_n[keep],
+            "north_m": tr.north_m[keep], "east_m": tr.east_m[keep], "position_time_s": tr.position_time_s[keep],
+            "heading_deg": np.degrees(tr.heading_rad[keep]), "heading_time_s": tr.heading_time_s[keep]}
+    path = tmp_path / "lost-near-the-end.csv"
+    write_columns_csv(cols, path)
+    trial = read_trial(path)
+    assert len(trial.lost_s) == 1
+    out, notes = cut_long([trial])
+    used = sum(len(p.fix_rows) for p in out)
+    assert used < len(trial.fix_rows)
+    assert out[0].counts["lost_rows_fixes_left_out"] == len(trial.fix_rows) - used
+    assert f"; {len(trial.fix_rows) - used} fixes left out" in notes[0]
+
+
+def test_a_wall_clock_set_back_names_the_times_to_the_digit(tmp_path):
+    """Found reviewing 94737f3: the new message is for loggers on a wall clock, whose t_s is often Unix seconds;
+    printed with 6 digits both times read "1.765e+09 s" (a step back 0.7 s between two equal times)."""
+    from autopilot.schema import ConfigError
+
+    t = 1765000000.0 + 0.1 * np.arange(1, 401)
+    t[200:] -= 0.8
+    rows = ["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg"]
+    rows += [f"{x:.2f},10,10,{0.5 * (x - t[0]):.2f},0,0.0" for x in t]
+    path = tmp_path / "unix.csv"
+    path.write_text("\n".join(rows) + "\n")
+    with pytest.raises(ConfigError) as err:
+        read_trial(path)
+    assert "from 1765000020 s (data row 200) to 1765000019.3 s (data row 201)" in str(err.value), str(err.value)

@@ -297,7 +297,7 @@ class Scorecard:
             ("GPS jumps refused / re-anchored", f"{self.gps_jumps_refused} / {self.gps_jumps_reanchored}"),
             ("loop lateness p50 / p99 / max" + (f" (simulated ms: --speedup {self.speedup})" if self.speedup else ""),
              f"{_fmt(lat.get('p50'), 'ms', 2)} / {_fmt(lat.get('p99'), 'ms', 2)} / {_fmt(lat.get('max'), 'ms', 2)}"),
-            ("deadlines skipped (the loop a period or more behind)", _fmt_count(self.skipped_cycles)),
+            ("deadlines skipped (the loop more than a period behind)", _fmt_count(self.skipped_cycles)),
             ("thrust unknown (not logged)", _fmt(self.thrust_unknown_s, "s", 1)),
             ("time per mode", ", ".join(f"{m} {v:.1f} s" for m, v in self.mode_time_s.items() if v > 0) or "n/a"),
             ("station keeping", _fmt_holds(self.holds)),

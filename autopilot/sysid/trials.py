@@ -153,11 +153,12 @@ def check_times(t: np.ndarray, row_name, *, wall_clock: bool = True) -> None:
             raise ConfigError(f"t_s repeats {t[i]:g} s at {row_name(i)} and {row_name(i + 1)}: each row is a moment "
                               "of its own (a row written twice? delete one)")
         if wall_clock and t[i + 1] > t[0] + CLOCK_STEP_BACK_S:  # not back to the start: a clock stepped
-            raise ConfigError(f"t_s goes back {t[i] - t[i + 1]:.3g} s, from {t[i]:g} s ({row_name(i)}) to "
-                              f"{t[i + 1]:g} s ({row_name(i + 1)}), not to the start: the logger's clock set back "
+            # the times to the digit: a wall clock's (Unix seconds) read "from 1.765e+09 s to 1.765e+09 s"
+            raise ConfigError(f"t_s goes back {t[i] - t[i + 1]:.3g} s, from {t[i]:.12g} s ({row_name(i)}) to "
+                              f"{t[i + 1]:.12g} s ({row_name(i + 1)}), not to the start: the logger's clock set back "
                               "(a wall clock stepped by NTP or GPS time?); one trial's rows in time order: shift the "
                               "rows after it by the step, or split the file there, each part a trial of its own")
-        raise ConfigError(f"t_s goes back from {t[i]:g} s ({row_name(i)}) to {t[i + 1]:g} s ({row_name(i + 1)}): one "
+        raise ConfigError(f"t_s goes back from {t[i]:.12g} s ({row_name(i)}) to {t[i + 1]:.12g} s ({row_name(i + 1)}): one "
                           "trial's rows in time order (two trials in one file? give each its own file)")
     median_s = float(np.median(dt))
     if not ROW_INTERVAL_S[0] <= median_s <= ROW_INTERVAL_S[1]:
@@ -667,16 +668,21 @@ def cut_at_lost(trials) -> tuple[list[Trial], list[str]]:
         lost = ", ".join(f"{tr.t0_s + before:.1f}-{tr.t0_s + after:.1f} s" for before, after in tr.lost_s)
         if not kept:
             out.append(tr)
-            notes.append(f"{tr.name}: rows lost at t_s {lost} (lines the log never got: the commands then are "
-                         "unknown, held here) and no part between long enough to fit alone: replayed whole, the "
+            notes.append(f"{tr.name}: rows lost at t_s {lost} (lines the log never got, or a logger that stalled: the "
+                         "commands then are not in the file, held here) and no part between long enough to fit alone: replayed whole, the "
                          "verdict may show the lost commands")
             continue
-        kept = [dataclasses.replace(p, counts={**tr.counts, "lost_rows_parts": len(kept)}) if k == 0
+        # the fixes of the parts left out and before a part's moved start: counted, as cut_long counts its own
+        # (the summary said every fix of the trial was used)
+        fixes_out = len(tr.fix_rows) - sum(len(p.fix_rows) for p in kept)
+        kept = [dataclasses.replace(p, counts={**tr.counts, "lost_rows_parts": len(kept),
+                                               "lost_rows_fixes_left_out": fixes_out}) if k == 0
                 else dataclasses.replace(p, counts={}, read_notes=()) for k, p in enumerate(kept)]
         out += kept
-        left = f"; {len(parts) - len(kept)} too short to fit left out" if len(kept) < len(parts) else ""
-        notes.append(f"{tr.name}: rows lost at t_s {lost} (lines the log never got: the commands then are "
-                     f"unknown): cut there into {len(kept)} part(s), each replayed from its own state{left}")
+        left = (f"; {len(parts) - len(kept)} too short to fit left out" if len(kept) < len(parts) else "") + (
+            f"; {fixes_out} fixes left out" if fixes_out > 0 else "")
+        notes.append(f"{tr.name}: rows lost at t_s {lost} (lines the log never got, or a logger that "
+                     f"stalled: the commands then are not in the file): cut there into {len(kept)} part(s), each replayed from its own state{left}")
     return out, notes
 
 
