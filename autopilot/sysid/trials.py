@@ -402,11 +402,19 @@ COARSE_ROWS_S = 0.15  # rows further apart than this (median) are coarser than t
 
 def _coarse_rows_note(t_row_s: np.ndarray, heading_times: bool) -> tuple:
     """A note when the rows are coarser than the control cycle: a 1 Hz logger's trials were `unexplained` or
-    gained a sensor_delay (subsampled 10 Hz logs), and the answer said nothing of why."""
+    gained a sensor_delay (subsampled 10 Hz logs), and the answer said nothing of why; at the cycle's rate, when
+    the headings have no times of their own."""
     dt = np.diff(t_row_s)
     step = float(np.median(dt)) if dt.size else 0.0
     if not step > COARSE_ROWS_S:
-        return ()
+        if heading_times or not dt.size:
+            return ()
+        # a 10 Hz export without the column came out `unexplained` beside a current, nearest sensor_delay + current,
+        # its headings 0.11-0.31 s older than their rows, and nothing said why (a sysid audit, 2026-12-06)
+        return ("each heading is dated at its row (no heading_time_s column): a compass the logger samples, not one "
+                "that drives it, is older than its row by a varying 0.1-0.3 s, which no constant sensor delay explains, "
+                "and a trial can come out `unexplained`; give the heading's own time in heading_time_s (`autopilot "
+                "review --export csv` writes it)",)
     dated = "" if heading_times else (" and each heading is dated at its row (no heading_time_s column), up to a row "
                                       "late: a sensor delay")
     return (f"rows every {step:.2g} s: the commands are known only at the rows (the controller changes them every "
