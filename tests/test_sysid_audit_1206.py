@@ -115,20 +115,22 @@ def test_a_csv_whose_clock_was_set_back_is_not_said_to_hold_two_trials(tmp_path)
 
     t = 0.1 * np.arange(1, 401)
     t[200:] -= 0.8
-    rows = ["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg"]
-    rows += [f"{x:.2f},10,10,{0.5 * x:.2f},0,0.0" for x in t]
-    path = tmp_path / "stepped.csv"
-    path.write_text("\n".join(rows) + "\n")
     with pytest.raises(ConfigError) as err:
-        read_trial(path)
+        read_trial(_clocked_csv(tmp_path / "stepped.csv", t))
     assert "two trials" not in str(err.value)
     assert "goes back 0.7 s" in str(err.value) and "clock set back" in str(err.value)
     assert "data row 200" in str(err.value) and "data row 201" in str(err.value)
     t[200:] -= 30.0  # back before the first row: a second trial's rows after the first's
-    path.write_text("\n".join(["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg"]
-                              + [f"{x:.2f},10,10,{0.5 * x:.2f},0,0.0" for x in t]) + "\n")
     with pytest.raises(ConfigError, match="two trials in one file"):
-        read_trial(path)
+        read_trial(_clocked_csv(tmp_path / "stepped.csv", t))
+
+
+def _clocked_csv(path, t):
+    """A trial CSV at times ``t`` (a logger's clock): the boat at 0.5 m/s north on steady thrust."""
+    rows = ["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg"]
+    rows += [f"{x:.2f},10,10,{0.5 * (x - t[0]):.2f},0,0.0" for x in t]
+    path.write_text("\n".join(rows) + "\n")
+    return path
 
 
 def test_the_fixes_a_cut_at_lost_rows_leaves_out_are_counted(tmp_path):
@@ -162,12 +164,8 @@ def test_a_wall_clock_set_back_names_the_times_to_the_digit(tmp_path):
 
     t = 1765000000.0 + 0.1 * np.arange(1, 401)
     t[200:] -= 0.8
-    rows = ["t_s,thrust_port_n,thrust_stbd_n,north_m,east_m,heading_deg"]
-    rows += [f"{x:.2f},10,10,{0.5 * (x - t[0]):.2f},0,0.0" for x in t]
-    path = tmp_path / "unix.csv"
-    path.write_text("\n".join(rows) + "\n")
     with pytest.raises(ConfigError) as err:
-        read_trial(path)
+        read_trial(_clocked_csv(tmp_path / "unix.csv", t))
     assert "from 1765000020 s (data row 200) to 1765000019.3 s (data row 201)" in str(err.value), str(err.value)
 
 
