@@ -498,7 +498,8 @@ class Autopilot:
 
     def set_speed(self, speed_m_s: float | None, *, cause: str) -> str:
         """The operator's speed (m/s, > 0; checked by the caller against the mission's limit) for every leg of the
-        mission and of a return, from the next step on, surviving pauses, holds and restarts of the mission; None:
+        mission and of a return, from the next step on, through pauses, holds and resumes (the daemon saves it with the
+        progress: a restart carrying the run on sets it again); None:
         the mission's planned speeds again. Turns and arrivals still slow the boat below it. A new or cleared
         mission gives the planned speeds back (ArduPilot's AUTO starts at WP_SPEED; on a return, once the new mission
         is flown: _mission_speeds). Returns what is flown."""
