@@ -435,12 +435,13 @@ class AisStreamDecoder:
     """Bytes (any chunking) or whole lines in, :class:`AisMessage` out; never raises.
 
     A line is resynchronised at its first ``!`` (a TAG block ``\\s:..*hh\\`` before it is
-    skipped). ``now_s`` (any monotonic seconds) only times multi-part assembly.
+    skipped); a fragment cut short before another ``!`` is one checksum error, the one after it is read.
+    ``now_s`` (any monotonic seconds) only times multi-part assembly.
     """
 
     def __init__(self, *, assembly_timeout_s: float = 2.0, max_line_chars: int = MAX_LINE_CHARS) -> None:
         self.stats = AisStats()
-        self._framer = LineFramer(int(max_line_chars))
+        self._framer = LineFramer(int(max_line_chars), cr_ends_line=True)
         self._assembler = FragmentAssembler(assembly_timeout_s)
 
     @property
@@ -490,6 +491,12 @@ class AisStreamDecoder:
             st.garbage += 1
             return []
         raw = raw[bang:]
+        last = raw.rfind(b"!")
+        if last > 0:
+            # a fragment cut short runs into the next one ('!' is reserved inside a sentence): the cut head is the
+            # checksum error, the whole fragment after it is read (it was lost with the head)
+            st.checksum_errors += 1
+            raw = raw[last:]
         try:
             text = raw.decode("ascii")
         except UnicodeDecodeError:

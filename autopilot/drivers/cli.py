@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import stat
 import sys
 from pathlib import Path
@@ -24,6 +25,7 @@ from autopilot.schema import ConfigError
 from autopilot.units import m_s_to_knots, rad_s_to_deg_min
 from autopilot.userfile import check_file, check_text_head
 
+_CR_END = re.compile(rb"(?<=\r)(?!\n)")  # after a CR that no LF follows: a line end of its own
 _FIELDS = ("lat_deg", "lon_deg", "heading_deg", "rot_deg_min", "sog_kn", "cog_deg", "fix_quality")
 
 
@@ -145,12 +147,22 @@ def run_nmea(args) -> int:
             _read_port(args, emit)
         else:
             with open(args.source, "rb") as f:
-                for line in f:
-                    lines += 1
-                    if line.startswith(b"#"):  # comment header of gpsd-style captures
+                for chunk in f:
+                    # a capture whose sentences end in CR alone is one "line" to Python: its comment header
+                    # hid every sentence after it
+                    for line in _CR_END.split(chunk):
+                        if not line:
+                            continue
+                        lines += 1
+                        if line.startswith(b"#"):  # comment header of gpsd-style captures
+                            continue
+                        if not emit(line):
+                            break
+                    else:
                         continue
-                    if not emit(line):
-                        break
+                    break
+                else:
+                    emit(b"\n")  # the end of the file ends its last line (one without a line end, or a held lone CR)
     except KeyboardInterrupt:
         pass
     finally:

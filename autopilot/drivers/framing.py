@@ -61,10 +61,15 @@ def checked_body(line: str, lead: str, *, checksum_error: type[Exception], sente
 
 
 class LineFramer:
-    """Bytes in (any chunking), complete lines out (without the LF; a CR before it is kept)."""
+    """Bytes in (any chunking), complete lines out (without the LF; a CR before it is kept; with ``cr_ends_line``
+    a CR not followed by LF ends a line too, and is left out of it)."""
 
-    def __init__(self, max_line_chars: int) -> None:
+    def __init__(self, max_line_chars: int, *, cr_ends_line: bool = False) -> None:
         self.max_line_chars = int(max_line_chars)
+        # a CR followed by anything but CR or LF ends a line too: receivers that end sentences with CR alone (set so,
+        # or a terminal program's capture) ran every sentence into one overlong line, all discarded as too long.
+        # A CR as the last byte read waits for the next byte (CRLF split between two reads stays one line end).
+        self.cr_ends_line = bool(cr_ends_line)
         self._buf = bytearray()
         self._overflow = False
         self.too_long = 0  # lines discarded for their length
@@ -82,6 +87,14 @@ class LineFramer:
         start = 0
         while True:
             nl = self._buf.find(b"\n", start)
+            if self.cr_ends_line:
+                limit = nl if nl >= 0 else len(self._buf)
+                cr = self._buf.find(b"\r", start, limit)
+                while cr >= 0:
+                    if cr + 1 < len(self._buf) and self._buf[cr + 1] not in b"\r\n":
+                        nl = cr
+                        break
+                    cr = self._buf.find(b"\r", cr + 1, limit)
             if nl < 0:
                 break
             line = bytes(self._buf[start:nl])

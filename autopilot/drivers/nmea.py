@@ -228,8 +228,12 @@ def _gga(t: str, f: list[str]) -> NmeaUpdate:
         quality = int(q)
     else:
         raise SentenceError(f"GGA fix quality: {q!r}")
-    return NmeaUpdate("GGA", t, lat_deg=lat, lon_deg=lon, fix_quality=quality, status_valid=quality in MEASURED_QUALITIES,
-                      fix_time=epoch)
+    # a fix from no satellites is none: a receiver that lost them can go on sending its last position with quality 1
+    # and "00" satellites (hemi.log, 7 s of it; gpsd reports no fix), an empty count is only not given
+    sats = _field(f, 6)
+    no_satellites = sats.isdigit() and int(sats) == 0
+    return NmeaUpdate("GGA", t, lat_deg=lat, lon_deg=lon, fix_quality=quality,
+                      status_valid=quality in MEASURED_QUALITIES and not no_satellites, fix_time=epoch)
 
 
 def _rmc(t: str, f: list[str]) -> NmeaUpdate:
@@ -502,9 +506,10 @@ class NmeaStats:
 class NmeaStreamDecoder:
     """Bytes in (any chunking), updates out; counts and drops what it cannot accept.
 
-    Lines end at LF (CR is stripped), framed by :class:`~autopilot.drivers.framing.LineFramer`.
+    Lines end at LF, CRLF or a lone CR (CR is stripped), framed by :class:`~autopilot.drivers.framing.LineFramer`.
     A line is resynchronised at its first ``$``; bytes before it (the tail of a sentence cut by
-    a reconnect) make no difference unless no ``$`` follows, then the line counts as garbage.
+    a reconnect) make no difference unless no ``$`` follows, then the line counts as garbage. A sentence
+    cut short before another ``$`` is one checksum error, and the sentence from the last ``$`` is decoded.
     A line longer than ``max_line_chars`` is discarded up to its LF, so a stream without
     newlines cannot grow memory. :attr:`invalid_bytes` counts bytes that no NMEA line can hold
     (the garbage detector's byte measure).
@@ -521,7 +526,7 @@ class NmeaStreamDecoder:
                  encapsulated: Callable[[bytes], object] | None = None) -> None:
         self.max_line_chars = int(max_line_chars)
         self.stats = NmeaStats()
-        self._framer = LineFramer(self.max_line_chars)
+        self._framer = LineFramer(self.max_line_chars, cr_ends_line=True)
         self.encapsulated = encapsulated
         self.encapsulated_lines = 0
 
@@ -570,6 +575,13 @@ class NmeaStreamDecoder:
             self.stats.garbage += 1
             return None
         raw = raw[dollar:]
+        last = raw.rfind(b"$")
+        if last > 0:
+            # a sentence cut short (its line end lost in a reconnect or a dropped byte) runs into the next one: '$' is
+            # reserved inside a sentence, so only the last can start a whole one. The cut head counts as the
+            # sentence without its checksum it is; the whole sentence after it was lost with it
+            self.stats.checksum_errors += 1
+            raw = raw[last:]
         try:
             text = raw.decode("ascii")
         except UnicodeDecodeError:
