@@ -251,8 +251,8 @@ def _point(where: str, p: _RawPoint, k: int, latlon: bool, origin, max_range_m: 
     speed = None
     if p.speed is not None:
         speed = _num(where, "speed_m_s", p.speed)
-        if not 0.0 < speed <= MAX_SPEED_M_S:
-            raise MissionError(f"{where}: speed {speed:g} m/s outside (0, {MAX_SPEED_M_S:g}] m/s")
+        if not is_speed(speed):
+            raise MissionError(f"{where}: speed {speed:g} m/s outside {SPEED_RANGE}")
     return n, e, speed, _hold_s(where, p.hold)
 
 
@@ -582,8 +582,8 @@ def _parse_plan(path: Path, text: str, origin, max_range_m: float) -> Mission:
     speed = speed if speed else None
     if speed is not None:  # "waypoint 1: speed 15 m/s ..." named neither the setting nor where QGC keeps it
         cruise = _num(f"{path}: mission.cruiseSpeed", "the cruise speed", speed)
-        if not 0.0 < cruise <= MAX_SPEED_M_S:
-            raise MissionError(f"{path}: mission.cruiseSpeed: {cruise:g} m/s outside (0, {MAX_SPEED_M_S:g}] m/s (the "
+        if not is_speed(cruise):
+            raise MissionError(f"{path}: mission.cruiseSpeed: {cruise:g} m/s outside {SPEED_RANGE} (the "
                                "speed of every leg without its own: set it in QGroundControl's Mission Start item)")
     points: list[_RawPoint] = []
     rtl = False
@@ -686,8 +686,8 @@ def mission_from_items(items, *, origin_lat_deg: float, origin_lon_deg: float, m
                 raise MissionItemError(str(exc), seq=k, field="mission") from None
         elif cmd == DO_CHANGE_SPEED:
             speed = _speed_change(speed, it.get("param2"))
-            if speed is not None and not (isinstance(speed, (int, float)) and 0.0 < speed <= MAX_SPEED_M_S):
-                raise MissionItemError(f"{here}: speed {speed!r} m/s outside (0, {MAX_SPEED_M_S:g}] m/s (-1: no "
+            if speed is not None and not is_speed(speed):
+                raise MissionItemError(f"{here}: speed {speed!r} m/s outside {SPEED_RANGE} (-1: no "
                                        "change)", seq=k, field="param2")
         elif cmd == NAV_RETURN_TO_LAUNCH:
             rtl = True

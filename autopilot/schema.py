@@ -128,7 +128,7 @@ def _convert(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
 
 def unknown_key(key, allowed) -> str:
     """"unknown key (allowed: ...)" for ``key``, with the allowed key it most likely misspells: among 34 vessel keys
-    a `yaw_inertia_kgm2` or a `sc30_prot` left the user to spot the right one in the list."""
+    a `mass_kgs` or a `sc30_prot` left the user to spot the right one in the list."""
     import difflib
 
     text = f"unknown key (allowed: {', '.join(sorted(allowed))})"

@@ -173,7 +173,7 @@ class ControlLoop:
             request, answer = self.commands.popleft()
             answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
         if (self.ap.armed, self.ap.speed_m_s) != (armed_before, speed_before):  # remembered across a restart
-            self._save_armed()
+            self._save_operator_settings()
         if (self.ap.mode, self.ap.mode_cause) != (mode_before, cause_before):  # the operator's mode, likewise
             self._operator_chose()
         self._flooded = self._flooded and bool(self.commands)
@@ -494,7 +494,7 @@ class ControlLoop:
         return bool(self.state.complete and self.mission.rtl and (
             self.ap.mode is Mode.RTL or (self.ap.mode is Mode.HOLD and self.ap.mode_cause == RTL_ARRIVED_CAUSE)))
 
-    def _save_armed(self) -> None:
+    def _save_operator_settings(self) -> None:
         """The operator's arm or disarm (and speed), saved now. In a held start the file is still the interrupted
         run's (kept for a resume): only its ``armed`` and ``speed_m_s`` change, or a crash before this run saves
         would bring back the state the file had."""

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 
 from autopilot.schema import ConfigError
@@ -203,12 +202,12 @@ def cmd_manoeuvre(args: argparse.Namespace) -> int:
 
 
 def cmd_nomoto(args: argparse.Namespace) -> int:
-    from autopilot.mission import MAX_SPEED_M_S
+    from autopilot.mission import SPEED_RANGE, is_speed
     from autopilot.sim.nomoto import nomoto
 
     params = _params(args.params)
-    if not (math.isfinite(args.speed) and 0.0 < args.speed <= MAX_SPEED_M_S):  # inf printed K = 0 and bad JSON
-        raise ConfigError(f"--speed: {args.speed:g} is outside the allowed range (0, {MAX_SPEED_M_S:g}] m/s (the "
+    if not is_speed(args.speed):  # inf printed K = 0 and bad JSON
+        raise ConfigError(f"--speed: {args.speed:g} is outside the allowed range {SPEED_RANGE} (the "
                           "boat's top speed: 3.468 m/s measured at full thrust, row FF of SPEC 6)")
     try:
         model = nomoto(params, args.speed)
