@@ -45,7 +45,8 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small", "closed_loop_wind")  # new groups last: same seeds
+GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small", "closed_loop_wind",
+          "closed_loop_motor")  # new groups last: same seeds
 
 
 def cases_of(groups):
@@ -65,6 +66,8 @@ def cases_of(groups):
             out += [Case(("current",), kind="closed_loop", n_trials=5), Case((), kind="closed_loop", n_trials=5)]
         elif g == "closed_loop_wind":  # the simulator's windage (cases.CLOSED_LOOP_WIND_M_S) in five pond logs
             out.append(Case(("wind",), kind="closed_loop", n_trials=5))
+        elif g == "closed_loop_motor":  # a weak motor (the simulated Mbed's sim.thrust_gain_*) in three pond logs
+            out.append(Case(("weak_motor",), kind="closed_loop", n_trials=3))
         elif g == "velocity":  # the realistic trials with the receiver's speed and course over ground too
             out += [Case((e,), velocity=True) for e in DRAWS] + [Case((), velocity=True)]
         elif g == "white":

@@ -292,6 +292,34 @@ def test_sysid_intervals_become_spreads_and_are_range_checked(tmp_path):
             resolve(_load_spec({**SPEC, "vessel": {"sysid": "summary.json"}}), base_dir=tmp_path)
 
 
+def test_a_weak_motor_sysid_named_is_spread_and_flown(tmp_path):
+    """A boat whose identification named `weak_motor` (one motor short of the thrust table, added 2026-12-06): its
+    interval is spread as weak_motor_loss_nd (the derived gain row not said as "not spread"), and the campaign's
+    plant flies it, batched and on the scalar path alike: the same commands on both sides turn the boat towards
+    the weak side, a starboard motor short as much the other way."""
+    import dataclasses
+
+    from autopilot.campaign.lockstep import _Batch, _Singles
+
+    summary = {"effects": {"weak_motor": {"params": [
+        {"name": "loss_nd", "value": 0.06, "ci95": [0.05, 0.07]},
+        {"name": "port_gain_nd", "value": 0.94, "ci95": [0.93, 0.95]}]}}}
+    (tmp_path / "summary.json").write_text(json.dumps(summary))
+    c = resolve(_load_spec({**SPEC, "vessel": {"sysid": "summary.json"}}), base_dir=tmp_path)
+    assert dict(c.sysid_thrust)["weak_motor_loss_nd"].uniform == (0.05, 0.07)
+    assert not any("port_gain_nd" in s for s in c.sources)
+    run = draw_run(c, 5, 3)
+    assert 0.05 <= run.weak_motor_loss_nd <= 0.07 and ("weak_motor_loss_nd", run.weak_motor_loss_nd) in run.drawn
+    setups = [dataclasses.replace(run, weak_motor_loss_nd=w) for w in (0.3, 0.0, -0.3)]
+    home = [*run.mission.home_ne_m, 0.0, 0.0, 0.0, 0.0]
+    for plant in (_Batch(setups, [0, 1, 2]), _Singles(setups, [0, 1, 2], [home] * 3, [(0.0, 0.0)] * 3)):
+        t_s = 0.0
+        for _ in range(50):  # 5 s of 20 N a side
+            t_s = plant.move(t_s, [20.0] * 3, [20.0] * 3, 2)
+        r = [float(x[5]) for x in plant.states()]
+        assert r[0] < -0.01 and abs(r[1]) < 1e-12 and r[2] > 0.01 and r[0] == pytest.approx(-r[2], rel=1e-6), r
+
+
 def test_sysid_changes_are_added_to_the_vessel_they_were_identified_on_and_another_boat_is_refused(tmp_path):
     """Found by a new-user audit: yaw_damping_quadratic's N_rr (a change from the summary's params_file) was added to
     the campaign's vessel, so a campaign of sysid's own vessel-updated.yaml, where it is written in already, drew the

@@ -319,6 +319,24 @@ def test_closed_loop_wind_is_named_wind(tmp_path):
 
 
 @pytest.mark.slow
+def test_closed_loop_weak_motor_is_named_weak_motor(tmp_path):
+    """Found by a sysid audit: three calm pond logs flown with the port motor 6 % short of the thrust table (a fouled
+    propeller; the simulated Mbed's sim.thrust_gain_port) were named `wind` (2.1 m/s), or `inconclusive` between
+    wind and thrust_asymmetry: the asymmetry moves both motors, and nothing in the list was one motor alone."""
+    from autopilot.sysid import read_trial
+    from autopilot.sysid.closed_loop import fly_pond_logs
+
+    logs = fly_pond_logs(tmp_path, 20261206, n_logs=3, thrust_gains=(0.94, 1.0), speedup="max")
+    result = identify([read_trial(p) for p in logs], VESSEL)
+    print(f"  {result.status} {result.verdict} {result.chosen.values()} {result.notes}")
+    assert result.status == "effects" and result.verdict == ("weak_motor",), result.notes
+    loss, sigma = result.chosen.values()["weak_motor.loss_nd"], float(result.chosen.sigma[0])
+    assert abs(loss - 0.06) <= 3.29 * sigma and sigma < 0.01, (loss, sigma)
+    fitted = {c["effect"]: c["delta_bic"] for c in result.candidates if c.get("delta_bic") is not None}
+    assert fitted["weak_motor"] < min(v for k, v in fitted.items() if k != "weak_motor"), fitted
+
+
+@pytest.mark.slow
 def test_mission_log_and_its_csv_export_agree(current_logs, tmp_path):
     """The same closed-loop logs read from the .jsonl and from `autopilot review --export csv`:
     the old workflow gave wind forces whose intervals did not overlap. Fitted with the effect the

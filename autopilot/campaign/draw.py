@@ -58,6 +58,7 @@ class RunSetup:
     env: Environment
     thrust_asymmetry_nd: float
     thrust_lag_s: float
+    weak_motor_loss_nd: float
     position_noise_m: float
     heading_noise_deg: float
     position_dropouts: tuple[tuple[float, float], ...]  # (start_s, end_s): no fixes
@@ -127,6 +128,7 @@ def draw_run(campaign: Campaign, seed: int, index: int) -> RunSetup:
     return RunSetup(
         index=int(index), mission=mission, law=law, condition=cond_name, params=params, env=env,
         thrust_asymmetry_nd=values.get("thrust_asymmetry_nd", 0.0), thrust_lag_s=values.get("thrust_lag_s", 0.0),
+        weak_motor_loss_nd=values.get("weak_motor_loss_nd", 0.0),
         position_noise_m=values.get("position_noise_m", 0.0), heading_noise_deg=values.get("heading_noise_deg", 0.0),
         position_dropouts=position_dropouts, heading_dropouts=heading_dropouts, faults=faults, t_max_s=t_max_s,
         sensor_seed=tuple(int(x) for x in sensor_ss.generate_state(4)), drawn=tuple(drawn),

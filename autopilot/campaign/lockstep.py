@@ -7,7 +7,7 @@ daemon's steps with its failsafe, the helm, evaluate's scorecard: the very objec
 one RK4 step over arrays of every run's state, with every run's own vessel parameters,
 current, wind and sinusoidal force bound as arrays
 (:func:`autopilot.sim.model.make_batch_rhs`), ``substeps`` times per period. Thrust
-asymmetry, motor lag and the faults' thrust gates act on the commands between the two.
+asymmetry, a weak motor, motor lag and the faults' thrust gates act on the commands between the two.
 A run leaves the batch when it ends (the batch is compacted once a quarter of it has
 ended); the last few runs (fewer than ``MIN_BATCH``) move on the model's scalar path,
 where numpy's per-call cost no longer pays.
@@ -32,6 +32,7 @@ from autopilot.campaign.draw import RunSetup, draw_run
 from autopilot.campaign.faults import FaultModel
 from autopilot.campaign.results import run_row
 from autopilot.campaign.spec import Campaign
+from autopilot.sim.motors import weak_motor_gains
 
 __all__ = ["fly", "fly_chunk", "chunk_indices", "SIM_DT_S", "GNC_RATE_HZ"]
 
@@ -106,6 +107,7 @@ class _Batch:
         sel = [setups[j] for j in members]
         self.rhs = make_batch_rhs([s.params for s in sel], [s.env for s in sel])
         self.asym = np.array([s.thrust_asymmetry_nd for s in sel])
+        self.gain_port, self.gain_stbd = weak_motor_gains(np.array([s.weak_motor_loss_nd for s in sel]))
         self.lag_a, self.lag_g = _lag_coefficients([s.thrust_lag_s for s in sel])
         self.lag = bool(np.any(self.lag_g > 0.0))
         self.cols = tuple(np.zeros(len(sel)) for _ in range(6))
@@ -130,11 +132,12 @@ class _Batch:
         return new
 
     def move(self, t_s: float, thrust_port_n, thrust_stbd_n, substeps: int) -> float:
-        """``substeps`` RK4 steps with the commands held (asymmetry, then the motors' lag); returns the new time."""
+        """``substeps`` RK4 steps with the commands held (asymmetry and a weak motor, then the motors' lag); returns the
+        new time."""
         from autopilot.sim.integrate import rk4_step
 
-        tp = np.asarray(thrust_port_n) * (1.0 + self.asym)
-        ts = np.asarray(thrust_stbd_n) * (1.0 - self.asym)
+        tp = np.asarray(thrust_port_n) * (1.0 + self.asym) * self.gain_port
+        ts = np.asarray(thrust_stbd_n) * (1.0 - self.asym) * self.gain_stbd
         for _ in range(substeps):
             if self.lag:
                 mp, ms = tp + (self.y_port - tp) * self.lag_g, ts + (self.y_stbd - ts) * self.lag_g
@@ -157,6 +160,7 @@ class _Singles:
         sel = [setups[j] for j in members]
         self.rhs = [make_rhs.__wrapped__(s.params, s.env, None, False) for s in sel]  # not into make_rhs's cache
         self.asym = [s.thrust_asymmetry_nd for s in sel]
+        self.gains = [weak_motor_gains(float(s.weak_motor_loss_nd)) for s in sel]
         a, g = _lag_coefficients([s.thrust_lag_s for s in sel])
         self.lag_a, self.lag_g = a.tolist(), g.tolist()
         self.x = [tuple(st) for st in states]
@@ -170,7 +174,7 @@ class _Singles:
         new = _Singles.__new__(_Singles)
         idx = [k for k, a in enumerate(self.alive) if a]
         new.members = [self.members[k] for k in idx]
-        for name in ("rhs", "asym", "lag_a", "lag_g", "x", "y"):
+        for name in ("rhs", "asym", "gains", "lag_a", "lag_g", "x", "y"):
             setattr(new, name, [getattr(self, name)[k] for k in idx])
         new.alive = [True] * len(idx)
         return new
@@ -182,7 +186,8 @@ class _Singles:
             if not self.alive[k]:
                 continue
             a, g, y = self.lag_a[k], self.lag_g[k], self.y[k]
-            tp, ts = thrust_port_n[k] * (1.0 + self.asym[k]), thrust_stbd_n[k] * (1.0 - self.asym[k])
+            tp = thrust_port_n[k] * (1.0 + self.asym[k]) * self.gains[k][0]
+            ts = thrust_stbd_n[k] * (1.0 - self.asym[k]) * self.gains[k][1]
             x, t = self.x[k], t_s
             for _ in range(substeps):
                 if g > 0.0:

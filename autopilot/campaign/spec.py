@@ -181,6 +181,9 @@ class Condition:
                                                            doc="port thrust x (1 + a), starboard x (1 - a)")
     thrust_lag_s: Spread | None = _spread_of_effect("thrust_lag", "time_constant_s",
                                                     doc="first-order lag of both thrusts (motor spin-up)")
+    weak_motor_loss_nd: Spread | None = _spread_of_effect("weak_motor", "loss_nd",
+                                                          doc="one motor short of the thrust table: port x (1 - w) "
+                                                          "for w > 0, starboard x (1 + w) for w < 0")
     position_noise_m: Spread | None = _spread_of(SimConfig, "position_noise_m")
     heading_noise_deg: Spread | None = _spread_of(SimConfig, "heading_noise_deg")
     position_dropouts_per_min: Spread | None = _own(unit="1/min", lo=0.0, hi=60.0,
@@ -204,8 +207,8 @@ class VesselSpread:
 
     file: str = param("", doc="VesselParams YAML (relative to the spec); empty = the calibrated default")
     sysid: str = param("", doc="a sysid summary.json (relative to the spec): each identified parameter uniform over "
-                               "its 95 % interval (hydro_refit fields, yaw_damping_quadratic; thrust_asymmetry and "
-                               "thrust_lag for the conditions that set none)")
+                               "its 95 % interval (hydro_refit fields, yaw_damping_quadratic; thrust_asymmetry, "
+                               "weak_motor and thrust_lag for the conditions that set none)")
     fields: Any = param(default_factory=dict, doc="VesselParams field -> spread (wins over sysid)")
 
 
@@ -255,7 +258,7 @@ class Campaign:
     vessel: VesselParams
     vessel_spreads: tuple[tuple[str, Spread], ...]  # VesselParams field -> spread, sorted by field
     conditions: tuple[tuple[str, Condition], ...]
-    sysid_thrust: tuple[tuple[str, Spread], ...] = ()  # thrust_asymmetry_nd / thrust_lag_s from a sysid summary
+    sysid_thrust: tuple[tuple[str, Spread], ...] = ()  # thrust_asymmetry_nd / weak_motor_loss_nd / thrust_lag_s from a sysid summary
     sources: tuple[str, ...] = ()  # where the vessel and its spreads came from (for the report)
 
     @property
@@ -512,6 +515,9 @@ def _sysid_spreads(path: Path, vessel: VesselParams, base_dir: Path = Path("."))
             elif effect == "thrust_lag" and name == "time_constant_s":
                 lo, hi = interval(effect, p)
                 thrust["thrust_lag_s"] = Spread(uniform=(max(lo, 0.0), max(hi, 0.0)))
+            elif effect == "weak_motor":
+                if name == "loss_nd":  # its other row, the weak side's gain, is this one's (sysid's derived row)
+                    thrust["weak_motor_loss_nd"] = Spread(uniform=interval(effect, p))
             else:
                 notes.append(f"{effect}.{name}: not spread (the campaign's plant has no such term)")
     if not fields and not thrust:

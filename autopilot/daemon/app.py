@@ -490,7 +490,8 @@ async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
                  sc30_options={**dict(zip(("fast_sentences", "slow_sentences"), sim_sentences(cfg))),
                                "position_error": cfg.sim.position_error_model,
                                "heading_error": cfg.sim.heading_error_model},
-                 battery=BatteryConfig(capacity_ah=cfg.sim.battery_capacity_ah, initial_soc=cfg.sim.battery_initial_soc))
+                 battery=BatteryConfig(capacity_ah=cfg.sim.battery_capacity_ah, initial_soc=cfg.sim.battery_initial_soc),
+                 thrust_gains=(cfg.sim.thrust_gain_port, cfg.sim.thrust_gain_stbd))
     rig.mbed.report_battery = cfg.sim.mbed_reports_battery
     await rig.start()
     return rig, float(params.length_m)

@@ -207,6 +207,11 @@ class SimConfig:
     battery_capacity_ah: float = param(105.0, unit="Ah", lo=0.001, hi=1000.0, source="SPEC 1",
                                        doc="the simulated battery's capacity (autopilot/sim/battery.py)")
     battery_initial_soc: float = param(1.0, unit="-", lo=0.0, hi=1.0, doc="its state of charge at the start")
+    thrust_gain_port: float = param(1.0, unit="-", lo=0.0, hi=1.5, source="not in the sources: a bench fault",
+                                    doc="the simulated port motor makes this fraction of the thrust table's thrust "
+                                    "(0.9: a fouled propeller's 10 % loss); the helm and the allocation do not know")
+    thrust_gain_stbd: float = param(1.0, unit="-", lo=0.0, hi=1.5, source="not in the sources: a bench fault",
+                                    doc="the same for the starboard motor")
     mbed_reports_battery: bool = param(True, doc="the simulated Mbed reports the battery voltage (false: old firmware)")
     traffic: str = param("", doc="a traffic scenario (a shipped name such as head-on, or a YAML file): its vessels "
                          "are sent as AIS sentences by a simulated receiver on its own pseudo-terminal; empty = none")

@@ -33,6 +33,8 @@ class SimBoat:
         origin_lon_deg: float,
         dt_s: float = 0.05,
         t0_s: float = 0.0,
+        thrust_gain_port: float = 1.0,
+        thrust_gain_stbd: float = 1.0,
     ) -> None:
         self.params = params
         self.env = env if env is not None else Environment()
@@ -42,6 +44,9 @@ class SimBoat:
         self.dt_s = float(dt_s)
         self.state = np.zeros(6) if x0 is None else np.array(x0, dtype=float).reshape(6)
         self.t_s = float(t0_s)
+        # a motor that makes a fraction of the table's thrust (a fouled propeller, a tired ESC): the bench's weak motor
+        self.thrust_gain_port = float(thrust_gain_port)
+        self.thrust_gain_stbd = float(thrust_gain_stbd)
         self.thrust_port_n = 0.0
         self.thrust_stbd_n = 0.0
 
@@ -50,10 +55,10 @@ class SimBoat:
         self.thrust_stbd_n = float(thrust_stbd_n)
 
     def set_duty(self, duty_port_pct: float, reverse_port: bool, duty_stbd_pct: float, reverse_stbd: bool) -> None:
-        """Thrusts from duties through the thrust curve (SPEC section 4, Table 4.2)."""
+        """Thrusts from duties through the thrust curve (SPEC section 4, Table 4.2), times each motor's gain."""
         self.set_thrust(
-            self.thrust_curve.thrust_n(duty_port_pct, reverse_port),
-            self.thrust_curve.thrust_n(duty_stbd_pct, reverse_stbd),
+            self.thrust_gain_port * self.thrust_curve.thrust_n(duty_port_pct, reverse_port),
+            self.thrust_gain_stbd * self.thrust_curve.thrust_n(duty_stbd_pct, reverse_stbd),
         )
 
     def advance_to(self, t_s: float) -> None:

@@ -35,6 +35,7 @@ class SimRig:
         advance_period_s: float = 0.05,
         sc30_options: dict | None = None,
         battery=None,
+        thrust_gains: tuple[float, float] = (1.0, 1.0),
     ) -> None:
         self.clock = clock
         self.boat = SimBoat(
@@ -45,6 +46,8 @@ class SimRig:
             origin_lat_deg=origin_lat_deg,
             origin_lon_deg=origin_lon_deg,
             t0_s=clock.now_s(),
+            thrust_gain_port=thrust_gains[0],
+            thrust_gain_stbd=thrust_gains[1],
         )
         self.sc30 = SimulatedSC30(
             self.boat,

@@ -72,6 +72,8 @@ VISIBLE = {
     # the simulator's windage: 3-10 m/s (6-20 kn) is 10-100 N on the beam (wind_force's 4-8 N and more); above
     # ~7 m/s the fits from the screening grid (+-6 m/s) stick, found by the retries' wider starts (effects.Wind)
     "wind": [("polar", ("wind.north_m_s", "wind.east_m_s"), 3.0, 10.0)],
+    # the same 6-14 % difference between the sides, from one motor alone
+    "weak_motor": [("signed", "weak_motor.loss_nd", 0.06, 0.14)],
 }
 # each listed effect below its visible range (the README's "What is still missed": a 3 deg bias or a
 # 0.5 m lever arm moves the track by less than the GPS wander): the answer must be none or
@@ -92,6 +94,7 @@ SMALL_RANGES = {
     "yaw_damping_quadratic": [(1.5, 5.0)],
     "hydro_refit": [(0.25, 0.83), (0.0004, 0.0013)],
     "wind": [(0.3, 1.0)],
+    "weak_motor": [(0.006, 0.02)],
 }
 SMALL_SPECS = {name: [(kind, key, lo, hi) for (kind, key, _, _), (lo, hi) in zip(VISIBLE[name], SMALL_RANGES[name])]
                for name in VISIBLE}
@@ -165,13 +168,17 @@ def make(case: Case, seed: int, vessel, work_dir=None):
         from autopilot.sysid.trials import read_trial
 
         speed = 0.2 if "current" in case.effects else 0.0
+        from autopilot.sim.motors import weak_motor_gains
+
+        loss = hidden.get("weak_motor.loss_nd", 0.0)  # the simulated Mbed's weak motor (sim.thrust_gain_port/stbd)
+        gains = weak_motor_gains(loss)
         # the simulator's windage, in what a pond mission still flies (at 10 m/s a WAM-V is pinned)
         wind = (float(rng.uniform(*CLOSED_LOOP_WIND_M_S)), float(rng.uniform(0.0, 360.0))) if "wind" in case.effects else (0.0, 0.0)
         from autopilot.sysid.closed_loop import SPEEDUP
 
         paths = fly_pond_logs(work_dir, seed, n_logs=case.n_trials, current_speed_m_s=speed,
                               current_towards_deg=case.current_towards_deg, speedup=case.speedup or SPEEDUP,
-                              wind_speed_m_s=wind[0], wind_from_deg=wind[1])
+                              wind_speed_m_s=wind[0], wind_from_deg=wind[1], thrust_gains=gains)
         first = paths[0]
         from autopilot.review.reader import read_log
         from autopilot.sim import Environment
@@ -182,8 +189,12 @@ def make(case: Case, seed: int, vessel, work_dir=None):
         hidden = dict(zip(("current.north_m_s", "current.east_m_s"), env.current_ne_m_s)) if speed else {}
         if wind[0]:
             hidden.update(zip(("wind.north_m_s", "wind.east_m_s"), env.wind_ne_m_s))
+        if loss:
+            hidden["weak_motor.loss_nd"] = loss
         desc = f"{len(paths)} pond logs, GPS wander {sim.get('position_wander_m', 0):.2f} m"
-        return hidden, [read_trial(p) for p in paths], desc + (f", wind {wind[0]:.1f} m/s from {wind[1]:03.0f}" if wind[0] else "")
+        desc += f", wind {wind[0]:.1f} m/s from {wind[1]:03.0f}" if wind[0] else ""
+        desc += f", {'port' if loss > 0 else 'starboard'} motor {1 - abs(loss):.1%} of the table" if loss else ""
+        return hidden, [read_trial(p) for p in paths], desc
     raise ValueError(f"unknown case kind {case.kind!r}")
 
 

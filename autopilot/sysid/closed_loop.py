@@ -103,10 +103,12 @@ def _landed(mission, proc, flight_dir: Path, state: str) -> Path:
 
 def fly_pond_logs(log_dir, seed: int, *, n_logs: int = 5, current_speed_m_s: float = 0.0,
                   current_towards_deg: float | None = None, speedup: float = SPEEDUP, baud: int = BAUD,
-                  jobs: int = PARALLEL_FLIGHTS, wind_speed_m_s: float = 0.0, wind_from_deg: float = 0.0) -> list[Path]:
+                  jobs: int = PARALLEL_FLIGHTS, wind_speed_m_s: float = 0.0, wind_from_deg: float = 0.0,
+                  thrust_gains: tuple[float, float] = (1.0, 1.0)) -> list[Path]:
     """``n_logs`` pond missions (cycling through pond-9.1..9.4) with one sensor and one current, from ``seed``.
 
-    The current's direction is drawn unless given; the wind (the simulator's windage) is given or none;
+    The current's direction is drawn unless given; the wind (the simulator's windage) is given or none; the motors
+    make ``thrust_gains`` (port, starboard) of the table's thrust;
     each flight has its own noise seed. ``baud``: the
     SC-30's line (BAUD by default, see there). ``jobs`` flights at a time, each a daemon in its own process
     writing to its own ``flight-<k>/`` (the flights wait on the clock, not the processor: four at 2x use
@@ -117,6 +119,8 @@ def fly_pond_logs(log_dir, seed: int, *, n_logs: int = 5, current_speed_m_s: flo
     sim = realistic_sim(rng, seed=0, current_speed_m_s=current_speed_m_s, current_towards_deg=towards,
                         wind_speed_m_s=wind_speed_m_s, wind_from_deg=wind_from_deg)
     import dataclasses
+
+    sim = dataclasses.replace(sim, thrust_gain_port=float(thrust_gains[0]), thrust_gain_stbd=float(thrust_gains[1]))
 
     flights = []
     for k in range(n_logs):

@@ -14,6 +14,8 @@ as it is:
     wind                    north_m_s, east_m_s               force: steady wind through the vessel's windage
                                                               (sim.model.windage), turning with the heading
     thrust_asymmetry        asymmetry_nd (a)                  thrust: T_P (1 + a), T_S (1 - a)
+    weak_motor              loss_nd (w)                       thrust: one motor short of the table, the other
+                                                              on it: T_P (1 - w) for w > 0, T_S (1 + w) for w < 0
     thrust_lag              time_constant_s                   thrust: first-order lag of both thrusts
     thrust_deadband         threshold_pct                     thrust: none below |duty| = threshold
                                                               (edge softened over +-1 % duty)
@@ -252,6 +254,31 @@ class ThrustAsymmetry(Effect):
         return tp * (1.0 + a), ts * (1.0 - a)
 
 
+class WeakMotor(Effect):
+    # Found by an audit: a port motor 6 % short (a fouled propeller) in three calm pond logs was named `wind`
+    # 2.1 m/s, thrust_asymmetry 37 BIC points behind: the asymmetry moves both sides, so it carries a 3 % common
+    # thrust gain that a weak motor does not have, and the steady speed tells them apart. One signed parameter,
+    # not two gains: a common gain aliases with hydro_refit's resistance in steady running.
+    name, kind, steady = "weak_motor", "input", True
+    params = (EffectParam("loss_nd", "-", 0.0, -0.6, 0.6, 0.05, grid=(-0.12, -0.05, 0.05, 0.12)),)
+    doc = ("one motor makes less than the thrust table, the other as the table: port x (1 - w) when w > 0, "
+           "starboard x (1 + w) when w < 0 (a fouled propeller, a weak motor or ESC)")
+    order = 0
+
+    def thrust(self, v, tp, ts, ctx):
+        from autopilot.sim.motors import weak_motor_gains
+
+        w = np.asarray(v["loss_nd"], dtype=float)
+        port, stbd = weak_motor_gains(w[:, None] if tp.ndim == 2 else w)
+        return tp * port, ts * stbd
+
+    def derived(self, value, sigma):
+        """The weak motor's thrust as a fraction of the table's (the other makes the table's)."""
+        w = value["loss_nd"]
+        side = "port" if w >= 0.0 else "stbd"
+        return [param_row(f"{side}_gain_nd", "-", 1.0 - abs(w), sigma["loss_nd"])]
+
+
 def deadband_gain(duty_pct: np.ndarray, threshold_pct: np.ndarray) -> np.ndarray:
     """Thrust gain of a deadband, 0 below the threshold and 1 above, softened over +-DEADBAND_SOFT_PCT."""
     return np.clip((np.abs(duty_pct) - threshold_pct[:, None]) / (2 * DEADBAND_SOFT_PCT) + 0.5, 0.0, 1.0)
@@ -412,7 +439,7 @@ class HydroRefit(Effect):
 
 
 EFFECTS: tuple[Effect, ...] = (
-    Current(), WindForce(), Wind(), ThrustAsymmetry(), ThrustLag(), ThrustDeadband(), HeadingBias(), AntennaOffset(),
+    Current(), WindForce(), Wind(), ThrustAsymmetry(), WeakMotor(), ThrustLag(), ThrustDeadband(), HeadingBias(), AntennaOffset(),
     SensorDelay(), FixDelay(), YawDampingQuadratic(), HydroRefit(),
 )
 

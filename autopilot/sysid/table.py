@@ -1,7 +1,7 @@
 """The workflow on a steady-state table (SPEC 6: thrust pair -> steady speed and yaw rate).
 
 A table has no time series, so only effects that change the steady state can
-be seen: ``thrust_asymmetry``, ``yaw_damping_quadratic`` and ``hydro_refit``
+be seen: ``thrust_asymmetry``, ``weak_motor``, ``yaw_damping_quadratic`` and ``hydro_refit``
 (sensor effects, lags, current and wind do not change a steady speed/yaw
 rate magnitude; a deadband is not resolvable between command levels 20 %
 apart). Each row is solved algebraically (autopilot.sim.steady.solve_steady).
@@ -32,7 +32,7 @@ from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, by_effect, param_row
 from autopilot.sysid.effects import bounds as theta_bounds
 from autopilot.sysid.output import updated_vessel
 
-TABLE_CANDIDATES = ("thrust_asymmetry", "yaw_damping_quadratic", "hydro_refit")
+TABLE_CANDIDATES = ("thrust_asymmetry", "weak_motor", "yaw_damping_quadratic", "hydro_refit")
 # hydro_refit on a table: the fields a steady table identifies (autopilot.sim.calibrate.FREE without the
 # quadratic yaw damping, which is its own candidate), with calibrate's bounds; fitted as changes
 HYDRO_FIELDS = tuple(f for f in CALIBRATE_FREE if f[0] != "yaw_damping_quadratic_nm_s2")

@@ -24,6 +24,7 @@ import numpy as np
 
 from autopilot.gnc.thrust_curve import ThrustCurve
 from autopilot.sim import VesselParams, simulate
+from autopilot.sim.motors import weak_motor_gains
 
 FINE_DT_S = 0.01  # the truth's grid (s)
 LOG_DT_S = 0.1  # the commands' rate, as the daemon's 10 Hz loop (s)
@@ -105,6 +106,8 @@ def _thrusts(effects: dict, dpf: np.ndarray, dsf: np.ndarray, tf: np.ndarray, cu
     tsf = np.where(np.abs(dsf) >= d0, curve.thrust_from_signed_duty_n(dsf), 0.0)
     a = effects.get("thrust_asymmetry.asymmetry_nd", 0.0)
     tpf, tsf = tpf * (1 + a), tsf * (1 - a)
+    port, stbd = weak_motor_gains(float(effects.get("weak_motor.loss_nd", 0.0)))
+    tpf, tsf = tpf * port, tsf * stbd
     fade = effects.get("thrust_fade.fraction", 0.0)
     if fade:
         g = 1.0 - fade * tf / max(tf[-1], 1e-9)
