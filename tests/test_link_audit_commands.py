@@ -22,11 +22,11 @@ NAN = math.nan
 ROVER_MANUAL, ROVER_ACRO = 0, 1
 
 
-def _stream_sticks(boat: Boat, mav, seconds: float, z: int) -> None:
-    """MANUAL_CONTROL at 20 Hz (a planner's joystick), throttle ``z``, steering centred."""
+def _stream_sticks(boat: Boat, mav, seconds: float, z: int, target: int = 1) -> None:
+    """MANUAL_CONTROL at 20 Hz (a planner's joystick) to system ``target``, throttle ``z``, steering centred."""
     t_end = time.monotonic() + seconds
     while time.monotonic() < t_end:
-        mav.manual_control_send(1, 0, 0, z, 0, 0)
+        mav.manual_control_send(target, 0, 0, z, 0, 0)
         boat.beat()
         boat.gcs.recv_match(blocking=True, timeout=0.05)
 
@@ -51,7 +51,17 @@ def test_only_the_ground_stations_sticks_drive(tmp_path):
         said = [r for r in boat.log()[n:] if r["event"] == "command" and "from system 254 ignored" in str(r["answer"])]
         assert len(said) == 1 and not said[0]["accepted"]  # once, not 40 times
 
-        n = len(boat.log())  # the ground station's own sticks still drive
+        # stop 48's note: sticks broadcast to system 0 were taken (PX4 does, ArduPilot does not): a planner's
+        # joystick meant for one boat of a fleet drove every boat on the radio
+        n = len(boat.log())
+        assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, ROVER_MANUAL).result == mavlink.MAV_RESULT_ACCEPTED
+        _stream_sticks(boat, boat.gcs.mav, 1.5, 800, target=0)
+        broadcast = [r for r in boat.log()[n:] if r["event"] == "cycle" and r["mode"] == "manual"]
+        assert broadcast and max(abs(r["tau_com_n"]) for r in broadcast) < 1.0
+        said = [r for r in boat.log()[n:] if r["event"] == "command" and "to system 0 ignored" in str(r["answer"])]
+        assert len(said) == 1 and "mavlink.system_id 1" in said[0]["answer"]
+
+        n = len(boat.log())  # the ground station's own sticks, to this boat, still drive
         assert boat.command(mavlink.MAV_CMD_DO_SET_MODE, 1, ROVER_MANUAL).result == mavlink.MAV_RESULT_ACCEPTED
         _stream_sticks(boat, boat.gcs.mav, 1.5, 800)
         driven = [r for r in boat.log()[n:] if r["event"] == "cycle" and r["mode"] == "manual"]

@@ -450,6 +450,12 @@ class MavlinkLink:
                                       f"ignored: only the ground station's (mavlink.gcs_system_id "
                                       f"{self.cfg.gcs_system_id}) drives")
                 return
+            if msg.target != self.cfg.system_id:
+                # sticks broadcast to system 0 drive every boat on the radio, as ArduPilot's do not: a planner flying
+                # a fleet addresses one at a time (PX4 takes 0; a boat takes the stricter rule)
+                self._said_every_10_s("manual_broadcast", "manual", f"MANUAL_CONTROL to system {msg.target} "
+                                      f"ignored: sticks must name this boat (mavlink.system_id {self.cfg.system_id})")
+                return
             # ArduPilot Rover's axes: z the throttle (0 stop, -1000 full astern), y the steering (+1000 full to
             # starboard). x and r (a multicopter's pitch and yaw) drove it before, and a planner's joystick set up for
             # a Rover did nothing while its pitch stick drove the boat (a GCS audit)
