@@ -205,7 +205,9 @@ def number_cell(text: str, row: int, column: str) -> float:
         value = float(text)
     except ValueError:
         hint = ""
-        if _DECIMAL_COMMA.fullmatch(text):
+        if text.strip().lower() == column.strip().lower():  # a sysid audit: two trial CSVs joined, header and all
+            hint = " (the header again: two files joined into one? give each its own file)"
+        elif _DECIMAL_COMMA.fullmatch(text):
             hint = " (a decimal comma: save the CSV with a point as the decimal separator)"
         elif re.fullmatch(r"\d{1,2}:\d{2}(:\d{2}([.,]\d+)?)?", text):
             hint = " (a clock time: give the time in seconds, such as seconds since the start; in Excel =(A2-$A$2)*86400)"

@@ -182,3 +182,21 @@ def test_a_fine_csv_without_heading_times_is_told_what_the_missing_column_costs(
     assert any("no heading_time_s column" in n and "review --export csv" in n for n in notes), notes
     with_times = trial_from_columns("b", {**cols, "heading_time_s": t - 0.2}).read_notes
     assert not any("heading_time_s" in n for n in with_times), with_times
+
+
+def test_a_logger_writing_a_row_per_sentence_is_not_cut_at_every_epoch(tmp_path):
+    """Stop 48's note: a logger writing a row per sentence (the GGA at the epoch, the RMC 0.1 s later, then 0.9 s to
+    the next epoch) has a median step of 0.1 s when the short steps outnumber the long by one: every epoch's 0.9 s
+    was taken for rows lost, the trial cut at each into parts too short to fit and replayed whole under a note
+    naming 59 stretches. Rows really lost from such a log (4.9 s between rows; from 5 s a gap refuses the file) are
+    still found."""
+    from autopilot.sysid.trials import cut_at_lost
+
+    epochs = np.arange(60.0)
+    t = np.sort(np.concatenate([epochs, epochs + 0.1]))  # 60 steps of 0.1 s, 59 of 0.9 s
+    trial = read_trial(_clocked_csv(tmp_path / "two-rows-an-epoch.csv", t))
+    assert trial.lost_s == ()
+    assert cut_at_lost([trial]) == ([trial], [])
+    gone = (t < 30.0) | (t >= 34.0)  # 4 epochs of its rows lost
+    trial = read_trial(_clocked_csv(tmp_path / "lost.csv", t[gone]))
+    assert [(round(a + trial.t0_s, 1), round(b + trial.t0_s, 1)) for a, b in trial.lost_s] == [(29.1, 34.0)]

@@ -345,6 +345,9 @@ TRIAL_CASES = [
     ("time going back", TRIAL_HEAD + "\n".join(_trial_rows()[:20] + _trial_rows()[5:]) + "\n",
      "t_s goes back from 1.9 s (data row 20) to 0.5 s (data row 21): one trial's rows in time order (two trials in "
      "one file? give each its own file)"),
+    # stop 48's note: two trial CSVs joined (cat a.csv b.csv), the second header in the middle
+    ("two files joined", TRIAL_HEAD + "\n".join(_trial_rows()) + "\n" + TRIAL_HEAD + "\n".join(_trial_rows()) + "\n",
+     "data row 41, t_s: 't_s' is not a number (the header again: two files joined into one? give each its own file)"),
     ("last row cut mid-write", TRIAL_HEAD + "\n".join(_trial_rows()) + "\n4.0,2.0",
      "data row 41 has 2 of 6 fields and the file does not end with a new line: cut off mid-write? delete that row"),
 ]

@@ -476,16 +476,22 @@ def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = Non
 
 LOST_MIN_S = 0.5  # a CSV's rows this far apart, and LOST_STEPS typical steps, were lost: the commands then unknown
 LOST_STEPS = 4.0
+# the typical step: this percentile of the steps, not their median. A logger that writes a row per sentence (GGA
+# and RMC 0.1 s apart, then 0.9 s to the next epoch) has a median step of 0.1 s when the short steps outnumber
+# the long by one, and every epoch's 0.9 s counted as rows lost (the trial cut at each, every part too short:
+# replayed whole under a note naming sixty stretches; stop 48's note). Up to a fifth of the steps may be gaps.
+LOST_TYPICAL_PERCENTILE = 80.0
 
 
 def rows_lost(t_s: np.ndarray) -> tuple:
     """(t_s before, t_s after) of each step between a CSV's rows longer than LOST_MIN_S and LOST_STEPS typical
-    steps: rows lost (a mission log's lines a failed write lost, exported), over which the commands are unknown
-    and a replay on them interpolated drifts (cut_at_lost). A missing row or two is interpolated (_commands)."""
+    steps (LOST_TYPICAL_PERCENTILE): rows lost (a mission log's lines a failed write lost, exported), over which
+    the commands are unknown and a replay on them interpolated drifts (cut_at_lost). A missing row or two is
+    interpolated (_commands)."""
     dt = np.diff(t_s)
     if dt.size == 0:
         return ()
-    limit_s = max(LOST_MIN_S, LOST_STEPS * float(np.median(dt)))
+    limit_s = max(LOST_MIN_S, LOST_STEPS * float(np.percentile(dt, LOST_TYPICAL_PERCENTILE)))
     return tuple((float(t_s[k]), float(t_s[k + 1])) for k in np.flatnonzero(dt > limit_s))
 
 
