@@ -115,8 +115,9 @@ def test_ctl_status_says_the_operators_speed():
 # ---------------------------------------------------------------------------------------------- found by a review
 
 
-def _loop(tmp_path):
-    """The daemon's control loop on a clock the test steps, the boat steaming north (tests.test_daemon_cycle)."""
+def _loop(tmp_path, **failsafe):
+    """The daemon's control loop on a clock the test steps, the boat steaming north (tests.test_daemon_cycle);
+    ``failsafe``: its settings other than the defaults."""
     import numpy as np
 
     from autopilot.clock import SimClock
@@ -128,6 +129,7 @@ def _loop(tmp_path):
     from tests.test_daemon_cycle import ORIGIN, FakeCompass, FakeThrusters
 
     cfg, clock = DaemonConfig(), SimClock()
+    cfg = dataclasses.replace(cfg, failsafe=dataclasses.replace(cfg.failsafe, **failsafe))
     mission = Mission("north", np.array([(200.0, 0.0), (300.0, 0.0)]), (None, None), None, *ORIGIN)
     loop = ControlLoop(cfg, clock=clock, autopilot=Autopilot(cfg.gnc, mission.waypoints_ne_m), mission=mission,
                        mission_path="m.yaml", mission_sha256="x", compass=FakeCompass(clock), thrusters=FakeThrusters(),
@@ -256,3 +258,22 @@ def test_the_closing_on_a_point_the_boat_stops_at_is_no_faster_than_the_operator
     # without the operator's speed, as before: the approach's own
     rows = _fly(None, [(30.0, 0.0)], rtl=True)
     assert max(sog for _, mode, sog, d_home, _ in rows if mode is Mode.RTL and d_home <= 8.0) > 0.8
+
+
+def test_an_arm_or_a_speed_after_the_time_limits_stop_keeps_the_run_saved_aborted(tmp_path):
+    """Stop 48's note: staying up after max_mission_time stopped the boat (systemd), the daemon saved the run
+    aborted (a restart must not fly the mission again); an arm or a speed given then re-saved it "running"."""
+    loop, command = _loop(tmp_path, max_mission_time_s=10.0)
+    loop.stay_when_done = "NOTIFY_SOCKET is set (systemd)"
+    for _ in range(200):
+        command(command="status")
+        if loop.failsafe.action_of("max_mission_time") == "stop":
+            break
+    assert loop.failsafe.action_of("max_mission_time") == "stop"
+    assert loop.time_stopped()
+    assert (loop.store.load().status, loop.store.load().reason) == ("aborted", "max_mission_time")
+    assert command(command="speed", speed_m_s=0.8)["ok"] and command(command="disarm")["ok"]
+    assert command(command="arm")["ok"]
+    saved = loop.store.load()
+    assert (saved.status, saved.reason, saved.speed_m_s, saved.armed) == ("aborted", "max_mission_time", 0.8, True)
+    assert "max_mission_time" in loop.store.interrupted("x", 2)[1]  # a restart holds the boat

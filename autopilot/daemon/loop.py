@@ -452,7 +452,11 @@ class ControlLoop:
         launch = self.ap.launch_ne_m
         if status == "running":
             self._saved_running = True
-            if self.ap.mission_cleared:
+            if self.time_stop_stayed:
+                # the run ended at its time limit, the daemon staying up: an arm or a speed saved after it wrote
+                # "running" over "aborted" (stop 48's note), as a later signal's stop does not (stop())
+                status, reason = "aborted", "max_mission_time"
+            elif self.ap.mission_cleared:
                 # the run goes on without a mission: still "cleared" (a restart holds, and does not fly it again).
                 # An operator's speed given back by the clear, a speed, an arm or the clear's own hold then saved
                 # "running" over it, and a restart with resume_after_restart flew the cleared mission (a review)
@@ -547,18 +551,23 @@ class ControlLoop:
                                    why=self.stay_when_done)
             else:
                 self._said_staying = False
-            if self.failsafe.action_of("max_mission_time") == "stop":
-                change = self._last_mode_change
-                if (self.time_stop_from is None and change is not None
-                        and change[2] == FAILSAFE_CAUSE_PREFIX + TIME_STOP_CAUSE):
-                    self.time_stop_from = change[:2]
-                if self.stay_when_done is None:
-                    return "max_mission_time"
-                if not self.time_stop_stayed:  # as at the mission's end: a ground station kept, at zero thrust
-                    self.time_stop_stayed = True
-                    self._save("aborted", "max_mission_time")  # a restart does not fly the mission again
-                    self.log.event("info", t_s=self.clock.now_s() - self.t0_s,
-                                   message="max_mission_time: stopped, staying up", why=self.stay_when_done)
+            if self.failsafe.action_of("max_mission_time") == "stop" and not self.time_stopped():
+                return "max_mission_time"
+
+    def time_stopped(self) -> bool:
+        """max_mission_time's stop is in force: dated from the helm's stop, and when the daemon stays up
+        (stay_when_done) saved aborted and said, once; False when the run must end here."""
+        change = self._last_mode_change
+        if self.time_stop_from is None and change is not None and change[2] == FAILSAFE_CAUSE_PREFIX + TIME_STOP_CAUSE:
+            self.time_stop_from = change[:2]
+        if self.stay_when_done is None:
+            return False
+        if not self.time_stop_stayed:  # as at the mission's end: a ground station kept, at zero thrust
+            self.time_stop_stayed = True
+            self._save("aborted", "max_mission_time")  # a restart does not fly the mission again
+            self.log.event("info", t_s=self.clock.now_s() - self.t0_s,
+                           message="max_mission_time: stopped, staying up", why=self.stay_when_done)
+        return True
 
     def zero_now(self) -> None:
         """Zero thrust at once, no wait and no log: the first thing on any way out, before anything that
