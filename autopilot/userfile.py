@@ -194,9 +194,10 @@ def units_row_refusal(path, units: list[str], header: list[str], allowed: dict[s
 MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"
 
 
-def number_cell(text: str, row: int, column: str) -> float:
+def number_cell(text: str, row: int, column: str, header=()) -> float:
     """A CSV cell: a finite number, or NaN for an empty or "no value" cell; anything else is refused naming the
-    row and the column (it was read as empty, without a word: a thrust of inf, a decimal comma, a stray word)."""
+    row and the column (it was read as empty, without a word: a thrust of inf, a decimal comma, a stray word).
+    ``header``: the file's column names (a cell that is one of them is a second file's header)."""
     import math
 
     if text in MISSING_CELLS:
@@ -205,7 +206,9 @@ def number_cell(text: str, row: int, column: str) -> float:
         value = float(text)
     except ValueError:
         hint = ""
-        if text.strip().lower() == column.strip().lower():  # a sysid audit: two trial CSVs joined, header and all
+        # a sysid audit: two trial CSVs joined, header and all (the second's columns in another order, or opening
+        # with Excel's byte order mark)
+        if text.lstrip("\ufeff").strip().lower() in {h.strip().lower() for h in (column, *header)}:
             hint = " (the header again: two files joined into one? give each its own file)"
         elif _DECIMAL_COMMA.fullmatch(text):
             hint = " (a decimal comma: save the CSV with a point as the decimal separator)"

@@ -46,7 +46,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small", "closed_loop_wind",
-          "closed_loop_motor")  # new groups last: same seeds
+          "closed_loop_motor")
+# new groups last: the earlier groups keep their seeds. A new effect in cases.VISIBLE is a new case of single,
+# velocity, white and small, and shifts the seeds of every case after it (weak_motor, 2026-12-06)
 
 
 def cases_of(groups):

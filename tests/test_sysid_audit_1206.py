@@ -184,7 +184,8 @@ def test_a_fine_csv_without_heading_times_is_told_what_the_missing_column_costs(
     assert not any("heading_time_s" in n for n in with_times), with_times
 
 
-def test_a_logger_writing_a_row_per_sentence_is_not_cut_at_every_epoch(tmp_path):
+@pytest.mark.parametrize("per_epoch", [2, 5, 6])
+def test_a_logger_writing_a_row_per_sentence_is_not_cut_at_every_epoch(tmp_path, per_epoch):
     """Stop 48's note: a logger writing a row per sentence (the GGA at the epoch, the RMC 0.1 s later, then 0.9 s to
     the next epoch) has a median step of 0.1 s when the short steps outnumber the long by one: every epoch's 0.9 s
     was taken for rows lost, the trial cut at each into parts too short to fit and replayed whole under a note
@@ -192,11 +193,14 @@ def test_a_logger_writing_a_row_per_sentence_is_not_cut_at_every_epoch(tmp_path)
     still found."""
     from autopilot.sysid.trials import cut_at_lost
 
+    # two: 60 steps of 0.1 s, 59 of 0.9 s; five or six (GGA, GSA, GSV, RMC, VTG ...): an 80th percentile failed them
+    spacing_s = 0.1 if per_epoch == 2 else 0.02
     epochs = np.arange(60.0)
-    t = np.sort(np.concatenate([epochs, epochs + 0.1]))  # 60 steps of 0.1 s, 59 of 0.9 s
-    trial = read_trial(_clocked_csv(tmp_path / "two-rows-an-epoch.csv", t))
+    t = np.sort(np.concatenate([epochs + k * spacing_s for k in range(per_epoch)]))
+    trial = read_trial(_clocked_csv(tmp_path / "rows-an-epoch.csv", t))
     assert trial.lost_s == ()
     assert cut_at_lost([trial]) == ([trial], [])
     gone = (t < 30.0) | (t >= 34.0)  # 4 epochs of its rows lost
     trial = read_trial(_clocked_csv(tmp_path / "lost.csv", t[gone]))
-    assert [(round(a + trial.t0_s, 1), round(b + trial.t0_s, 1)) for a, b in trial.lost_s] == [(29.1, 34.0)]
+    last = round(29.0 + (per_epoch - 1) * spacing_s, 2)
+    assert [(round(a + trial.t0_s, 2), round(b + trial.t0_s, 2)) for a, b in trial.lost_s] == [(last, 34.0)]

@@ -950,3 +950,25 @@ def test_what_is_not_ruled_out_is_reported_as_a_named_effect_is():
     assert_allclose(rows["hydro_refit.n_r_nd"]["ci95"], VESSEL.n_r_nd - 1e-5 + np.array([-1, 1]) * 1.959964 * 2e-5)
     assert rows["current.north_m_s"]["null"] == 0.0  # effects reported as fitted: unchanged
     assert_allclose(rows["current.north_m_s"]["ci95"], 0.01 + np.array([-1, 1]) * 1.959964 * 0.05)
+
+
+def test_a_table_of_a_boat_with_a_weak_motor_names_it_with_the_weak_sides_gain():
+    """The measured table's thrust pairs on the calibrated model with the port motor making 92 % of the table's
+    thrust (a fouled propeller): `weak_motor` (added 2026-12-06), reported with the weak side's gain as the trials'
+    report does (the table's report gave only the loss: a review)."""
+    import math
+
+    from autopilot.measured import SteadyRow
+    from autopilot.sim.steady import solve_steady
+
+    rows = []
+    for r in MEASURED_TABLE:
+        sign = -1.0 if r.thrust_port_n + r.thrust_stbd_n < 0 else 1.0
+        u, v, yaw = solve_steady(VESSEL, 0.92 * r.thrust_port_n, r.thrust_stbd_n, (sign * r.speed_m_s, 0.0, r.yaw_rate_rad_s))
+        rows.append(SteadyRow(r.name, r.thrust_port_n, r.thrust_stbd_n, yaw, math.hypot(u, v)))
+    result = identify_table(rows, VESSEL)
+    assert result["verdict"] == ["weak_motor"], result["notes"]
+    params = {p["name"]: p for p in result["effects"]["weak_motor"]["params"]}
+    assert params["loss_nd"]["value"] == pytest.approx(0.08, abs=0.005)
+    gain = params["port_gain_nd"]
+    assert gain["value"] == pytest.approx(0.92, abs=0.005) and gain["ci95"][1] <= 1.0

@@ -348,6 +348,10 @@ TRIAL_CASES = [
     # stop 48's note: two trial CSVs joined (cat a.csv b.csv), the second header in the middle
     ("two files joined", TRIAL_HEAD + "\n".join(_trial_rows()) + "\n" + TRIAL_HEAD + "\n".join(_trial_rows()) + "\n",
      "data row 41, t_s: 't_s' is not a number (the header again: two files joined into one? give each its own file)"),
+    ("two files joined, the second's columns in another order and with Excel's BOM", TRIAL_HEAD + "\n".join(_trial_rows())
+     + "\n\ufeffnorth_m,t_s,east_m,heading_deg,thrust_port_n,thrust_stbd_n\n" + "\n".join(_trial_rows()) + "\n",
+     "data row 41, t_s: '\\ufeffnorth_m' is not a number (the header again: two files joined into one? give each its "
+     "own file)"),
     ("last row cut mid-write", TRIAL_HEAD + "\n".join(_trial_rows()) + "\n4.0,2.0",
      "data row 41 has 2 of 6 fields and the file does not end with a new line: cut off mid-write? delete that row"),
 ]

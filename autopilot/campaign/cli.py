@@ -143,7 +143,8 @@ def register(subparsers) -> None:
         help="robustness campaign: thousands of simulated missions over parameter and disturbance spreads",
         description=(
             "Fly the spec's missions x guidance laws x condition spreads many times on simulated time, each run "
-            "with its own vessel parameters, current, wind, sinusoidal force, thrust asymmetry and lag, sensor "
+            "with its own vessel parameters, current, wind, sinusoidal force, thrust asymmetry, a weak motor and "
+            "lag, sensor "
             "noise, dropouts and faults, drawn from (seed, index); every run goes through the daemon's own cycle "
             "(navigation assembly, failsafe, helm, allocation). Runs are flown in lockstep, chunk by chunk, in a "
             "local process pool (--jobs) or on a Dask cluster (--scheduler). Writes DIR/runs.csv, "

@@ -276,7 +276,9 @@ class WeakMotor(Effect):
         """The weak motor's thrust as a fraction of the table's (the other makes the table's)."""
         w = value["loss_nd"]
         side = "port" if w >= 0.0 else "stbd"
-        return [param_row(f"{side}_gain_nd", "-", 1.0 - abs(w), sigma["loss_nd"])]
+        row = param_row(f"{side}_gain_nd", "-", 1.0 - abs(w), sigma["loss_nd"])
+        row["ci95"] = [max(row["ci95"][0], 0.0), min(row["ci95"][1], 1.0)]  # a weak motor makes no more than the table
+        return [row]
 
 
 def deadband_gain(duty_pct: np.ndarray, threshold_pct: np.ndarray) -> np.ndarray:

@@ -91,7 +91,7 @@ def read_table_csv(path) -> tuple[SteadyRow, ...]:
             problem = too_many_fields(r, len(header), k)
             if problem:
                 raise ConfigError(problem)
-            vals = [number_cell(r[col[c]], k, c) for c in COLUMNS[1:]]
+            vals = [number_cell(r[col[c]], k, c, header) for c in COLUMNS[1:]]
         except ConfigError as exc:  # "data row 4, u_m_s: '1,98' is not a number (a decimal comma: ...)"
             raise ConfigError(f"{path}: {exc}") from None
         for c, v in zip(COLUMNS[1:], vals):
@@ -237,14 +237,16 @@ def _cv_sse(vessel, effects, rows, theta0) -> float:
 def _report(vessel, fit, effects) -> dict:
     out = {}
     for e in effects:
-        params = []
+        params, value, sigma = [], {}, {}
         for key in table_keys(e):
             name = key.split(".", 1)[1]
             k = fit["keys"].index(key)
             unit = PARAM_BY_KEY[key].unit if key in PARAM_BY_KEY else _field_unit(name)
             v, s = float(fit["theta"][k]), float(fit["sigma"][k])
+            value[name], sigma[name] = v, s
             off = BY_NAME[e].reported(name, v, vessel) - v
             params.append(param_row(name, unit, v + off, s))
+        params += BY_NAME[e].derived(value, sigma)  # as the trials' report (summary.effect_report): weak_motor's gain
         out[e] = {"doc": BY_NAME[e].doc, "params": params}
     return out
 
