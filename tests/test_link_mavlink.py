@@ -682,9 +682,13 @@ def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart
         assert start["mission"] == str(saved) and len(start["waypoints"]) == 2
         assert "continuing the mission uploaded over MAVLink" in again.stderr()
         again.recv("HEARTBEAT")  # the ground station learns where the boat is
+        # stop 48's note: home alone (every waypoint deleted, as QGC uploads to an ArduPilot vehicle) was refused
+        # "no waypoints"; it is a clear
+        assert _upload(again, [(16, 0, 0, *ORIGIN)]) == mavlink.MAV_MISSION_ACCEPTED
+        again.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
+        assert json.loads((tmp_path / "state" / "mission-progress.json").read_text())["status"] == "cleared"
         again.gcs.mav.mission_count_send(1, 1, 0)  # an empty mission: MAVLink's other way to clear it (was "no space")
         assert again.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
-        again.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
         again.gcs.mav.mission_clear_all_send(1, 1)
         assert again.recv("MISSION_ACK").type == mavlink.MAV_MISSION_ACCEPTED
         assert json.loads((tmp_path / "state" / "mission-progress.json").read_text())["status"] == "cleared"

@@ -220,6 +220,12 @@ class MissionProtocol:
         ep.send(ep.mav.mission_ack_encode(peer[0], peer[1], code, mission_type), to=to)
 
     def _finish(self, ep, up: _Upload) -> None:
+        if len(up.items) == 1:
+            # home alone: a planner's mission with every waypoint deleted, as QGroundControl uploads it to an
+            # ArduPilot vehicle (item 0 is home); refused as "no waypoints" before (stop 48's note), it is a clear,
+            # as MISSION_COUNT 0 and MISSION_CLEAR_ALL
+            self._clear(ep, up.peer, to=up.source)
+            return
         origin = self.link.origin()
         try:
             mission = mission_from_items(up.items, origin_lat_deg=origin[0], origin_lon_deg=origin[1],
