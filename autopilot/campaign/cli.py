@@ -144,8 +144,7 @@ def register(subparsers) -> None:
         description=(
             "Fly the spec's missions x guidance laws x condition spreads many times on simulated time, each run "
             "with its own vessel parameters, current, wind, sinusoidal force, thrust asymmetry, a weak motor and "
-            "lag, sensor "
-            "noise, dropouts and faults, drawn from (seed, index); every run goes through the daemon's own cycle "
+            "lag, sensor noise, dropouts and faults, drawn from (seed, index); every run goes through the daemon's own cycle "
             "(navigation assembly, failsafe, helm, allocation). Runs are flown in lockstep, chunk by chunk, in a "
             "local process pool (--jobs) or on a Dask cluster (--scheduler). Writes DIR/runs.csv, "
             "DIR/summary.json (success rate with its Wilson 95 % interval, distributions, failsafes, worst runs, "

@@ -21,4 +21,3 @@ def weak_motor_gains(loss_nd):
         return 1.0 - max(w, 0.0), 1.0 + min(w, 0.0)
     w = np.asarray(loss_nd, dtype=float)
     return 1.0 - np.maximum(w, 0.0), 1.0 + np.minimum(w, 0.0)
-
