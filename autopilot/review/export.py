@@ -272,9 +272,11 @@ def trial_columns(log: MissionLog) -> dict[str, np.ndarray]:
 
 
 def write_trial_csv(log: MissionLog, path) -> Path:
-    """The identification workflow's trial CSV (issue 5 Inputs), one row per cycle."""
+    """The identification workflow's trial CSV (issue 5 Inputs), one row per cycle, but for the cycles whose
+    commands the motors may not have had (``MissionLog.undelivered_rows``: an Mbed link lost): left out, a gap
+    that ``autopilot sysid`` cuts the trial at, as the log itself (the CSV has no column to say it)."""
     cols = trial_columns(log)
-    data = np.column_stack([cols[k] for k in CSV_COLUMNS])
+    data = np.column_stack([cols[k] for k in CSV_COLUMNS])[~log.undelivered_rows()]
     fmt = ",".join(_CSV_FORMATS) + "\n"
     path = Path(path)
     with path.open("w", encoding="utf-8") as f:

@@ -303,6 +303,35 @@ class MissionLog:
         is_new, _ = new_velocities(self.col("sog_m_s"), self.col("cog_deg"), fix_new, fix_time_s, self.col("t_s"))
         return np.flatnonzero(is_new)
 
+    def undelivered_rows(self) -> np.ndarray:
+        """Per cycle: True where its command may never have reached the motors, in a stretch the identification
+        cannot bridge (:func:`autopilot.sysid.trials.undelivered_stretch`): the Mbed driver could not write it
+        (``seq`` -1), or an acknowledgement was counted missing (``ack_missing`` grew), which happens
+        ``serial.ack_timeout_s`` after its command (the mission_start's configuration, else 0.3 s). A log holds
+        what the daemon sent; the motors then held an older command or the firmware's stop. Found by a sysid audit:
+        4 s of an Mbed link lost, replayed on the logged commands, gave `unexplained` for a plain current."""
+        from autopilot.sysid.trials import undelivered_stretch
+
+        n, t = self.n_cycles, self.col("t_s")
+        serial = ((self.start or {}).get("config") or {}).get("serial") or {}
+        timeout_s = serial.get("ack_timeout_s")
+        timeout_s = float(timeout_s) if isinstance(timeout_s, (int, float)) and timeout_s > 0 else 0.3
+        seq, missing = self.col("seq"), self.col("ack_missing")
+        not_written = np.isfinite(seq) & (seq < 0)
+        counted = np.r_[0.0, np.diff(np.fmax.accumulate(np.nan_to_num(missing, nan=0.0)))]
+        period_s = float(np.median(np.diff(t))) if n > 1 else 0.1
+        maybe = not_written.copy()
+        for k in np.flatnonzero(counted > 0):  # the commands counted here were sent a timeout (and their number) before
+            maybe |= (t >= t[k] - timeout_s - (counted[k] + 1.0) * period_s) & (t <= t[k])
+        out = np.zeros(n, dtype=bool)
+        edges = np.flatnonzero(np.diff(np.r_[0, maybe.astype(np.int8), 0]))
+        for a, b in zip(edges[::2], edges[1::2]):  # runs [a, b)
+            misses = int(np.sum(not_written[a:b])) + int(np.sum(counted[a:b]))
+            before = t[a - 1] if a > 0 else t[a] - period_s
+            after = t[b] if b < n else t[b - 1] + period_s
+            out[a:b] = undelivered_stretch(misses, after - before)
+        return out
+
     def heading_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """(row indices, measurement times) of the cycles with a new heading sample (see :meth:`fix_rows`).
 

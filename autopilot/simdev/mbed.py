@@ -9,7 +9,8 @@ Records for tests: ``commands`` (every applied command:
 ``(t_s, seq, duty_port_pct, reverse_port, duty_stbd_pct, reverse_stbd)``)
 and ``thrust_log`` (every change of the outputs:
 ``(t_s, duty_port_pct, reverse_port, duty_stbd_pct, reverse_stbd, cause)``,
-cause "command" or "timeout"). Faults: ``silent`` (obeys, never acks),
+cause "command" or "timeout"). Faults: ``silent`` (obeys, never acks), ``deaf`` (hears nothing: its receive
+wire broken, a hung USB adapter; the firmware's stop follows),
 ``ack_delay_s``, ``stuck`` (commands no longer change the outputs and every ``OK`` echoes
 the outputs as they are, as a firmware whose PWM hung would), ``swapped`` (miswired: the port
 command drives the starboard motor and the other way round; the ``OK`` echoes the outputs as
@@ -55,6 +56,7 @@ class SimulatedMbed:
         self._endpoint = PtyEndpoint(directory, name)
         self.path = self._endpoint.path
         self.silent = False
+        self.deaf = False
         self.stuck = False
         self.swapped = False
         self.ack_delay_s = 0.0
@@ -150,6 +152,8 @@ class SimulatedMbed:
         if not data:
             return
         now_s = self.clock.now_s()
+        if self.deaf:  # the bytes never reach the firmware
+            return
         for line in self._framer.feed(data):
             self._line(line, now_s)
 

@@ -4,7 +4,10 @@ Read with :func:`autopilot.review.reader.read_log`. Per ``cycle`` line:
 
 - commands: ``thrust_port_n``, ``thrust_stbd_n`` (what the motors had, every
   cycle, also in failsafe: zero), held between cycles (a skipped deadline sends
-  nothing, so the motors keep the last command);
+  nothing, so the motors keep the last command); where the Mbed did not
+  acknowledge them, or the driver could not write them (``ack_missing``, ``seq``:
+  ``MissionLog.undelivered_rows``), what the motors had is not known and the
+  trial is cut there, as where lines were lost;
 - position fix measured at ``t_s - position_age_s`` (a fix whose cells repeat
   the previous one is held, not new: the SC-30 sends one fix a second in GGA
   and RMC, the daemon restamps it on each); heading measured at
@@ -74,6 +77,23 @@ def lost_stretches(log, t_s: np.ndarray, rows: slice) -> tuple:
     return tuple((float(t[k] - t[0]), float(t[k + 1] - t[0])) for k in jumps)
 
 
+def undelivered_stretches(log, t_s: np.ndarray, rows: slice) -> tuple:
+    """(t_s of the last row before, of the first row after) of each stretch of ``rows`` whose commands the motors
+    may not have had (``MissionLog.undelivered_rows``), on the trial's time base; a stretch at an end reaches a
+    period past it (that end's part is then empty)."""
+    bad, t = log.undelivered_rows()[rows], t_s[rows]
+    if not bad.any():
+        return ()
+    period_s = float(np.median(np.diff(t))) if t.size > 1 else 0.1
+    edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(np.int8), 0]))
+    out = []
+    for a, b in zip(edges[::2], edges[1::2]):
+        before = t[a - 1] if a > 0 else t[0] - period_s
+        after = t[b] if b < t.size else t[-1] + period_s
+        out.append((float(before - t[0]), float(after - t[0])))
+    return tuple(out)
+
+
 def _fitted_modes(log) -> np.ndarray:
     from autopilot.review.reader import MODES
 
@@ -114,6 +134,9 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
     lost = lost_stretches(log, t, keep)
     if lost:
         trial = dataclasses.replace(trial, lost_s=lost)
+    undelivered = undelivered_stretches(log, t, keep)
+    if undelivered:
+        trial = dataclasses.replace(trial, undelivered_s=undelivered)
     notes = []
     if log.stats.skipped:  # review said so of a damaged log; the identification said nothing
         trial.counts["log_lines_skipped"] = int(log.stats.skipped)

@@ -90,6 +90,9 @@ class Trial:
     # (last row before, first row after) on t_s of each stretch whose rows were lost (a mission log's lines a failed
     # write lost: the daemon sent commands then, none known here); cut_at_lost (in cut_long) cuts the trial there
     lost_s: tuple = ()
+    # the same for each stretch of rows whose commands never reached the motors (a mission log's Mbed link lost:
+    # MissionLog.undelivered_rows): the rows are there, the thrust they name is not what the motors had
+    undelivered_s: tuple = ()
 
     @property
     def duration_s(self) -> float:
@@ -478,6 +481,17 @@ LOST_MIN_S = 0.5  # a CSV's rows this far apart, and LOST_STEPS typical steps, w
 LOST_STEPS = 4.0
 
 
+UNDELIVERED_MIN = 3  # commands the motors may not have had in a stretch of more than LOST_MIN_S: cut there
+
+
+def undelivered_stretch(misses: int, span_s: float) -> bool:
+    """A stretch of commands that may not have reached the motors is cut (as rows lost) when it holds
+    UNDELIVERED_MIN or more of them and its neighbours are more than LOST_MIN_S apart: shorter, the motors held a
+    command a step or two longer, as a missing row or two is interpolated (and the CSV export, which leaves such
+    rows out, shows a gap rows_lost finds)."""
+    return misses >= UNDELIVERED_MIN and span_s > LOST_MIN_S
+
+
 def typical_step_s(dt_s: np.ndarray) -> float:
     """The step that holds the middle of the record's time (the median weighted by time), not the median step: a
     logger that writes a row per sentence (the GGA, the RMC 0.1 s later, then 0.9 s to the next epoch) has a
@@ -677,20 +691,27 @@ def cut_at_lost(trials) -> tuple[list[Trial], list[str]]:
     A part too short to fit (window) is left out, said in the note."""
     out, notes = [], []
     for tr in trials:
-        if not tr.lost_s:
+        if not tr.lost_s and not tr.undelivered_s:
             out.append(tr)
             continue
+        stretches = sorted((*tr.lost_s, *tr.undelivered_s))
         end_s = float(tr.t_s[-1]) + 1.0
-        edges = [float(tr.t_s[0])] + [float(after) for _, after in tr.lost_s]
-        ends = [float(after) for _, after in tr.lost_s] + [end_s]
+        edges = [float(tr.t_s[0])] + [float(after) for _, after in stretches]
+        # each part ends at its stretch's last row before (an undelivered stretch's own rows belong to neither)
+        ends = [float(before) + 1e-6 for before, _ in stretches] + [end_s]
         parts = [_first_window(tr, a, b) for a, b in zip(edges, ends)]
         kept = [p for _, p in filter(None, parts)]
-        lost = ", ".join(f"{tr.t0_s + before:.1f}-{tr.t0_s + after:.1f} s" for before, after in tr.lost_s)
+        said = []
+        for what, pairs in (("rows lost at t_s", tr.lost_s), ("commands the motors may not have had (the Mbed did "
+                                                                "not acknowledge them) at t_s", tr.undelivered_s)):
+            if pairs:
+                said.append(f"{what} " + ", ".join(f"{tr.t0_s + before:.1f}-{tr.t0_s + after:.1f} s"
+                                                   for before, after in pairs))
+        lost = "; ".join(said)
         if not kept:
             out.append(tr)
-            notes.append(f"{tr.name}: rows lost at t_s {lost} (lines the log never got, or a logger that stalled: the "
-                         "commands then are not in the file, held here) and no part between long enough to fit alone: replayed whole, the "
-                         "verdict may show the lost commands")
+            notes.append(f"{tr.name}: {lost} (what the motors had then is not in the file, the logged commands held "
+                         "here) and no part between long enough to fit alone: replayed whole, the verdict may show it")
             continue
         # the fixes of the parts left out and before a part's moved start: counted, as cut_long counts its own
         # (the summary said every fix of the trial was used)
@@ -701,8 +722,10 @@ def cut_at_lost(trials) -> tuple[list[Trial], list[str]]:
         out += kept
         left = (f"; {len(parts) - len(kept)} too short to fit left out" if len(kept) < len(parts) else "") + (
             f"; {fixes_out} fixes left out" if fixes_out > 0 else "")
-        notes.append(f"{tr.name}: rows lost at t_s {lost} (lines the log never got, or a logger that "
-                     f"stalled: the commands then are not in the file): cut there into {len(kept)} part(s), each replayed from its own state{left}")
+        why = (" (lines the log never got, a logger that stalled, or an export leaving out commands the Mbed did not "
+               "acknowledge: what the motors had then is not in the file)") if tr.lost_s else ""
+        notes.append(f"{tr.name}: {lost}{why}: cut there into {len(kept)} part(s), each replayed from its own "
+                     f"state{left}")
     return out, notes
 
 
