@@ -684,6 +684,8 @@ def test_a_mission_uploaded_mid_run_is_flown_saved_and_continued_after_a_restart
         again.recv("HEARTBEAT")  # the ground station learns where the boat is
         # stop 48's note: home alone (every waypoint deleted, as QGC uploads to an ArduPilot vehicle) was refused
         # "no waypoints"; it is a clear
+        # ... but one item of another kind (a waypoint sent the PX4 way, in a relative frame) is still refused
+        assert _upload(again, [(16, 6, 0, *ORIGIN)]) == mavlink.MAV_MISSION_INVALID
         assert _upload(again, [(16, 0, 0, *ORIGIN)]) == mavlink.MAV_MISSION_ACCEPTED
         again.wait_log(lambda r: r["event"] == "mission_replaced" and r["waypoints"] == [], what="cleared")
         assert json.loads((tmp_path / "state" / "mission-progress.json").read_text())["status"] == "cleared"

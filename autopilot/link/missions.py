@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from autopilot.mission import MissionItemError, mission_from_items
+from autopilot.mission import NAV_WAYPOINT, MissionItemError, mission_from_items
 
 __all__ = ["MissionProtocol", "ITEM_TIMEOUT_S", "ITEM_RETRIES"]
 
@@ -55,6 +55,12 @@ def item_of(msg) -> dict:
     return dict(seq=msg.seq, frame=msg.frame, command=msg.command, param1=float(msg.param1),
                 param2=float(msg.param2), lat_deg=msg.x / 1e7 if is_int else float(msg.x),
                 lon_deg=msg.y / 1e7 if is_int else float(msg.y))
+
+
+def _is_home(item: dict) -> bool:
+    """Item 0 as QGroundControl and Mission Planner write home for an ArduPilot vehicle: a waypoint (16) in the
+    global frame (0)."""
+    return int(item.get("command", -1)) == NAV_WAYPOINT and int(item.get("frame", -1)) == mavlink.MAV_FRAME_GLOBAL
 
 
 class MissionProtocol:
@@ -220,10 +226,11 @@ class MissionProtocol:
         ep.send(ep.mav.mission_ack_encode(peer[0], peer[1], code, mission_type), to=to)
 
     def _finish(self, ep, up: _Upload) -> None:
-        if len(up.items) == 1:
-            # home alone: a planner's mission with every waypoint deleted, as QGroundControl uploads it to an
-            # ArduPilot vehicle (item 0 is home); refused as "no waypoints" before (stop 48's note), it is a clear,
-            # as MISSION_COUNT 0 and MISSION_CLEAR_ALL
+        if len(up.items) == 1 and _is_home(up.items[0]):
+            # home alone: a planner's mission with every waypoint deleted, as QGroundControl and Mission Planner
+            # upload it to an ArduPilot vehicle; refused as "no waypoints" before (stop 48's note), it is a clear, as
+            # MISSION_COUNT 0 and MISSION_CLEAR_ALL. One item of another kind (a waypoint sent the PX4 way, a lone
+            # return or loiter) stays refused: cleared, the boat held without a word (a review)
             self._clear(ep, up.peer, to=up.source)
             return
         origin = self.link.origin()

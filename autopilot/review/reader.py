@@ -306,10 +306,11 @@ class MissionLog:
     def undelivered_rows(self) -> np.ndarray:
         """Per cycle: True where its command may never have reached the motors, in a stretch the identification
         cannot bridge (:func:`autopilot.sysid.trials.undelivered_stretch`): the Mbed driver could not write it
-        (``seq`` -1), or an acknowledgement was counted missing (``ack_missing`` grew), which happens
-        ``serial.ack_timeout_s`` after its command (the mission_start's configuration, else 0.3 s). A log holds
+        (``seq`` -1), or its acknowledgement was counted missing (``ack_missing`` grew), which happens
+        ``serial.ack_timeout_s`` after the command (the mission_start's configuration, else 0.3 s). A log holds
         what the daemon sent; the motors then held an older command or the firmware's stop. Found by a sysid audit:
-        4 s of an Mbed link lost, replayed on the logged commands, gave `unexplained` for a plain current."""
+        4 s of an Mbed link lost, replayed on the logged commands, gave `unexplained` for a plain current. A board
+        that answers late now and then (each late answer counted missing) leaves lone misses apart: none is cut."""
         from autopilot.sysid.trials import undelivered_stretch
 
         n, t = self.n_cycles, self.col("t_s")
@@ -318,15 +319,24 @@ class MissionLog:
         timeout_s = float(timeout_s) if isinstance(timeout_s, (int, float)) and timeout_s > 0 else 0.3
         seq, missing = self.col("seq"), self.col("ack_missing")
         not_written = np.isfinite(seq) & (seq < 0)
-        counted = np.r_[0.0, np.diff(np.fmax.accumulate(np.nan_to_num(missing, nan=0.0)))]
+        # the count so far, from the log's first value (misses before the log began are not this log's)
+        known = np.flatnonzero(np.isfinite(missing))
+        counted = np.zeros(n)
+        if known.size:
+            held = np.fmax.accumulate(np.where(np.isfinite(missing), missing, -np.inf))
+            held[: known[0]] = missing[known[0]]
+            counted[1:] = np.maximum(np.diff(held), 0.0)
         period_s = float(np.median(np.diff(t))) if n > 1 else 0.1
         maybe = not_written.copy()
-        for k in np.flatnonzero(counted > 0):  # the commands counted here were sent a timeout (and their number) before
-            maybe |= (t >= t[k] - timeout_s - (counted[k] + 1.0) * period_s) & (t <= t[k])
+        for k in np.flatnonzero(counted > 0):
+            # the commands counted missing at cycle k were sent a timeout before it (and one period each before that)
+            sent_until = t[k] - timeout_s
+            maybe |= (t >= sent_until - (counted[k] + 0.5) * period_s) & (t <= sent_until)
         out = np.zeros(n, dtype=bool)
         edges = np.flatnonzero(np.diff(np.r_[0, maybe.astype(np.int8), 0]))
         for a, b in zip(edges[::2], edges[1::2]):  # runs [a, b)
-            misses = int(np.sum(not_written[a:b])) + int(np.sum(counted[a:b]))
+            misses = int(np.sum(not_written[a:b])) + int(np.sum(counted[(t >= t[a] + timeout_s) &
+                                                                         (t <= t[b - 1] + timeout_s + period_s)]))
             before = t[a - 1] if a > 0 else t[a] - period_s
             after = t[b] if b < n else t[b - 1] + period_s
             out[a:b] = undelivered_stretch(misses, after - before)

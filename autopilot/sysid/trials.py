@@ -482,14 +482,16 @@ LOST_STEPS = 4.0
 
 
 UNDELIVERED_MIN = 3  # commands the motors may not have had in a stretch of more than LOST_MIN_S: cut there
+CSV_TIME_RESOLUTION_S = 0.001  # review --export csv writes t_s to the millisecond
 
 
 def undelivered_stretch(misses: int, span_s: float) -> bool:
     """A stretch of commands that may not have reached the motors is cut (as rows lost) when it holds
-    UNDELIVERED_MIN or more of them and its neighbours are more than LOST_MIN_S apart: shorter, the motors held a
-    command a step or two longer, as a missing row or two is interpolated (and the CSV export, which leaves such
-    rows out, shows a gap rows_lost finds)."""
-    return misses >= UNDELIVERED_MIN and span_s > LOST_MIN_S
+    UNDELIVERED_MIN or more of them and its neighbours are more than LOST_MIN_S apart, by more than the CSV's
+    millisecond: the CSV export leaves such rows out, and its gap must be one rows_lost cuts at too (0.5 s in the
+    log was 0.500 in the CSV: cut in one, bridged in the other, a review). Shorter, the motors held a command a
+    step or two longer, as a missing row or two is interpolated."""
+    return misses >= UNDELIVERED_MIN and span_s > LOST_MIN_S + 2.0 * CSV_TIME_RESOLUTION_S
 
 
 def typical_step_s(dt_s: np.ndarray) -> float:
@@ -682,8 +684,9 @@ def _first_window(tr: Trial, a: float, b: float) -> tuple[float, Trial] | None:
 
 
 def cut_at_lost(trials) -> tuple[list[Trial], list[str]]:
-    """The trials, each with rows lost (``Trial.lost_s``) cut there into parts, each replayed from its own
-    initial state; and a note per trial cut.
+    """The trials, each with rows lost (``Trial.lost_s``) or commands the motors may not have had
+    (``Trial.undelivered_s``) cut there into parts, each ending at the last row before a stretch and the next
+    beginning at the first row after it, each replayed from its own initial state; and a note per trial cut.
 
     The commands over lost lines are unknown: held open loop across them (the motors' last logged command, while
     the daemon went on steering), 2-2.5 s of a mission log's lines lost to failed writes in each of three pond
@@ -702,16 +705,19 @@ def cut_at_lost(trials) -> tuple[list[Trial], list[str]]:
         parts = [_first_window(tr, a, b) for a, b in zip(edges, ends)]
         kept = [p for _, p in filter(None, parts)]
         said = []
-        for what, pairs in (("rows lost at t_s", tr.lost_s), ("commands the motors may not have had (the Mbed did "
-                                                                "not acknowledge them) at t_s", tr.undelivered_s)):
+        for what, why, pairs in (
+                ("rows lost at t_s", " (lines the log never got, a logger that stalled, or an export leaving out "
+                 "commands the Mbed may not have had: the commands then are not in the file)", tr.lost_s),
+                ("commands the motors may not have had at t_s", " (not written to the Mbed, or not acknowledged by "
+                 "it: the log holds what the daemon sent)", tr.undelivered_s)):
             if pairs:
                 said.append(f"{what} " + ", ".join(f"{tr.t0_s + before:.1f}-{tr.t0_s + after:.1f} s"
-                                                   for before, after in pairs))
+                                                   for before, after in pairs) + why)
         lost = "; ".join(said)
         if not kept:
             out.append(tr)
-            notes.append(f"{tr.name}: {lost} (what the motors had then is not in the file, the logged commands held "
-                         "here) and no part between long enough to fit alone: replayed whole, the verdict may show it")
+            notes.append(f"{tr.name}: {lost}; no part between long enough to fit alone: replayed whole, the "
+                         "verdict may show it")
             continue
         # the fixes of the parts left out and before a part's moved start: counted, as cut_long counts its own
         # (the summary said every fix of the trial was used)
@@ -722,9 +728,7 @@ def cut_at_lost(trials) -> tuple[list[Trial], list[str]]:
         out += kept
         left = (f"; {len(parts) - len(kept)} too short to fit left out" if len(kept) < len(parts) else "") + (
             f"; {fixes_out} fixes left out" if fixes_out > 0 else "")
-        why = (" (lines the log never got, a logger that stalled, or an export leaving out commands the Mbed did not "
-               "acknowledge: what the motors had then is not in the file)") if tr.lost_s else ""
-        notes.append(f"{tr.name}: {lost}{why}: cut there into {len(kept)} part(s), each replayed from its own "
+        notes.append(f"{tr.name}: {lost}: cut there into {len(kept)} part(s), each replayed from its own "
                      f"state{left}")
     return out, notes
 
