@@ -21,6 +21,7 @@ __all__ = [
     "TIME_STOP_CAUSE",
     "time_stop_words",
     "HEADING_SOURCES",
+    "COG_HEADING_SOURCE",
     "FAULT_CAUSES",
     "LATCHED_CAUSES",
     "FAILSAFE_ACTIONS",
@@ -91,7 +92,8 @@ def time_stop_words(mode: str | None, held_s: float) -> str:
 
 
 MISSION_RTL_CAUSE = "mission: return to launch"  # a mission's own rtl, after its route (a restart resumes it)
-HEADING_SOURCES: tuple[str, ...] = ("THS", "HDT", "PFEC_GPatt", "COG")  # the driver's priority, then the fallback
+COG_HEADING_SOURCE = "COG"  # the heading steered on is the course over ground (failsafe.cog_fallback): no compass
+HEADING_SOURCES: tuple[str, ...] = ("THS", "HDT", "PFEC_GPatt", COG_HEADING_SOURCE)  # the driver's priority, then the fallback
 FAULT_CAUSES: tuple[str, ...] = (
     "heading_stale",
     "heading_invalid",

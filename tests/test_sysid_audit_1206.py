@@ -206,53 +206,59 @@ def test_a_logger_writing_a_row_per_sentence_is_not_cut_at_every_epoch(tmp_path,
     assert [(round(a + trial.t0_s, 2), round(b + trial.t0_s, 2)) for a, b in trial.lost_s] == [(last, 34.0)]
 
 
-# A daemon flying pond-9.1 at --speedup max in its own process, its simulated Mbed deaf from 12 to 16 s (it hears
-# nothing: a broken receive wire; its firmware stops the motors 0.5 s later) while the daemon goes on steering (the
-# ack failsafe at 50 missed commands, the most the schema allows but two: the helm's commands are logged all along).
-_FLY_DEAF = """
-import asyncio, dataclasses, math, sys
+# A daemon flying pond-9.1 at --speedup max in its own process in a 0.25 m/s current towards 060, a fault of its
+# simulated devices on over a stretch of its time (``device.flag``: the Mbed ``deaf``, hearing nothing as with a broken receive
+# wire, its firmware stopping the motors 0.5 s later; the SC-30's ``heading_dropout``), the failsafe as given.
+_FLY_FAULT = """
+import asyncio, math, sys
 import numpy as np
 import autopilot.daemon.app as app
 from autopilot.daemon.config import DaemonConfig, FailsafeConfig
+from autopilot.resources import missions_dir
 from autopilot.sysid.closed_loop import realistic_sim
 
-log_dir, state_dir = sys.argv[1:3]
+log_dir, state_dir, fault, failsafe, on_s, off_s = sys.argv[1], sys.argv[2], sys.argv[3], eval(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6])
+device, flag = fault.split(".")
 orig = app._sim_rig
 
-async def deaf_rig(cfg, mission, clock, directory):
+async def faulty_rig(cfg, mission, clock, directory):
     rig, length_m = await orig(cfg, mission, clock, directory)
     t0 = clock.now_s()
 
     async def schedule():
-        await clock.sleep_until(t0 + 12.0)
-        rig.mbed.deaf = True
-        await clock.sleep_until(t0 + 16.0)
-        rig.mbed.deaf = False
+        await clock.sleep_until(t0 + on_s)
+        setattr(getattr(rig, device), flag, True)
+        await clock.sleep_until(t0 + off_s)
+        setattr(getattr(rig, device), flag, False)
 
     asyncio.ensure_future(schedule())
     return rig, length_m
 
-app._sim_rig = deaf_rig
+app._sim_rig = faulty_rig
 sim = realistic_sim(np.random.default_rng(7), seed=11, current_speed_m_s=0.25, current_towards_deg=60.0)
-cfg = DaemonConfig(sim=sim, failsafe=FailsafeConfig(ack_missing_n=50))
-from autopilot.resources import missions_dir
+cfg = DaemonConfig(sim=sim, failsafe=FailsafeConfig(**failsafe))
 opts = app.RunOptions(mission_path=str(missions_dir() / "pond-9.1.yaml"), sim=True, speedup=math.inf,
                       log_dir=log_dir, state_dir=state_dir, runtime_dir=state_dir, fresh=True)
 sys.exit(app.run_daemon(cfg, opts))
 """
 
 
-@pytest.fixture(scope="module")
-def deaf_log(tmp_path_factory):
+def _fly_fault(tmp, fault: str, failsafe: dict, on_s: float = 12.0, off_s: float = 16.0):
     import subprocess
     import sys
 
-    tmp = tmp_path_factory.mktemp("deaf")
-    proc = subprocess.run([sys.executable, "-c", _FLY_DEAF, str(tmp / "logs"), str(tmp / "state")],
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run([sys.executable, "-c", _FLY_FAULT, str(tmp / "logs"), str(tmp / "state"), fault,
+                           repr(failsafe), str(on_s), str(off_s)], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     (log,) = (tmp / "logs").glob("mission-*.jsonl")
     return log
+
+
+@pytest.fixture(scope="module")
+def deaf_log(tmp_path_factory):
+    """The Mbed deaf 12-16 s while the daemon goes on steering (the ack failsafe at 50 missed commands, the most the
+    schema allows but two: the helm's commands are logged all along)."""
+    return _fly_fault(tmp_path_factory.mktemp("deaf"), "mbed.deaf", {"ack_missing_n": 50})
 
 
 def test_commands_the_mbed_never_heard_are_not_replayed_as_the_motors_thrust(deaf_log, tmp_path):
@@ -296,3 +302,25 @@ def test_a_lone_missed_acknowledgement_or_two_unwritten_commands_do_not_cut_the_
     edited = tmp_path / "edited.jsonl"
     edited.write_text("\n".join(json.dumps(r) for r in lines) + "\n")
     assert len(read_trial(edited).undelivered_s) == 1
+
+
+def test_a_course_over_ground_steered_on_is_not_read_as_the_compass(tmp_path):
+    """A boat with cog_fallback steers on its course over ground while the compass is lost, and logs it as the
+    heading (heading_source COG). Course is not heading: in a 0.25 m/s current they differ by the drift angle, and
+    sysid read those rows as compass headings. They are no heading measurement now, for the log and its CSV."""
+    # 30-36 s: the boat over cog_fallback_min_sog_m_s (0.5 m/s), a second after the last heading steered on course
+    log = _fly_fault(tmp_path / "fly", "sc30.heading_dropout", {"cog_fallback": True, "heading_stale_s": 1.0}, 30.0, 36.0)
+    recs = [json.loads(s) for s in log.read_text().splitlines()]
+    cog_rows = [r for r in recs if r.get("event") == "cycle" and r.get("heading_source") == "COG"]
+    assert len(cog_rows) > 10 and {r["mode"] for r in cog_rows} == {"auto"}  # steered on it
+    inside = (cog_rows[0]["t_s"], cog_rows[-1]["t_s"] - 0.1)  # the compass silent (a heading at 36.0 s is its own)
+    trial = read_trial(log)
+    heading_t = trial.t0_s + trial.heading_time_s[trial.heading_rows]
+    assert not np.any((heading_t > inside[0]) & (heading_t < inside[1]))
+    summary = _identify_current(log, tmp_path / "out")
+    assert summary["verdict"] == ["current"] and summary["adequate"] is True, summary["notes"]
+    assert main(["review", str(log), "--out", str(tmp_path / "rev"), "--export", "csv", "--no-plots"]) == 0
+    (csv_path,) = (tmp_path / "rev").glob("*.csv")
+    exported = read_trial(csv_path)
+    heading_t = exported.t0_s + exported.heading_time_s[exported.heading_rows]
+    assert not np.any((heading_t > inside[0]) & (heading_t < inside[1]))

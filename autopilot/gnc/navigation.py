@@ -51,6 +51,7 @@ from dataclasses import dataclass
 
 from autopilot.devices import NavSample, Stamped, age_s
 from autopilot.geo import latlon_to_local, wrap_pi
+from autopilot.logschema import COG_HEADING_SOURCE
 
 __all__ = ["NavRules", "NavMemory", "Navigation", "PositionJump", "Gated", "assemble", "gate_fix", "dead_reckon_ne",
            "velocity_over_ground", "still_turn",
@@ -182,7 +183,7 @@ def choose_heading(sample: NavSample, now_s: float, rules: NavRules):
     if rules.cog_fallback:
         sog, cog = velocity_over_ground(sample, now_s, rules)
         if cog is not None and sog >= rules.cog_fallback_min_sog_m_s:
-            return cog, "COG", age_s(sample.cog_rad, now_s), True
+            return cog, COG_HEADING_SOURCE, age_s(sample.cog_rad, now_s), True
     if h is None or h.value is None:
         return None, None if h is None else h.source, age, False
     return float(h.value), h.source, age, bool(h.valid)

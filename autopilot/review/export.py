@@ -255,7 +255,7 @@ def trial_columns(log: MissionLog) -> dict[str, np.ndarray]:
     fix, fix_t = log.fix_rows()
     head, head_t = log.heading_rows()
     vel = log.velocity_rows()
-    heading = log.col("heading_deg")
+    heading = log.compass_heading_deg()  # not the course over ground a COG fallback steered on
     heading = np.where(np.isfinite(heading), wrap_360(heading), np.nan)
     position_time_s, heading_time_s = np.full(n, np.nan), np.full(n, np.nan)
     position_time_s[fix], heading_time_s[head] = fix_t, head_t

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from autopilot.gnc.encounter import Situation
-from autopilot.logschema import CYCLE, EVENT_NAMES, HEADING_SOURCES, MODES
+from autopilot.logschema import COG_HEADING_SOURCE, CYCLE, EVENT_NAMES, HEADING_SOURCES, MODES
 from autopilot.schema import ConfigError
 
 # numeric (or boolean) cycle fields of the schema, stored as float64 columns; NaN = absent
@@ -345,10 +345,18 @@ class MissionLog:
     def heading_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """(row indices, measurement times) of the cycles with a new heading sample (see :meth:`fix_rows`).
 
-        Without ``heading_age_s`` every row with a heading counts (it comes at the cycle rate).
+        Without ``heading_age_s`` every row with a heading counts (it comes at the cycle rate). A row whose heading
+        is the course over ground (``heading_source`` COG: the compass lost, ``failsafe.cog_fallback``) holds no
+        compass heading (:meth:`compass_heading_deg`).
         """
-        h = self.col("heading_deg")
+        h = self.compass_heading_deg()
         return _new_samples(self.col("t_s"), self.col("heading_age_s"), np.isfinite(h), None)
+
+    def compass_heading_deg(self) -> np.ndarray:
+        """``heading_deg`` where it is the compass's; NaN where the daemon steered on its course over ground (the
+        two differ by the drift angle: read as headings, a current's drift looked like a compass error)."""
+        h = self.col("heading_deg")
+        return np.where(self.heading_source == _SOURCE_CODES[COG_HEADING_SOURCE], np.nan, h)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,8 @@ Read with :func:`autopilot.review.reader.read_log`. Per ``cycle`` line:
 - position fix measured at ``t_s - position_age_s`` (a fix whose cells repeat
   the previous one is held, not new: the SC-30 sends one fix a second in GGA
   and RMC, the daemon restamps it on each); heading measured at
-  ``t_s - heading_age_s`` (new when that time advances);
+  ``t_s - heading_age_s`` (new when that time advances; none where the daemon
+  steered on its course over ground, ``heading_source`` COG);
 - cycles whose ``mode`` is not ``auto`` (failsafe, waiting, complete, hold) and
   the cycle right after skipped deadlines are excluded from the fit: their
   commands stay, their measurements go; the leading and trailing stretches
@@ -122,7 +123,7 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
     try:
         trial = make_trial(
             Path(path).stem, t[keep],
-            north_m=c(F_NORTH)[keep], east_m=c(F_EAST)[keep], heading_deg=c(F_HEADING)[keep],
+            north_m=c(F_NORTH)[keep], east_m=c(F_EAST)[keep], heading_deg=log.compass_heading_deg()[keep],
             position_time_s=(t - c(F_POSITION_AGE))[keep], heading_time_s=(t - c(F_HEADING_AGE))[keep],
             thrust_port_n=c(F_THRUST_PORT)[keep], thrust_stbd_n=c(F_THRUST_STBD)[keep],
             exclude=exclude, sog_m_s=c(F_SOG)[keep], cog_deg=c(F_COG)[keep], rot_deg_s=c(F_RATE)[keep],
