@@ -320,6 +320,10 @@ def test_a_course_over_ground_steered_on_is_not_read_as_the_compass(tmp_path):
     summary = _identify_current(log, tmp_path / "out")
     assert summary["verdict"] == ["current"] and summary["adequate"] is True, summary["notes"]
     assert main(["review", str(log), "--out", str(tmp_path / "rev"), "--export", "csv", "--no-plots"]) == 0
+    # the review counted those seconds as fresh headings ("heading lost 0.1 s" for 5 s of compass lost): lost now,
+    # said as steered on the course over ground
+    card = json.loads((tmp_path / "rev" / "summary.json").read_text())
+    assert card["heading_lost_s"] >= 4.5 and card["heading_on_course_s"] >= 4.5, card["heading_lost_s"]
     (csv_path,) = (tmp_path / "rev").glob("*.csv")
     exported = read_trial(csv_path)
     heading_t = exported.t0_s + exported.heading_time_s[exported.heading_rows]

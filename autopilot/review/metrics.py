@@ -197,7 +197,7 @@ class Scorecard:
     xte_max_m: float
     logged_xte_rms_m: float
     logged_xte_max_m: float
-    heading_lost_s: float
+    heading_lost_s: float  # no compass heading: none at all, or the course over ground steered on (cog_fallback)
     heading_stale_s: float
     position_lost_s: float
     position_stale_s: float
@@ -241,6 +241,7 @@ class Scorecard:
     time_stop_t_s: float = math.nan  # NaN: no such stop
     time_stop_from_mode: str | None = None
     time_stop_from_mode_s: float = math.nan  # how long the boat had been in that mode then
+    heading_on_course_s: float = 0.0  # of heading_lost_s: the course over ground steered on (failsafe.cog_fallback)
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -283,7 +284,9 @@ class Scorecard:
              f"{_fmt(self.logged_xte_rms_m, 'm', 2)} / {_fmt(self.logged_xte_max_m, 'm', 2)}"),
             *self._leg_rows(),
             (f"heading lost / stale{_older_than(self.heading_stale_after_s)}",
-             f"{_fmt(self.heading_lost_s, 's', 1)} / {_fmt(self.heading_stale_s, 's', 1)}"),
+             f"{_fmt(self.heading_lost_s, 's', 1)}" + (
+                 f" ({_fmt(self.heading_on_course_s, 's', 1)} of it steered on the course over ground)"
+                 if self.heading_on_course_s > 0 else "") + f" / {_fmt(self.heading_stale_s, 's', 1)}"),
             (f"position lost / stale{_older_than(self.position_stale_after_s)}",
              f"{_fmt(self.position_lost_s, 's', 1)} / {_fmt(self.position_stale_s, 's', 1)}"),
             ("gaps in the log", _fmt(self.log_gap_s, "s", 1)),
@@ -946,7 +949,10 @@ def score(log: MissionLog) -> Scorecard:
     (xte_rms, xte_max), (lxte_rms, lxte_max), legs = cross_track_scores(log, hold)
     stop_t, stop_from, stop_from_s = time_stop(log)
 
-    heading = log.col("heading_deg")
+    # the course over ground a cog_fallback steered on is no compass: counted lost, said apart (it looked like a
+    # fresh heading, and a 6-s compass loss read "heading lost 0.1 s")
+    heading = log.compass_heading_deg()
+    on_course = np.isfinite(log.col("heading_deg")) & ~np.isfinite(heading)
     h_age = log.col("heading_age_s")
     p_age = log.col("position_age_s")
     fixq = log.col("fix_quality")
@@ -977,7 +983,7 @@ def score(log: MissionLog) -> Scorecard:
         name=log.name, path=str(log.path), cycles=log.n_cycles, mission_time_s=mission_time,
         distance_m=distance, thrust_energy_n_s=energy, thrust_unknown_s=thrust_unknown,
         xte_rms_m=xte_rms, xte_max_m=xte_max, logged_xte_rms_m=lxte_rms, logged_xte_max_m=lxte_max,
-        heading_lost_s=float(np.sum(hold[heading_lost])),
+        heading_lost_s=float(np.sum(hold[heading_lost])), heading_on_course_s=float(np.sum(hold[on_course])),
         heading_stale_s=float(np.sum(hold[heading_stale])),
         position_lost_s=float(np.sum(hold[position_lost])),
         position_stale_s=float(np.sum(hold[position_stale])),
