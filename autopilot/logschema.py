@@ -22,6 +22,8 @@ __all__ = [
     "time_stop_words",
     "HEADING_SOURCES",
     "COG_HEADING_SOURCE",
+    "COURSE_FOR_HEADING",
+    "COMPASS_BACK",
     "FAULT_CAUSES",
     "LATCHED_CAUSES",
     "FAILSAFE_ACTIONS",
@@ -93,6 +95,8 @@ def time_stop_words(mode: str | None, held_s: float) -> str:
 
 MISSION_RTL_CAUSE = "mission: return to launch"  # a mission's own rtl, after its route (a restart resumes it)
 COG_HEADING_SOURCE = "COG"  # the heading steered on is the course over ground (failsafe.cog_fallback): no compass
+COURSE_FOR_HEADING = "steering on course over ground: compass lost"  # the info lines that say it begins and ends
+COMPASS_BACK = "compass heading back"
 HEADING_SOURCES: tuple[str, ...] = ("THS", "HDT", "PFEC_GPatt", COG_HEADING_SOURCE)  # the driver's priority, then the fallback
 FAULT_CAUSES: tuple[str, ...] = (
     "heading_stale",
@@ -121,6 +125,10 @@ INFO_MESSAGES: tuple[tuple[str, str], ...] = (
      "device events from the drivers, with `device` (`sc30` or `mbed`) and their context"),
     ("mbed_ack_late", "an acknowledgement came after `serial.ack_timeout_s` (its command was already counted missing): the board answers, late (`seq`, `late_ms`); once until an answer comes in time"),
     ("mbed_unexpected_ack", "an acknowledgement for no command sent recently (a stray line, another program on the port): ignored, its battery voltage too (`seq`, `battery_v`); once until an answer comes in time"),
+    (COURSE_FOR_HEADING, "`failsafe.cog_fallback`: the compass's heading lost, the "
+     "course over ground is the heading steered on (`heading_source` COG in the cycle lines) until the compass "
+     "answers again"),
+    (COMPASS_BACK, "the compass's heading steered on again after a course over ground"),
     ("data valid: control starts", "first transition out of `waiting` (`valid_for_s`)"),
     ("ready: SC-30 and Mbed answer", "READY=1 sent to systemd"),
     ("devices not answering", "after `ready_timeout_s` (`sc30_heard`, `mbed_heard`)"),

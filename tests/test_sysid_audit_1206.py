@@ -313,6 +313,9 @@ def test_a_course_over_ground_steered_on_is_not_read_as_the_compass(tmp_path):
     recs = [json.loads(s) for s in log.read_text().splitlines()]
     cog_rows = [r for r in recs if r.get("event") == "cycle" and r.get("heading_source") == "COG"]
     assert len(cog_rows) > 10 and {r["mode"] for r in cog_rows} == {"auto"}  # steered on it
+    said = [(r["t_s"], r["message"]) for r in recs if r.get("event") == "info" and "compass" in r.get("message", "")]
+    assert [m for _, m in said] == ["steering on course over ground: compass lost", "compass heading back"], said
+    assert said[0][0] == cog_rows[0]["t_s"] and said[1][0] == pytest.approx(cog_rows[-1]["t_s"] + 0.1), said
     inside = (cog_rows[0]["t_s"], cog_rows[-1]["t_s"] - 0.1)  # the compass silent (a heading at 36.0 s is its own)
     trial = read_trial(log)
     heading_t = trial.t0_s + trial.heading_time_s[trial.heading_rows]

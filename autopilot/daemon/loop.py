@@ -34,7 +34,15 @@ from autopilot.devices import ZERO_THRUST, Compass, ThrustCommand, ThrusterLink
 from autopilot.gnc import Autopilot
 from autopilot.gnc.navigation import NavMemory, assemble
 from autopilot.gnc.passes import PassTracker
-from autopilot.logschema import FAILSAFE_CAUSE_PREFIX, RTL_ARRIVED_CAUSE, TIME_STOP_CAUSE, Mode
+from autopilot.logschema import (
+    COG_HEADING_SOURCE,
+    COMPASS_BACK,
+    COURSE_FOR_HEADING,
+    FAILSAFE_CAUSE_PREFIX,
+    RTL_ARRIVED_CAUSE,
+    TIME_STOP_CAUSE,
+    Mode,
+)
 from autopilot.mission import ItemNumbers, Mission
 
 __all__ = ["LoopState", "ControlLoop", "watchdog_due", "COMMANDS_PER_CYCLE", "COMMANDS_QUEUED_MAX"]
@@ -77,6 +85,7 @@ class LoopState:
     mode: str = "waiting"  # the last cycle's
     last_cmd: ThrustCommand = ZERO_THRUST
     steered_error_rad: float | None = None  # the heading error the helm steered by last cycle (failsafe)
+    on_course: bool = False  # the heading is the course over ground (the compass lost, failsafe.cog_fallback)
     stop_acknowledged: bool | None = None  # the Mbed acknowledged the zero thrust of the stop (None: not stopped yet)
     manual_input_wall_s: float = -math.inf  # wall time of the last manual input (a human's link runs on wall time)
     sticks_ignored_logged_wall_s: float = -math.inf  # stick input outside MANUAL: logged once a second (commands.py)
@@ -149,6 +158,11 @@ class ControlLoop:
                                origin_lat_deg=self.mission.origin_lat_deg, origin_lon_deg=self.mission.origin_lon_deg)
         if nav.jump is not None:
             self.log.event("position_jump", t_s=t_s, **nav.jump.log_fields())
+        on_course = nav.heading_source == COG_HEADING_SOURCE
+        if on_course != st.on_course:  # the compass lost and the course steered on (or back): no fault says it
+            st.on_course = on_course
+            self.log.event("info", t_s=t_s, message=COURSE_FOR_HEADING if on_course else COMPASS_BACK,
+                           heading_age_s=nav.heading_age_s)
         battery_v = self.thrusters.battery_v  # under the load the board had applied when it measured it
         load = self.thrusters.battery_load_pct or (st.last_cmd.duty_port_pct, st.last_cmd.duty_stbd_pct)
         battery_rest_v = resting_voltage_v(battery_v, *load, self.cfg.failsafe.battery_sag_v)
