@@ -44,6 +44,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from autopilot.sim.motors import weak_motor_gains
+
 Z_95 = 1.959964  # a 95 % interval is value +- Z_95 sigma (the normal 97.5 % quantile), everywhere in sysid
 DEADBAND_SOFT_PCT = 1.0  # half-width of the softened deadband edge (keeps the fit differentiable)
 
@@ -266,8 +268,6 @@ class WeakMotor(Effect):
     order = 0
 
     def thrust(self, v, tp, ts, ctx):
-        from autopilot.sim.motors import weak_motor_gains
-
         w = np.asarray(v["loss_nd"], dtype=float)
         port, stbd = weak_motor_gains(w[:, None] if tp.ndim == 2 else w)
         return tp * port, ts * stbd

@@ -36,7 +36,7 @@ from autopilot.sysid.trials import MIN_SAMPLES, Trial, make_trial
 # log field -> its meaning here (docs/log-schema.md, cycle line)
 F_TIME = "t_s"
 F_NORTH, F_EAST = "north_m", "east_m"
-F_HEADING = "heading_deg"
+# the heading: heading_deg where it is the compass's (MissionLog.compass_heading_deg: not a course over ground)
 F_POSITION_AGE, F_HEADING_AGE = "position_age_s", "heading_age_s"
 F_THRUST_PORT, F_THRUST_STBD = "thrust_port_n", "thrust_stbd_n"
 F_SOG, F_COG, F_RATE = "sog_m_s", "cog_deg", "yaw_rate_deg_s"
