@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from autopilot.sim.motors import weak_motor_gains
 from autopilot.sysid.effects import BY_NAME, PARAM_BY_KEY, Z_95
 
 MEASUREMENTS = (("held", False), ("empty", False), ("held", True))  # what a user's CSVs look like
@@ -168,8 +169,6 @@ def make(case: Case, seed: int, vessel, work_dir=None):
         from autopilot.sysid.trials import read_trial
 
         speed = 0.2 if "current" in case.effects else 0.0
-        from autopilot.sim.motors import weak_motor_gains
-
         loss = hidden.get("weak_motor.loss_nd", 0.0)  # the simulated Mbed's weak motor (sim.thrust_gain_port/stbd)
         gains = weak_motor_gains(loss)
         # the simulator's windage, in what a pond mission still flies (at 10 m/s a WAM-V is pinned)
