@@ -192,8 +192,13 @@ def check(case: Case, s: dict, *, cut: bool = True) -> None:
                 assert c["cut"] >= 0.7, (ch, c)
 
 
+# weak_motor's realistic case is the benchmark's (benchmarks/sysid_reliability.py, 20/20 in the README): in the suite
+# its closed-loop case below names it, and a thirteenth realistic case took the suite over its 10 minutes (601 s)
+SUITE_EFFECTS = [e for e in DRAWS if e != "weak_motor"]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("effect", list(DRAWS))
+@pytest.mark.parametrize("effect", SUITE_EFFECTS)
 def test_hidden_effect_is_named_and_recovered(effect, request, identified):
     case, _, result, s = _outcome(request, identified)
     assert case.effects == (effect,)
@@ -327,7 +332,10 @@ def test_closed_loop_weak_motor_is_named_weak_motor(tmp_path):
     from autopilot.sysid.closed_loop import fly_pond_logs
 
     logs = fly_pond_logs(tmp_path, 20261206, n_logs=3, thrust_gains=(0.94, 1.0), speedup="max")
-    result = identify([read_trial(p) for p in logs], VESSEL)
+    # the effects that came near it (the audit's wind and inconclusive asymmetry, a force, a current): the whole
+    # list costs the suite 5 s more for no other rival (the benchmark's closed_loop_motor group screens them all)
+    result = identify([read_trial(p) for p in logs], VESSEL,
+                      candidates=("weak_motor", "thrust_asymmetry", "wind", "wind_force", "current"))
     print(f"  {result.status} {result.verdict} {result.chosen.values()} {result.notes}")
     assert result.status == "effects" and result.verdict == ("weak_motor",), result.notes
     loss, sigma = result.chosen.values()["weak_motor.loss_nd"], float(result.chosen.sigma[0])
