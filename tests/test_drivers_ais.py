@@ -290,16 +290,43 @@ def test_unsupported_and_undecodable_payloads():
 def test_assembler_out_of_order_duplicates_and_timeout():
     a, b = (parse_fragment(s) for s in TYPE5)
     asm = FragmentAssembler(timeout_s=2.0)
-    assert asm.push(b, 0.0) is None  # second part first: waits
-    assert [f.number for f in asm.push(a, 0.5)] == [1, 2]
-    assert asm.unassembled == 0 and asm.pending == 0
+    assert asm.push(b, 0.0) is None  # second part first: no part 1 before it, dropped (IEC 61162-1 sends in order)
+    assert asm.unassembled == 1 and asm.pending == 0
+    assert asm.push(a, 0.5) is None
+    assert [f.number for f in asm.push(b, 0.6)] == [1, 2]
+    assert asm.unassembled == 1 and asm.pending == 0
     assert asm.push(a, 10.0) is None
     assert asm.push(a, 10.1) is None  # part 1 again: the first attempt is dropped
-    assert asm.unassembled == 1
-    assert asm.push(b, 12.5) is None  # 2.4 s after its part 1: that one timed out, this one waits alone
-    assert asm.unassembled == 2 and asm.pending == 1
+    assert asm.unassembled == 2
+    assert asm.push(b, 12.5) is None  # 2.4 s after its part 1: that one timed out, and this one follows nothing
+    assert asm.unassembled == 4 and asm.pending == 0
+    assert asm.push(a, 13.0) is None
     asm.expire(20.0)
-    assert asm.unassembled == 3 and asm.pending == 0
+    assert asm.unassembled == 5 and asm.pending == 0
+
+
+def test_a_lost_part_does_not_join_the_next_message_with_the_same_key():
+    """Found by a review: with parts accepted in any order, the part 2 of a message whose part 1 was lost waited,
+    and the part 1 of the next message under the same key (the sequence id comes round every ten messages; some
+    receivers leave it empty) completed it: the second vessel's part 1 with the first's part 2 (its destination,
+    not decoded here), nothing counted lost, and the second's own part 2 left waiting to join the next."""
+    one = encode_ais({"type": 5, "mmsi": 244000001, "shipname": "ONE", "destination": "ROTTERDAM EUROPOORT"},
+                     sentence_type="VDM", channel="A", seq_id=3)
+    two = encode_ais({"type": 5, "mmsi": 244000002, "shipname": "TWO", "destination": "HAMBURG ALTONA HAFEN"},
+                     sentence_type="VDM", channel="A", seq_id=3)
+    assert len(one) == len(two) == 2 and one[1] != two[1]
+    asm = FragmentAssembler(timeout_s=2.0)
+    assert asm.push(parse_fragment(one[1]), 0.0) is None  # ONE's part 1 lost
+    assert asm.push(parse_fragment(two[0]), 0.2) is None
+    joined = asm.push(parse_fragment(two[1]), 0.4)
+    assert [f.raw for f in joined] == two
+    assert asm.unassembled == 1 and asm.pending == 0
+    d = AisStreamDecoder()
+    msgs = []
+    for t, line in enumerate((one[1], two[0], two[1])):
+        msgs += d.feed((line + "\r\n").encode(), now_s=0.2 * t)
+    assert [(m.mmsi, m.shipname) for m in msgs] == [(244000002, "TWO")]
+    assert d.stats.unassembled == 1 and d.pending_fragments == 0
 
 
 def test_interleaved_multipart_messages_by_sequence_id_and_channel():
@@ -455,6 +482,29 @@ def test_an_ais_line_that_lost_its_line_end_does_not_swallow_the_compass_sentenc
     assert d.encapsulated_lines == 2 and rx.stats.lines_ok == 2  # the AIS part was not lost either
     assert d.stats.garbage == 0 and d.stats.checksum_errors == 0
 
+
+
+def test_an_ais_sentence_behind_a_cut_compass_sentence_is_read():
+    """Found by fault injection: a compass sentence cut short ('$GPGGA,1235' with its line end lost) and the AIS
+    sentence after it went together into one checksum error: the vessel report was lost, and the count blamed the
+    compass line for two sentences."""
+    rx = AisReceiver(clock_s=lambda: 0.0)
+    d = NmeaStreamDecoder(encapsulated=rx.feed_line)
+    gga = make_sentence("GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,")
+    out = d.feed((gga[:20] + TYPE1 + "\r\n" + make_sentence("GPHDT,12.3,T")).encode())
+    assert [u.sentence for u in out] == ["HDT"]
+    assert d.stats.checksum_errors == 1 and d.encapsulated_lines == 1
+    assert rx.stats.lines_ok == 1 and rx.stats.messages == 1
+
+
+def test_two_whole_compass_sentences_on_one_line_are_both_read():
+    """A lost line end between two whole sentences: each has its checksum, so neither is a cut one."""
+    d = NmeaStreamDecoder()
+    hdt = make_sentence("GPHDT,12.3,T")
+    rot = make_sentence("GPROT,-3.5,A")
+    out = d.feed((hdt.strip() + rot).encode())
+    assert [u.sentence for u in out] == ["HDT", "ROT"]
+    assert d.stats.checksum_errors == 0 and d.stats.lines_ok == 2
 
 # --------------------------------------------------------------------------- never raises
 

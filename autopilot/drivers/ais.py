@@ -177,10 +177,14 @@ class FragmentAssembler:
     """Multi-part messages put together (pure: the caller passes the time).
 
     Fragments belong together when they share (VDM/VDO, talker, sequence id, channel,
-    count); IEC 61162-1 sends them back to back, so a message still incomplete
-    ``timeout_s`` after its first fragment is dropped. A fragment number seen twice
-    starts the message anew (the first attempt is dropped). Dropped fragments are
-    counted in :attr:`unassembled`. At most ``max_pending`` messages wait at once
+    count); IEC 61162-1 sends them back to back and in order, so a message still incomplete
+    ``timeout_s`` after its first fragment is dropped, and a fragment joins only the message
+    whose every earlier fragment came before it (gpsd's rule too): a part 1 starts a message
+    anew, a part that does not follow on is dropped with what waited under its key. Accepting
+    parts in any order joined the part 2 of a message whose part 1 was lost to the part 1 of
+    the next message with the same key (the sequence id is left empty by some receivers and
+    comes round every ten messages): one vessel's name on another's MMSI. Dropped fragments
+    are counted in :attr:`unassembled`. At most ``max_pending`` messages wait at once
     (the oldest is dropped), so memory stays bounded whatever arrives.
     """
 
@@ -202,9 +206,14 @@ class FragmentAssembler:
         self.expire(now_s)
         key = (frag.own_ship, frag.talker, frag.seq_id, frag.channel, frag.count)
         entry = self._pending.get(key)
-        if entry is not None and frag.number in entry[1]:  # a new message reusing the key
-            self.unassembled += len(self._pending.pop(key)[1])
-            entry = None
+        follows = len(entry[1]) + 1 if entry is not None else 1
+        if frag.number != follows:  # not the next part of what waits: neither belongs to a whole message
+            if entry is not None:
+                self.unassembled += len(self._pending.pop(key)[1])
+                entry = None
+            if frag.number != 1:
+                self.unassembled += 1
+                return None
         if entry is None:
             if len(self._pending) >= self.max_pending:
                 oldest = min(self._pending, key=lambda k: self._pending[k][0])

@@ -508,8 +508,9 @@ class NmeaStreamDecoder:
 
     Lines end at LF, CRLF or a lone CR (CR is stripped), framed by :class:`~autopilot.drivers.framing.LineFramer`.
     A line is resynchronised at its first ``$``; bytes before it (the tail of a sentence cut by
-    a reconnect) make no difference unless no ``$`` follows, then the line counts as garbage. A sentence
-    cut short before another ``$`` is one checksum error, and the sentence from the last ``$`` is decoded.
+    a reconnect) make no difference unless no ``$`` follows, then the line counts as garbage. Each
+    ``$`` (and, with ``encapsulated``, each ``!``) starts a sentence, judged by its own checksum: one cut
+    short before the next is one checksum error, a whole one that lost its line end is read.
     A line longer than ``max_line_chars`` is discarded up to its LF, so a stream without
     newlines cannot grow memory. :attr:`invalid_bytes` counts bytes that no NMEA line can hold
     (the garbage detector's byte measure).
@@ -544,44 +545,43 @@ class NmeaStreamDecoder:
         out: list[tuple[NmeaUpdate, int, int]] = []
         try:
             for line, chars, after in self._framer.feed_spans(data):
-                update = self._line(line)
-                if update is not None:
-                    out.append((update, chars, after))
+                out += [(update, chars, after) for update in self._line(line)]
         except Exception:  # pragma: no cover - defensive: the loop must survive anything
             self._framer.clear()
             self.stats.garbage += 1
         self.stats.too_long = self._framer.too_long
         return out
 
-    def _line(self, raw: bytes) -> NmeaUpdate | None:
+    def _line(self, raw: bytes) -> list[NmeaUpdate]:
         raw = raw.strip(b"\r")
         if not raw:
-            return None
-        dollar = raw.find(b"$")
-        if self.encapsulated is not None:
-            bang = raw.find(b"!")
-            if bang >= 0 and (dollar < 0 or bang < dollar):
+            return []
+        starts = b"$!" if self.encapsulated is not None else b"$"
+        cuts = [i for i, c in enumerate(raw) if c in starts]
+        if not cuts:
+            self.stats.garbage += 1
+            return []
+        # '$' and '!' are reserved inside a sentence, so each starts one: a line that lost its line end holds
+        # several, each judged by its own checksum (a sentence cut short is the checksum error it is, the ones
+        # after it are read). Found by fault injection: an AIS sentence behind a cut compass sentence went with
+        # the cut head into one checksum error, and a whole sentence before another was counted as cut
+        out = []
+        for k, i in enumerate(cuts):
+            part = raw[i:cuts[k + 1]] if k + 1 < len(cuts) else raw[i:]
+            if part[:1] == b"!":
                 self.encapsulated_lines += 1
                 try:
-                    self.encapsulated(raw[bang:dollar] if dollar > bang else raw[bang:])
+                    self.encapsulated(part)
                 except Exception:
                     pass  # the hook's failure is its own: the compass line goes on
-                if dollar < 0:
-                    return None
-                # an AIS sentence that lost its line end, with the compass's sentence after it: each checksum
-                # judges its own part (the whole line went to AIS, and every GGA behind such a line was lost
-                # without a count)
-        if dollar < 0:
-            self.stats.garbage += 1
-            return None
-        raw = raw[dollar:]
-        last = raw.rfind(b"$")
-        if last > 0:
-            # a sentence cut short (its line end lost in a reconnect or a dropped byte) runs into the next one: '$' is
-            # reserved inside a sentence, so only the last can start a whole one. The cut head counts as the
-            # sentence without its checksum it is; the whole sentence after it was lost with it
-            self.stats.checksum_errors += 1
-            raw = raw[last:]
+                continue
+            update = self._sentence(part)
+            if update is not None:
+                out.append(update)
+        return out
+
+    def _sentence(self, raw: bytes) -> NmeaUpdate | None:
+        """One sentence from its ``$`` to the line end or the next start delimiter."""
         try:
             text = raw.decode("ascii")
         except UnicodeDecodeError:
