@@ -220,6 +220,19 @@ def _table(args, vessel, params_path, candidates, log) -> int:
     return 0
 
 
+def _why_not_named(c: dict) -> str:
+    """What a second effect beside the named model lacked (identification.beside's figures)."""
+    why = []
+    if c["delta_bic"] >= -c["bic_margin"]:
+        why.append(f"BIC {c['delta_bic']:+.0f} against {c['beside']} alone")
+    why.append(f"{'clearly away' if c['z'] >= c['z_limit'] else 'not clearly away'} from no effect "
+               f"({c['z']:.1f} sigma, {c['z_limit']:.1f} needed)")
+    if c["explained_nd"] < c["min_effect_size_nd"]:
+        why.append(f"too small to matter: it moves the residual by {c['explained_nd']:.2f} of the noise "
+                   f"({c['min_effect_size_nd']:g} needed)")
+    return "; ".join(why)
+
+
 def _why_not(a: dict) -> str:
     """Why a channel whose chi-square passes is still not adequate (judge.channels says)."""
     return f" ({a['why_not']})" if a.get("why_not") else ""
@@ -242,10 +255,14 @@ def _print(summary: dict, out) -> None:
         worst = ", ".join(f"{ch} chi-square {a['chi2_per_measurement']:.3g}{_why_not(a)}"
                           for ch, a in (c.get("adequacy") or {}).items() if not a["adequate"])
         print(f"  nearest: {c['effect']} (delta BIC {c['delta_bic']:+.0f}; still not adequate: {worst or 'see summary.json'})")
-    if summary.get("not_excluded"):
+    alone = [c for c in summary.get("not_excluded") or [] if not c.get("beside")]
+    if alone:
         shown = ", ".join(f"{c['param']} <= {c['ci95'][1]:.3g} {c['unit']}" if c.get("upper_bound") else
-                          f"{c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} {c['unit']}" for c in summary["not_excluded"][:6])
+                          f"{c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} {c['unit']}" for c in alone[:6])
         print(f"  not ruled out (95 %): {shown}")
+    for c in [c for c in summary.get("not_excluded") or [] if c.get("beside")][:4]:
+        print(f"  beside {c['beside']}, fitted and not named (95 %): {c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} "
+              f"{c['unit']}: {_why_not_named(c)}")
     for part in ("fitted", "held_out"):
         b, a = summary["rmse_before"][part], summary["rmse_after"][part]
         figures = ", ".join(f"{k} {b[k]:.4g} -> {a[k]:.4g}" for k in b if isinstance(b.get(k), float) and a.get(k) is not None)
