@@ -15,15 +15,21 @@ from autopilot.sysid.closed_loop import fly_pond_logs
 from autopilot.sysid.trials import write_trial_csv
 
 
-def _lose_lines_in_a_turn(src, dst, span_s: float = 2.5) -> tuple[float, float]:
-    """The mission log with ``span_s`` of cycle lines lost where the helm turns hardest (a failed write: the
-    daemon goes on and says so with a 'log writes resumed' line, docs/log-schema.md); the lost stretch's t_s."""
-    lines = src.read_text().splitlines()
+def _auto_cycles(lines, span_s: float):
+    """A log's records; its auto cycle lines (index, record), their t_s and turn (port - starboard thrust, N); and
+    which of them may start a ``span_s`` stretch 10 s away from both ends."""
     recs = [json.loads(s) for s in lines]
     cyc = [(i, r) for i, r in enumerate(recs) if r.get("event") == "cycle" and r.get("mode") == "auto"]
     t = np.array([r["t_s"] for _, r in cyc])
     turn = np.array([abs(r["thrust_port_n"] - r["thrust_stbd_n"]) for _, r in cyc])
-    inside = (t > t[0] + 10.0) & (t < t[-1] - 10.0 - span_s)
+    return recs, cyc, t, turn, (t > t[0] + 10.0) & (t < t[-1] - 10.0 - span_s)
+
+
+def _lose_lines_in_a_turn(src, dst, span_s: float = 2.5) -> tuple[float, float]:
+    """The mission log with ``span_s`` of cycle lines lost where the helm turns hardest (a failed write: the
+    daemon goes on and says so with a 'log writes resumed' line, docs/log-schema.md); the lost stretch's t_s."""
+    lines = src.read_text().splitlines()
+    recs, cyc, t, turn, inside = _auto_cycles(lines, span_s)
     best = max(np.flatnonzero(inside), key=lambda k: turn[(t >= t[k]) & (t < t[k] + span_s)].sum())
     gone = {i for (i, r) in cyc if t[best] <= r["t_s"] < t[best] + span_s}
     out = []
@@ -331,3 +337,49 @@ def test_a_course_over_ground_steered_on_is_not_read_as_the_compass(tmp_path):
     exported = read_trial(csv_path)
     heading_t = exported.t0_s + exported.heading_time_s[exported.heading_rows]
     assert not np.any((heading_t > inside[0]) & (heading_t < inside[1]))
+
+
+def _stall_in_a_turn(src, dst, span_s: float = 1.5) -> tuple[float, float]:
+    """The mission log as the daemon writes it when its loop stalls ``span_s`` in a turn: no cycle ran, so no
+    line and no command; the next cycle counts the deadlines it skipped (``skipped_cycles``) and the cycle and
+    command counters go on from the last (docs/log-schema.md). (t_s of the last cycle before, of the first after.)"""
+    recs, cyc, t, turn, inside = _auto_cycles(src.read_text().splitlines(), span_s)
+    best = max(np.flatnonzero(inside), key=lambda k: turn[k])
+    gone = {i for (i, r) in cyc if t[best] < r["t_s"] <= t[best] + span_s}
+    out, after = [], None
+    for i, r in enumerate(recs):
+        if i in gone:
+            continue
+        if r.get("event") == "cycle" and i > max(gone):
+            after = r["t_s"] if after is None else after
+            r = {**r, "cycle": r["cycle"] - len(gone), "skipped_cycles": r["skipped_cycles"] + len(gone),
+                 "seq": r["seq"] - len(gone) if r["seq"] >= 0 else r["seq"]}
+        out.append(json.dumps(r))
+    dst.write_text("\n".join(out) + "\n")
+    return float(t[best]), float(after)
+
+
+def test_a_stalled_loop_is_replayed_with_the_firmware_stop_not_its_last_command_held(lost_log, tmp_path):
+    """A mission log of a loop that stalled 1.5 s: no command went out, and the Mbed firmware stops both motors 0.5 s
+    after the last valid one (docs/mbed-protocol.md). The replay held the last command through the stall (a second of
+    thrust the motors never made, in a turn); now it holds it 0.5 s and then replays the stop, and nothing is cut
+    (no line was lost, every command sent was acknowledged)."""
+    from autopilot.drivers.mbed_protocol import FIRMWARE_STOP_TIMEOUT_S
+    from autopilot.sysid.prediction import prepare
+
+    (flown,) = (lost_log[0].parent / "flown").glob("flight-*/mission-*.jsonl")
+    stalled = tmp_path / "stalled.jsonl"
+    last, first = _stall_in_a_turn(flown, stalled)
+    trial = read_trial(stalled)
+    assert trial.lost_s == () and trial.undelivered_s == ()
+    prep = prepare([trial], dt_s=0.1)
+    t = prep.t_grid + trial.t0_s
+    k_last = int(np.argmin(np.abs(trial.t_s + trial.t0_s - last)))
+    held = (t >= last + 0.05) & (t < last + FIRMWARE_STOP_TIMEOUT_S - 0.1)
+    stopped = (t >= last + FIRMWARE_STOP_TIMEOUT_S + 0.05) & (t < first - 0.1)
+    assert held.sum() >= 3 and stopped.sum() >= 8
+    for side, logged in (("thrust_port_n", trial.thrust_port_n), ("thrust_stbd_n", trial.thrust_stbd_n)):
+        grid = getattr(prep, side)[0]
+        assert abs(logged[k_last]) > 1.0  # a thrust the motors had in the turn
+        np.testing.assert_allclose(grid[held], logged[k_last])
+        np.testing.assert_array_equal(grid[stopped], 0.0)

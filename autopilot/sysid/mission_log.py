@@ -4,7 +4,8 @@ Read with :func:`autopilot.review.reader.read_log`. Per ``cycle`` line:
 
 - commands: ``thrust_port_n``, ``thrust_stbd_n`` (what the motors had, every
   cycle, also in failsafe: zero), held between cycles (a skipped deadline sends
-  nothing, so the motors keep the last command); where the Mbed did not
+  nothing, so the motors keep the last command, until the firmware stops them 0.5 s
+  after it: ``prediction.firmware_stops``); where the Mbed did not
   acknowledge them, or the driver could not write them (``ack_missing``, ``seq``:
   ``MissionLog.undelivered_rows``), what the motors had is not known and the
   trial is cut there, as where lines were lost;

@@ -277,13 +277,30 @@ def _interval_means(t_rows: np.ndarray, u: np.ndarray, g: np.ndarray, dt_s: floa
     return (at(g + dt_s) - at(g)) / dt_s
 
 
+def firmware_stops(t_rows: np.ndarray, srcs) -> tuple[np.ndarray, list[np.ndarray]]:
+    """A held command's rows with the Mbed firmware's stop added: where the next row comes more than
+    FIRMWARE_STOP_TIMEOUT_S after one, a zero command that long after it (docs/mbed-protocol.md: both motors stop
+    0.5 s after the last valid command). Within a mission log's trial (lost lines and unacknowledged commands cut
+    before, cut_at_lost) such a gap is a loop that stalled: it sent nothing, and the motors did not hold its last
+    command through a 1.5-s stall, as the replay had them do."""
+    from autopilot.drivers.mbed_protocol import FIRMWARE_STOP_TIMEOUT_S
+
+    late = np.flatnonzero(np.diff(t_rows) > FIRMWARE_STOP_TIMEOUT_S)
+    if late.size == 0:
+        return t_rows, list(srcs)
+    at = late + 1
+    t_out = np.insert(t_rows, at, t_rows[late] + FIRMWARE_STOP_TIMEOUT_S)
+    return t_out, [np.insert(np.asarray(src, dtype=float), at, 0.0) for src in srcs]
+
+
 def _commands(tr: Trial, g: np.ndarray, dt_s: float):
     """The trial's commands on the grid: each interval's mean of the commands held from each row.
     Across a missing row of a CSV (a dropped row: the command then is unknown) they are interpolated,
     which is exact on ramps and half wrong at a step (holding is wrong on every ramp sample); a
-    mission log holds (the motors did)."""
+    mission log holds (the motors did), until the firmware's stop (:func:`firmware_stops`)."""
     srcs = (tr.thrust_port_n, tr.thrust_stbd_n, tr.duty_port_pct, tr.duty_stbd_pct)
-    out = [_interval_means(tr.t_s, src, g, dt_s) for src in srcs]
+    t_rows, held = firmware_stops(tr.t_s, srcs) if tr.commands_held else (tr.t_s, list(srcs))
+    out = [_interval_means(t_rows, src, g, dt_s) for src in held]
     k = np.clip(np.searchsorted(tr.t_s, g + 1e-9, side="right") - 1, 0, tr.t_s.size - 1)
     gap = (np.abs(tr.t_s[k] - g) > 0.5 * dt_s) & (g <= tr.t_s[-1])
     if gap.any() and not tr.commands_held:

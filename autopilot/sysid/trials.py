@@ -83,7 +83,8 @@ class Trial:
     cog_rad: np.ndarray | None = None
     velocity_time_s: np.ndarray | None = None  # when a row's new speed/course was measured (NaN: none new)
     yaw_rate_rad_s: np.ndarray | None = None
-    commands_held: bool = False  # a row missing between two rows: the motors held the command (mission logs)
+    # a row missing between two rows: the motors held the command (mission logs), until the firmware's stop 0.5 s on
+    commands_held: bool = False
     counts: dict = field(default_factory=dict)
     read_notes: tuple = ()  # what reading the file skipped, in words (a mission log's damaged lines)
     t0_s: float = 0.0  # the file's t_s of the first row (t_s here starts at 0): how notes name a time in the file
