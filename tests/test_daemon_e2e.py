@@ -488,3 +488,64 @@ def test_a_second_ctrl_c_after_the_summary_is_no_kill(tmp_path):
                 p.kill()
         codes.append(p.returncode)
     assert codes == [0, 0, 0]
+
+
+MISSION = ROOT / "config" / "missions" / "pond-9.4.yaml"
+
+
+def test_a_sim_restart_finds_the_boat_where_the_run_before_left_it(tmp_path):
+    """Left in stop 49's note: `--sim` put its boat back at the launch point on every start, so a bench test of
+    resume-after-restart (kill -9, systemd's restart) flew the resumed run from home, as no real boat does. The
+    boat is now kept in the state directory; a restart that carries the run on starts it there, at rest, and says
+    so; --fresh starts it at the launch point."""
+    work = tmp_path / "work"
+    work.mkdir()
+    cfg = yaml.safe_load(CONFIG.read_text())
+    cfg.setdefault("failsafe", {})["max_mission_time_s"] = 90.0  # the held restarts end soon at --speedup max
+    (work / "c.yaml").write_text(yaml.safe_dump(cfg))
+
+    def run(speedup: str, *extra):
+        return subprocess.Popen([sys.executable, "-m", "autopilot", "run", "--config", "c.yaml", "--mission",
+                                 str(MISSION), "--sim", "--speedup", speedup, "--log-dir", "logs", "--state-dir",
+                                 "state", "--runtime-dir", "run", *extra], cwd=work, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE, text=True)
+
+    def cycles(log):
+        return [r for r in map(json.loads, log.read_text().splitlines()) if r.get("event") == "cycle"
+                and r.get("north_m") is not None]
+
+    from autopilot.mission import load_mission
+
+    home = np.array(load_mission(MISSION, origin_lat_deg=cfg.get("origin_lat_deg"),
+                                 origin_lon_deg=cfg.get("origin_lon_deg")).home_ne_m)
+    first = run("5", "--fresh")
+    try:
+        logs, recs = [], []
+        deadline = time.monotonic() + 60.0
+        while time.monotonic() < deadline:
+            logs = list((work / "logs").glob("mission-*.jsonl"))
+            recs = cycles(logs[0]) if logs else []
+            if recs and np.hypot(recs[-1]["north_m"] - home[0], recs[-1]["east_m"] - home[1]) > 15.0:
+                break
+            time.sleep(0.05)
+    finally:
+        first.kill()  # as a crash: its progress says running
+        first.wait(timeout=30)
+    recs = cycles(logs[0])  # all it wrote
+    assert recs[-1]["mode"] == "auto"  # killed on the way, 34.5 m out
+    killed = np.array([recs[-1]["north_m"], recs[-1]["east_m"]])
+    assert np.hypot(*(killed - home)) > 15.0
+    second = run("max")
+    _, err = second.communicate(timeout=120)
+    assert second.returncode == 0, err[-2000:]
+    assert "--sim: the simulated boat starts where the run before left it" in err, err[-2000:]
+    (log2,) = set((work / "logs").glob("mission-*.jsonl")) - set(logs)
+    start = cycles(log2)[0]
+    # where the kill found it: within a second's run (the boat saved once a simulated second) and the GPS noise
+    assert np.hypot(start["north_m"] - killed[0], start["east_m"] - killed[1]) < 5.0, (start, killed)
+    third = run("max", "--fresh")
+    _, err = third.communicate(timeout=120)
+    assert third.returncode == 0 and "where the run before left it" not in err, err[-2000:]
+    (log3,) = set((work / "logs").glob("mission-*.jsonl")) - set(logs) - {log2}
+    start = cycles(log3)[0]
+    assert np.hypot(start["north_m"] - home[0], start["east_m"] - home[1]) < 3.0, start

@@ -473,8 +473,9 @@ def _run_before(opts: RunOptions, store: StateStore, sha: str):
     return saved if saved.status in ("running", "aborted") else None
 
 
-async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
-    """The simulated SC-30 and Mbed behind pseudo-terminals, and the boat behind them (``--sim``)."""
+async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str, x0=None):
+    """The simulated SC-30 and Mbed behind pseudo-terminals, and the boat behind them (``--sim``); the boat at ``x0``
+    (a model state), or at rest at the mission's launch point."""
     from autopilot.sim import Environment
     from autopilot.sim.battery import BatteryConfig
     from autopilot.simdev import SimRig
@@ -483,7 +484,8 @@ async def _sim_rig(cfg: DaemonConfig, mission, clock, directory: str):
     home_ne = mission.home_ne_m
     env = Environment(current_speed_m_s=cfg.sim.current_speed_m_s, current_towards_deg=cfg.sim.current_towards_deg,
                       wind_speed_m_s=cfg.sim.wind_speed_m_s, wind_from_deg=cfg.sim.wind_from_deg)
-    rig = SimRig(params, clock, directory=directory, env=env, x0=(home_ne[0], home_ne[1], 0.0, 0.0, 0.0, 0.0),
+    x0 = (home_ne[0], home_ne[1], 0.0, 0.0, 0.0, 0.0) if x0 is None else x0
+    rig = SimRig(params, clock, directory=directory, env=env, x0=x0,
                  origin_lat_deg=mission.origin_lat_deg, origin_lon_deg=mission.origin_lon_deg,
                  heading_noise_deg=cfg.sim.heading_noise_deg, position_noise_m=cfg.sim.position_noise_m,
                  seed=cfg.sim.seed, sc30_baudrate=cfg.serial.sc30_baud,
@@ -578,8 +580,20 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             except OSError as exc:  # "No usable temporary directory found": a full or read-only /tmp
                 raise ConfigError(f"--sim: cannot create the simulated devices' directory in {os.environ.get('TMPDIR') or '/tmp'} "
                                   f"({exc.strerror or exc}; set TMPDIR to a writable directory)") from None
-            rig, boat_length_m = await _sim_rig(cfg, mission, clock, tmpdir.name)
+            from autopilot.simdev.saved_boat import SIM_BOAT_FILE, keep_boat, load_boat
+
+            saved_boat = state_dir / SIM_BOAT_FILE
+            x0 = None if before is None else load_boat(saved_boat, mission.origin_lat_deg, mission.origin_lon_deg)
+            rig, boat_length_m = await _sim_rig(cfg, mission, clock, tmpdir.name, x0=x0)
             ports = (rig.sc30_path, rig.mbed_path)
+            tasks.append(asyncio.create_task(keep_boat(saved_boat, rig.boat, clock), name="sim-boat"))
+            if x0 is not None:  # a restart carrying the run on: the boat where the run before left it
+                off_m = math.hypot(x0[0] - mission.home_ne_m[0], x0[1] - mission.home_ne_m[1])
+                said_boat = (f"--sim: the simulated boat starts where the run before left it, {off_m:.0f} m from the "
+                             f"launch point, heading {math.degrees(x0[2]):03.0f} ({state_dir / SIM_BOAT_FILE}; "
+                             "--fresh starts it at the launch point)")
+                log.event("info", t_s=0.0, message=said_boat)
+                _console(said_boat)
         sim_traffic, ais_driver, ais = await _ais(cfg, opts, mission, clock, events, rig, tmpdir)
         compass, thrusters = _drivers(cfg, clock, events, *ports,
                                       on_compass_line=ais.receiver.feed_line if cfg.ais.on_compass_line else None)
