@@ -645,3 +645,30 @@ def test_a_relayed_copy_of_a_report_is_not_a_new_position():
     assert report(40.0, 80.0).track_ne_m_s == pytest.approx((2.0, 0.0), abs=0.05)
     moved = report(50.0, 100.0, repeat=1)  # a relayed report of a position not heard: the best there is
     assert moved.position_t_s == 50.0
+
+
+def test_each_sentence_of_a_line_that_lost_its_line_end_has_its_own_span_on_the_wire():
+    """Found by a review: every sentence of such a line was given the whole line's span, so the second heading was
+    dated where the first began on the wire (the SC-30's tick clock then took it for a restarted device and reset);
+    each now has its own: from its '$' to the next, the last with the line end."""
+    d = NmeaStreamDecoder()
+    h9, h10, tail = make_sentence("GPHDT,9.0,T").strip(), make_sentence("GPHDT,10.0,T"), b"$GPRO"
+    spans = d.feed_spans((h9 + h10).encode() + tail)
+    assert [(u.heading_rad, c, a) for u, c, a in spans] == [
+        (pytest.approx(math.radians(9.0)), len(h9), len(h10) + len(tail)),
+        (pytest.approx(math.radians(10.0)), len(h10), len(tail))]
+
+
+def test_the_ais_port_reads_each_sentence_of_a_line_that_lost_its_line_end():
+    """Found by a review: the AIS port's decoder read only from a line's last '!': the two parts of a type 5 on one
+    line (the first's line end lost) were a checksum error and a part 2 without its part 1, and a fragment with a
+    GPS sentence behind it was lost, counted invalid."""
+    d = AisStreamDecoder()
+    msgs = d.feed((TYPE5[0] + TYPE5[1] + "\r\n").encode(), 0.0)
+    assert [m.msg_type for m in msgs] == [5]
+    assert d.stats.checksum_errors == 0 and d.stats.unassembled == 0 and d.stats.lines_ok == 2
+    msgs = d.feed((TYPE1 + make_sentence("GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,")).encode(), 1.0)
+    assert [m.msg_type for m in msgs] == [1]
+    assert d.stats.unknown == 1 and d.stats.invalid == 0 and d.stats.checksum_errors == 0
+    msgs = d.feed((TYPE1[:20] + TYPE1 + "\r\n").encode(), 2.0)  # a fragment cut short, a whole one after it
+    assert [m.msg_type for m in msgs] == [1] and d.stats.checksum_errors == 1

@@ -223,12 +223,12 @@ from autopilot.daemon.config import DaemonConfig, FailsafeConfig
 from autopilot.resources import missions_dir
 from autopilot.sysid.closed_loop import realistic_sim
 
-log_dir, state_dir, fault, failsafe, on_s, off_s = sys.argv[1], sys.argv[2], sys.argv[3], eval(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6])
+log_dir, state_dir, fault, failsafe, on_s, off_s, rate_hz = sys.argv[1], sys.argv[2], sys.argv[3], eval(sys.argv[4]), float(sys.argv[5]), float(sys.argv[6]), float(sys.argv[7])
 device, flag = fault.split(".")
 orig = app._sim_rig
 
-async def faulty_rig(cfg, mission, clock, directory):
-    rig, length_m = await orig(cfg, mission, clock, directory)
+async def faulty_rig(cfg, mission, clock, directory, **kw):
+    rig, length_m = await orig(cfg, mission, clock, directory, **kw)
     t0 = clock.now_s()
 
     async def schedule():
@@ -242,19 +242,20 @@ async def faulty_rig(cfg, mission, clock, directory):
 
 app._sim_rig = faulty_rig
 sim = realistic_sim(np.random.default_rng(7), seed=11, current_speed_m_s=0.25, current_towards_deg=60.0)
-cfg = DaemonConfig(sim=sim, failsafe=FailsafeConfig(**failsafe))
+cfg = DaemonConfig(sim=sim, failsafe=FailsafeConfig(**failsafe), rate_hz=rate_hz)
 opts = app.RunOptions(mission_path=str(missions_dir() / "pond-9.1.yaml"), sim=True, speedup=math.inf,
                       log_dir=log_dir, state_dir=state_dir, runtime_dir=state_dir, fresh=True)
 sys.exit(app.run_daemon(cfg, opts))
 """
 
 
-def _fly_fault(tmp, fault: str, failsafe: dict, on_s: float = 12.0, off_s: float = 16.0):
+def _fly_fault(tmp, fault: str, failsafe: dict, on_s: float = 12.0, off_s: float = 16.0, rate_hz: float = 10.0):
     import subprocess
     import sys
 
     proc = subprocess.run([sys.executable, "-c", _FLY_FAULT, str(tmp / "logs"), str(tmp / "state"), fault,
-                           repr(failsafe), str(on_s), str(off_s)], capture_output=True, text=True, timeout=300)
+                           repr(failsafe), str(on_s), str(off_s), str(rate_hz)], capture_output=True, text=True,
+                          timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     (log,) = (tmp / "logs").glob("mission-*.jsonl")
     return log
@@ -371,7 +372,7 @@ def test_a_stalled_loop_is_replayed_with_the_firmware_stop_not_its_last_command_
     stalled = tmp_path / "stalled.jsonl"
     last, first = _stall_in_a_turn(flown, stalled)
     trial = read_trial(stalled)
-    assert trial.lost_s == () and trial.undelivered_s == ()
+    assert trial.lost_s == () and trial.undelivered_s == () and trial.stalled_after.sum() == 1
     prep = prepare([trial], dt_s=0.1)
     t = prep.t_grid + trial.t0_s
     k_last = int(np.argmin(np.abs(trial.t_s + trial.t0_s - last)))
@@ -383,3 +384,29 @@ def test_a_stalled_loop_is_replayed_with_the_firmware_stop_not_its_last_command_
         assert abs(logged[k_last]) > 1.0  # a thrust the motors had in the turn
         np.testing.assert_allclose(grid[held], logged[k_last])
         np.testing.assert_array_equal(grid[stopped], 0.0)
+
+
+def test_two_lines_lost_at_a_slow_rate_are_not_read_as_a_stall(tmp_path):
+    """Found by a review: the firmware's stop went in after any row followed by more than 0.5 s. At 5 Hz, two cycle
+    lines lost to a failed write are 0.6 s, too few to cut at (lost_stretches: 3), and the daemon went on sending
+    then: the replay stopped motors that never stopped. A stop goes in only after skipped deadlines."""
+    from autopilot.sysid.prediction import prepare
+
+    flown = _fly_fault(tmp_path / "slow", "mbed.deaf", {}, on_s=1e6, off_s=2e6, rate_hz=5.0)
+    lines = flown.read_text().splitlines()
+    recs, cyc, t, turn, inside = _auto_cycles(lines, 1.0)
+    k = max(np.flatnonzero(inside), key=lambda k: turn[k])
+    gone = {cyc[k + 1][0], cyc[k + 2][0]}  # the two lines after the hardest turn
+    damaged = tmp_path / "two-lost.jsonl"
+    damaged.write_text("\n".join(s for i, s in enumerate(lines) if i not in gone) + "\n")
+    trial = read_trial(damaged)
+    assert trial.lost_s == ()
+    prep = prepare([trial], dt_s=0.05)
+    tt = prep.t_grid + trial.t0_s
+    across = (tt >= t[k]) & (tt + 0.05 <= t[k + 3])  # grid intervals wholly between the rows either side of the loss
+    assert (tt[across] > t[k] + 0.5).sum() >= 1 and t[k + 3] - t[k] > 0.5
+    for side, logged in (("thrust_port_n", trial.thrust_port_n), ("thrust_stbd_n", trial.thrust_stbd_n)):
+        held = logged[int(np.argmin(np.abs(trial.t_s + trial.t0_s - t[k])))]
+        assert abs(held) > 1.0
+        np.testing.assert_allclose(getattr(prep, side)[0][across], held)  # the command sent before, held
+    assert not trial.stalled_after.any()

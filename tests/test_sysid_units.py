@@ -972,3 +972,29 @@ def test_a_table_of_a_boat_with_a_weak_motor_names_it_with_the_weak_sides_gain()
     assert params["loss_nd"]["value"] == pytest.approx(0.08, abs=0.005)
     gain = params["port_gain_nd"]
     assert gain["value"] == pytest.approx(0.92, abs=0.005) and gain["ci95"][1] <= 1.0
+
+
+def test_second_effects_beside_the_named_one_are_listed_whichever_order_their_pair_was_fitted_in(monkeypatch):
+    """Found by a review: `beside` took only pairs keyed (named, second). A pair grown from the runner-up, or one
+    the backward step left its second effect of, is keyed (second, named): its second effect went unlisted."""
+    from autopilot.sysid import identification as ident
+    from autopilot.sysid.fit import Fit
+
+    def fit(effects, keys, theta, sigma):
+        return Fit(effects, keys, np.array(theta), np.array(sigma), np.zeros((1, 6)), (0,), 1.0, 10)
+
+    cur = ("current.north_m_s", "current.east_m_s")
+    fits = {("current",): fit(("current",), cur, [0.2, 0.1], [0.01, 0.01]),
+            ("heading_bias", "current"): fit(("heading_bias", "current"), ("heading_bias.bias_deg", *cur),
+                                             [3.1, 0.2, 0.1], [1.0, 0.01, 0.01]),
+            ("current", "thrust_lag"): fit(("current", "thrust_lag"), (*cur, "thrust_lag.time_constant_s"),
+                                           [0.2, 0.1, 0.05], [0.01, 0.01, 0.04]),
+            ("heading_bias",): fit(("heading_bias",), ("heading_bias.bias_deg",), [9.0], [1.0])}  # a rival: not beside
+    monkeypatch.setattr(ident.judge, "explained", lambda prep, vessel, ref, f: {"position": 0.3})
+    monkeypatch.setattr(ident, "_delta_bic", lambda scores, fits, key, ref: -5.0)
+    rows = {r["param"]: r for r in ident.beside(None, VESSEL, fits, ("current",), None, ident.Settings())}
+    assert set(rows) == {"heading_bias.bias_deg", "thrust_lag.time_constant_s"}
+    bias = rows["heading_bias.bias_deg"]
+    assert bias["beside"] == "current" and bias["z"] == pytest.approx(3.1)
+    assert_allclose(bias["ci95"], 3.1 + np.array([-1, 1]) * 1.959964 * 1.0, rtol=1e-6)
+    assert bias["explained_nd"] == 0.3 and bias["delta_bic"] == -5.0

@@ -440,11 +440,15 @@ class AisStats:
         return d
 
 
+_STARTS = re.compile(rb"[!$]")  # where a sentence starts (IEC 61162-1: reserved inside one)
+
+
 class AisStreamDecoder:
     """Bytes (any chunking) or whole lines in, :class:`AisMessage` out; never raises.
 
     A line is resynchronised at its first ``!`` (a TAG block ``\\s:..*hh\\`` before it is
-    skipped); a fragment cut short before another ``!`` is one checksum error, the one after it is read.
+    skipped); each ``!`` or ``$`` starts a sentence judged by its own checksum: a fragment cut short before the
+    next is one checksum error, whole ones on a line that lost its line end are each read.
     ``now_s`` (any monotonic seconds) only times multi-part assembly.
     """
 
@@ -495,17 +499,29 @@ class AisStreamDecoder:
         raw = raw.strip(b"\r\n")
         if not raw:
             return []
-        bang = raw.find(b"!")
-        if bang < 0:
+        cuts = [m.start() for m in _STARTS.finditer(raw)]
+        if not any(raw[i:i + 1] == b"!" for i in cuts):
             st.garbage += 1
             return []
-        raw = raw[bang:]
-        last = raw.rfind(b"!")
-        if last > 0:
-            # a fragment cut short runs into the next one ('!' is reserved inside a sentence): the cut head is the
-            # checksum error, the whole fragment after it is read (it was lost with the head)
-            st.checksum_errors += 1
-            raw = raw[last:]
+        # '!' and '$' are reserved inside a sentence, so each starts one: a line that lost its line end holds
+        # several, each judged by its own checksum (a fragment cut short is the checksum error it is). Found by a
+        # review: the last '!' alone was read, so two whole fragments on one line were a checksum error and a part
+        # without its first, and a fragment with another talker's '$' sentence behind it was lost
+        out: list[AisMessage] = []
+        for k, i in enumerate(cuts):
+            part = raw[i:cuts[k + 1]] if k + 1 < len(cuts) else raw[i:]
+            if part[:1] == b"$":
+                if _checksum_ok(part.decode("ascii", "replace")):
+                    st.unknown += 1  # another talker's sentence on the AIS line: valid, not ours
+                else:
+                    st.checksum_errors += 1
+                continue
+            out += self._fragment(part, now_s)
+        return out
+
+    def _fragment(self, raw: bytes, now_s: float) -> list[AisMessage]:
+        """One '!' sentence: the message it completes, if any."""
+        st = self.stats
         try:
             text = raw.decode("ascii")
         except UnicodeDecodeError:

@@ -171,7 +171,7 @@ def run_nmea(args) -> int:
             print(f"ais: {json.dumps(ais.stats.as_dict())}, {len(ais.table)} target(s)", file=sys.stderr)
     if printed == 0:
         st = decoder.stats
-        what = (f"{lines} line(s) read" if not port else f"{st.lines_ok + st.dropped + st.unknown} line(s) received")
+        what = (f"{lines} line(s) read" if not port else f"{st.lines_ok + st.dropped + st.unknown} sentence(s) received")
         hint = ("check the wiring and the baud rate (--baud; the SC-30 sends at 4800 or 38400)" if port
                 else "is it an NMEA 0183 capture?")
         raise ConfigError(f"{args.source}: no NMEA sentence decoded ({what}, {st.dropped} rejected, "

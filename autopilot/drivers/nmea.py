@@ -503,24 +503,28 @@ class NmeaStats:
         return d
 
 
+_DOLLAR = re.compile(rb"\$")  # where a sentence starts (IEC 61162-1: reserved inside one)
+_STARTS = re.compile(rb"[$!]")  # ... or an encapsulated one (AIS)
+
+
 class NmeaStreamDecoder:
     """Bytes in (any chunking), updates out; counts and drops what it cannot accept.
 
     Lines end at LF, CRLF or a lone CR (CR is stripped), framed by :class:`~autopilot.drivers.framing.LineFramer`.
-    A line is resynchronised at its first ``$``; bytes before it (the tail of a sentence cut by
-    a reconnect) make no difference unless no ``$`` follows, then the line counts as garbage. Each
+    A line is resynchronised at its first ``$`` (with ``encapsulated``, or ``!``); bytes before it (the tail of a
+    sentence cut by a reconnect) make no difference unless none follows, then the line counts as garbage. Each
     ``$`` (and, with ``encapsulated``, each ``!``) starts a sentence, judged by its own checksum: one cut
     short before the next is one checksum error, a whole one that lost its line end is read.
     A line longer than ``max_line_chars`` is discarded up to its LF, so a stream without
     newlines cannot grow memory. :attr:`invalid_bytes` counts bytes that no NMEA line can hold
     (the garbage detector's byte measure).
 
-    ``encapsulated`` (optional): a callable given every line whose first start
-    delimiter is ``!`` (IEC 61162-1 encapsulation: AIS ``!AIVDM``/``!AIVDO``
-    interleaved on the compass line), from the ``!`` on, as bytes without the
-    line end; e.g. :meth:`autopilot.drivers.ais.AisReceiver.feed_line`. Without
-    it such lines count as garbage, as before. An exception in the callable is
-    swallowed. :attr:`encapsulated_lines` counts the lines handed over.
+    ``encapsulated`` (optional): a callable given every sentence that starts with
+    ``!`` (IEC 61162-1 encapsulation: AIS ``!AIVDM``/``!AIVDO`` interleaved on the
+    compass line), from the ``!`` to the next start delimiter or the line end, as
+    bytes without the line end; e.g. :meth:`autopilot.drivers.ais.AisReceiver.feed_line`.
+    Without it a line of them counts as garbage. An exception in the callable is
+    swallowed. :attr:`encapsulated_lines` counts the sentences handed over.
     """
 
     def __init__(self, max_line_chars: int = MAX_LINE_CHARS, *,
@@ -540,24 +544,28 @@ class NmeaStreamDecoder:
         return [u for u, _, _ in self.feed_spans(data)]
 
     def feed_spans(self, data: bytes) -> list[tuple[NmeaUpdate, int, int]]:
-        """:meth:`feed` with each update's line span: (update, the line's characters with its line end, the
-        characters of ``data`` after it) (framing.LineFramer.feed_spans)."""
+        """:meth:`feed` with each update's span: (update, its sentence's characters (the last on its line with the
+        line end), the characters of ``data`` after them) (framing.LineFramer.feed_spans). Each sentence of a line
+        that lost its line end has its own span: with the line's, the second heading of such a line was dated
+        where the first began, and its tick clock reset (a review)."""
         out: list[tuple[NmeaUpdate, int, int]] = []
         try:
             for line, chars, after in self._framer.feed_spans(data):
-                out += [(update, chars, after) for update in self._line(line)]
+                for update, i, j in self._line(line):
+                    end = chars if j is None else j
+                    out.append((update, end - i, after + chars - end))
         except Exception:  # pragma: no cover - defensive: the loop must survive anything
             self._framer.clear()
             self.stats.garbage += 1
         self.stats.too_long = self._framer.too_long
         return out
 
-    def _line(self, raw: bytes) -> list[NmeaUpdate]:
-        raw = raw.strip(b"\r")
+    def _line(self, raw: bytes) -> list[tuple[NmeaUpdate, int, int | None]]:
+        """The updates of one line, each with its sentence's offsets in ``raw`` (start, end; None: the line's end)."""
+        raw = raw.rstrip(b"\r")
         if not raw:
             return []
-        starts = b"$!" if self.encapsulated is not None else b"$"
-        cuts = [i for i, c in enumerate(raw) if c in starts]
+        cuts = [m.start() for m in (_STARTS if self.encapsulated is not None else _DOLLAR).finditer(raw)]
         if not cuts:
             self.stats.garbage += 1
             return []
@@ -567,7 +575,8 @@ class NmeaStreamDecoder:
         # the cut head into one checksum error, and a whole sentence before another was counted as cut
         out = []
         for k, i in enumerate(cuts):
-            part = raw[i:cuts[k + 1]] if k + 1 < len(cuts) else raw[i:]
+            j = cuts[k + 1] if k + 1 < len(cuts) else None
+            part = raw[i:j]
             if part[:1] == b"!":
                 self.encapsulated_lines += 1
                 try:
@@ -577,7 +586,7 @@ class NmeaStreamDecoder:
                 continue
             update = self._sentence(part)
             if update is not None:
-                out.append(update)
+                out.append((update, i, j))
         return out
 
     def _sentence(self, raw: bytes) -> NmeaUpdate | None:

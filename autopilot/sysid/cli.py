@@ -225,12 +225,15 @@ def _why_not_named(c: dict) -> str:
     why = []
     if c["delta_bic"] >= -c["bic_margin"]:
         why.append(f"BIC {c['delta_bic']:+.0f} against {c['beside']} alone")
-    why.append(f"{'clearly away' if c['z'] >= c['z_limit'] else 'not clearly away'} from no effect "
-               f"({c['z']:.1f} sigma, {c['z_limit']:.1f} needed)")
+    if c["z"] < c["z_limit"]:
+        why.append(f"not clearly away from no effect ({c['z']:.1f} sigma, {c['z_limit']:.1f} needed)")
     if c["explained_nd"] < c["min_effect_size_nd"]:
         why.append(f"too small to matter: it moves the residual by {c['explained_nd']:.2f} of the noise "
                    f"({c['min_effect_size_nd']:g} needed)")
-    return "; ".join(why)
+    # all three passed: the held-out trials dropped it (a review: "clearly away, 4.2 sigma" alone read as a reason
+    # to name it)
+    return "; ".join(why) or (f"BIC {c['delta_bic']:+.0f}, {c['z']:.1f} sigma, size {c['explained_nd']:.2f}: passed, and "
+                              "dropped by the held-out trials (see the notes)")
 
 
 def _why_not(a: dict) -> str:
@@ -261,8 +264,9 @@ def _print(summary: dict, out) -> None:
                           f"{c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} {c['unit']}" for c in alone[:6])
         print(f"  not ruled out (95 %): {shown}")
     for c in [c for c in summary.get("not_excluded") or [] if c.get("beside")][:4]:
-        print(f"  beside {c['beside']}, fitted and not named (95 %): {c['param']} {c['ci95'][0]:.3g}..{c['ci95'][1]:.3g} "
-              f"{c['unit']}: {_why_not_named(c)}")
+        shown = (f"<= {c['ci95'][1]:.3g}" if c.get("upper_bound") else f"{c['ci95'][0]:.3g}..{c['ci95'][1]:.3g}")
+        print(f"  beside {c['beside']}, fitted and not named (95 %): {c['param']} {shown} {c['unit']}: "
+              f"{_why_not_named(c)}")
     for part in ("fitted", "held_out"):
         b, a = summary["rmse_before"][part], summary["rmse_after"][part]
         figures = ", ".join(f"{k} {b[k]:.4g} -> {a[k]:.4g}" for k in b if isinstance(b.get(k), float) and a.get(k) is not None)

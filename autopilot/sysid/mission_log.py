@@ -67,6 +67,16 @@ def after_skipped_deadlines(log, t_s: np.ndarray) -> np.ndarray:
     return after
 
 
+def stalls(log, t_s: np.ndarray) -> np.ndarray:
+    """Per cycle: the loop stalled after it (the next cycle line is the next cycle, no line lost, and it came after
+    skipped deadlines): no command went out in between (prediction.firmware_stops)."""
+    after = np.r_[after_skipped_deadlines(log, t_s)[1:], False]
+    cycle = _column(log, F_CYCLE)
+    if cycle is not None:
+        after &= np.r_[np.diff(cycle) == 1, False]
+    return after
+
+
 def lost_stretches(log, t_s: np.ndarray, rows: slice) -> tuple:
     """(t_s before, t_s after) of each stretch of LOST_CYCLES or more cycle lines missing between two rows of
     ``rows`` (the ``cycle`` counter jumped: the daemon ran those cycles and sent their commands, but their lines
@@ -127,7 +137,7 @@ def read_mission_log(path, *, curve: ThrustCurve | None = None) -> Trial:
             north_m=c(F_NORTH)[keep], east_m=c(F_EAST)[keep], heading_deg=log.compass_heading_deg()[keep],
             position_time_s=(t - c(F_POSITION_AGE))[keep], heading_time_s=(t - c(F_HEADING_AGE))[keep],
             thrust_port_n=c(F_THRUST_PORT)[keep], thrust_stbd_n=c(F_THRUST_STBD)[keep],
-            exclude=exclude, sog_m_s=c(F_SOG)[keep], cog_deg=c(F_COG)[keep], rot_deg_s=c(F_RATE)[keep],
+            exclude=exclude, stalled_after=stalls(log, t)[keep], sog_m_s=c(F_SOG)[keep], cog_deg=c(F_COG)[keep], rot_deg_s=c(F_RATE)[keep],
             curve=curve, commands_held=True, row_name=lambda i: _line_name(log, first + i), wall_clock=False,
         )
     except ConfigError as exc:

@@ -277,15 +277,15 @@ def _interval_means(t_rows: np.ndarray, u: np.ndarray, g: np.ndarray, dt_s: floa
     return (at(g + dt_s) - at(g)) / dt_s
 
 
-def firmware_stops(t_rows: np.ndarray, srcs) -> tuple[np.ndarray, list[np.ndarray]]:
-    """A held command's rows with the Mbed firmware's stop added: where the next row comes more than
-    FIRMWARE_STOP_TIMEOUT_S after one, a zero command that long after it (docs/mbed-protocol.md: both motors stop
-    0.5 s after the last valid command). Within a mission log's trial (lost lines and unacknowledged commands cut
-    before, cut_at_lost) such a gap is a loop that stalled: it sent nothing, and the motors did not hold its last
-    command through a 1.5-s stall, as the replay had them do."""
+def firmware_stops(t_rows: np.ndarray, srcs, stalled_after: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Held commands' rows with the Mbed firmware's stop added: after each row the loop stalled after
+    (``stalled_after``) whose next row came more than FIRMWARE_STOP_TIMEOUT_S later, a zero command that long after
+    it (docs/mbed-protocol.md: both motors stop 0.5 s after the last valid command). A loop that stalls sends nothing,
+    and the replay held its last command through a 1.5-s stall. Only a stall: across a line or two the log lost, the
+    daemon went on sending (a review: at 5 Hz two lost lines are 0.6 s, and a stop there was never made)."""
     from autopilot.drivers.mbed_protocol import FIRMWARE_STOP_TIMEOUT_S
 
-    late = np.flatnonzero(np.diff(t_rows) > FIRMWARE_STOP_TIMEOUT_S)
+    late = np.flatnonzero(stalled_after[:-1] & (np.diff(t_rows) > FIRMWARE_STOP_TIMEOUT_S))
     if late.size == 0:
         return t_rows, list(srcs)
     at = late + 1
@@ -299,7 +299,7 @@ def _commands(tr: Trial, g: np.ndarray, dt_s: float):
     which is exact on ramps and half wrong at a step (holding is wrong on every ramp sample); a
     mission log holds (the motors did), until the firmware's stop (:func:`firmware_stops`)."""
     srcs = (tr.thrust_port_n, tr.thrust_stbd_n, tr.duty_port_pct, tr.duty_stbd_pct)
-    t_rows, held = firmware_stops(tr.t_s, srcs) if tr.commands_held else (tr.t_s, list(srcs))
+    t_rows, held = (tr.t_s, list(srcs)) if tr.stalled_after is None else firmware_stops(tr.t_s, srcs, tr.stalled_after)
     out = [_interval_means(t_rows, src, g, dt_s) for src in held]
     k = np.clip(np.searchsorted(tr.t_s, g + 1e-9, side="right") - 1, 0, tr.t_s.size - 1)
     gap = (np.abs(tr.t_s[k] - g) > 0.5 * dt_s) & (g <= tr.t_s[-1])

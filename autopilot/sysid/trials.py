@@ -83,8 +83,11 @@ class Trial:
     cog_rad: np.ndarray | None = None
     velocity_time_s: np.ndarray | None = None  # when a row's new speed/course was measured (NaN: none new)
     yaw_rate_rad_s: np.ndarray | None = None
-    # a row missing between two rows: the motors held the command (mission logs), until the firmware's stop 0.5 s on
+    # a row missing between two rows: the motors held the command (mission logs)
     commands_held: bool = False
+    # per row: the loop stalled after it (a mission log: the next cycle ran late, no line lost), so the motors had its
+    # command until the firmware's stop (prediction.firmware_stops); None: no stall known
+    stalled_after: np.ndarray | None = None
     counts: dict = field(default_factory=dict)
     read_notes: tuple = ()  # what reading the file skipped, in words (a mission log's damaged lines)
     t0_s: float = 0.0  # the file's t_s of the first row (t_s here starts at 0): how notes name a time in the file
@@ -327,6 +330,7 @@ def make_trial(
     position_time_s=None,
     heading_time_s=None,
     exclude=None,
+    stalled_after=None,
     sog_m_s=None,
     cog_deg=None,
     rot_deg_s=None,
@@ -337,7 +341,8 @@ def make_trial(
 ) -> Trial:
     """Build a :class:`Trial` from raw per-row columns (degrees and duty only at this edge).
 
-    ``exclude``: rows whose measurements are not used (their commands are). ``row_name(i)``: row i as the
+    ``exclude``: rows whose measurements are not used (their commands are); ``stalled_after``: rows after which the
+    loop stalled (Trial.stalled_after). ``row_name(i)``: row i as the
     user finds it in the file (check_times' messages); ``wall_clock``: check_times'.
     """
     curve = curve or ThrustCurve()
@@ -395,6 +400,7 @@ def make_trial(
         velocity_time_s=np.where(vel_new, vel_t - t0, np.nan),
         yaw_rate_rad_s=None if rot_deg_s is None else np.radians(col(rot_deg_s)),
         commands_held=commands_held,
+        stalled_after=None if stalled_after is None else np.asarray(stalled_after, dtype=bool)[sel],
         counts=counts,
         read_notes=_coarse_rows_note(t_sel, heading_time_s is not None),
         t0_s=float(t0),
