@@ -362,3 +362,24 @@ def test_fault_flags_reach_the_driver(params, tmp_path):
     lost, heading_age_s, since_s = asyncio.run(main())
     assert lost == (0, False, False)
     assert heading_age_s >= since_s  # no heading sentence since the dropout
+
+
+def test_a_saved_sim_boat_that_cannot_be_read_starts_the_boat_at_the_launch_point(tmp_path):
+    """The --sim boat kept for a restart (simdev/saved_boat.py): a file half written, hand-edited or of another
+    format gives None (the launch point), never an error; a good one is the boat at rest, in the frame asked for."""
+    import math
+
+    from autopilot.geo import local_to_latlon
+    from autopilot.simdev.saved_boat import load_boat
+
+    path = tmp_path / "sim-boat.json"
+    for text in ("", "{", "[]", '{"lat_deg": 52}', '{"lat_deg": "x", "lon_deg": 4, "heading_deg": 0}',
+                 '{"lat_deg": 95, "lon_deg": 4, "heading_deg": 0}', '{"lat_deg": 52, "lon_deg": 4, "heading_deg": NaN}'):
+        path.write_text(text)
+        assert load_boat(path, 52.0, 4.4) is None, text
+    assert load_boat(tmp_path / "absent.json", 52.0, 4.4) is None
+    lat, lon = local_to_latlon(12.0, -7.0, 52.0, 4.4)
+    path.write_text(f'{{"lat_deg": {lat!r}, "lon_deg": {lon!r}, "heading_deg": 370.0}}')
+    n, e, psi, u, v, r = load_boat(path, 52.0, 4.4)
+    assert (round(n, 6), round(e, 6), u, v, r) == (12.0, -7.0, 0.0, 0.0, 0.0)
+    assert psi == math.radians(10.0) or abs(psi - math.radians(10.0)) < 1e-12
