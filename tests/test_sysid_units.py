@@ -998,3 +998,25 @@ def test_second_effects_beside_the_named_one_are_listed_whichever_order_their_pa
     assert bias["beside"] == "current" and bias["z"] == pytest.approx(3.1)
     assert_allclose(bias["ci95"], 3.1 + np.array([-1, 1]) * 1.959964 * 1.0, rtol=1e-6)
     assert bias["explained_nd"] == 0.3 and bias["delta_bic"] == -5.0
+
+
+@pytest.mark.parametrize("batched", [False, True])
+def test_a_wind_beside_a_current_is_replayed_as_the_simulator_flies_it_over_ground(batched):
+    """Found by a sysid audit: the replay moves the boat through the water, and the wind's hook took its parameters
+    as the air relative to the water. Beside a current the named wind was the wind minus the current (5 m/s from
+    200 beside 0.2 m/s towards 090: 4.95 m/s from 197.9, 95 % 197.1-198.8), the simulator's, the benchmark's and a
+    SimConfig's wind being over ground. The replay of a wind and a current is now the simulator's flight of them."""
+    from autopilot.sim.integrate import simulate
+    from autopilot.sysid.prediction import SCALAR_MAX_RUNS, predict, prepare
+    from autopilot.sysid.realistic import make_realistic_trials
+
+    (trial,) = make_realistic_trials(VESSEL, {}, 3, cells="held", time_columns=True, n_trials=1)
+    prep = prepare([trial])
+    x0 = np.array([0.0, 0.0, 0.7, 1.2, 0.1, 0.0])  # over ground
+    values = {"wind.north_m_s": 4.5, "wind.east_m_s": 2.0, "current.north_m_s": 0.0, "current.east_m_s": 0.25}
+    runs = SCALAR_MAX_RUNS + 1 if batched else 1
+    got = predict(prep, VESSEL, [0] * runs, np.tile(x0, (runs, 1)), values, sway_over_ground=True)
+    flown = simulate(VESSEL, prep.t_grid, prep.thrust_port_n[0], prep.thrust_stbd_n[0], x0=x0, current=(0.25, 90.0),
+                     wind=(math.hypot(4.5, 2.0), math.degrees(math.atan2(2.0, 4.5)) + 180.0), dt_s=prep.dt_s)
+    for k in ("north_m", "east_m", "psi_rad"):
+        assert_allclose(got[k][-1], flown[k], atol=1e-5)

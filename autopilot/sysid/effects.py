@@ -93,6 +93,9 @@ class Effect:
     # a velocity (north_m_s, east_m_s) whose curvature interval means nothing near no effect: what the trials cannot
     # rule out is given as an upper bound of its speed, probed (intervals.speed_bound)
     speed_bounded: bool = False
+    # its parameters are a velocity over ground whose force goes with it relative to the water (the wind): the replay
+    # passes the current fitted beside it to ``force`` (``water_ne_m_s``)
+    over_ground: bool = False
 
     def key(self, param: EffectParam) -> str:
         return f"{self.name}.{param.name}"
@@ -204,7 +207,7 @@ class WindForce(Effect):
 
 
 class Wind(Effect):
-    name, kind, multimodal, speed_bounded = "wind", "force", True, True
+    name, kind, multimodal, speed_bounded, over_ground = "wind", "force", True, True, True
     # near no wind its curvature interval is read across the windage's switch (no wind, no force: the boat's own air
     # drag comes on with any wind): a calm pond's "not ruled out" was wind.north_m_s -0.029 .. 0.029 m/s, which no
     # data can say of a force that goes with the wind's square; intervals.speed_bound probes the speeds instead
@@ -220,20 +223,24 @@ class Wind(Effect):
     doc = ("steady wind (the air's velocity, towards north/east) through the vessel's windage model (its frontal "
            "and lateral areas and coefficients): a force that turns with the heading, as the simulator's")
 
-    def force(self, v, vessel):
+    def force(self, v, vessel, water_ne_m_s=(0.0, 0.0)):
+        """``water_ne_m_s``: the current fitted beside it (m/s, towards north/east; scalars or (R,) arrays)."""
         from autopilot.sim.model import windage, windage_gains
 
-        a_n, a_e = v["north_m_s"], v["east_m_s"]
-        scalar = isinstance(a_n, float)
+        w_n, w_e = v["north_m_s"], v["east_m_s"]
+        scalar = isinstance(w_n, float)
         cos, sin = (math.cos, math.sin) if scalar else (np.cos, np.sin)
         # no wind is no force, the boat's own air drag included, as in the simulator (make_rhs: no windage term
         # without wind): the other candidates' runs of a batched replay carry this hook at the null value, and
         # the drag of still air there moved their predictions (a calm log's fix_delay went unranked, `none`)
-        on = (a_n != 0.0) or (a_e != 0.0) if scalar else ((np.asarray(a_n) != 0.0) | (np.asarray(a_e) != 0.0))
+        on = (w_n != 0.0) or (w_e != 0.0) if scalar else ((np.asarray(w_n) != 0.0) | (np.asarray(w_e) != 0.0))
         gains = tuple(k * on for k in windage_gains(vessel))
+        # the replay's state moves through the water (prediction._predict), the wind is over ground (as the
+        # simulator's, the benchmark's truth and a SimConfig's): the boat's windage sees the wind minus the current.
+        # Fitted as the air relative to the water, a wind named beside a 0.2 m/s current was the wind minus the
+        # current, its interval 0.04 m/s wide round it (a sysid audit, 2026-12-06)
+        a_n, a_e = w_n - water_ne_m_s[0], w_e - water_ne_m_s[1]
 
-        # the replay's state moves through the water (prediction._predict): with a current fitted too, this is the
-        # air's velocity relative to the water (the wind minus the current), what the boat's windage sees
         def f(psi, u, vv, r):
             return windage(gains, a_n, a_e, cos(psi), sin(psi), u, vv)
 

@@ -437,10 +437,10 @@ def _external(terms):
     return external
 
 
-def _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces) -> dict:
+def _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces, c_n, c_e) -> dict:
     """Runs one by one on the simulator's scalar path (faster than a small batch): the field-type
     effects written into VesselParams, the other force hooks bound to the run's own values (exactly what
-    the batched path adds)."""
+    the batched path adds); ``c_n``, ``c_e``: each run's current (m/s), for a force over ground (the wind)."""
     n_runs = tp.shape[0]
     out = {name: np.empty((n_runs, g.size)) for name in STATE_NAMES}
     for j in range(n_runs):
@@ -448,7 +448,9 @@ def _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces) -> dict:
         for eff, v in fields:
             changes.update(eff.fields({k: a[j] for k, a in v.items()}, vessel))
         params = dataclasses.replace(vessel, **changes) if changes else vessel
-        terms = [eff.force({k: float(a[j]) for k, a in v.items()}, vessel) for eff, v in forces if eff.fields is None]
+        terms = [eff.force({k: float(a[j]) for k, a in v.items()}, vessel,
+                           **({"water_ne_m_s": (float(c_n[j]), float(c_e[j]))} if eff.over_ground else {}))
+                 for eff, v in forces if eff.fields is None]
         # a parameter trial far out may blow up: NaN, the fit sees huge residuals
         run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, diverged_as_nan=True,
                        external_force=_external(terms) if terms else None)
@@ -498,9 +500,10 @@ def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict, 
     forces = act.having("force")
     fields = act.having("fields")
     if n_runs <= SCALAR_MAX_RUNS:
-        out = _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces)
+        out = _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces, c_n, c_e)
     else:  # batched; a run that blows up comes back NaN, the others stand
-        external = _external([e.force(v, vessel) for e, v in forces]) if forces else None
+        external = _external([e.force(v, vessel, **({"water_ne_m_s": (c_n, c_e)} if e.over_ground else {}))
+                              for e, v in forces]) if forces else None
         out = simulate(vessel, g, tp, ts, x0=x0, external_force=external, dt_s=dt, diverged_as_nan=True)
     psi = out["psi_rad"]
     c, s = np.cos(psi), np.sin(psi)
