@@ -46,7 +46,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small", "closed_loop_wind",
-          "closed_loop_motor")
+          "closed_loop_motor", "closed_loop_pairs")
 # new groups last: the earlier groups keep their seeds. A new effect in cases.VISIBLE is a new case of single,
 # velocity, white and small, and shifts the seeds of every case after it (weak_motor, 2026-12-06)
 
@@ -70,6 +70,9 @@ def cases_of(groups):
             out.append(Case(("wind",), kind="closed_loop", n_trials=5))
         elif g == "closed_loop_motor":  # a weak motor (the simulated Mbed's sim.thrust_gain_*) in three pond logs
             out.append(Case(("weak_motor",), kind="closed_loop", n_trials=3))
+        elif g == "closed_loop_pairs":  # two effects at once in three pond logs (a sysid audit, 2026-12-06)
+            out += [Case(p, kind="closed_loop", n_trials=3)
+                    for p in (("current", "weak_motor"), ("current", "wind"), ("wind", "weak_motor"))]
         elif g == "velocity":  # the realistic trials with the receiver's speed and course over ground too
             out += [Case((e,), velocity=True) for e in DRAWS] + [Case((), velocity=True)]
         elif g == "white":

@@ -976,7 +976,9 @@ def test_a_table_of_a_boat_with_a_weak_motor_names_it_with_the_weak_sides_gain()
 
 def test_second_effects_beside_the_named_one_are_listed_whichever_order_their_pair_was_fitted_in(monkeypatch):
     """Found by a review: `beside` took only pairs keyed (named, second). A pair grown from the runner-up, or one
-    the backward step left its second effect of, is keyed (second, named): its second effect went unlisted."""
+    the backward step left its second effect of, is keyed (second, named): its second effect went unlisted. And a
+    pair that fitted worse than the named model it holds (a deadband beside a wind, BIC +1275: a sysid audit) was
+    listed, its interval meaning nothing."""
     from autopilot.sysid import identification as ident
     from autopilot.sysid.fit import Fit
 
@@ -989,9 +991,12 @@ def test_second_effects_beside_the_named_one_are_listed_whichever_order_their_pa
                                              [3.1, 0.2, 0.1], [1.0, 0.01, 0.01]),
             ("current", "thrust_lag"): fit(("current", "thrust_lag"), (*cur, "thrust_lag.time_constant_s"),
                                            [0.2, 0.1, 0.05], [0.01, 0.01, 0.04]),
-            ("heading_bias",): fit(("heading_bias",), ("heading_bias.bias_deg",), [9.0], [1.0])}  # a rival: not beside
+            ("heading_bias",): fit(("heading_bias",), ("heading_bias.bias_deg",), [9.0], [1.0]),  # a rival: not beside
+            # a pair that fitted worse than the current it holds (stopped off its optimum): its interval says nothing
+            ("current", "thrust_deadband"): fit(("current", "thrust_deadband"), (*cur, "thrust_deadband.threshold_pct"),
+                                                [0.2, 0.1, 50.8], [0.01, 0.01, 0.3])}
     monkeypatch.setattr(ident.judge, "explained", lambda prep, vessel, ref, f: {"position": 0.3})
-    monkeypatch.setattr(ident, "_delta_bic", lambda scores, fits, key, ref: -5.0)
+    monkeypatch.setattr(ident, "_delta_bic", lambda scores, fits, key, ref: 1275.0 if "thrust_deadband" in key else -5.0)
     rows = {r["param"]: r for r in ident.beside(None, VESSEL, fits, ("current",), None, ident.Settings())}
     assert set(rows) == {"heading_bias.bias_deg", "thrust_lag.time_constant_s"}
     bias = rows["heading_bias.bias_deg"]
@@ -1020,3 +1025,19 @@ def test_a_wind_beside_a_current_is_replayed_as_the_simulator_flies_it_over_grou
                      wind=(math.hypot(4.5, 2.0), math.degrees(math.atan2(2.0, 4.5)) + 180.0), dt_s=prep.dt_s)
     for k in ("north_m", "east_m", "psi_rad"):
         assert_allclose(got[k][-1], flown[k], atol=1e-5)
+
+
+def test_a_noise_held_by_the_sensors_bounds_is_said_whichever_part_holds_it():
+    """Found by a sysid audit: a wind named alone beside a weak motor it had absorbed (pond logs, wind 5 m/s from
+    000, port motor at 92 %): the heading residual 1.97 deg RMS under a fitted wander of 0.953 deg, freeing the
+    bounds gaining 5.2 of deviance, but no part within 0.97 of its limit: at_bounds named nothing, and the wind's
+    intervals missed the truth with nothing said. judge.binding names the channel (the verdict's note)."""
+    from autopilot.sysid import judge
+    from autopilot.sysid.noise import ChannelNoise, NoiseBounds
+    from autopilot.sysid.prediction import Noise
+
+    noise = Noise(position=ChannelNoise(0.3, 1.0, 30.0), heading=ChannelNoise(math.radians(0.1), math.radians(0.953), 110.0))
+    adequacy = {"position": {"deviance_beyond_sensor": 0.4}, "heading": {"deviance_beyond_sensor": 5.2}}
+    assert judge.at_bounds(noise, NoiseBounds(), adequacy) == []  # what the verdict had to go on
+    assert judge.binding(adequacy) == {"heading": 5.2}
+    assert judge.binding({"heading": {"deviance_beyond_sensor": None}, "position": {}}) == {}

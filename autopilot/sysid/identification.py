@@ -432,6 +432,13 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
                          "trials, or bound the sensor: --gps-wander-max, --heading-wander-max)")
         else:
             notes.append(f"{why}: the intervals may be too narrow")
+    elif status == "effects" and judge.binding(adequacy):
+        # bound by a part under AT_BOUND of its limit (or the correlation time): at_bounds names none, and a wind
+        # named alone beside a weak motor it had absorbed (1.97 deg of heading residual under a 0.95-deg wander)
+        # gave intervals missing the truth with nothing said (a sysid audit, 2026-12-06)
+        notes.append("; ".join(f"the {ch} residual asks for more noise than the sensor's bounds allow (freeing "
+                               f"them gains {d:.1f} of deviance)" for ch, d in judge.binding(adequacy).items())
+                     + ": a model error of the noise's size may be in it, and the intervals may be too narrow")
     elif status == "none":
         absorbed = absorbed_by_noise(prep, fits, s)
         if absorbed:
@@ -455,8 +462,11 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
                                        adequate_chi2=s.adequate_chi2)
     if not adequate:
         worst = [ch for ch, c in adequacy.items() if not c["adequate"]]
-        notes.append(f"no listed effect brings the {' and '.join(worst)} residual down to the noise: verdict unexplained"
-                     + (f" (nearest: {', '.join(c['effect'] for c in nearest)})" if nearest else ""))
+        tried = sorted("+".join(k) for k in fits if len(k) == 2)
+        notes.append(f"no model fitted brings the {' and '.join(worst)} residual down to the noise: verdict unexplained"
+                     + (f" (nearest: {', '.join(c['effect'] for c in nearest)})" if nearest else "")
+                     + f"; pairs fitted: {', '.join(tried) if tried else 'none'}, the others untried (name the "
+                     "effects to fit with --effects)")
         if "position" in worst:
             notes += misfit_outliers(prep, vessel, fits[chosen])
     held_before = cv[()].rmse(prep, vessel)
@@ -541,13 +551,17 @@ def _interval_rows(f: Fit, effect: str, vessel, prep: Prepared | None) -> list[d
     return out
 
 
+FAILED_PAIR_COST = 2.0  # a pair whose cost is above its named single's by more than this failed to fit
+
+
 def beside(prep, vessel, fits: dict, named: tuple, scores, s: Settings) -> list[dict]:
     """Each second effect fitted beside the named model and not kept (named + it, search.fit_pairs), with the 95 %
     interval of each of its parameters given the named ones (rows as :func:`not_excluded`'s) and what it would
     take to be named: ``beside`` (the named model), ``delta_bic`` (against it; naming takes below -``bic_margin``),
     ``z`` and ``z_limit`` (clearly away from no effect at z >= z_limit), ``explained_nd`` (the most residual RMS it
     removes on a channel, in the noise's RMS; naming takes ``min_effect_size_nd``); a pair that passed all three
-    was dropped by the held-out trials (the notes say why). A 3-deg compass offset beside a 0.2 m/s current moves the
+    was dropped by the held-out trials (the notes say why). A pair that fitted worse than the named model it holds
+    (FAILED_PAIR_COST) is left out. A 3-deg compass offset beside a 0.2 m/s current moves the
     track by a third of the GPS noise: the pair's fit found it, 3 sigma from none and its interval round the
     truth, but too small to name, and the report named the current with nothing said of it (a sysid audit)."""
     out = []
@@ -557,8 +571,13 @@ def beside(prep, vessel, fits: dict, named: tuple, scores, s: Settings) -> list[
         if len(key) != len(named) + 1 or not set(named) < set(key):  # (named, second) or (second, named): either order
             continue
         (extra,) = [e for e in key if e not in named]
+        delta_bic = float(_delta_bic(scores, fits, key, named))
+        if delta_bic - len(BY_NAME[extra].keys) * math.log(max(f.n_obs, 2)) > FAILED_PAIR_COST:
+            # it holds the named model: a fit worse than it stopped off its optimum, and its interval says nothing
+            # (a wind's pair with a deadband, chi-square 6.08 against the wind's 0.87, was listed: a review)
+            continue
         z, limit = judge.away_from_null(f, extra)
-        why = {"beside": "+".join(named), "delta_bic": float(_delta_bic(scores, fits, key, named)),
+        why = {"beside": "+".join(named), "delta_bic": delta_bic,
                "z": float(z), "z_limit": float(limit),
                "explained_nd": float(max(judge.explained(prep, vessel, fits[named], f).values())),
                "min_effect_size_nd": float(s.min_effect_size), "bic_margin": float(s.bic_margin)}

@@ -273,6 +273,15 @@ def at_bounds(noise: Noise, bounds: NoiseBounds, adequacy: dict | None = None) -
     return out
 
 
+def binding(adequacy: dict) -> dict[str, float]:
+    """Channel -> the deviance freeing its noise from the sensor's bounds would gain, for each where that is at least
+    BOUND_BINDING: the residual asks for more noise than the sensor has, whichever part holds it back (at_bounds
+    names only a white or wander part within AT_BOUND of its limit: a wander at 0.953 of its 1-deg bound, the
+    correlation time held too, gained 5.2 and was named nowhere, a sysid audit)."""
+    return {ch: float(c["deviance_beyond_sensor"]) for ch, c in adequacy.items()
+            if (c.get("deviance_beyond_sensor") or 0.0) >= BOUND_BINDING}
+
+
 def away_from_null(fit: Fit, effect: str) -> tuple[float, float]:
     """(joint z of ``effect``'s parameters from their no-effect values, the 3-sigma limit for that many)."""
     from scipy.stats import chi2
