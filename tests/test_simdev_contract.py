@@ -374,7 +374,8 @@ def test_a_saved_sim_boat_that_cannot_be_read_starts_the_boat_at_the_launch_poin
 
     path = tmp_path / "sim-boat.json"
     for text in ("", "{", "[]", '{"lat_deg": 52}', '{"lat_deg": "x", "lon_deg": 4, "heading_deg": 0}',
-                 '{"lat_deg": 95, "lon_deg": 4, "heading_deg": 0}', '{"lat_deg": 52, "lon_deg": 4, "heading_deg": NaN}'):
+                 '{"lat_deg": 95, "lon_deg": 4, "heading_deg": 0}', '{"lat_deg": 52, "lon_deg": 4, "heading_deg": NaN}',
+                 "[" * 100000):
         path.write_text(text)
         assert load_boat(path, 52.0, 4.4) is None, text
     assert load_boat(tmp_path / "absent.json", 52.0, 4.4) is None

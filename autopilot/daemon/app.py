@@ -590,7 +590,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             if x0 is not None:  # a restart carrying the run on: the boat where the run before left it
                 off_m = math.hypot(x0[0] - mission.home_ne_m[0], x0[1] - mission.home_ne_m[1])
                 said_boat = (f"--sim: the simulated boat starts where the run before left it, {off_m:.0f} m from the "
-                             f"launch point, heading {math.degrees(x0[2]):03.0f} ({state_dir / SIM_BOAT_FILE}; "
+                             f"launch point, heading {round(math.degrees(x0[2])) % 360:03d} ({state_dir / SIM_BOAT_FILE}; "
                              "--fresh starts it at the launch point)")
                 log.event("info", t_s=0.0, message=said_boat)
                 _console(said_boat)

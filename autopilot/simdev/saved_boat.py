@@ -40,7 +40,7 @@ def load_boat(path: Path, origin_lat_deg: float, origin_lon_deg: float) -> tuple
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
         lat, lon, heading = (float(data[k]) for k in ("lat_deg", "lon_deg", "heading_deg"))
-    except (OSError, ValueError, KeyError, TypeError):
+    except (OSError, ValueError, KeyError, TypeError, RecursionError):  # RecursionError: '[' * 100000
         return None
     if not (abs(lat) <= 90.0 and abs(lon) <= 180.0 and math.isfinite(heading)):
         return None

@@ -220,7 +220,7 @@ class Wind(Effect):
                           retry_grid=(-10.0, 10.0)),
               EffectParam("east_m_s", "m/s", 0.0, -25.0, 25.0, 1.0, init=0.5, grid=(-6.0, 0.0, 6.0),
                           retry_grid=(-10.0, 10.0)))
-    doc = ("steady wind (the air's velocity, towards north/east) through the vessel's windage model (its frontal "
+    doc = ("steady wind (the air's velocity over ground, towards north/east) through the vessel's windage model (its frontal "
            "and lateral areas and coefficients): a force that turns with the heading, as the simulator's")
 
     def force(self, v, vessel, water_ne_m_s=(0.0, 0.0)):
