@@ -251,7 +251,9 @@ def test_a_multipath_burst_is_named_and_left_out_and_the_current_found():
                         outlier_fixes=8)
     trials = make_realistic_trials(vessel, {"current.north_m_s": 0.15, "current.east_m_s": -0.1}, 2, gps=gps,
                                    cells="held", time_columns=True)
-    s = run(trials, vessel, report=False)
+    # the current and what a burst left in could pass for (a force, a lever arm, a late fix), not the whole list:
+    # it took the suite 29 s of its 10 minutes; the benchmark screens every candidate on such trials
+    s = run(trials, vessel, report=False, candidates=("current", "wind_force", "antenna_offset", "fix_delay"))
     assert s["verdict"] == ["current"], (s["verdict"], s["notes"])
     assert s["measurements"]["gated_position_fixes"] == 8
     assert s["position_outliers"] == [{"trial": "trial3", "t_s": [pytest.approx(50.0, abs=1.0),

@@ -570,7 +570,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
                 else f"`{ctl} resume` starts the mission"))
         t0_s = clock.now_s()
         events = DeviceEvents(log, clock, t0_s, cfg)
-        tasks, rig, tmpdir = [], None, None
+        tasks, rig, tmpdir, said_boat = [], None, None, None
         if lockstep:
             tasks.append(asyncio.create_task(clock.drive(), name="lockstep"))
         ports, boat_length_m = (cfg.serial.sc30_port, cfg.serial.mbed_port), cfg.boat_length_m
@@ -587,13 +587,12 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
             rig, boat_length_m = await _sim_rig(cfg, mission, clock, tmpdir.name, x0=x0)
             ports = (rig.sc30_path, rig.mbed_path)
             tasks.append(asyncio.create_task(keep_boat(saved_boat, rig.boat, clock), name="sim-boat"))
-            if x0 is not None:  # a restart carrying the run on: the boat where the run before left it
+            if x0 is not None:  # a restart carrying the run on: the boat where the run before left it (said below,
+                # after mission_start: a log's first line is its mission_start, which a reader looks for)
                 off_m = math.hypot(x0[0] - mission.home_ne_m[0], x0[1] - mission.home_ne_m[1])
                 said_boat = (f"--sim: the simulated boat starts where the run before left it, {off_m:.0f} m from the "
                              f"launch point, heading {round(math.degrees(x0[2])) % 360:03d} ({state_dir / SIM_BOAT_FILE}; "
                              "--fresh starts it at the launch point)")
-                log.event("info", t_s=0.0, message=said_boat)
-                _console(said_boat)
         sim_traffic, ais_driver, ais = await _ais(cfg, opts, mission, clock, events, rig, tmpdir)
         compass, thrusters = _drivers(cfg, clock, events, *ports,
                                       on_compass_line=ais.receiver.feed_line if cfg.ais.on_compass_line else None)
@@ -631,7 +630,7 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         loop.request_stop(early[0])
     _log_start(log, cfg, opts, mission, mission_path, boat_length_m=boat_length_m, start_index=start_index, ports=ports,
                hold_zero=hold_zero)
-    said: list[str] = []
+    said: list[str] = [said_boat] if said_boat else []
     if cfg.ais.on_compass_line:
         said.append(_compass_line_share(cfg.serial.sc30_baud))
     if not ap.armed:
