@@ -93,9 +93,6 @@ class Effect:
     # a velocity (north_m_s, east_m_s) whose curvature interval means nothing near no effect: what the trials cannot
     # rule out is given as an upper bound of its speed, probed (intervals.speed_bound)
     speed_bounded: bool = False
-    # its parameters are a velocity over ground whose force goes with it relative to the water (the wind): the replay
-    # passes the current fitted beside it to ``force`` (``water_ne_m_s``)
-    over_ground: bool = False
 
     def key(self, param: EffectParam) -> str:
         return f"{self.name}.{param.name}"
@@ -117,6 +114,8 @@ class Effect:
         return []
 
     thrust = None
+    # force(v, vessel, water_ne_m_s): (psi, u, v, r) -> (X, Y, N), the state through the water; ``water_ne_m_s`` the
+    # current fitted beside it (m/s, towards north/east), for a force that goes with a velocity over ground (the wind)
     force = None
     fields = None
     water = None
@@ -194,7 +193,7 @@ class WindForce(Effect):
               EffectParam("moment_nm", "N m", 0.0, -200.0, 200.0, 2.0))
     doc = "steady force in the earth frame and a steady yaw moment (wind on the superstructure)"
 
-    def force(self, v, vessel):
+    def force(self, v, vessel, water_ne_m_s=(0.0, 0.0)):
         f_n, f_e, m_z = v["north_n"], v["east_n"], v["moment_nm"]
         scalar = isinstance(f_n, float)  # one run on the simulator's scalar path: plain floats
         cos, sin = (math.cos, math.sin) if scalar else (np.cos, np.sin)
@@ -207,7 +206,7 @@ class WindForce(Effect):
 
 
 class Wind(Effect):
-    name, kind, multimodal, speed_bounded, over_ground = "wind", "force", True, True, True
+    name, kind, multimodal, speed_bounded = "wind", "force", True, True
     # near no wind its curvature interval is read across the windage's switch (no wind, no force: the boat's own air
     # drag comes on with any wind): a calm pond's "not ruled out" was wind.north_m_s -0.029 .. 0.029 m/s, which no
     # data can say of a force that goes with the wind's square; intervals.speed_bound probes the speeds instead
@@ -406,7 +405,7 @@ class YawDampingQuadratic(Effect):
     def fields(self, v, vessel):
         return {"yaw_damping_quadratic_nm_s2": vessel.yaw_damping_quadratic_nm_s2 + float(v["n_rr_nm_s2"])}
 
-    def force(self, v, vessel):
+    def force(self, v, vessel, water_ne_m_s=(0.0, 0.0)):
         n_rr = v["n_rr_nm_s2"]
         return lambda psi, u, vv, r: (0.0 * r, 0.0 * r, -n_rr * np.abs(r) * r)
 
@@ -437,7 +436,7 @@ class HydroRefit(Effect):
         """Any VesselParams field given as a change (the table mode re-fits more of them)."""
         return {name: getattr(vessel, name) + float(delta) for name, delta in v.items()}
 
-    def force(self, v, vessel):
+    def force(self, v, vessel, water_ne_m_s=(0.0, 0.0)):
         d_r1 = v["resistance_linear_n_s_m"]
         k_nr = vessel.moment_scale_kg * vessel.length_m * v["n_r_nd"]
 

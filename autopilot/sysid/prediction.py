@@ -448,8 +448,7 @@ def _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces, c_n, c_e) -> dic
         for eff, v in fields:
             changes.update(eff.fields({k: a[j] for k, a in v.items()}, vessel))
         params = dataclasses.replace(vessel, **changes) if changes else vessel
-        terms = [eff.force({k: float(a[j]) for k, a in v.items()}, vessel,
-                           **({"water_ne_m_s": (float(c_n[j]), float(c_e[j]))} if eff.over_ground else {}))
+        terms = [eff.force({k: float(a[j]) for k, a in v.items()}, vessel, (float(c_n[j]), float(c_e[j])))
                  for eff, v in forces if eff.fields is None]
         # a parameter trial far out may blow up: NaN, the fit sees huge residuals
         run = simulate(params, g, tp[j], ts[j], x0=x0[j], dt_s=dt, diverged_as_nan=True,
@@ -502,8 +501,7 @@ def _predict(prep: Prepared, vessel: VesselParams, trial_idx, x0, values: dict, 
     if n_runs <= SCALAR_MAX_RUNS:
         out = _simulate_scalar(vessel, g, tp, ts, x0, dt, fields, forces, c_n, c_e)
     else:  # batched; a run that blows up comes back NaN, the others stand
-        external = _external([e.force(v, vessel, **({"water_ne_m_s": (c_n, c_e)} if e.over_ground else {}))
-                              for e, v in forces]) if forces else None
+        external = _external([e.force(v, vessel, (c_n, c_e)) for e, v in forces]) if forces else None
         out = simulate(vessel, g, tp, ts, x0=x0, external_force=external, dt_s=dt, diverged_as_nan=True)
     psi = out["psi_rad"]
     c, s = np.cos(psi), np.sin(psi)
