@@ -432,12 +432,12 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
                          "trials, or bound the sensor: --gps-wander-max, --heading-wander-max)")
         else:
             notes.append(f"{why}: the intervals may be too narrow")
-    elif status == "effects" and judge.binding(adequacy):
+    elif status == "effects" and (binding := judge.binding(adequacy)):
         # bound by a part under AT_BOUND of its limit (or the correlation time): at_bounds names none, and a wind
         # named alone beside a weak motor it had absorbed (1.97 deg of heading residual under a 0.95-deg wander)
         # gave intervals missing the truth with nothing said (a sysid audit, 2026-12-06)
         notes.append("; ".join(f"the {ch} residual asks for more noise than the sensor's bounds allow (freeing "
-                               f"them gains {d:.1f} of deviance)" for ch, d in judge.binding(adequacy).items())
+                               f"them gains {d:.1f} of deviance)" for ch, d in binding.items())
                      + ": a model error of the noise's size may be in it, and the intervals may be too narrow")
     elif status == "none":
         absorbed = absorbed_by_noise(prep, fits, s)
