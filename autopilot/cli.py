@@ -12,6 +12,13 @@ import importlib
 import os
 import sys
 
+# One BLAS thread, set before anything imports numpy: the identification's many small least-squares problems ran 3x
+# slower with OpenBLAS's threads on a 2-core machine as soon as anything else ran (two identifications at once: 100 s
+# each, 31 s single-threaded; alone 35 and 33 s), and the boat's PC runs the daemon beside them. A user's own
+# setting is kept.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 # subcommand area modules, in the order they appear in --help
 AREAS = (
     "autopilot.sim.cli",

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import random
 import sys
 import tempfile
@@ -43,6 +42,10 @@ import time
 import traceback
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+
+# one BLAS thread per worker, as the `autopilot` command runs, set there before numpy is imported (the workers are
+# forked from this process: set in the worker, it came too late and two draws at once ran 3x slower)
+import autopilot.cli  # noqa: F401,E402
 
 ROOT = Path(__file__).resolve().parents[1]
 GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small", "closed_loop_wind",
@@ -84,7 +87,6 @@ def cases_of(groups):
 
 def one(case, seed: int) -> dict:
     """One draw of one case, scored (a pure function of (case, seed))."""
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
     sys.path.insert(0, str(ROOT))
     from autopilot.sim import default_params_path, load_params
     from autopilot.sysid import identify

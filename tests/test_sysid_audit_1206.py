@@ -4,6 +4,8 @@
 from __future__ import annotations
 
 import json
+import os
+import sys
 
 import numpy as np
 import pytest
@@ -425,3 +427,19 @@ def test_two_lines_lost_at_a_slow_rate_are_not_read_as_a_stall(lost_log, tmp_pat
         assert abs(held) > 1.0
         np.testing.assert_allclose(getattr(prep, side)[0][across], held)  # the command sent before, held
     assert not trial.stalled_after.any()
+
+
+def test_the_autopilot_command_runs_numpy_on_one_blas_thread_unless_told_otherwise():
+    """Two identifications at once ran 3x slower with OpenBLAS's threads on this 2-core machine (100 s each, 31 s on
+    one thread; the boat's PC runs the daemon beside them): the command sets one thread before numpy is imported,
+    and keeps a user's own setting."""
+    import subprocess
+
+    probe = ("import os, sys; import autopilot.cli; print('numpy' in sys.modules, os.environ['OPENBLAS_NUM_THREADS'],"
+             " os.environ['OMP_NUM_THREADS'])")
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "1", "1"], out
+    env["OPENBLAS_NUM_THREADS"] = "2"
+    out = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "2", "1"], out

@@ -36,6 +36,7 @@ import signal
 import sys
 import zlib
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -345,6 +346,60 @@ def test_closed_loop_weak_motor_is_named_weak_motor(tmp_path):
     assert abs(loss - 0.06) <= 3.29 * sigma and sigma < 0.01, (loss, sigma)
     fitted = {c["effect"]: c["delta_bic"] for c in result.candidates if c.get("delta_bic") is not None}
     assert fitted["weak_motor"] < min(v for k, v in fitted.items() if k != "weak_motor"), fitted
+
+
+WEAK_MOTOR_IN_WIND = Path(__file__).parent / "data" / "closed-loop-wind-weak-motor"  # flown by the daemon: README
+
+
+def _named_within(result, truth: dict) -> None:
+    assert result.status == "effects" and set(result.verdict) == {"wind", "weak_motor"}, result.notes
+    values, sigma = result.chosen.values(), dict(zip(result.chosen.keys, result.chosen.sigma))
+    for key, true in truth.items():  # within the 99.9 % interval: the wind alone was ~7 sigma off
+        assert abs(values[key] - true) <= Z_MAX * sigma[key], (key, values[key], true, sigma[key])
+
+
+@pytest.mark.slow
+def test_closed_loop_weak_motor_in_wind_is_screened_beside_the_wind():
+    """Found by a sysid audit: in pond logs flown with one motor weak in a wind, the wind fitted alone took the motor's
+    moment (east 4.93 m/s for 4.23, sigma 0.1) and was named alone in most wind directions: second effects were
+    screened over whole closed-loop trials with the wind held, where the motor screened at no gain and its pair was
+    never fitted. They are screened over 15-s windows too now, the wind moving with them. (The whole identification
+    on these logs takes a minute: the benchmark's closed_loop_pairs group runs it.)"""
+    from autopilot.sysid import read_trial, search
+    from autopilot.sysid.fit import fit_model
+    from autopilot.sysid.identification import BIC_MARGIN, Settings, baseline, renoise
+    from autopilot.sysid.judge import Scores
+    from autopilot.sysid.prediction import initial_states, prepare
+
+    prep = prepare([read_trial(p) for p in sorted((WEAK_MOTOR_IN_WIND / "from-290").glob("*.csv"))])
+    x0, quiet = initial_states(prep), (lambda msg: None)
+    prep, base = baseline(prep, VESSEL, x0, Settings(), quiet)
+    wind = fit_model(prep, VESSEL, ("wind",), tuple(range(prep.n_trials)), x0, theta0=[-1.6, 4.9],
+                     horizons_s=search.HORIZONS_S)  # the wind alone, where the search left it
+    prep, fits = renoise(prep, VESSEL, {(): base, ("wind",): wind}, Scores(prep, VESSEL, Settings().bounds), quiet)
+    assert fits[("wind",)].values()["wind.east_m_s"] > 4.6  # the motor's moment taken by the wind
+    seconds = search.second_effects(prep, VESSEL, fits, ("wind",), ("weak_motor", "wind_force", "hydro_refit",
+                                    "thrust_asymmetry"), 2, BIC_MARGIN)
+    pays = {c: p for c, _, p in seconds}
+    assert pays.get("weak_motor"), seconds
+    search.fit_pairs(prep, VESSEL, fits, ("wind",), [s for s in seconds if s[0] == "weak_motor"], x0,
+                     search.Retries(0), quiet, base)
+    pair = fits[("wind", "weak_motor")]
+    truth = {"wind.north_m_s": -1.5391, "wind.east_m_s": 4.2286, "weak_motor.loss_nd": -0.09}
+    assert all(abs(pair.values()[k] - v) < tol for (k, v), tol in zip(truth.items(), (0.2, 0.2, 0.01))), pair.values()
+
+
+@pytest.mark.slow
+def test_closed_loop_weak_motor_in_wind_is_fitted_from_both_sides_of_its_kink():
+    """A weak starboard motor in wind screened beside the wind at +0.04 (a weak port motor) and its pair's fit stayed
+    on that side of the kink at no loss (+0.05, 380 BIC points worse than the truth's side), losing to the wind
+    with a thrust asymmetry: `unexplained`. The pair is fitted from the mirrored value too."""
+    from autopilot.sysid import read_trial
+
+    trials = [read_trial(p) for p in sorted((WEAK_MOTOR_IN_WIND / "from-148").glob("*.csv"))]
+    result = identify(trials, VESSEL, candidates=("wind", "weak_motor", "thrust_asymmetry"))
+    print(f"  {result.status} {result.verdict} {result.chosen.values()} {result.notes}")
+    _named_within(result, {"wind.north_m_s": 3.4033, "wind.east_m_s": -2.1104, "weak_motor.loss_nd": -0.10611})
 
 
 @pytest.mark.slow

@@ -69,6 +69,9 @@ class EffectParam:
     # more starts for a stuck multimodal fit's retries (search.from_each_start), after the grid's: far starts that
     # would only slow the screening of every log
     retry_grid: tuple[float, ...] = ()
+    # a kink at the null with a minimum each side (a weak port or a weak starboard motor): a fit that starts on the
+    # wrong side stays there, so a pair's fit is started from the mirrored value too (search.fit_pairs)
+    mirrored: bool = False
 
     def __post_init__(self):
         if self.stepwise and not self.grid:
@@ -268,7 +271,7 @@ class WeakMotor(Effect):
     # thrust gain that a weak motor does not have, and the steady speed tells them apart. One signed parameter,
     # not two gains: a common gain aliases with hydro_refit's resistance in steady running.
     name, kind, steady = "weak_motor", "input", True
-    params = (EffectParam("loss_nd", "-", 0.0, -0.6, 0.6, 0.05, grid=(-0.12, -0.05, 0.05, 0.12)),)
+    params = (EffectParam("loss_nd", "-", 0.0, -0.6, 0.6, 0.05, grid=(-0.12, -0.05, 0.05, 0.12), mirrored=True),)
     doc = ("one motor makes less than the thrust table, the other as the table: port x (1 - w) when w > 0, "
            "starboard x (1 + w) when w < 0 (a fouled propeller, a weak motor or ESC)")
     order = 0

@@ -103,8 +103,9 @@ def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: in
              log=None) -> Identification:
     """Run the whole workflow on measured trials against the ``vessel`` parameter set (module docstring).
 
-    The work is bounded whatever the data (search.py's budget): at most 2 + 2 top_k + pair_k + 4
-    fits, ``max_retries`` retries and two cross-validations of MAX_FOLDS folds.
+    The work is bounded whatever the data (search.py's budget): at most 2 + 2 top_k + 2 pair_k + 5
+    fits (each screening of second effects gives up to pair_k pairs, the runner-up's one each),
+    ``max_retries`` retries and two cross-validations of MAX_FOLDS folds.
     """
     s = Settings(top_k=top_k, pair_k=pair_k, bic_margin=bic_margin, min_holdout_gain=min_holdout_gain,
                  max_retries=max_retries, bounds=bounds or NoiseBounds())
@@ -169,10 +170,15 @@ def _passes(prep, vessel, fits, scores, key, ref, s: Settings) -> bool:
     return max(judge.explained(prep, vessel, fits[ref], fits[key]).values()) >= s.min_effect_size
 
 
+def _adequacy(prep, vessel, fit, scores, s: Settings) -> dict:
+    """judge.channels under the fit's own noise."""
+    own = prep.with_noise(scores(fit)["noise"])
+    return judge.channels(own, vessel, fit, s.bounds, adequate_chi2=s.adequate_chi2)
+
+
 def _adequate(prep, vessel, fit, scores, s: Settings) -> bool:
     """Adequate under its own noise (judge.channels)."""
-    own = prep.with_noise(scores(fit)["noise"])
-    return all(c["adequate"] for c in judge.channels(own, vessel, fit, s.bounds, adequate_chi2=s.adequate_chi2).values())
+    return all(c["adequate"] for c in _adequacy(prep, vessel, fit, scores, s).values())
 
 
 def choose(prep, vessel, fits: dict, scores, candidates, x0_init, retries, s: Settings, say) -> tuple:
@@ -186,12 +192,21 @@ def choose(prep, vessel, fits: dict, scores, candidates, x0_init, retries, s: Se
     if not passing:
         return (), ()
     single = passing[0]
-    adequate = _adequate(prep, vessel, fits[single], scores, s)
+    adequacy = _adequacy(prep, vessel, fits[single], scores, s)
+    adequate = all(c["adequate"] for c in adequacy.values())
+    # a single adequate only under noise its residual pushed to a sensor's bound may hide a second effect there (a
+    # wind beside a weak motor: the heading wander at its 1-deg bound): the second effects are screened over 15-s
+    # windows too (search.second_effects); not for a single adequate well within the bounds, where the windows'
+    # screening found drops for whatever it screened (a weak motor alone, realistic trials: a wind force, a deadband
+    # and a yaw damping each "paid" and were fitted for nothing, doubling the identification's time)
+    look_closer = (not adequate or bool(judge.binding(adequacy))
+                   or bool(judge.at_bounds(scores(fits[single])["noise"], s.bounds)))
     pairs = []
     # the runner-up grows pairs too when it came close (at least half the leader's BIC gain)
     close = [k for k in passing[1:2] if _delta_bic(scores, fits, k, ()) <= 0.5 * _delta_bic(scores, fits, single, ())]
     for rank, leader in enumerate([single] + close):
-        seconds = search.second_effects(prep, vessel, fits, leader, candidates, s.pair_k if rank == 0 else 1, s.bic_margin)
+        seconds = search.second_effects(prep, vessel, fits, leader, candidates, s.pair_k if rank == 0 else 1, s.bic_margin,
+                                        windows=look_closer)
         if adequate:  # not adequate: the best second effects are fitted anyway
             seconds = [sc for sc in seconds if sc[2]]
         seconds = [sc for sc in seconds if not any(set(p) == set(leader + (sc[0],)) for p in pairs)]
