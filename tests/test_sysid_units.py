@@ -382,7 +382,7 @@ def test_a_pair_grown_from_the_runner_up_must_beat_the_leader(monkeypatch):
     monkeypatch.setattr(judge, "explained", lambda prep, vessel, ref, fit: {"heading": 10.0})
     monkeypatch.setattr(judge, "channels", lambda *a, **k: {"heading": {"adequate": False}})
     second = {W: "antenna_offset", A: "yaw_damping_quadratic"}
-    monkeypatch.setattr(search, "second_effects", lambda prep, vessel, fits, leader, *a: [(second[leader], {}, True)])
+    monkeypatch.setattr(search, "second_effects", lambda prep, vessel, fits, leader, *a, **k: [(second[leader], {}, True)])
 
     def fit_pairs(prep, vessel, fits, leader, seconds, *a):
         out = [tuple(leader) + (c,) for c, *_ in seconds]
