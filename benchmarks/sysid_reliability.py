@@ -43,11 +43,12 @@ import traceback
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # a checkout's own package, installed or not
 # one BLAS thread per worker, as the `autopilot` command runs, set there before numpy is imported (the workers are
 # forked from this process: set in the worker, it came too late and two draws at once ran 3x slower)
 import autopilot.cli  # noqa: F401,E402
 
-ROOT = Path(__file__).resolve().parents[1]
 GROUPS = ("single", "none", "pairs", "unlisted", "closed_loop", "velocity", "white", "small", "closed_loop_wind",
           "closed_loop_motor", "closed_loop_pairs")
 # new groups last: the earlier groups keep their seeds. A new effect in cases.VISIBLE is a new case of single,

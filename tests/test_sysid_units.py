@@ -1041,3 +1041,29 @@ def test_a_noise_held_by_the_sensors_bounds_is_said_whichever_part_holds_it():
     assert judge.at_bounds(noise, NoiseBounds(), adequacy) == []  # what the verdict had to go on
     assert judge.binding(adequacy) == {"heading": 5.2}
     assert judge.binding({"heading": {"deviance_beyond_sensor": None}, "position": {}}) == {}
+
+
+def test_a_weak_motors_pair_stopped_at_the_kink_is_restarted_a_scale_out_on_the_other_side(monkeypatch):
+    """A pair with a weak motor is fitted from the mirrored loss too (a start on the wrong side of the kink stays
+    there); a pair stopped at the kink itself (0.0) mirrored onto itself and the extra fit was wasted (a review)."""
+    from types import SimpleNamespace
+
+    from autopilot.sysid import search
+
+    starts = []
+
+    def fit_model(prep, vessel, effects, trials, x0, *, theta0, **kw):
+        starts.append(list(theta0))
+        return SimpleNamespace(keys=("wind.north_m_s", "wind.east_m_s", "weak_motor.loss_nd"),
+                               theta=[1.0, 2.0, 0.0 if len(starts) == 1 else theta0[-1]], cost=10.0 - len(starts),
+                               n_obs=1, bic=0.0)
+
+    monkeypatch.setattr(search, "fit_model", fit_model)
+    prep = SimpleNamespace(n_trials=2)
+    fits = {("wind",): SimpleNamespace(theta=[1.0, 2.0])}
+    entry = {"theta": [0.01], "lead_theta": [1.1, 2.1], "x0": None}
+    search.fit_pairs(prep, None, fits, ("wind",), [("weak_motor", entry, True)], None, search.Retries(0),
+                     lambda m: None, SimpleNamespace(bic=0.0))
+    assert starts[0] == [1.1, 2.1, 0.01]  # from the screening, the single's moved values first
+    assert starts[1][:2] == [1.0, 2.0] and abs(starts[1][2]) == 0.05  # the weak motor's scale out, not 0.0 again
+    assert fits[("wind", "weak_motor")].cost == 8.0  # the better of the two kept

@@ -103,8 +103,9 @@ def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: in
              log=None) -> Identification:
     """Run the whole workflow on measured trials against the ``vessel`` parameter set (module docstring).
 
-    The work is bounded whatever the data (search.py's budget): at most 2 + 2 top_k + 2 pair_k + 5
-    fits (each screening of second effects gives up to pair_k pairs, the runner-up's one each),
+    The work is bounded whatever the data (search.py's budget): at most 2 + 2 top_k + 2 pair_k + 6
+    fits (each screening of second effects gives up to pair_k pairs, the runner-up's one each; and per screening
+    of second effects, the single refitted on the windows and a weak motor's mirrored pair: 4 more),
     ``max_retries`` retries and two cross-validations of MAX_FOLDS folds.
     """
     s = Settings(top_k=top_k, pair_k=pair_k, bic_margin=bic_margin, min_holdout_gain=min_holdout_gain,

@@ -10,14 +10,17 @@ Stages (called in this order by :func:`autopilot.sysid.identification.identify`)
 - :func:`polish_and_retry`: the leader refitted from fresh states; fits that stop above the noise
   retried (longer, from fresh states through growing horizons, profiled for a threshold, a
   multimodal effect from each start of its grids; those first).
-- :func:`second_effects` and :func:`fit_pairs`: a second effect from the best single's fit, screened as the
-  singles are (whole trials and 15-s windows, the single's parameters moving too), the best of each fitted; :func:`refit_best_pair`, when the
+- :func:`second_effects` and :func:`fit_pairs`: a second effect from the best single's fit, screened over whole
+  trials and, when the single is not adequate or its noise is at a sensor's bound, over 15-s windows too (the
+  single's parameters moving with the candidate's), the best of each fitted (a weak motor's from both sides of its
+  kink too); :func:`refit_best_pair`, when the
   single is not adequate, the best pair again from fresh states; and the backward step (each of the
   pair's effects refitted alone from the pair's values).
 
 Hard work budget (no wall clock: the same inputs always do the same work): every fit is bounded by
 scipy's max_nfev (fit_model's default 40, RETRY_NFEV for retries; each horizon stage of fit_model
-at 15); the number of fits by top_k, pair_k and MAX_RETRIES (a stepwise one-parameter effect, the
+at 15); the number of fits by top_k, pair_k and MAX_RETRIES (and the windows' refit of the single and a weak
+motor's mirrored pair: one each per screening of second effects) (a stepwise one-parameter effect, the
 deadband, profiles its grid: 7 fits). Found stalling otherwise: a large thrust asymmetry (13 %)
 retried every single and pair with 100 evaluations each for > 3 minutes.
 """
@@ -25,6 +28,7 @@ retried every single and pair with 100 evaluations each for > 3 minutes.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -259,9 +263,9 @@ def polish_and_retry(prep, vessel, fits: dict, x0_init, retries: Retries, log, b
 
 def second_effects(prep, vessel, fits: dict, best: tuple, candidates, pair_k: int, margin: float, *,
                    windows: bool = True) -> list:
-    """The screening of second effects from the best single, twice as the singles' (screen_candidates): over
-    whole trials (at most SCREEN_MAX_TRIALS) and over 15-s windows (the single refitted on them), the single's
-    own parameters moving with the candidate's in both. The ``pair_k`` best of each as (effect, screening entry,
+    """The screening of second effects from the best single: over whole trials (at most SCREEN_MAX_TRIALS) and,
+    with ``windows``, over 15-s windows as the singles' (screen_candidates; the single refitted on them), the
+    single's own parameters moving with the candidate's in both. The ``pair_k`` best of each as (effect, screening entry,
     pays), ``pays`` when a screening's drop of the cost (scaled to the single's whole cost) pays for the
     parameters (k ln m + ``margin``: the BIC test the fit will face); ``windows`` False: the whole trials' only.
     An entry from the windows carries no whole-trial states (``x0`` None): its fit starts from the first-seconds
@@ -291,12 +295,23 @@ def second_effects(prep, vessel, fits: dict, best: tuple, candidates, pair_k: in
     for c in sorted(scr_w, key=lambda c: scr_w[c]["predicted_cost"])[:pair_k]:
         paid = pays(c, scr_w[c], base_w.cost)
         mine = [k for k, (name, *_) in enumerate(out) if name == c]
-        if mine:  # screened best both ways: the whole trials' start, paying if either screening says so
-            name, entry, whole = out[mine[0]]
-            out[mine[0]] = (name, entry, whole or paid)
-        else:
+        if not mine:
             out.append((c, {**scr_w[c], "x0": None}, paid))
+            continue
+        # screened best both ways: paying if either screening says so, started from the screening that lowered its
+        # cost more (a review: with every candidate in both tops, the weak motor's whole-trial start, at 21x its
+        # base cost, was kept over the windows' start at the truth, and the pair went to +0.25 for -0.09)
+        k = mine[0]
+        name, entry, whole = out[k]
+        if _relative_drop(scr_w[c]) > _relative_drop(entry):
+            entry = {**scr_w[c], "x0": None}
+        out[k] = (name, entry, whole or paid)
     return out
+
+
+def _relative_drop(entry: dict) -> float:
+    """The screening's drop of the cost as a share of its base cost."""
+    return (entry["base_cost"] - entry["predicted_cost"]) / max(entry["base_cost"], 1e-12)
 
 
 def fit_pairs(prep, vessel, fits: dict, best: tuple, seconds, x0_init, retries: Retries, log,
@@ -315,7 +330,9 @@ def fit_pairs(prep, vessel, fits: dict, best: tuple, seconds, x0_init, retries: 
         mirror = [k for k, key in enumerate(f.keys) if key in BY_NAME[c].keys and PARAM_BY_KEY[key].mirrored]
         if mirror:  # the other side of the kink: a weak starboard motor in wind screened at +0.04 (port) and its pair
             # stopped at +0.05, 380 BIC points worse than from -0.05, where it went to the truth (-0.106)
-            other = [-v if k in mirror else v for k, v in enumerate(f.theta)]
+            # at least a parameter's scale out: a fit stopped at the kink mirrors onto itself
+            other = [-math.copysign(max(abs(v), PARAM_BY_KEY[f.keys[k]].scale), v) if k in mirror else v
+                     for k, v in enumerate(f.theta)]
             g = fit_model(prep, vessel, pair, everyone, x0_init, theta0=other, horizons_s=HORIZONS_S)
             f = g if g.cost < f.cost else f
         fits[pair] = retries(prep, vessel, f, x0_init)
