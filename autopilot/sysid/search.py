@@ -19,9 +19,9 @@ Stages (called in this order by :func:`autopilot.sysid.identification.identify`)
 
 Hard work budget (no wall clock: the same inputs always do the same work): every fit is bounded by
 scipy's max_nfev (fit_model's default 40, RETRY_NFEV for retries; each horizon stage of fit_model
-at 15); the number of fits by top_k, pair_k and MAX_RETRIES (and the windows' refit of the single and a weak
-motor's mirrored pair: one each per screening of second effects) (a stepwise one-parameter effect, the
-deadband, profiles its grid: 7 fits). Found stalling otherwise: a large thrust asymmetry (13 %)
+at 15); the number of fits by top_k, pair_k and MAX_RETRIES, with the windows' refit of the single and a weak
+motor's mirrored pair (one each per screening of second effects) and a stepwise one-parameter effect's profile
+over its grid (the deadband: 7 fits). Found stalling otherwise: a large thrust asymmetry (13 %)
 retried every single and pair with 100 evaluations each for > 3 minutes.
 """
 
@@ -329,8 +329,8 @@ def fit_pairs(prep, vessel, fits: dict, best: tuple, seconds, x0_init, retries: 
             f = fit_model(prep, vessel, pair, everyone, scr["x0"], theta0=theta0)
         mirror = [k for k, key in enumerate(f.keys) if key in BY_NAME[c].keys and PARAM_BY_KEY[key].mirrored]
         if mirror:  # the other side of the kink: a weak starboard motor in wind screened at +0.04 (port) and its pair
-            # stopped at +0.05, 380 BIC points worse than from -0.05, where it went to the truth (-0.106)
-            # at least a parameter's scale out: a fit stopped at the kink mirrors onto itself
+            # stopped at +0.05, 380 BIC points worse than from -0.05, where it went to the truth (-0.106); at least a
+            # parameter's scale out, as a fit stopped at the kink would mirror onto itself
             other = [-math.copysign(max(abs(v), PARAM_BY_KEY[f.keys[k]].scale), v) if k in mirror else v
                      for k, v in enumerate(f.theta)]
             g = fit_model(prep, vessel, pair, everyone, x0_init, theta0=other, horizons_s=HORIZONS_S)
