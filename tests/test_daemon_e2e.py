@@ -511,8 +511,10 @@ def test_a_sim_restart_finds_the_boat_where_the_run_before_left_it(tmp_path):
                                 stderr=subprocess.PIPE, text=True)
 
     def cycles(log):
-        return [r for r in map(json.loads, log.read_text().splitlines()) if r.get("event") == "cycle"
-                and r.get("north_m") is not None]
+        # whole lines only: the daemon appends as we read, and a kill can cut its last line (a run on f44cc8e read
+        # a line half written: JSONDecodeError)
+        lines = log.read_text().split("\n")[:-1]
+        return [r for r in map(json.loads, lines) if r.get("event") == "cycle" and r.get("north_m") is not None]
 
     from autopilot.mission import load_mission
 
