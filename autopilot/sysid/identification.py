@@ -104,9 +104,9 @@ def identify(trials, vessel: VesselParams, *, candidates=EFFECT_NAMES, top_k: in
     """Run the whole workflow on measured trials against the ``vessel`` parameter set (module docstring).
 
     The work is bounded whatever the data (search.py's budget): at most 2 + 2 top_k + 2 pair_k + 6
-    fits (each screening of second effects gives up to pair_k pairs, the runner-up's one each; and per screening
-    of second effects, the single refitted on the windows and a weak motor's mirrored pair: 4 more),
-    ``max_retries`` retries and two cross-validations of MAX_FOLDS folds.
+    fits (each screening of second effects gives up to pair_k pairs, the runner-up's one each), 7 more (the leader
+    from its mirror; per screening of second effects, the single refitted on the windows and the pairs with a wind or
+    a weak motor second from its mirror), ``max_retries`` retries and two cross-validations of MAX_FOLDS folds.
     """
     s = Settings(top_k=top_k, pair_k=pair_k, bic_margin=bic_margin, min_holdout_gain=min_holdout_gain,
                  max_retries=max_retries, bounds=bounds or NoiseBounds())
@@ -216,6 +216,10 @@ def choose(prep, vessel, fits: dict, scores, candidates, x0_init, retries, s: Se
             break
     if not adequate:
         search.refit_best_pair(prep, vessel, fits, pairs, x0_init, say, fits[()])
+    # the best pair with a thrust asymmetry has a weak motor in its place too (and back): the two nearly alias
+    swapped = search.sibling_pair(prep, vessel, fits, pairs, say, fits[()])
+    if swapped is not None and swapped not in pairs:
+        pairs.append(swapped)
     # a pair grown from the runner-up must also beat the leader: else a wind force at the noise lost
     # to thrust_asymmetry + yaw_damping_quadratic, which beat only the asymmetry (seed 1360939945)
     good = [p for p in sorted(pairs, key=lambda p: _delta_bic(scores, fits, p, ()))

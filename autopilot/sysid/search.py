@@ -7,20 +7,22 @@ Stages (called in this order by :func:`autopilot.sysid.identification.identify`)
   at most SCREEN_MAX_WINDOWS), ranked by cost: the starts of the full fits.
 - :func:`fit_singles`: the ``top_k`` best of each screening fitted fully over all trials (a
   multimodal effect the two screenings led to different places: from both, the better kept).
-- :func:`polish_and_retry`: the leader refitted from fresh states; fits that stop above the noise
+- :func:`polish_and_retry`: the leader refitted from its mirror (a wind, a weak motor) and from fresh states; fits
+  that stop above the noise
   retried (longer, from fresh states through growing horizons, profiled for a threshold, a
   multimodal effect from each start of its grids; those first).
 - :func:`second_effects` and :func:`fit_pairs`: a second effect from the best single's fit, screened over whole
   trials and, when the single is not adequate or its noise is at a sensor's bound, over 15-s windows too (the
-  single's parameters moving with the candidate's), the best of each fitted (a weak motor's from both sides of its
-  kink too); :func:`refit_best_pair`, when the
+  single's parameters moving with the candidate's), the best of each fitted (a weak motor or a wind from its mirror
+  too); :func:`refit_best_pair`, when the
   single is not adequate, the best pair again from fresh states; and the backward step (each of the
   pair's effects refitted alone from the pair's values).
 
 Hard work budget (no wall clock: the same inputs always do the same work): every fit is bounded by
 scipy's max_nfev (fit_model's default 40, RETRY_NFEV for retries; each horizon stage of fit_model
-at 15); the number of fits by top_k, pair_k and MAX_RETRIES, with the windows' refit of the single and a weak
-motor's mirrored pair (one each per screening of second effects) and a stepwise one-parameter effect's profile
+at 15); the number of fits by top_k, pair_k and MAX_RETRIES, with the leader's fit from its mirror (a wind, a weak
+motor: EffectParam.mirrored), per screening of second effects the windows' refit of the single and a pair's fit from
+its second effect's mirror (a wind and a weak motor: two at most), and a stepwise one-parameter effect's profile
 over its grid (the deadband: 7 fits). Found stalling otherwise: a large thrust asymmetry (13 %)
 retried every single and pair with 100 evaluations each for > 3 minutes.
 """
@@ -235,12 +237,20 @@ def fit_singles(prep, vessel, starts, log, base: Fit) -> dict:
 
 
 def polish_and_retry(prep, vessel, fits: dict, x0_init, retries: Retries, log, base: Fit) -> tuple:
-    """The leader refitted from fresh states (at the noise) or retried (above it); when it stays
-    above the noise every other single gets its retry. Returns the best single's key."""
+    """The leader fitted from its mirror (EffectParam.mirrored, the better kept), then refitted from fresh states (at
+    the noise) or retried (above it); when it stays above the noise every other single gets its retry. Returns the
+    best single's key."""
     singles = [k for k in fits if len(k) == 1]
     if not singles:
         return ()
     best = min(singles, key=lambda k: fits[k].bic)
+    other = mirrored_theta(fits[best], fits[best].keys)
+    if other is not None:  # under the noise it set for itself, a wind in the reversed wind's basin was "at the noise"
+        f = fits[best]
+        g = fit_model(prep, vessel, f.effects, f.trials, x0_init, theta0=other, horizons_s=HORIZONS_S)
+        if g.cost < f.cost:
+            fits[best] = g
+            log(f"fitted {best[0]} from its mirror: chi2 {chi2(g):.3f}, BIC {g.bic - base.bic:+.0f}")
     # From the screening's states a fit can stop near the noise level but well off the optimum (a
     # 25 % deadband fitted 20.9 % at chi-square 7432; from fresh states 25.1 % at 6946, seed 333892304).
     if chi2(fits[best]) <= STUCK_CHI2:
@@ -327,18 +337,25 @@ def fit_pairs(prep, vessel, fits: dict, best: tuple, seconds, x0_init, retries: 
             f = fit_model(prep, vessel, pair, everyone, x0_init, theta0=theta0, horizons_s=HORIZONS_S)
         else:
             f = fit_model(prep, vessel, pair, everyone, scr["x0"], theta0=theta0)
-        mirror = [k for k, key in enumerate(f.keys) if key in BY_NAME[c].keys and PARAM_BY_KEY[key].mirrored]
-        if mirror:  # the other side of the kink: a weak starboard motor in wind screened at +0.04 (port) and its pair
-            # stopped at +0.05, 380 BIC points worse than from -0.05, where it went to the truth (-0.106); at least a
-            # parameter's scale out, as a fit stopped at the kink would mirror onto itself
-            other = [-math.copysign(max(abs(v), PARAM_BY_KEY[f.keys[k]].scale), v) if k in mirror else v
-                     for k, v in enumerate(f.theta)]
+        other = mirrored_theta(f, BY_NAME[c].keys)
+        if other is not None:  # the other side of the kink: a weak starboard motor in wind screened at +0.04 (port)
+            # and its pair stopped at +0.05, 380 BIC points worse than from -0.05, where it went to the truth (-0.106)
             g = fit_model(prep, vessel, pair, everyone, x0_init, theta0=other, horizons_s=HORIZONS_S)
             f = g if g.cost < f.cost else f
         fits[pair] = retries(prep, vessel, f, x0_init)
         pairs.append(pair)
         log(f"fitted {'+'.join(pair)}: chi2 {chi2(fits[pair]):.3f}, BIC {fits[pair].bic - base.bic:+.0f}")
     return pairs
+
+
+def mirrored_theta(f: Fit, keys) -> list | None:
+    """``f``'s parameters with those of ``keys`` that have a mirrored minimum (EffectParam.mirrored) mirrored, each at
+    least its scale out (a fit stopped at a kink would mirror onto itself); None when none of them has one."""
+    mirror = [k for k, key in enumerate(f.keys) if key in keys and PARAM_BY_KEY[key].mirrored]
+    if not mirror:
+        return None
+    return [-math.copysign(max(abs(v), PARAM_BY_KEY[f.keys[k]].scale), v) if k in mirror else v
+            for k, v in enumerate(f.theta)]
 
 
 def refit_best_pair(prep, vessel, fits: dict, pairs, x0_init, log, base: Fit) -> None:
@@ -357,6 +374,37 @@ def refit_best_pair(prep, vessel, fits: dict, pairs, x0_init, log, base: Fit) ->
     if f is not fits[best]:
         fits[best] = f
         log(f"refitted {'+'.join(best)} from fresh states: chi2 {chi2(f):.3f}, BIC {f.bic - base.bic:+.0f}")
+
+
+def _swappable(pair: tuple) -> str | None:
+    """The member of ``pair`` whose sibling (Effect.sibling) is not in it, or None."""
+    return next((e for e in pair if BY_NAME[e].sibling and BY_NAME[e].sibling not in pair), None)
+
+
+def sibling_pair(prep, vessel, fits: dict, pairs, log, base: Fit) -> tuple | None:
+    """The best of ``pairs`` with a member that has a sibling (Effect.sibling), that member swapped for it, fitted
+    from the pair's states and the values giving the same (Effect.as_sibling): its key (a member whose single is
+    fitted first, for the tests against it), or None when no pair has such a member or no single to test the
+    swapped pair against was fitted."""
+    pairs = [p for p in pairs if _swappable(p)]
+    if not pairs:
+        return None
+    pair = min(pairs, key=lambda p: fits[p].bic)
+    swap = _swappable(pair)
+    other = BY_NAME[swap].sibling
+    kept = next(e for e in pair if e != swap)
+    key = next((k for k in ((other, kept), (kept, other)) if (k[0],) in fits), None)
+    if key is None or key in fits:
+        return key
+    pf = fits[pair]
+    values = pf.values()
+    starts = {other: BY_NAME[swap].as_sibling({k.split(".", 1)[1]: values[k] for k in BY_NAME[swap].keys}),
+              kept: [values[k] for k in BY_NAME[kept].keys]}
+    fits[key] = fit_model(prep, vessel, key, tuple(range(prep.n_trials)), pf.x0,
+                          theta0=[v for e in key for v in starts[e]])
+    log(f"fitted {'+'.join(key)} in place of {'+'.join(pair)}: chi2 {chi2(fits[key]):.3f}, "
+        f"BIC {fits[key].bic - base.bic:+.0f}")
+    return key
 
 
 def backward_step(prep, vessel, fits: dict, pair: tuple, x0_init, log, base: Fit) -> tuple:
