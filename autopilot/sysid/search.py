@@ -247,7 +247,7 @@ def polish_and_retry(prep, vessel, fits: dict, x0_init, retries: Retries, log, b
     other = mirrored_theta(fits[best], fits[best].keys)
     if other is not None:  # under the noise it set for itself, a wind in the reversed wind's basin was "at the noise"
         f = fits[best]
-        g = fit_model(prep, vessel, f.effects, f.trials, x0_init, theta0=other, horizons_s=HORIZONS_S)
+        g = fit_model(prep, vessel, f.effects, f.trials, x0_init[list(f.trials)], theta0=other, horizons_s=HORIZONS_S)
         if g.cost < f.cost:
             fits[best] = g
             log(f"fitted {best[0]} from its mirror: chi2 {chi2(g):.3f}, BIC {g.bic - base.bic:+.0f}")
