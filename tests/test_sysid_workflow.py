@@ -451,6 +451,8 @@ def test_closed_loop_pair_with_a_thrust_asymmetry_is_fitted_with_a_weak_motor_in
     got = fits[key].values()
     assert abs(got["weak_motor.loss_nd"] - 0.0762) < 0.02 and abs(got["wind.east_m_s"] - 3.9656) < 0.3, got
     assert search.sibling_pair(prep, VESSEL, fits, [("wind", "hydro_refit")], quiet, base) is None  # nothing to swap
+    fits[("weak_motor", "wind")] = fits.pop(key)  # fitted already, in the other order: that one, not a second fit
+    assert search.sibling_pair(prep, VESSEL, fits, [("thrust_asymmetry", "wind")], quiet, base) == ("weak_motor", "wind")
 
 
 @pytest.mark.slow

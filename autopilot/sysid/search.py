@@ -393,12 +393,15 @@ def sibling_pair(prep, vessel, fits: dict, pairs, log, base: Fit) -> tuple | Non
     swap = _swappable(pair)
     other = BY_NAME[swap].sibling
     kept = next(e for e in pair if e != swap)
+    fitted = next((k for k in fits if len(k) == 2 and set(k) == {other, kept}), None)
+    if fitted is not None:  # the search fitted it already (in either order)
+        return fitted
     key = next((k for k in ((other, kept), (kept, other)) if (k[0],) in fits), None)
-    if key is None or key in fits:
-        return key
+    if key is None:
+        return None
     pf = fits[pair]
     values = pf.values()
-    starts = {other: BY_NAME[swap].as_sibling({k.split(".", 1)[1]: values[k] for k in BY_NAME[swap].keys}),
+    starts = {other: BY_NAME[swap].as_sibling({p.name: values[BY_NAME[swap].key(p)] for p in BY_NAME[swap].params}),
               kept: [values[k] for k in BY_NAME[kept].keys]}
     fits[key] = fit_model(prep, vessel, key, tuple(range(prep.n_trials)), pf.x0,
                           theta0=[v for e in key for v in starts[e]])
