@@ -187,7 +187,8 @@ def choose(prep, vessel, fits: dict, scores, candidates, x0_init, retries, s: Se
     adequate, or when the screening says a second effect pays for itself, and the pair passes the tests
     against its single. Pairs are grown from the two best singles: a wind force's constant moment can
     beat a thrust asymmetry alone, and the deadband hidden with the asymmetry is then found only as
-    wind_force + thrust_deadband."""
+    wind_force + thrust_deadband. The best pair holding a thrust asymmetry or a weak motor is fitted with the
+    other in its place too (search.sibling_pair): the two nearly alias."""
     passing = [k for k in sorted((k for k in fits if len(k) == 1), key=lambda k: _delta_bic(scores, fits, k, ()))
                if _passes(prep, vessel, fits, scores, k, (), s)]
     if not passing:
