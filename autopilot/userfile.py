@@ -20,7 +20,7 @@ from pathlib import Path
 from autopilot.schema import ConfigError
 
 __all__ = ["read_text", "check_file", "check_text_head", "parse_yaml", "output_dir", "output_file", "PLOT_SUFFIXES",
-           "number_cell", "unique_header", "too_many_fields", "MISSING_CELLS", "units_row_refusal", "degrees_minutes", "coordinate_hint", "other_file_kind"]
+           "number_cell", "known_names", "unique_header", "too_many_fields", "MISSING_CELLS", "units_row_refusal", "degrees_minutes", "coordinate_hint", "other_file_kind"]
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")  # what the figures can be saved as
 
@@ -71,12 +71,18 @@ def read_text(path: str | Path, *, what: str = "file", spreadsheet: bool = False
     """The UTF-8 text of a user's file, a leading BOM removed; ConfigError naming the file otherwise.
 
     ``spreadsheet`` (a CSV): text that is not UTF-8 is read as Windows-1252, what Excel's plain "CSV" writes
-    on a Western-European Windows (a label or a comment with an o-umlaut or a degree sign was refused)."""
+    on a Western-European Windows (a label or a comment with an o-umlaut or a degree sign was refused), and
+    UTF-16 with its byte-order mark is read as such: Excel's "Unicode Text" (tab-separated) writes it."""
     p = check_file(path, what=what)
     try:
         data = p.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    if spreadsheet and data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        with contextlib.suppress(UnicodeDecodeError):
+            text = data.decode("utf-16")
+            if "\x00" not in text:
+                return text.lstrip("\ufeff")
     check_text_head(p, data, what=what)
     if data.startswith(codecs.BOM_UTF8):
         data = data[len(codecs.BOM_UTF8):]
@@ -143,12 +149,21 @@ def units_row(row: list[str]) -> bool:
     if not cells:
         return False
     for c in cells:
+        if _DECIMAL_COMMA.fullmatch(c):  # a number, its comma quoted in a comma-separated file: data, not units
+            return False
         try:
             float(c)
         except ValueError:
             continue
         return False
     return True
+
+
+def known_names(header: list[str], known) -> list[str]:
+    """The header with each cell that names a known column in other letter case (T_S, Heading_Deg) spelled as
+    the column is: refused as "no t_s column (T_S, ...)" before (a new user's test)."""
+    by_lower = {k.lower(): k for k in known}
+    return [h if h in known else by_lower.get(h.strip().lower(), h) for h in header]
 
 
 def unit_word(cell: str) -> str:
@@ -191,7 +206,7 @@ def units_row_refusal(path, units: list[str], header: list[str], allowed: dict[s
             f"{allowed[name][0]} (convert the column, or correct the unit)")
 
 
-MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-"})  # what tools write for "no value"
+MISSING_CELLS = frozenset({"", "nan", "NaN", "NAN", "NA", "N/A", "n/a", "null", "-", "#N/A", "#NV"})  # what tools write for "no value"
 
 
 def number_cell(text: str, row: int, column: str, header=()) -> float:
@@ -386,11 +401,15 @@ def writing(path: str | Path):
         raise
 
 
-def output_dir(path: str | Path, *, what: str = "--out", files: tuple[str, ...] = ()) -> Path:
+def output_dir(path: str | Path, *, what: str = "--out", files: tuple[str, ...] = (), summary_is_ours=None,
+               command: str = "the command") -> Path:
     """``path`` created if need be and writable, checked before any work; ConfigError naming it otherwise
     (a file where the directory should be, no permission: the work would have been lost at the end). ``files``:
     names the command writes there; a directory by one of those names is refused too (it was an 'internal
-    error: IsADirectoryError' after the whole fit)."""
+    error: IsADirectoryError' after the whole fit). ``summary_is_ours(parsed summary.json) -> bool``: a
+    summary.json there that another command wrote is refused (``autopilot sysid --out`` into a review's folder
+    wrote over its summary and removed its report.html, a new user's test)."""
+    import json
     import tempfile
 
     if not str(path).strip():  # Path("") is the working directory: a campaign's results landed there unasked
@@ -401,6 +420,15 @@ def output_dir(path: str | Path, *, what: str = "--out", files: tuple[str, ...] 
     for name in files:
         if (p / name).is_dir():
             raise ConfigError(f"{what} {p}: {p / name} is a directory; the command writes a file of that name there")
+    summary = p / "summary.json"
+    if summary_is_ours is not None and summary.is_file():
+        try:
+            ours = summary_is_ours(json.loads(summary.read_text(encoding="utf-8")))
+        except (OSError, UnicodeDecodeError, ValueError):
+            ours = False
+        if not ours:
+            raise ConfigError(f"{what} {p}: holds a summary.json that {command} did not write (another command's "
+                              f"results), which it would write over: give a directory of its own")
     try:
         p.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=p):

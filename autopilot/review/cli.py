@@ -24,6 +24,12 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def is_review_summary(summary) -> bool:
+    """A summary.json this command wrote: one log's scorecard, or a list of them."""
+    cards = summary if isinstance(summary, list) else [summary]
+    return bool(cards) and all(isinstance(c, dict) and "cycles" in c for c in cards)
+
+
 def run(args: argparse.Namespace) -> int:
     from autopilot.review.export import parse_formats
     from autopilot.review.reader import check_mission_log
@@ -35,7 +41,8 @@ def run(args: argparse.Namespace) -> int:
     from autopilot.userfile import output_dir
 
     out = output_dir(args.out if args.out else f"review-{Path(args.logs[0]).stem}",
-                     files=("report.html", "summary.json", "tracks.png"))
+                     files=("report.html", "summary.json", "tracks.png"), summary_is_ours=is_review_summary,
+                     command="autopilot review")
     result = review(args.logs, out, formats=formats, with_plots=not args.no_plots)
     failed = False
     for one in result.logs:

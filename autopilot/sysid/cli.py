@@ -28,7 +28,8 @@ def register(subparsers) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("trials", nargs="*", metavar="TRIAL", help="trial CSV files or mission logs (.jsonl)")
-    p.add_argument("--params", help="vessel parameter YAML (default: config/vessel.yaml)")
+    p.add_argument("--params", help="vessel parameter YAML (default: the shipped vessel.yaml, which `autopilot "
+                   "files` shows; a config/vessel.yaml here is not read unless given)")
     p.add_argument("--table", help="steady-state table CSV: name,thrust_port_n,thrust_stbd_n,yaw_rate_rad_s,speed_m_s")
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--effects", help="comma-separated candidate identifiers (default: all)")
@@ -47,6 +48,11 @@ def register(subparsers) -> None:
 SYSID_OUTPUTS = ("summary.json", "report.html", "vessel-updated.yaml", "effects.yaml")  # what --out receives
 
 
+def is_sysid_summary(summary) -> bool:
+    """A summary.json this command wrote (of trials or of a table)."""
+    return isinstance(summary, dict) and summary.get("mode") in ("trials", "table") and "verdict" in summary
+
+
 def run_cli(args: argparse.Namespace) -> int:
     from autopilot.sim import default_params_path, load_params
     from autopilot.userfile import output_dir
@@ -54,7 +60,8 @@ def run_cli(args: argparse.Namespace) -> int:
     params_path = Path(args.params) if args.params else default_params_path()
     vessel = load_params(params_path)
     created = not Path(args.out).exists()
-    output_dir(args.out, files=SYSID_OUTPUTS)  # before the fit, not after it
+    output_dir(args.out, files=SYSID_OUTPUTS, summary_is_ours=is_sysid_summary,  # before the fit, not after it
+               command="autopilot sysid")
     if args.no_report:  # an earlier run's report beside this run's summary showed the other verdict
         with contextlib.suppress(FileNotFoundError):
             (Path(args.out) / "report.html").unlink()

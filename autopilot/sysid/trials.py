@@ -183,6 +183,40 @@ def check_times(t: np.ndarray, row_name, *, wall_clock: bool = True) -> None:
                           "each part a trial of its own")
 
 
+# a measurement dated this far after the row that carries it is on another clock (a CSV's times are to the millisecond)
+MEASURED_AFTER_ROW_S = 0.01
+# the median age of the measurements where they first appear, beyond this: another clock, not a slow sensor (a fix
+# reaches a 10 Hz logger within ~0.2 s of its time)
+ARRIVAL_AGE_MAX_S = 3.0
+
+
+def check_measurement_times(t_row_s: np.ndarray, times_s: np.ndarray | None, column: str, row_name) -> None:
+    """ConfigError when ``column`` (position_time_s, heading_time_s) is not on t_s's clock: a time after its row,
+    or measurements a median of more than ARRIVAL_AGE_MAX_S old where they first appear. Fix times shifted by 10 s
+    or more stopped the identification with an internal error; shifted by 2 s they were fitted as a 0.52-s fix
+    delay, by -10 s as 2 m of GPS wander, each 'adequate' (a new user's test, 2026-12-07)."""
+    if times_s is None:
+        return
+    rows = np.flatnonzero(np.isfinite(t_row_s) & np.isfinite(times_s))
+    if rows.size == 0:
+        return
+    age = t_row_s[rows] - times_s[rows]
+    late = np.flatnonzero(age < -MEASURED_AFTER_ROW_S)
+    same_clock = f"{column} is when the row's measurement was taken, on t_s's clock (another clock? a column shifted?)"
+    if late.size:
+        i = rows[late[0]]
+        raise ConfigError(f"{row_name(i)}, {column}: {times_s[i]:.10g} s is {-age[late[0]]:.4g} s after the row's "
+                          f"t_s ({t_row_s[i]:.10g} s): {same_clock}"
+                          + (f"; {late.size} rows like it" if late.size > 1 else ""))
+    arrived = np.concatenate(([True], np.diff(times_s[rows]) != 0.0))  # where each measurement first appears
+    median_s = float(np.median(age[arrived]))
+    if median_s > ARRIVAL_AGE_MAX_S:
+        i = rows[0]
+        raise ConfigError(f"{column}: the measurements are a median {median_s:.3g} s older than the rows they first "
+                          f"appear in ({row_name(i)}: {times_s[i]:.10g} s at t_s {t_row_s[i]:.10g} s), at most "
+                          f"{ARRIVAL_AGE_MAX_S:g} s expected: {same_clock}")
+
+
 def check_range(values: np.ndarray, column: str, lo: float, hi: float, unit: str, row_name, *, slack: float = 0.0,
                 why: str = "") -> None:
     """ConfigError naming the first row whose ``column`` is outside [lo, hi] by more than ``slack`` (empty cells
@@ -370,6 +404,8 @@ def make_trial(
     tp, ts, dp, ds = _commands(name, col(thrust_port_n), col(thrust_stbd_n), col(pwm_port_pct), col(pwm_stbd_pct), curve)
     t_sel = t[sel]
     t0 = t_sel[0]
+    for column, times in (("position_time_s", position_time_s), ("heading_time_s", heading_time_s)):
+        check_measurement_times(t_sel, col(times), column, lambda i: row_name(sel[i]))
     n, e, heading = col(north_m), col(east_m), col(heading_deg)
     drop = np.zeros(sel.size, dtype=bool) if exclude is None else np.asarray(exclude, dtype=bool)[sel]
     fix_new, fix_t = new_fixes(n, e, t_sel, col(position_time_s))
@@ -386,6 +422,11 @@ def make_trial(
     if fix_new.sum() < MIN_FIXES or hdg_new.sum() < MIN_HEADINGS:
         raise ConfigError(f"trial {name}: {int(fix_new.sum())} position fixes and {int(hdg_new.sum())} headings "
                           f"usable (need {MIN_FIXES} and {MIN_HEADINGS})")
+    try:
+        track_note = check_heading_units(np.where(fix_new, fix_t, np.nan), n, e, np.where(hdg_new, hdg_t, np.nan),
+                                         heading)
+    except ConfigError as exc:
+        raise ConfigError(f"trial {name}: {exc}") from None
     return Trial(
         name=name,
         t_s=t_sel - t0,
@@ -402,9 +443,72 @@ def make_trial(
         commands_held=commands_held,
         stalled_after=None if stalled_after is None else np.asarray(stalled_after, dtype=bool)[sel],
         counts=counts,
-        read_notes=_coarse_rows_note(t_sel, heading_time_s is not None),
+        read_notes=_coarse_rows_note(t_sel, heading_time_s is not None) + track_note,
         t0_s=float(t0),
     )
+
+
+# the track's course from fixes at least this far apart in time and space, the boat moving at least this fast
+TRACK_SPAN_S, TRACK_MIN_M, TRACK_MIN_SPEED_M_S = 5.0, 5.0, 0.5
+TRACK_MIN_STRETCHES = 5
+HEADING_AGREES_DEG, HEADING_DISAGREES_DEG = 30.0, 60.0  # median |course - heading| for a heading that follows or not
+RADIANS_CLOSER = 0.5  # a heading read as radians this much closer to the course than read as degrees is in radians
+
+
+def heading_against_track(fix_t_s, north_m, east_m, heading_t_s, heading_deg) -> tuple[float, float, int] | None:
+    """(median |course over ground - heading| with the heading read as degrees, the same read as radians (deg;
+    NaN when a value lies outside -pi..2*pi), stretches compared) over the stretches where the fixes show the
+    boat moving; None with fewer than TRACK_MIN_STRETCHES. A WAM-V moves along its bow: a heading that does not
+    follow its track is in other units or the track's columns are crossed."""
+    from autopilot.geo import wrap_pi
+
+    ok = np.isfinite(fix_t_s) & np.isfinite(north_m) & np.isfinite(east_m)
+    tf, nf, ef = fix_t_s[ok], north_m[ok], east_m[ok]
+    okh = np.isfinite(heading_t_s) & np.isfinite(heading_deg)
+    th, h = heading_t_s[okh], heading_deg[okh]
+    if tf.size < 2 or th.size == 0:
+        return None
+    j = np.searchsorted(tf, tf + TRACK_SPAN_S)
+    i = np.flatnonzero(j < tf.size)
+    j = j[i]
+    dn, de, dt = nf[j] - nf[i], ef[j] - ef[i], tf[j] - tf[i]
+    dist = np.hypot(dn, de)
+    moving = (dist >= TRACK_MIN_M) & (dist >= TRACK_MIN_SPEED_M_S * dt)
+    if moving.sum() < TRACK_MIN_STRETCHES:
+        return None
+    course = np.arctan2(de[moving], dn[moving])
+    mid = 0.5 * (tf[i][moving] + tf[j][moving])
+    k = np.clip(np.searchsorted(th, mid), 0, th.size - 1)
+    near = h[k]
+
+    def median_deg(heading_rad):
+        return float(np.degrees(np.median(np.abs([wrap_pi(c - x) for c, x in zip(course, heading_rad)]))))
+
+    as_rad = median_deg(near) if np.all((h >= -math.pi - 0.01) & (h <= 2.0 * math.pi + 0.01)) else math.nan
+    return median_deg(np.radians(near)), as_rad, int(moving.sum())
+
+
+def check_heading_units(fix_t_s, north_m, east_m, heading_t_s, heading_deg) -> tuple:
+    """ConfigError when heading_deg is in radians (every value within -pi..2*pi, and read as radians it follows the
+    track's course while read as degrees it does not); a note when the heading does not follow the track at all.
+    A heading in radians was fitted as a yaw damping 500 times the boat's, 'adequate' (a new user's test)."""
+    found = heading_against_track(fix_t_s, north_m, east_m, heading_t_s, heading_deg)
+    if found is None:
+        return ()
+    as_deg, as_rad, stretches = found
+    # read as radians, far closer than read as degrees: a boat heading near north all along agrees with its
+    # compressed radians read as degrees too (8 deg off against 3 deg in pond-9.4)
+    if as_rad <= HEADING_AGREES_DEG and as_rad < RADIANS_CLOSER * as_deg:
+        raise ConfigError(f"heading_deg: every value lies within -3.15 to 6.29 and, read as radians, the heading "
+                          f"follows the track's course (a median {as_rad:.0f} deg off over {stretches} stretches the "
+                          f"boat moved; read as degrees, {as_deg:.0f} deg off): radians? heading_deg is in degrees "
+                          "(multiply by 57.2958)")
+    if as_deg > HEADING_DISAGREES_DEG:
+        return (f"the heading does not follow the track's course: a median {as_deg:.0f} deg apart over {stretches} "
+                "stretches the boat moved (a WAM-V moves along its bow): the position columns crossed (lat_deg and "
+                "lon_deg, or north_m and east_m, swapped?), a compass mounted off the bow, or a trial run astern? "
+                "The identification fits whatever it is given",)
+    return ()
 
 
 COARSE_ROWS_S = 0.15  # rows further apart than this (median) are coarser than the daemon's 10 Hz cycle
@@ -444,7 +548,16 @@ def _counts(n, e, heading, fix_new, hdg_new, drop) -> dict:
 
 
 def _commands(name, tp, ts, dp, ds, curve: ThrustCurve):
-    """(thrust_port_n, thrust_stbd_n, duty_port_pct, duty_stbd_pct), the missing ones from the thrust curve."""
+    """(thrust_port_n, thrust_stbd_n, duty_port_pct, duty_stbd_pct), the missing ones from the thrust curve. A
+    column empty in every row is no command: read as zero thrust, a log without commands came out 'unexplained'
+    (chi-square 60 000) with no word of why (a new user's test)."""
+    given = {"thrust_port_n": tp, "thrust_stbd_n": ts, "pwm_port_pct": dp, "pwm_stbd_pct": ds}
+    empty = [k for k, v in given.items() if v is not None and not np.isfinite(v).any()]
+    tp, ts, dp, ds = (None if k in empty else v for k, v in given.items())
+    if empty and not ((tp is not None and ts is not None) or (dp is not None and ds is not None)):
+        raise ConfigError(f"trial {name}: {' and '.join(empty)} {'is' if len(empty) == 1 else 'are'} empty in every "
+                          "row: the commands are needed (thrust_port_n/thrust_stbd_n in N, or pwm_port_pct/"
+                          "pwm_stbd_pct in %)")
     if tp is not None and ts is not None:
         tp, ts = _held_commands(tp), _held_commands(ts)
         return tp, ts, curve.signed_duty_pct(tp), curve.signed_duty_pct(ts)
@@ -458,7 +571,11 @@ def _commands(name, tp, ts, dp, ds, curve: ThrustCurve):
 def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = None,
                        row_name=lambda i: f"data row {i + 1}") -> Trial:
     """A trial from the CSV's columns (name -> per-row values, NaN = empty cell); ConfigError names what is missing."""
-    get = cols.get
+    # a column empty in every row is no column: a north_m left empty beside full lat_deg/lon_deg refused the trial
+    # for want of fixes (a new user's test)
+    rows = np.isfinite(cols["t_s"]).any()  # a file of a header alone is refused for want of rows (make_trial)
+    empty = {k for k, v in cols.items() if k != "t_s" and rows and not np.isfinite(v).any()}
+    get = {k: v for k, v in cols.items() if k not in empty}.get
     north, east = get("north_m"), get("east_m")
     if north is None or east is None:
         lat, lon = get("lat_deg"), get("lon_deg")
@@ -472,11 +589,11 @@ def trial_from_columns(name: str, cols: dict, *, curve: ThrustCurve | None = Non
         i0 = np.flatnonzero(ok)[0]
         north, east = latlon_to_local(lat, lon, float(lat[i0]), float(lon[i0]))
     if get("heading_deg") is None:
-        raise ConfigError("needs a heading_deg column")
+        raise ConfigError("heading_deg is empty in every row" if "heading_deg" in empty else "needs a heading_deg column")
     trial = make_trial(
         name, cols["t_s"], north_m=north, east_m=east, heading_deg=get("heading_deg"),
-        thrust_port_n=get("thrust_port_n"), thrust_stbd_n=get("thrust_stbd_n"),
-        pwm_port_pct=get("pwm_port_pct"), pwm_stbd_pct=get("pwm_stbd_pct"),
+        thrust_port_n=cols.get("thrust_port_n"), thrust_stbd_n=cols.get("thrust_stbd_n"),
+        pwm_port_pct=cols.get("pwm_port_pct"), pwm_stbd_pct=cols.get("pwm_stbd_pct"),
         position_time_s=get("position_time_s"), heading_time_s=get("heading_time_s"),
         sog_m_s=get("sog_m_s"), cog_deg=get("cog_deg"), rot_deg_s=get("rot_deg_s"), curve=curve, row_name=row_name,
     )
@@ -553,6 +670,7 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     or a last row cut off mid-write is refused naming the row."""
     from autopilot.userfile import (
         csv_rows,
+        known_names,
         number_cell,
         read_text,
         too_many_fields,
@@ -564,7 +682,7 @@ def read_trial_csv(path, *, curve: ThrustCurve | None = None) -> Trial:
     path = Path(path)
     text = read_text(path, what="trial CSV", spreadsheet=True)
     table = csv_rows(text)
-    header = table[0] if table else []
+    header = known_names(table[0], TRIAL_COLUMNS) if table else []
     if "t_s" not in header:
         raise ConfigError(f"{path}: no t_s column in the header ({', '.join(header) or 'empty file'})")
     try:
