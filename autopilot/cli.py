@@ -66,6 +66,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _command_parser(parser: argparse.ArgumentParser, argv: list[str]) -> argparse.ArgumentParser:
+    """The parser of the command ``argv`` names (``nmea``'s, not ``autopilot``'s)."""
+    for action in parser._actions:  # noqa: SLF001 - argparse keeps its subcommands there, and nowhere public
+        if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001
+            for k, word in enumerate(argv):
+                if word in action.choices:
+                    return _command_parser(action.choices[word], argv[k + 1:])
+    return parser
+
+
 def main(argv: list[str] | None = None) -> int:
     # The console script imports this module before main() runs: it imports nothing of ours at the top,
     # so a Ctrl-C while the areas (numpy and all) load lands here, not in a traceback.
@@ -73,7 +83,10 @@ def main(argv: list[str] | None = None) -> int:
         from autopilot.schema import ConfigError
 
         parser = build_parser()
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # said by the command's own parser: the top level's usage never said what `nmea` takes
+            _command_parser(parser, sys.argv[1:] if argv is None else argv).error(
+                f"unrecognized arguments: {' '.join(extra)}")
     except KeyboardInterrupt:
         print("autopilot: interrupted", file=sys.stderr)
         return 130

@@ -46,6 +46,7 @@ import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from autopilot.daemon.missionlog import json_ready
 from autopilot.geo import wrap_pi
 from autopilot.schema import ConfigError
 from autopilot.sim.sensors import SensorModel, SensorRates
@@ -256,8 +257,9 @@ def run_closed_loop(
     sensors = SensorModel(*origin, rates=sensor_rates, position_noise_m=position_noise_m,
                           heading_noise_deg=heading_noise_deg, rng=np.random.default_rng(seed))
     if t_max_s is None:
-        t_max_s = time_limit_s(wps, config.guidance.default_speed_m_s, holds_s,
-                               start_ne_m=(0.0, 0.0) if x0 is None else (x0[0], x0[1]))
+        start = (0.0, 0.0) if x0 is None else (float(x0[0]), float(x0[1]))
+        t_max_s = time_limit_s(wps + [start] if rtl else wps, config.guidance.default_speed_m_s, holds_s,
+                               start_ne_m=start)  # the return to launch is a leg too
     flight = Flight(ap, sensors, dt_s=dt_s, rate_hz=rate_hz, t_max_s=t_max_s,
                     final_pass_s=config.guidance.final_pass_s, origin_lat_deg=origin[0],
                     origin_lon_deg=origin[1], record=record, traffic=traffic)
@@ -374,7 +376,7 @@ def _runs(missions, laws, condition_names, params, base_config, record: bool):
             for cond in condition_names:
                 yield run_closed_loop(
                     params, m.waypoints_ne_m, config=cfg, speeds_m_s=m.speeds_m_s, holds_s=m.holds_s, env=envs[cond],
-                    record=record, mission=m.name, condition=cond, x0=(*m.home_ne_m, 0.0, 0.0, 0.0, 0.0),
+                    record=record, mission=m.name, condition=cond, x0=(*m.home_ne_m, 0.0, 0.0, 0.0, 0.0), rtl=m.rtl,
                 )
 
 
@@ -455,7 +457,7 @@ def _cmd(args: argparse.Namespace) -> int:
     try:
         for r in runs:
             if args.json:
-                print(json.dumps(r.as_json()))
+                print(json.dumps(json_ready(r.as_json()), allow_nan=False))
             else:
                 print(format_row(r))
             sys.stdout.flush()
@@ -504,7 +506,7 @@ def _traffic(args, params, base, conds) -> int:
             r = run_encounter(params, sc, config=base, env=envs[cond], condition=cond)
             j = r.as_json()
             if args.json:
-                print(json.dumps(j))
+                print(json.dumps(json_ready(j), allow_nan=False))
             else:
                 per = "; ".join(f"{t['situation']}, {t['side'] or '-'}, {t['min_distance_m']:.1f} / {t['required_m']:.1f}"
                                 for t in j["targets"])
@@ -542,5 +544,6 @@ def register(subparsers) -> None:
                    "own ship to its goal among AIS targets; per run the closest distance to each target, the rule "
                    f"followed, the delay and extra energy; conditions default to {', '.join(TRAFFIC_CONDITIONS)}")
     p.add_argument("--config", metavar="FILE", help="GNC configuration YAML (GncConfig keys)")
-    p.add_argument("--vessel", metavar="FILE", help="vessel parameters (default: config/vessel.yaml)")
+    p.add_argument("--vessel", metavar="FILE",
+                   help="vessel parameters (default: the shipped vessel.yaml, which `autopilot files` shows)")
     p.set_defaults(func=_cmd)

@@ -66,10 +66,12 @@ from autopilot.userfile import (
     coordinate_hint,
     csv_rows,
     degrees_minutes,
+    known_names,
     other_file_kind,
     parse_yaml,
     read_text,
     too_many_fields,
+    unique_header,
     units_row,
     units_row_refusal,
     yaml_problem,
@@ -284,7 +286,7 @@ def _frames_agree(path, key: str, file_ll: tuple[float, float], given_ll) -> Non
 def _hold_s(where: str, hold: Any) -> float | None:
     if hold is None:
         return None
-    if hold is True or (isinstance(hold, float) and math.isinf(hold)):
+    if hold is True or (isinstance(hold, float) and hold == math.inf):  # -inf is refused below, not "forever"
         return math.inf
     if hold is False:
         return None
@@ -410,7 +412,11 @@ def _parse_csv(path: Path, text: str, origin, max_range_m: float) -> Mission:
     rows = [r for r in csv_rows(text) if any(c.strip() for c in r)]
     if not rows:
         raise MissionError(f"{path}: the mission has no waypoints")
-    cols = [c if c.lower() not in _CSV_COLUMNS else c.lower() for c in rows[0]]  # NORTH_M is north_m (an audit)
+    cols = known_names(rows[0], _CSV_COLUMNS)  # NORTH_M is north_m (an audit)
+    try:  # north_m twice: the last copy flew, without a word (a new user's test)
+        unique_header(cols, _CSV_COLUMNS)
+    except ConfigError as exc:
+        raise MissionError(f"{path}: {exc}") from None
     if {"north_m", "east_m", "lat_deg", "lon_deg"} <= set(cols):
         raise MissionError(f"{path}: the header names both north_m,east_m and lat_deg,lon_deg: keep one pair")
     if {"north_m", "east_m"} <= set(cols):
@@ -673,7 +679,8 @@ def mission_from_items(items, *, origin_lat_deg: float, origin_lon_deg: float, m
                 if not isinstance(v, (int, float)) or not math.isfinite(v) or abs(v) > lim:
                     raise MissionItemError(f"{here}: {what} {v!r} outside -{lim:g}..{lim:g} deg", seq=k, field=fld)
             hold = _loiter(cmd, it.get("param1"))
-            if hold is not None and not math.isinf(hold) and not (math.isfinite(hold) and 0.0 <= hold <= MAX_HOLD_S):
+            # loiter unlimited's hold is +inf; a loiter time of -inf was taken as "until commanded" (a new user's test)
+            if hold is not None and hold != math.inf and not (math.isfinite(hold) and 0.0 <= hold <= MAX_HOLD_S):
                 what = "loiter time" if cmd == NAV_LOITER_TIME else "hold time"
                 raise MissionItemError(f"{here}: {what} {hold:g} s outside [0, {MAX_HOLD_S:g}] s", seq=k,
                                        field="param1")

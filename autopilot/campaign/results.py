@@ -370,6 +370,6 @@ def write_summary(summary: dict, path) -> None:
     """summary.json, strict JSON (non-finite numbers as null)."""
     import json
 
-    from autopilot.daemon.missionlog import _clean
+    from autopilot.daemon.missionlog import json_ready
 
-    Path(path).write_text(json.dumps(_clean(summary), indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    Path(path).write_text(json.dumps(json_ready(summary), indent=1, allow_nan=False) + "\n", encoding="utf-8")

@@ -68,6 +68,10 @@ class GeofenceConfig:
     polygon: tuple[tuple[float, float], ...] = param((), unit="m or deg", lo=-1e6, hi=1e6, doc="vertices in order (>= 3), closed implicitly")
 
     def __post_init__(self) -> None:
+        if self.frame == "none" and self.polygon:  # the fence was off without a word (a new user's test)
+            raise ConfigError(f"geofence.polygon: {len(self.polygon)} vertices given with frame 'none', which is no "
+                              "fence: set geofence.frame to local ([north_m, east_m]) or latlon ([lat_deg, lon_deg]), "
+                              "or leave the polygon out")
         if self.frame != "none" and len(self.polygon) < 3:
             raise ConfigError(f"geofence.polygon: needs at least 3 vertices for frame {self.frame!r}, got {len(self.polygon)}")
         if self.frame == "latlon":

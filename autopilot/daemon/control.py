@@ -28,6 +28,7 @@ import os
 import socket
 from pathlib import Path
 
+from autopilot.daemon.missionlog import json_ready
 from autopilot.logschema import COMMANDS
 from autopilot.mission import SPEED_RANGE, is_speed
 from autopilot.schema import ConfigError
@@ -274,7 +275,7 @@ class ControlServer:
         if self._clients > MAX_CLIENTS and req["command"] not in ALWAYS_SERVED:
             return self._refuse(req["command"], f"busy: more than {MAX_CLIENTS} requests at once")
         if req["command"] == "status":
-            return {"ok": True, "answer": "status", "status": _finite(self._status())}
+            return {"ok": True, "answer": "status", "status": json_ready(self._status())}
         done = asyncio.get_running_loop().create_future()
 
         def answer(reply: dict) -> None:
@@ -287,17 +288,6 @@ class ControlServer:
         except asyncio.TimeoutError:
             return {"ok": False, "answer": f"{req['command']}: no answer from the control loop within "
                                           f"{ANSWER_TIMEOUT_S:g} s (it stays queued)"}
-
-
-def _finite(obj):
-    """JSON has no NaN or infinity: null."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    return obj
 
 
 def request(path: Path, req: dict, timeout_s: float = ANSWER_TIMEOUT_S + 1.0) -> dict:

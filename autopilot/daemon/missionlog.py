@@ -18,20 +18,22 @@ from typing import IO, Any
 
 import structlog
 
-__all__ = ["MissionLog", "log_path", "to_json"]
+__all__ = ["MissionLog", "log_path", "to_json", "json_ready"]
 
 
-def _clean(value: Any) -> Any:
+def json_ready(value: Any) -> Any:
+    """``value`` as JSON can hold it: NaN and infinity as null (JSON has neither; strict readers refuse them),
+    numpy values as plain ones, paths and other objects as text."""
     if isinstance(value, bool) or value is None or isinstance(value, (str, int)):
         return value
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
+        return {str(k): json_ready(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
+        return [json_ready(v) for v in value]
     if hasattr(value, "tolist"):  # numpy scalars and arrays
-        return _clean(value.tolist())
+        return json_ready(value.tolist())
     if isinstance(value, Path):
         return str(value)
     return str(value)
@@ -39,7 +41,7 @@ def _clean(value: Any) -> Any:
 
 def to_json(event_dict: dict, **_: Any) -> str:
     """Strict JSON for one line (NaN/inf -> null)."""
-    return json.dumps(_clean(event_dict), separators=(",", ":"), allow_nan=False)
+    return json.dumps(json_ready(event_dict), separators=(",", ":"), allow_nan=False)
 
 
 def _render(_logger: Any, _name: str, event_dict: dict) -> str:
