@@ -381,7 +381,7 @@ def _runs(missions, laws, condition_names, params, base_config, record: bool):
 
 
 def format_row(r: RunResult) -> str:
-    ca = " ".join(f"{c:4.2f}" for c in r.closest_approach_m)
+    ca = " ".join(f"{c:4.2f}" if math.isfinite(c) else " n/a" for c in r.closest_approach_m)  # as the run summary
     return (
         f"{r.mission:<14} {r.guidance:<12} {r.condition:<12} {'yes' if r.completed else 'NO ':<4} "
         f"{r.xte_rms_m:6.2f} {r.xte_max_m:6.2f} {r.time_s:7.1f} {r.energy_ns:8.0f} {r.saturation_pct:5.1f} "

@@ -57,6 +57,7 @@ import numpy as np
 import yaml
 
 from autopilot.geo import latlon_to_local
+from autopilot.gnc.speed import SPEED_RANGE, is_speed
 from autopilot.schema import ConfigError, unknown_key
 from autopilot.userfile import (
     DEGREES,
@@ -77,13 +78,6 @@ from autopilot.userfile import (
     yaml_problem,
 )
 
-MAX_SPEED_M_S = 3.5  # the fastest measured row (FF, 3.47 m/s, Fig 8.2)
-SPEED_RANGE = f"(0, {MAX_SPEED_M_S:g}] m/s"  # as the refusals say it
-
-
-def is_speed(value) -> bool:
-    """A leg speed the boat can be asked for: a number (not a bool) in (0, MAX_SPEED_M_S] m/s (NaN is not)."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 < value <= MAX_SPEED_M_S
 DUPLICATE_TOLERANCE_M = 0.01
 ORIGIN_AGREE_M = 1.0  # a local-frame file's own origin and the configuration's: farther apart, refused
 NAV_WAYPOINT = 16
@@ -138,6 +132,21 @@ class Mission:
 
     def hold_s(self, i: int) -> float | None:
         return self.holds_s[i] if i < len(self.holds_s) else None
+
+    def planned_time_s(self, default_speed_m_s: float, start_index: int = 0) -> float:
+        """The route's time (s) from home (from waypoint ``start_index - 1`` when resumed there): each leg straight
+        at its speed (``default_speed_m_s`` where it has none), the holds, and the way back with rtl; inf when a
+        hold lasts until commanded. A floor: turns, the arrival slow-down and any current only add to it."""
+        wps = [tuple(map(float, p)) for p in self.waypoints_ne_m]
+        at = self.home_ne_m if start_index == 0 else wps[start_index - 1]
+        total = 0.0
+        for i in range(start_index, len(wps)):
+            speed = self.speeds_m_s[i] if i < len(self.speeds_m_s) and self.speeds_m_s[i] else default_speed_m_s
+            total += math.hypot(wps[i][0] - at[0], wps[i][1] - at[1]) / speed + (self.hold_s(i) or 0.0)
+            at = wps[i]
+        if self.rtl:
+            total += math.hypot(self.home_ne_m[0] - at[0], self.home_ne_m[1] - at[1]) / default_speed_m_s
+        return total
 
 
 @dataclass(frozen=True)

@@ -116,3 +116,19 @@ def test_a_run_that_stayed_up_after_its_mission_says_how_it_ended():
                         sim=True)
     assert lines[1] == ("mission complete after 40.0 s: 3 of 3 waypoint(s) reached; then stopped by SIGTERM; "
                         "zero thrust acknowledged by the Mbed")
+
+
+def test_a_resumed_run_counts_from_where_it_resumed_and_each_failsafe_once():
+    """Found by a new user's test: a run resumed at W2 said "0 of 9 reached; W0: not reached, W1: not reached",
+    though the run before had reached them; and "failsafes: 52 (heading_stale, heading_stale, ...)" hid the time
+    limit that ended the run."""
+    loop = _loop(cycles=400, skipped=0, complete=False,
+                 failsafes=("heading_stale",) * 51 + ("max_mission_time",))
+    loop.start_index = 2
+    loop.state.reached, loop.state.closest_m = [2], {2: 0.5}
+    lines = end_summary(loop, "x", sim=False)
+    assert lines[1].startswith("mission not complete after 40.0 s: 1 of 1 waypoint(s) reached (this run started at W2: "
+                               "W0-W1 were an earlier run's)"), lines[1]
+    assert "  W0: an earlier run's" in lines and "  W1: an earlier run's" in lines
+    assert "  W2: reached, closest approach 0.50 m" in lines
+    assert "failsafes: 52 (heading_stale x51, max_mission_time)" in lines

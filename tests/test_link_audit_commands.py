@@ -73,7 +73,7 @@ def test_only_the_ground_stations_sticks_drive(tmp_path):
 def test_change_speed_is_flown_a_bad_one_denied_and_an_unsupported_command_said(tmp_path):
     """Mission Planner's and QGroundControl's Change Speed (MAV_CMD_DO_CHANGE_SPEED) was answered UNSUPPORTED (stop
     47's note): it is now the speed over ground of every leg, as ArduPilot Rover's desired speed; param2 -1 changes
-    nothing, -2 gives the planned speeds back; a speed outside (0, 3.5] m/s, a NaN or a climb speed (param1 2) is
+    nothing, -2 gives the planned speeds back; a speed outside [0.05, 3.5] m/s, a NaN or a climb speed (param1 2) is
     DENIED naming the parameter. Found by an earlier audit: a command the boat does not carry out (DO_SET_SERVO, a
     number MAVLink does not define) was answered UNSUPPORTED and nothing else; now said, once every 10 s a command."""
     boat = Boat(tmp_path)
@@ -89,8 +89,8 @@ def test_change_speed_is_flown_a_bad_one_denied_and_an_unsupported_command_said(
         flown = [r["speed_cmd_m_s"] for r in boat.log()[n:] if r["event"] == "cycle" and r["t_s"] > said["t_s"]
                  and r["mode"] == "auto" and r.get("speed_cmd_m_s")]
         assert max(flown) == pytest.approx(1.6, abs=0.01), flown  # the pond mission's planned 1.0 m/s before
-        for params, why in (((1, -3.0), "param2 (speed, m/s) -3 is not in (0, 3.5] m/s"),
-                            ((1, 1e9), "param2 (speed, m/s) 1e+09 is not in (0, 3.5]"),
+        for params, why in (((1, -3.0), "param2 (speed, m/s) -3 is not in [0.05, 3.5] m/s"),
+                            ((1, 1e9), "param2 (speed, m/s) 1e+09 is not in [0.05, 3.5]"),
                             ((0, NAN), "param2 (speed, m/s) nan is not"),
                             ((2, 1.0), "param1 (speed type) 2 is not 0 (airspeed) or 1 (ground speed)")):
             assert boat.command(mavlink.MAV_CMD_DO_CHANGE_SPEED, *params, -1, 0).result == mavlink.MAV_RESULT_DENIED

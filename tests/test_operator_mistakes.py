@@ -93,3 +93,63 @@ def test_extra_arguments_are_refused_with_the_commands_own_usage(capsys, argv, u
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert usage in err and f"autopilot {argv[0]}: error: unrecognized arguments" in err, err
+
+
+def test_one_speed_range_for_missions_the_operator_and_the_configuration(tmp_path, capsys):
+    """ctl speed 0.01 was taken (the boat sat still while the status said auto) while the configuration's
+    default_speed_m_s refused below 0.05 and above 3.4, and missions took up to 3.5: one range now."""
+    from autopilot.gnc import GncConfig
+    from autopilot.gnc.speed import MAX_SPEED_M_S, MIN_SPEED_M_S, SPEED_RANGE
+
+    assert main(["ctl", "speed", "0.01"]) == 2
+    assert f"is not a speed in {SPEED_RANGE}" in capsys.readouterr().err
+    path = tmp_path / "m.yaml"
+    path.write_text("name: t\nframe: local\nwaypoints:\n  - {north_m: 10, east_m: 0, speed_m_s: 0.01}\n")
+    with pytest.raises(MissionError, match=r"speed 0.01 m/s outside \[0.05, 3.5\] m/s"):
+        load_mission(path)
+    for speed in (MIN_SPEED_M_S, MAX_SPEED_M_S):
+        path.write_text(f"name: t\nframe: local\nwaypoints:\n  - {{north_m: 10, east_m: 0, speed_m_s: {speed}}}\n")
+        assert load_mission(path).speeds_m_s[0] == speed
+        cfg = tmp_path / "c.yaml"
+        cfg.write_text(f"gnc:\n  guidance:\n    default_speed_m_s: {speed}\n")
+        assert load_config(cfg).gnc.guidance.default_speed_m_s == speed
+    assert GncConfig().guidance.default_speed_m_s == 1.0
+
+
+def test_the_planned_time_of_a_route():
+    from autopilot.mission import Mission
+
+    m = Mission(name="m", waypoints_ne_m=[[30.0, 0.0], [30.0, 40.0]], speeds_m_s=(None, 2.0), home_latlon=None,
+                origin_lat_deg=None, origin_lon_deg=None, holds_s=(10.0, None))
+    assert m.planned_time_s(1.0) == pytest.approx(30.0 + 10.0 + 40.0 / 2.0)
+    assert m.planned_time_s(1.0, start_index=1) == pytest.approx(20.0)  # resumed: from W0 to W1
+    rtl = Mission(**{**m.__dict__, "rtl": True})
+    assert rtl.planned_time_s(1.0) == pytest.approx(60.0 + 50.0)  # back home from (30, 40) at the default speed
+    forever = Mission(**{**m.__dict__, "holds_s": (math.inf, None)})
+    assert forever.planned_time_s(1.0) == math.inf
+
+
+def test_a_route_longer_than_the_time_limit_is_said_at_start(tmp_path):
+    from tests.conftest import run_cli
+
+    (tmp_path / "c.yaml").write_text("failsafe:\n  max_mission_time_s: 20\n")
+    (tmp_path / "m.yaml").write_text("name: long\nframe: local\nwaypoints:\n  - [30, 0]\n  - [30, 30]\n  - [0, 30]\n")
+    argv = ["run", "--config", str(tmp_path / "c.yaml"), "--mission", str(tmp_path / "m.yaml"), "--sim", "--speedup",
+            "max", "--log-dir", str(tmp_path / "logs"), "--state-dir", str(tmp_path / "st"), "--fresh"]
+    proc = run_cli(*argv, check=False)
+    assert ("the route takes at least 90 s at its speeds (straight legs and holds), longer than "
+            "failsafe.max_mission_time_s (20 s): its stop failsafe will take the boat") in proc.stderr, proc.stderr
+    log = next((tmp_path / "logs").glob("*.jsonl")).read_text()
+    assert "the route takes at least 90 s" in log  # in the log too, for the review
+    (tmp_path / "m.yaml").write_text("name: short\nframe: local\nwaypoints:\n  - [5, 0]\n")
+    proc = run_cli(*argv, check=False)
+    assert "the route takes" not in proc.stderr and "mission complete" in proc.stderr, proc.stderr
+
+
+def test_evaluates_table_says_n_a_for_a_waypoint_never_approached():
+    from autopilot.evaluate import RunResult, format_row
+
+    r = RunResult(mission="m", guidance="los", condition="calm", completed=False, closest_approach_m=[1.0, math.inf],
+                  xte_rms_m=0.0, xte_max_m=0.0, time_s=1.0, energy_ns=0.0, saturation_pct=0.0, circled=False)
+    row = format_row(r)
+    assert row.endswith("1.00  n/a") and "inf" not in row, row

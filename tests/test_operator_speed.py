@@ -74,8 +74,8 @@ def test_it_survives_a_pause_and_flies_the_return_a_new_mission_gives_the_planne
 
 @pytest.mark.parametrize("line, why", [
     (b"speed", "speed needs speed_m_s"),
-    (b'{"command": "speed", "speed_m_s": 0}', "speed_m_s 0 is not a speed in (0, 3.5] m/s"),
-    (b'{"command": "speed", "speed_m_s": 9}', "speed_m_s 9 is not a speed in (0, 3.5] m/s"),
+    (b'{"command": "speed", "speed_m_s": 0}', "speed_m_s 0 is not a speed in [0.05, 3.5] m/s"),
+    (b'{"command": "speed", "speed_m_s": 9}', "speed_m_s 9 is not a speed in [0.05, 3.5] m/s"),
     (b'{"command": "speed", "speed_m_s": "fast"}', "speed_m_s 'fast' is not a speed in"),
     (b'{"command": "speed", "speed_m_s": true}', "speed_m_s True is not a speed in"),
     (b'{"command": "speed", "speed_m_s": NaN}', "speed_m_s nan is not a speed in"),

@@ -40,7 +40,7 @@ def test_nomoto_cli_prints_the_four_constants():
     # found by a new-user audit: inf printed K = 0, T1 = 0 "course-unstable" and JSON with Infinity, exit 0
     for bad in ("inf", "1000"):
         proc = run_cli("model", "nomoto", "--speed", bad, "--json", check=False)
-        assert proc.returncode == 2 and "is outside the allowed range (0, 3.5] m/s" in proc.stderr and not proc.stdout
+        assert proc.returncode == 2 and "is outside the allowed range [0.05, 3.5] m/s" in proc.stderr and not proc.stdout
 
 
 def test_a_zigzag_differential_beyond_a_thruster_is_refused():

@@ -10,6 +10,7 @@ both data streams have been valid for ``failsafe.start_valid_s``.
 from __future__ import annotations
 
 import asyncio
+import collections
 import contextlib
 import dataclasses
 import math
@@ -513,6 +514,22 @@ def _drivers(cfg: DaemonConfig, clock, events: DeviceEvents, sc30_port: str, mbe
     return compass, thrusters
 
 
+def _longer_than_allowed(cfg: DaemonConfig, mission, start_index: int, speed_m_s: float | None) -> str | None:
+    """What to say when the route, at its speeds straight from point to point (a floor), takes longer than
+    failsafe.max_mission_time_s; else None. A 1000-waypoint route started without a word and the time limit
+    stopped the boat at W190, mid-route (a new user's test)."""
+    fs = cfg.failsafe
+    if speed_m_s is not None:  # the operator's speed on every leg
+        mission = dataclasses.replace(mission, speeds_m_s=(speed_m_s,) * len(mission.waypoints_ne_m))
+    planned_s = mission.planned_time_s(cfg.gnc.guidance.default_speed_m_s, start_index)
+    if not math.isfinite(planned_s) or planned_s <= fs.max_mission_time_s:
+        return None
+    return (f"the route takes at least {planned_s:.0f} s at its speeds (straight legs and holds{', the return' if mission.rtl else ''}), "
+            f"longer than failsafe.max_mission_time_s ({fs.max_mission_time_s:g} s): its "
+            f"{fs.actions.max_mission_time} failsafe will take the boat before the end; raise the limit, or split the "
+            "mission")
+
+
 def _log_start(log: MissionLog, cfg: DaemonConfig, opts: RunOptions, mission, mission_path: str, *, boat_length_m: float,
                start_index: int, ports: tuple[str, str], hold_zero: str | None) -> None:
     log.event(
@@ -637,6 +654,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
         why = disarmed_why or "disarmed when the last run ended"
         said.append(f"{why}: zero thrust whatever the mode until armed (`autopilot ctl arm`, or ARM from the ground "
                     "station; --fresh starts armed)")
+    if (too_long := _longer_than_allowed(cfg, mission, start_index, ap.speed_m_s)) is not None:
+        said.append(too_long)
     if ap.speed_m_s is not None:
         said.append(f"the run carried on keeps the operator's speed of the run before, {ap.speed_m_s:g} m/s on every leg "
                     "(`autopilot ctl speed mission` gives back the planned speeds; --fresh starts with them)")
@@ -807,6 +826,13 @@ def run_daemon(cfg: DaemonConfig, opts: RunOptions) -> int:
             claim.close()
 
 
+def failsafe_counts(causes) -> str:
+    """The causes in the order first taken, each with its count: "heading_stale x51, max_mission_time" (the first
+    five of 52 hid the time limit that ended the run: a new user's test)."""
+    counts = collections.Counter(causes)
+    return ", ".join(c if counts[c] == 1 else f"{c} x{counts[c]}" for c in dict.fromkeys(causes))
+
+
 KEEP_UP_SKIPPED_SHARE = 0.01  # more deadlines skipped than this share: say the run could not keep up
 
 
@@ -847,10 +873,17 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
         stopped = f"; stopped by max_mission_time, then by {st.stop_signal}"
     else:
         stopped = f"; stopped by {st.stop_signal}"
-    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps} waypoint(s) reached" + stopped
+    # a run resumed at W2 said "0 of 9 reached; W0: not reached": the run before had reached them (a new user's test)
+    start = int(getattr(loop, "start_index", 0) or 0)
+    resumed = (f" (this run started at W{start}: " + ("W0 was" if start == 1 else f"W0-W{start - 1} were")
+               + " an earlier run's)") if start else ""  # as the review says it
+    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps - start} waypoint(s) reached{resumed}" + stopped
                  + ("; zero thrust acknowledged by the Mbed" if st.stop_acknowledged else ""))
     for i in range(n_wps):
         ca = st.closest_m.get(i)
+        if i < start and i not in reached and ca is None:
+            lines.append(f"  W{i}: an earlier run's")
+            continue
         got = "reached" if i in reached else "not reached"
         lines.append(f"  W{i}: {got}, closest approach " + (f"{ca:.2f} m" if ca is not None and math.isfinite(ca) else "n/a"))
     compass = getattr(loop, "compass", None)
@@ -861,7 +894,7 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     causes = list(st.failsafe_causes)
     if any(c in START_LIMIT_CAUSES for c in causes) and (text := started_beyond_limits(loop)) is not None:
         lines.append("  " + text)
-    lines.append(f"failsafes: {len(causes)}" + (f" ({', '.join(causes[:5])}{', ...' if len(causes) > 5 else ''})" if causes else ""))
+    lines.append(f"failsafes: {len(causes)}" + (f" ({failsafe_counts(causes)})" if causes else ""))
     total = st.cycles + st.skipped
     if total:
         held = loop.speedup_held()

@@ -124,7 +124,7 @@ def _ctl(args: argparse.Namespace) -> int:
     import sys
 
     from autopilot.daemon.control import request, socket_candidates
-    from autopilot.mission import SPEED_RANGE
+    from autopilot.gnc.speed import SPEED_RANGE
 
     req: dict = {"command": args.command}
     if (args.value is None) != (args.command != "speed"):
@@ -183,8 +183,8 @@ def _ctl(args: argparse.Namespace) -> int:
 
 
 def _ctl_speed(text: str):
-    """A speed (m/s) the boat can be asked for (autopilot.mission.is_speed), or False."""
-    from autopilot.mission import is_speed
+    """A speed (m/s) the boat can be asked for (autopilot.gnc.speed.is_speed), or False."""
+    from autopilot.gnc.speed import is_speed
 
     try:
         v = float(text.replace(",", "."))  # 1,5 as a European keyboard gives it

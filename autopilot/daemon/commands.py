@@ -21,8 +21,8 @@ import math
 
 from autopilot.daemon.cycle import answer_failsafe, stop_in_force, stop_stands
 from autopilot.gnc.modes import PendingHold
+from autopilot.gnc.speed import SPEED_RANGE, is_speed
 from autopilot.logschema import Mode
-from autopilot.mission import SPEED_RANGE, is_speed
 
 __all__ = ["apply", "failsafe_action", "replace_key"]
 

@@ -29,8 +29,8 @@ import socket
 from pathlib import Path
 
 from autopilot.daemon.missionlog import json_ready
+from autopilot.gnc.speed import SPEED_RANGE, is_speed
 from autopilot.logschema import COMMANDS
-from autopilot.mission import SPEED_RANGE, is_speed
 from autopilot.schema import ConfigError
 
 __all__ = ["SOCKET_NAME", "MAX_REQUEST_BYTES", "READ_TIMEOUT_S", "SYSTEMD_RUNTIME_DIR", "daemon_runtime_dir",

@@ -129,6 +129,7 @@ class ControlLoop:
         self._said_staying = False
         self.ais = ais  # autopilot.daemon.traffic.AisSource: other vessels for collision avoidance (None: no AIS)
         self.passes = PassTracker(mission.waypoints_ne_m, start_index=autopilot.wp_index)
+        self.start_index = autopilot.wp_index  # the waypoint this run began at (a resumed run's earlier ones were not its)
         self._numbered: Mission | None = None
         self._item_numbers: ItemNumbers | None = None
         self.state = LoopState()
@@ -291,6 +292,7 @@ class ControlLoop:
         st = self.state
         st.completed_t_s, st.finished, st.passes_done, st.reached, st.closest_m = None, False, False, [], {}
         self.passes_restart()
+        self.start_index = self.ap.wp_index
         # a mission uploaded on the old one's own way home (or in its final hold) is not flown yet: the return is no
         # longer the mission's (homeward), so it is the operator's. Saved with no operator's mode, a crash and a
         # restart with resume_after_restart flew the new mission from its first waypoint (a review of c235c48)

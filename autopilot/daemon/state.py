@@ -16,7 +16,7 @@ import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from autopilot.mission import SPEED_RANGE, is_speed
+from autopilot.gnc.speed import SPEED_RANGE, is_speed
 
 __all__ = ["Progress", "StateStore", "file_sha256", "save_uploaded_mission", "UPLOADED_MISSION"]
 

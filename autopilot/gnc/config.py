@@ -15,7 +15,7 @@ from autopilot.gnc.los import LosConfig
 from autopilot.gnc.pid import PidConfig
 from autopilot.gnc.proportional import ProportionalConfig
 from autopilot.gnc.registry import GUIDANCE_LAWS
-from autopilot.gnc.speed import SpeedTrimConfig
+from autopilot.gnc.speed import MAX_SPEED_M_S, MIN_SPEED_M_S, SpeedTrimConfig
 from autopilot.gnc.station_keeping import HoldConfig
 from autopilot.schema import param
 
@@ -28,8 +28,8 @@ class GuidanceConfig:
 
     law: str = param("fuzzy", choices=LAWS, source="thesis ch. 6 (fuzzy); files 004, 003 (baselines)", doc="guidance law")
     final_action: str = param("stop", choices=("stop", "hold"), source="thesis 9.1 (stops near the last waypoint)", doc="at the last waypoint (unless the mission ends with rtl): zero thrust and the run ends, or hold station on it (gnc.hold) until commanded")
-    default_speed_m_s: float = param(1.0, unit="m/s", lo=0.05, hi=3.4, source="Fig 8.2 (CC ~ 1.09 m/s); chosen for pond-sized legs", doc="wanted speed where a leg has none")
-    min_speed_m_s: float = param(0.3, unit="m/s", lo=0.0, hi=3.4, source="Fig 8.2 (BB ~ 0.25 m/s)", doc="floor of the arrival slow-down (the boat must still arrive)")
+    default_speed_m_s: float = param(1.0, unit="m/s", lo=MIN_SPEED_M_S, hi=MAX_SPEED_M_S, source="Fig 8.2 (CC ~ 1.09 m/s); chosen for pond-sized legs", doc="wanted speed where a leg has none")
+    min_speed_m_s: float = param(0.3, unit="m/s", lo=0.0, hi=MAX_SPEED_M_S, source="Fig 8.2 (BB ~ 0.25 m/s)", doc="floor of the arrival slow-down (the boat must still arrive)")
     arrival_slowdown_m: float = param(6.0, unit="m", lo=0.0, hi=200.0, source="chosen in simulation", doc="speed falls linearly to min_speed over this distance before the last waypoint (0 = off)")
     turn_speed_floor_nd: float = param(0.5, unit="-", lo=0.0, hi=1.0, source="chosen in simulation", doc="speed is scaled by max(this, cos(heading error)); 1 = never slow for turns")
     capture_radius_m: float = param(1.0, unit="m", lo=0.0, hi=50.0, source="guard: bearing undefined on top of a waypoint", doc="a waypoint closer than this counts as reached")

@@ -42,6 +42,18 @@ from dataclasses import dataclass
 from autopilot.mathutil import clamp
 from autopilot.schema import param
 
+# the speeds the boat can be asked for (a mission's legs, ctl speed, the configuration's default): at most the
+# fastest measured row (FF, 3.47 m/s, Fig 8.2); at least enough to move (0.01 m/s was taken, the boat sat still
+# while the status said auto: a new user's test)
+MIN_SPEED_M_S = 0.05
+MAX_SPEED_M_S = 3.5
+SPEED_RANGE = f"[{MIN_SPEED_M_S:g}, {MAX_SPEED_M_S:g}] m/s"  # as the refusals say it
+
+
+def is_speed(value) -> bool:
+    """A speed the boat can be asked for: a number (not a bool) in [MIN_SPEED_M_S, MAX_SPEED_M_S] (NaN is not)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and MIN_SPEED_M_S <= value <= MAX_SPEED_M_S
+
 
 @dataclass(frozen=True)
 class SpeedTrimConfig:

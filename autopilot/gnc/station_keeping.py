@@ -43,6 +43,7 @@ import math
 from dataclasses import dataclass
 
 from autopilot.geo import wrap_pi
+from autopilot.gnc.speed import MAX_SPEED_M_S
 from autopilot.mathutil import clamp
 from autopilot.schema import param
 
@@ -107,7 +108,7 @@ class HoldConfig:
                                       doc="largest heading correction for a lateral error")
     approach_m: float = param(8.0, unit="m", lo=1.0, hi=500.0, source="chosen, two boat lengths",
                               doc="farther than this the boat first steers to the point as to a waypoint")
-    approach_speed_m_s: float = param(1.0, unit="m/s", lo=0.1, hi=3.4, source="Fig 8.2 (CC)",
+    approach_speed_m_s: float = param(1.0, unit="m/s", lo=0.1, hi=MAX_SPEED_M_S, source="Fig 8.2 (CC)",
                                       doc="speed of that approach")
     reposition_m: float = param(3.0, unit="m", lo=0.0, hi=100.0,
                                 source="chosen: benchmarks/station_keeping.py --offset (within 1 m in 6-17 s, was 6-50 s)",

@@ -633,8 +633,9 @@ class MavlinkLink:
         every leg of the mission and of a return (as ArduPilot Rover's desired speed), -1 no change, -2 the planned
         speeds; param1 the speed's kind, air (0) or ground (1) speed both taken as over ground (a boat has no
         airspeed to fly), a climb or descent speed refused. It was answered UNSUPPORTED (stop 47's note)."""
+        from autopilot.gnc.speed import SPEED_RANGE, is_speed
         from autopilot.link.params import as_typed
-        from autopilot.mission import DEFAULT_SPEED_CHANGE, NO_SPEED_CHANGE, SPEED_RANGE, is_speed
+        from autopilot.mission import DEFAULT_SPEED_CHANGE, NO_SPEED_CHANGE
 
         kind = self._whole(port, msg, msg.param1, "param1 (speed type)", "0 (airspeed) or 1 (ground speed): a boat "
                            "has no climb or descent", lambda k: k in (0, 1))

@@ -202,7 +202,7 @@ def cmd_manoeuvre(args: argparse.Namespace) -> int:
 
 
 def cmd_nomoto(args: argparse.Namespace) -> int:
-    from autopilot.mission import SPEED_RANGE, is_speed
+    from autopilot.gnc.speed import SPEED_RANGE, is_speed
     from autopilot.sim.nomoto import nomoto
 
     params = _params(args.params)

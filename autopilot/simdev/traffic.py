@@ -45,6 +45,7 @@ from pathlib import Path
 from autopilot.drivers.framing import xor_checksum
 from autopilot.geo import latlon_to_local, local_to_latlon, wrap_pi
 from autopilot.gnc.encounter import OwnShip, TargetState, classify, geometry
+from autopilot.gnc.speed import MAX_SPEED_M_S, MIN_SPEED_M_S
 from autopilot.schema import ConfigError, load, load_yaml, param
 from autopilot.units import m_s_to_knots
 
@@ -125,7 +126,7 @@ class OwnSpec:
     north_m: float = param(0.0, unit="m", lo=-1e6, hi=1e6, doc="start")
     east_m: float = param(0.0, unit="m", lo=-1e6, hi=1e6, doc="start")
     course_deg: float = param(0.0, unit="deg", lo=-360, hi=360, doc="heading and course at the start")
-    speed_m_s: float = param(1.0, unit="m/s", lo=0.05, hi=3.4, doc="commanded speed")
+    speed_m_s: float = param(1.0, unit="m/s", lo=MIN_SPEED_M_S, hi=MAX_SPEED_M_S, doc="commanded speed")
     goal_north_m: float = param(300.0, unit="m", lo=-1e6, hi=1e6, doc="the waypoint")
     goal_east_m: float = param(0.0, unit="m", lo=-1e6, hi=1e6, doc="the waypoint")
 
