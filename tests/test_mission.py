@@ -261,7 +261,7 @@ def test_a_plan_s_cruise_speed_out_of_range_is_named_as_such(tmp_path):
     plan = json.loads((MISSIONS / "examples" / "pond-9.4.plan").read_text())
     plan["mission"]["cruiseSpeed"] = 15
     (tmp_path / "fast.plan").write_text(json.dumps(plan))
-    with pytest.raises(MissionError, match="mission.cruiseSpeed: 15 m/s outside \\(0, 3.5\\] m/s .*Mission Start item"):
+    with pytest.raises(MissionError, match="mission.cruiseSpeed: 15 m/s outside \\[0.05, 3.5\\] m/s .*Mission Start item"):
         load_mission(tmp_path / "fast.plan")
 
 

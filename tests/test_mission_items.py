@@ -153,7 +153,7 @@ def test_a_refused_upload_names_the_item_the_planner_shows():
     from autopilot.mission import MissionItemError
 
     w = [_ll(30, 0), _ll(30, 30), _ll(0, 30)]
-    with pytest.raises(MissionItemError, match=r"item 3: speed 5\.0 m/s outside \(0, 3\.5\]") as exc:
+    with pytest.raises(MissionItemError, match=r"item 3: speed 5\.0 m/s outside \[0\.05, 3\.5\]") as exc:
         _upload([_item(0, 16, *HOME), _item(1, 16, *w[0]), _item(2, 16, *w[1]), _item(3, 178, p2=5.0, frame=2),
                  _item(4, 16, *w[2])])
     assert (exc.value.seq, exc.value.field) == (3, "param2")
