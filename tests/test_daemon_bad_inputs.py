@@ -92,6 +92,14 @@ CLI_CASES = [
      "autopilot run: error: {dir}/c.yaml: gnc.guidance.law: 'pure_pursuit' is not one of fuzzy, los, proportional"),
     ("configuration", "geofence with two vertices", "geofence: {frame: local, polygon: [[0, 0], [10, 0]]}\n", GOOD_MISSION, [],
      "autopilot run: error: {dir}/c.yaml: geofence.polygon: needs at least 3 vertices for frame 'local', got 2"),
+    ("configuration", "a geofence polygon under frame none (no fence)",
+     GOOD_CONFIG + "geofence: {frame: none, polygon: [[-50, -50], [50, -50], [50, 50]]}\n", GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: geofence.polygon: 3 vertices given with frame 'none', which is no fence: set "
+     "geofence.frame to local ([north_m, east_m]) or latlon ([lat_deg, lon_deg]), or leave the polygon out"),
+    ("configuration", "no heading gain but the derivative", GOOD_CONFIG + "gnc: {pid: {kp_n_per_deg: 0, ki_n_per_deg_s: 0}}\n",
+     GOOD_MISSION, [],
+     "autopilot run: error: {dir}/c.yaml: gnc.pid: kp_n_per_deg and ki_n_per_deg_s are both 0: the helm cannot turn the "
+     "boat towards a heading (kd_n_s_per_deg only damps the turn); give kp_n_per_deg > 0"),
     ("configuration", "the compass and the Mbed on one port",
      "serial: {sc30_port: /nonexistent/usb0, mbed_port: /nonexistent/usb0}\norigin_lat_deg: 52.0\norigin_lon_deg: 4.4\n",
      GOOD_MISSION, [], "autopilot run: error: {dir}/c.yaml: serial.mbed_port: /nonexistent/usb0 is serial.sc30_port too: "
@@ -153,6 +161,8 @@ CLI_CASES = [
      "autopilot run: error: {dir}/m.yaml: binary data, not a text mission file"),
     ("mission", "negative hold", GOOD_CONFIG, GOOD_MISSION.replace("east_m: 0.0}", "east_m: 0.0, hold_s: -5}"), [],
      "autopilot run: error: {dir}/m.yaml: waypoint 1: hold_s -5 s outside [0, 86400] s (or hold: true, until commanded)"),
+    ("mission", "a hold of minus infinity", GOOD_CONFIG, GOOD_MISSION.replace("east_m: 0.0}", "east_m: 0.0, hold_s: -.inf}"),
+     [], "autopilot run: error: {dir}/m.yaml: waypoint 1: hold_s is -inf, not a finite number"),
     ("mission", "waypoints twice", GOOD_CONFIG, GOOD_MISSION + "waypoints:\n  - {north_m: 20.0, east_m: 0.0}\n", [],
      "autopilot run: error: {dir}/m.yaml: not valid YAML (waypoints: duplicate key (lines 3 and 5))"),
     ("mission", "rtl not last", GOOD_CONFIG, GOOD_MISSION.replace("waypoints:\n", "waypoints:\n  - rtl\n"), [],

@@ -153,3 +153,30 @@ def test_evaluates_table_says_n_a_for_a_waypoint_never_approached():
                   xte_rms_m=0.0, xte_max_m=0.0, time_s=1.0, energy_ns=0.0, saturation_pct=0.0, circled=False)
     row = format_row(r)
     assert row.endswith("1.00  n/a") and "inf" not in row, row
+
+
+@pytest.mark.parametrize("text, says", [
+    ("gnc:\n  pid:\n    kp_n_per_deg: 0\n    ki_n_per_deg_s: 0\n", "gnc.pid: kp_n_per_deg and ki_n_per_deg_s are both 0"),
+    ("gnc:\n  allocation:\n    max_forward_n: 0\n", "gnc.allocation: max_forward_n is 0: the boat can never go ahead"),
+])
+def test_settings_that_cannot_drive_the_boat_are_refused(tmp_path, text, says):
+    """A helm with no gain towards the heading flew 30 minutes unsteered; no forward thrust sat at the start."""
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(text)
+    with pytest.raises(ConfigError, match=says):
+        load_config(cfg)
+
+
+def test_waypoints_within_the_capture_radius_are_said_at_start(tmp_path):
+    from autopilot.daemon.app import _reached_at_once
+
+    (tmp_path / "m.yaml").write_text("name: t\nframe: local\nwaypoints:\n  - [30, 0]\n  - [30, 60]\n  - [40, 60]\n")
+    mission = load_mission(tmp_path / "m.yaml", origin_lat_deg=52.0, origin_lon_deg=4.4)
+    (tmp_path / "c.yaml").write_text("gnc:\n  guidance:\n    capture_radius_m: 35\n")
+    said = _reached_at_once(load_config(tmp_path / "c.yaml"), mission, 0)
+    assert said.startswith("W0 30.0 m from the start, W2 10.0 m from W1: within gnc.guidance.capture_radius_m (35 m)")
+    assert _reached_at_once(load_config(tmp_path / "c.yaml"), mission, 2) == (  # resumed at W2
+        "W2 10.0 m from W1: within gnc.guidance.capture_radius_m (35 m): each counts reached once the boat is "
+        "that close, before it gets there (a smaller radius, or waypoints farther apart)")
+    (tmp_path / "c.yaml").write_text("gnc:\n  guidance:\n    capture_radius_m: 5\n")
+    assert _reached_at_once(load_config(tmp_path / "c.yaml"), mission, 0) is None

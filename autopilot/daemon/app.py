@@ -530,6 +530,25 @@ def _longer_than_allowed(cfg: DaemonConfig, mission, start_index: int, speed_m_s
             "mission")
 
 
+def _reached_at_once(cfg: DaemonConfig, mission, start_index: int) -> str | None:
+    """What to say of waypoints within gnc.guidance.capture_radius_m of the start or of the waypoint before them,
+    else None: with a 50-m radius a pond mission was "complete after 9 s: 3 of 3 reached" and the boat had not
+    moved, its closest approaches 10-35 m (a new user's test)."""
+    radius_m = cfg.gnc.guidance.capture_radius_m
+    wps = [tuple(map(float, p)) for p in mission.waypoints_ne_m]
+    close = []
+    for i in range(start_index, len(wps)):
+        before, name = (mission.home_ne_m, "the start") if i == 0 else (wps[i - 1], f"W{i - 1}")
+        d_m = math.hypot(wps[i][0] - before[0], wps[i][1] - before[1])
+        if d_m < radius_m:
+            close.append(f"W{i} {d_m:.1f} m from {name}")
+    if not close:
+        return None
+    return (f"{', '.join(close[:4])}{', ...' if len(close) > 4 else ''}: within gnc.guidance.capture_radius_m "
+            f"({radius_m:g} m): each counts reached once the boat is that close, before it gets there (a smaller "
+            "radius, or waypoints farther apart)")
+
+
 def _log_start(log: MissionLog, cfg: DaemonConfig, opts: RunOptions, mission, mission_path: str, *, boat_length_m: float,
                start_index: int, ports: tuple[str, str], hold_zero: str | None) -> None:
     log.event(
@@ -656,6 +675,8 @@ async def _main(cfg: DaemonConfig, opts: RunOptions, mission, log_dir: Path, sta
                     "station; --fresh starts armed)")
     if (too_long := _longer_than_allowed(cfg, mission, start_index, ap.speed_m_s)) is not None:
         said.append(too_long)
+    if (at_once := _reached_at_once(cfg, mission, start_index)) is not None:
+        said.append(at_once)
     if ap.speed_m_s is not None:
         said.append(f"the run carried on keeps the operator's speed of the run before, {ap.speed_m_s:g} m/s on every leg "
                     "(`autopilot ctl speed mission` gives back the planned speeds; --fresh starts with them)")

@@ -95,6 +95,13 @@ class AllocationConfig:
     max_reverse_n: float = param(MAX_THRUST_N, unit="N", lo=0.0, hi=500.0, source="Table 4.2 level f", doc="largest reverse thrust magnitude per thruster commanded")
     allow_reverse: bool = param(True, source="Table 4.2 (reverse levels exist)", doc="let a thruster run astern to turn harder")
 
+    def __post_init__(self) -> None:
+        if self.max_forward_n == 0.0:  # the boat sat at the start for 30 minutes (a new user's test)
+            from autopilot.schema import ConfigError
+
+            raise ConfigError("gnc.allocation: max_forward_n is 0: the boat can never go ahead; give the thrust a thruster "
+                              "may make ahead (N)")
+
 
 @dataclass(frozen=True)
 class Allocation:

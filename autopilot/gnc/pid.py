@@ -56,6 +56,13 @@ class PidConfig:
     kd_n_s_per_deg: float = param(1.5, unit="N s/deg", lo=0.0, hi=50.0, source="tuned in simulation (thesis Fig 7.10: 0.33)", doc="derivative gain Kd on the measured yaw rate")
     integral_limit_n: float = param(5.0, unit="N", lo=0.0, hi=100.0, source="anti-windup (SPEC 8: bound the integral)", doc="largest |Ki * integral| contribution")
 
+    def __post_init__(self) -> None:
+        if self.kp_n_per_deg == 0.0 and self.ki_n_per_deg_s == 0.0:  # flew 30 minutes unsteered (a new user's test)
+            from autopilot.schema import ConfigError
+
+            raise ConfigError("gnc.pid: kp_n_per_deg and ki_n_per_deg_s are both 0: the helm cannot turn the boat towards a "
+                              "heading (kd_n_s_per_deg only damps the turn); give kp_n_per_deg > 0")
+
 
 @dataclass(frozen=True)
 class PidTerms:
