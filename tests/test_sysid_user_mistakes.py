@@ -177,3 +177,11 @@ def test_sysid_does_not_write_over_a_reviews_folder_nor_review_over_a_sysid_one(
     proc = run_cli("review", str(log), "--out", str(ident), "--no-plots", check=False)
     assert proc.returncode == 2 and "summary.json that autopilot review did not write" in proc.stderr, proc.stderr
     assert json.loads((ident / "summary.json").read_text())["verdict"] == ["wind"]
+
+
+def test_noise_bounds_with_a_steady_state_table_are_refused(tmp_path):
+    """--gps-wander-max beside --table was taken and did nothing: a table has no sensor noise to bound."""
+    proc = run_cli("sysid", "--table", str(REPO / "config" / "measured-table.csv"), "--out", str(tmp_path / "o"),
+                   "--gps-wander-max", "2", check=False)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "--gps-wander-max: bound the trials' sensor noise; a steady-state table (--table) has none" in proc.stderr

@@ -90,6 +90,12 @@ def _run(args: argparse.Namespace, vessel, params_path: Path) -> int:
     if args.table:
         if args.trials:
             raise ConfigError("give either trial files or --table, not both")
+        # a steady-state table has no sensor noise to bound: the option was taken and did nothing (a new user's test)
+        given = [o for o, v in (("--gps-wander-max", args.gps_wander_max), ("--heading-wander-max",
+                                                                           args.heading_wander_max)) if v is not None]
+        if given:
+            raise ConfigError(f"{' and '.join(given)}: bound the trials' sensor noise; a steady-state table (--table) "
+                              "has none: leave them out")
         return _table(args, vessel, params_path, candidates if args.effects is not None else None, log)
     if not args.trials:
         raise ConfigError("no trial files (or use --table)")
