@@ -754,6 +754,28 @@ def test_one_lost_fix_does_not_move_the_fix_delay(tmp_path):
     assert s["verdict"] == ["fix_delay"], s["verdict"]
     row = next(r for r in s["effects"]["fix_delay"]["params"] if r["name"] == "delay_s")
     assert row["ci95"][0] <= 0.142 <= row["ci95"][1] and abs(row["value"] - 0.142) < 0.01, row
+    # its alias along the hull is said (identification.alias_note): at ~0.86 m/s, an antenna ~0.12 m aft
+    alias = [n for n in s["notes"] if n.startswith("fixes 0.1") and "an antenna 0.12 m aft" in n]
+    assert alias, s["notes"]
+
+
+def test_an_antenna_aft_is_said_to_be_a_fix_delay_on_straight_runs():
+    """Three pond logs with a 0.14-s fix delay, cut at a 3-s gap, were named antenna_offset forward -0.127 m with
+    nothing said of the delay it is on a straight run (a new user's test)."""
+    from types import SimpleNamespace
+
+    from autopilot.sysid.identification import alias_note
+
+    t = np.arange(0.0, 60.0, 1.0)
+    prep = SimpleNamespace(measured=[SimpleNamespace(t_pos_s=t, north_m=0.8 * t, east_m=0.0 * t)])
+    fit = SimpleNamespace(keys=("antenna_offset.forward_m", "antenna_offset.starboard_m"), theta=np.array([-0.127, 0.0]))
+    note = alias_note(prep, fit, ("antenna_offset",))
+    assert note.startswith("an antenna 0.13 m aft is, on straight runs at the trials' typical 0.8 m/s, fixes 0.16 s "
+                           "late"), note
+    forward = SimpleNamespace(keys=fit.keys, theta=np.array([0.3, 0.0]))
+    assert alias_note(prep, forward, ("antenna_offset",)) is None  # forward of the centre: no latency does that
+    at_rest = SimpleNamespace(measured=[SimpleNamespace(t_pos_s=t, north_m=0.0 * t, east_m=0.0 * t)])
+    assert alias_note(at_rest, fit, ("antenna_offset",)) is None
 
 
 def _edited_pond_csv(tmp_path, edit) -> Path:

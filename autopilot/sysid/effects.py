@@ -107,6 +107,11 @@ class Effect:
         """The sibling's parameters (in its keys' order) giving what ``value`` gives, as nearly as it can."""
         raise NotImplementedError(self.name)
 
+    def alias_at_speed(self, value: dict, speed_m_s: float) -> str | None:
+        """What else, on straight runs at ``speed_m_s``, looks as this effect with ``value`` (parameter name ->
+        value) does, said with the verdict; None: nothing in particular."""
+        return None
+
     def key(self, param: EffectParam) -> str:
         return f"{self.name}.{param.name}"
 
@@ -387,6 +392,17 @@ class AntennaOffset(Effect):
     params = (EffectParam("forward_m", "m", 0.0, -5.0, 5.0, 0.5), EffectParam("starboard_m", "m", 0.0, -5.0, 5.0, 0.5))
     doc = "GPS antenna away from the centre of gravity (body lever arm)"
 
+    def alias_at_speed(self, value, speed_m_s):
+        # three pond logs with a 0.14-s fix delay, cut at a 3-s gap, were named an antenna 0.127 m aft with nothing
+        # said of the delay it is on a straight run (a new user's test, 2026-12-07)
+        aft_m = -value["forward_m"]
+        if aft_m <= 0.0:  # forward of the centre: no latency does that
+            return None
+        return (f"an antenna {aft_m:.2g} m aft is, on straight runs at the trials' typical {speed_m_s:.2g} m/s, "
+                f"fixes {aft_m / speed_m_s:.2g} s late (a receiver's latency): the trials told them apart by their "
+                "speed changes and turns, which a short or straight log has few of; if the antenna is known to sit "
+                "where the vessel file puts it, the fixes' latency is the likelier cause")
+
     def sensed(self, v, out, t_s):
         lx, ly = v["forward_m"][:, None], v["starboard_m"][:, None]
         c, s = np.cos(out["psi_rad"]), np.sin(out["psi_rad"])
@@ -413,6 +429,13 @@ class FixDelay(Effect):
     params = (EffectParam("delay_s", "s", 0.0, 0.0, 2.0, 0.1, grid=(0.0, 0.15, 0.4, 0.8)),)
     doc = ("GNSS fixes (the position, and the velocity over ground taken from it) dated late by a fixed delay, the "
            "heading on time: a receiver's output latency, or a fix that waited on the line behind the heading")
+
+    def alias_at_speed(self, value, speed_m_s):
+        delay_s = value["delay_s"]
+        return (f"fixes {delay_s:.3g} s late are, on straight runs at the trials' typical {speed_m_s:.2g} m/s, an "
+                f"antenna {delay_s * speed_m_s:.2g} m aft of where it is said to be: the trials told them apart by "
+                "their speed changes and turns, which a short or straight log has few of; if the receiver's latency "
+                "is known to be small, the antenna's position is the likelier cause")
 
     def sensed(self, v, out, t_s):
         out = {k: a.copy() for k, a in out.items()}

@@ -476,6 +476,8 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
                          f"(BIC within {s.bic_margin:g}, each passing every test): the trials cannot tell them apart, "
                          "so neither is named (their intervals are what cannot be ruled out; for a lag and a "
                          "delay, sharp thrust steps tell them apart: a lag rounds the response, a delay shifts it)")
+    if status == "effects" and (alias := alias_note(prep, fits[chosen], chosen)) is not None:
+        notes.append(alias)
     cands = candidate_table(prep, vessel, fits, screen_cost, scores, s)
     nearest = [] if adequate else [c for c in cands if c.get("adequacy")][:3]
     for c in nearest:  # judged as the verdict is (with the sensor-bound test): the table's cheap one said adequate
@@ -508,6 +510,33 @@ def verdict(prep, vessel, fits, chosen, screen_cost, cv, scores, notes, s: Setti
         not_excluded=(not_excluded(fits, named, vessel, prep) if status in ("none", "inconclusive")
                       else beside(prep, vessel, fits, named, scores, s) if status == "effects" else []),
     )
+
+
+ALIAS_MIN_SPEED_M_S = 0.2  # slower than this, an effect's alias at speed is not said
+
+
+def typical_speed_m_s(prep: Prepared) -> float:
+    """The median speed over ground (m/s) between the trials' fixes at least a second apart; NaN without any."""
+    speeds = []
+    for m in prep.measured:
+        t, n, e = m.t_pos_s, m.north_m, m.east_m
+        dt = np.diff(t)
+        ok = dt >= 1.0 - 1e-6
+        speeds.append(np.hypot(np.diff(n), np.diff(e))[ok] / dt[ok])
+    allv = np.concatenate(speeds) if speeds else np.zeros(0)
+    return float(np.median(allv)) if allv.size else math.nan
+
+
+def alias_note(prep: Prepared, fit, chosen: tuple) -> str | None:
+    """What the single effect named looks like on straight runs at the trials' typical speed (its
+    ``alias_at_speed``: fixes late and an antenna aft), or None; at rest neither shows."""
+    if len(chosen) != 1:
+        return None
+    speed = typical_speed_m_s(prep)
+    if not speed > ALIAS_MIN_SPEED_M_S:
+        return None
+    eff = BY_NAME[chosen[0]]
+    return eff.alias_at_speed({k.split(".", 1)[1]: float(v) for k, v in zip(fit.keys, fit.theta)}, speed)
 
 
 def absorbed_by_noise(prep, fits: dict, s: Settings) -> list[str]:

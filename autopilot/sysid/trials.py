@@ -506,8 +506,8 @@ def check_heading_units(fix_t_s, north_m, east_m, heading_t_s, heading_deg) -> t
     if as_deg > HEADING_DISAGREES_DEG:
         return (f"the heading does not follow the track's course: a median {as_deg:.0f} deg apart over {stretches} "
                 "stretches the boat moved (a WAM-V moves along its bow): the position columns crossed (lat_deg and "
-                "lon_deg, or north_m and east_m, swapped?), a compass mounted off the bow, or a trial run astern? "
-                "The identification fits whatever it is given",)
+                "lon_deg, or north_m and east_m, swapped?), a compass mounted off the bow, a trial run astern, or a "
+                "drift at low thrust in a current or wind? The identification fits whatever it is given",)
     return ()
 
 
