@@ -201,6 +201,11 @@ def _param_set(loop, request, helm_nav, unavailable, cause):
     if key == "failsafe.max_mission_time_s" and value <= ran_s:  # it would end the run at once, link and all
         return False, (f"{request.get('name', key)} refused: {value:g} s is not more than the {ran_s:.0f} s "
                        "the mission has already run")
+    if key == "failsafe.max_distance_m" and helm_nav is not None \
+            and value <= (away_m := math.hypot(helm_nav.north_m, helm_nav.east_m)):
+        # it latched the max_distance failsafe at once, for the rest of the run (a new user's test of the link)
+        return False, (f"{request.get('name', key)} refused: {value:g} m is not more than the boat's {away_m:.0f} m "
+                       "from the origin now (the failsafe would take the boat at once, latched)")
     try:
         new_cfg = replace_key(loop.cfg, key, value)  # the dataclasses' own checks run again
     except (ConfigError, ValueError, TypeError) as exc:

@@ -52,6 +52,11 @@ __all__ = ["LoopState", "ControlLoop", "watchdog_due", "COMMANDS_PER_CYCLE", "CO
 # skipped deadlines, with a log growing 0.5 MB/s; the loop's timing comes first, a command waits or is refused.
 COMMANDS_PER_CYCLE = 5
 COMMANDS_QUEUED_MAX = 100
+# one source's commands waiting at most: a station sending 2000 a second filled the whole queue, and the operator's
+# DISARM, HOLD and `autopilot ctl stop` were refused while the boat drove on (a new user's test of the link)
+COMMANDS_QUEUED_PER_SOURCE_MAX = 20
+# never refused for a full queue: each only takes thrust away
+COMMANDS_NEVER_REFUSED = ("stop", "disarm")
 
 
 def watchdog_due(*, ready: bool, lateness_s: float, period_s: float, since_last_s: float, interval_s: float) -> bool:
@@ -264,19 +269,26 @@ class ControlLoop:
         ``answer(reply dict)`` is called from the next cycle, between its steps: the caller never runs inside
         the loop's timing. The joystick's stream keeps only its latest input; beyond COMMANDS_QUEUED_MAX
         waiting, a command is refused at once (answered here, not in a cycle)."""
+        # an explicit choice of manual (a mode change) is not a stick position: superseded by the next stick packet
+        # it was answered ok and never made, with QGC's joystick on (a new user's test of the link)
         if request.get("command") == "manual" and self.commands and self.commands[-1][0].get("command") == "manual" \
-                and self.commands[-1][0].get("source") == request.get("source"):
+                and self.commands[-1][0].get("source") == request.get("source") \
+                and not self.commands[-1][0].get("explicit"):
             _, superseded = self.commands[-1]
             self.commands[-1] = (request, answer)  # the newer stick position replaces the one not yet applied
             superseded({"ok": True, "answer": "manual (superseded by a newer input)", "mode": self.ap.mode.value})
             return
-        if len(self.commands) >= COMMANDS_QUEUED_MAX:
+        source = request.get("source")
+        mine = sum(1 for queued, _ in self.commands if queued.get("source") == source)
+        full = len(self.commands) >= COMMANDS_QUEUED_MAX or mine >= COMMANDS_QUEUED_PER_SOURCE_MAX
+        if full and request.get("command") not in COMMANDS_NEVER_REFUSED:
             if not self._flooded:  # once per flood: until the queue has drained
                 self._flooded = True
                 self.log_event("info", message="commands refused: queue full", queued=len(self.commands),
                                source=str(request.get("source")))
-            answer({"ok": False, "busy": True, "answer": f"{request.get('command')} refused: {len(self.commands)} "
-                                                          "commands already waiting (a flood?)",
+            answer({"ok": False, "busy": True, "answer": f"{request.get('command')} refused: "
+                    + (f"{mine} commands of {source} already waiting" if mine >= COMMANDS_QUEUED_PER_SOURCE_MAX
+                       else f"{len(self.commands)} commands already waiting") + " (a flood?)",
                     "mode": self.ap.mode.value})
             return
         self.commands.append((request, answer))

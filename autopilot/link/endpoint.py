@@ -1,7 +1,8 @@
 """MAVLink endpoints: UDP out, UDP in, a serial radio. Bytes in a bounded queue, bytes out without blocking.
 
     udpout:HOST:PORT   send to a ground station listening there (QGC's default 127.0.0.1:14550);
-                       its replies come back to the same socket
+                       its replies come back to the same socket, connected to HOST:PORT: datagrams from
+                       anywhere else are not read (on 0.0.0.0 a DISARM from any host disarmed the boat)
     udpin:ADDR:PORT    listen on that address only; reply to every peer heard in the last PEER_TIMEOUT_S
     /dev/PATH:BAUD     a telemetry radio (serial:/dev/PATH:BAUD too)
 
@@ -153,9 +154,9 @@ class UdpEndpoint(Endpoint):
         if self.spec.kind == "udpin":
             self.transport, _ = await loop.create_datagram_endpoint(
                 lambda: _Datagrams(self), local_addr=(self.spec.host, self.spec.port))
-        else:
+        else:  # connected: the kernel delivers only the ground station's datagrams (a new user's test of the link)
             self.transport, _ = await loop.create_datagram_endpoint(lambda: _Datagrams(self),
-                                                                    local_addr=("0.0.0.0", 0))
+                                                                    remote_addr=(self.spec.host, self.spec.port))
 
     @property
     def local_port(self) -> int:
@@ -166,7 +167,7 @@ class UdpEndpoint(Endpoint):
             return
         try:
             if self.spec.kind == "udpout":
-                self.transport.sendto(data, (self.spec.host, self.spec.port))
+                self.transport.sendto(data)  # to the address it is connected to
             elif to is not None and to in self.peers:
                 # a reply to one station of several on this port: a DENIED meant for a second planner went to the
                 # one uploading too, with the same ids (both 255/190), and ended that station's upload

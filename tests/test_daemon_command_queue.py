@@ -1,0 +1,82 @@
+"""The control loop's command queue (ControlLoop.submit): who waits, who is refused, what a stick packet replaces.
+
+Found by a new user's test of the MAVLink link (2026-12-07): a second station sending 2000 DO_CHANGE_SPEED a
+second filled the whole queue, and the operator's DISARM, HOLD and `autopilot ctl stop` were refused while the
+boat drove on; with QGC's joystick on, a switch to MANUAL was answered ACCEPTED and never made (the next stick
+packet replaced it in the queue).
+"""
+
+from __future__ import annotations
+
+import collections
+from types import SimpleNamespace
+
+from autopilot.daemon.loop import COMMANDS_QUEUED_MAX, COMMANDS_QUEUED_PER_SOURCE_MAX, ControlLoop
+from autopilot.logschema import Mode
+
+
+def _loop():
+    return SimpleNamespace(commands=collections.deque(), _flooded=False, log_event=lambda *a, **k: None,
+                           ap=SimpleNamespace(mode=Mode.AUTO))
+
+
+def _submit(loop, request):
+    answers = []
+    ControlLoop.submit(loop, request, answers.append)
+    return answers
+
+
+def test_one_flooding_source_does_not_lock_out_the_others():
+    loop = _loop()
+    for _ in range(5 * COMMANDS_QUEUED_PER_SOURCE_MAX):
+        _submit(loop, {"command": "speed", "speed_m_s": 1.0, "source": "mavlink 254"})
+    assert len(loop.commands) == COMMANDS_QUEUED_PER_SOURCE_MAX
+    refused = _submit(loop, {"command": "speed", "speed_m_s": 1.0, "source": "mavlink 254"})
+    assert refused and refused[0]["busy"] and "commands of mavlink 254 already waiting" in refused[0]["answer"]
+    for command in ("hold", "disarm"):
+        assert _submit(loop, {"command": command, "source": "mavlink 255"}) == []  # queued, answered in a cycle
+    assert _submit(loop, {"command": "stop", "source": "ctl"}) == []
+    assert [r["command"] for r, _ in list(loop.commands)[-3:]] == ["hold", "disarm", "stop"]
+
+
+def test_stop_and_disarm_are_never_refused_for_a_full_queue():
+    loop = _loop()
+    for k in range(COMMANDS_QUEUED_MAX):
+        _submit(loop, {"command": "speed", "speed_m_s": 1.0, "source": f"station {k % 10}"})
+    assert len(loop.commands) == COMMANDS_QUEUED_MAX
+    assert _submit(loop, {"command": "hold", "source": "ctl"})[0]["busy"]
+    for command in ("stop", "disarm"):
+        assert _submit(loop, {"command": command, "source": "ctl"}) == []
+    assert [r["command"] for r, _ in list(loop.commands)[-2:]] == ["stop", "disarm"]
+
+
+def test_a_stick_packet_replaces_a_stick_packet_not_a_choice_of_manual():
+    loop = _loop()
+    first = _submit(loop, {"command": "manual", "forward_nd": 0.1, "turn_nd": 0.0, "source": "mavlink 255"})
+    second = _submit(loop, {"command": "manual", "forward_nd": 0.2, "turn_nd": 0.0, "source": "mavlink 255"})
+    assert first and "superseded" in first[0]["answer"] and not second and len(loop.commands) == 1
+    choice = _submit(loop, {"command": "manual", "forward_nd": 0.0, "turn_nd": 0.0, "explicit": True,
+                            "source": "mavlink 255"})
+    assert choice == [] and len(loop.commands) == 1 and loop.commands[0][0].get("explicit")  # it replaced the sticks
+    sticks = _submit(loop, {"command": "manual", "forward_nd": 0.3, "turn_nd": 0.0, "source": "mavlink 255"})
+    assert sticks == [] and len(loop.commands) == 2  # queued after the choice, which stays to be made
+    assert loop.commands[0][0].get("explicit") and loop.commands[1][0]["forward_nd"] == 0.3
+
+
+def test_a_distance_limit_below_where_the_boat_is_is_refused():
+    """PARAM_SET FS_MAX_DIST 1 mid-run was taken: the max_distance failsafe latched at once and the run was over
+    (setting it back did not help); FS_MAX_TIME already refused a limit the run had passed."""
+    from autopilot.daemon.commands import _param_set
+    from autopilot.daemon.config import DaemonConfig
+    from autopilot.gnc import NavInput
+
+    applied = []
+    loop = SimpleNamespace(cfg=DaemonConfig(), clock=SimpleNamespace(now_s=lambda: 60.0), t0_s=0.0,
+                           apply_config=applied.append, log=SimpleNamespace(event=lambda *a, **k: None))
+    here = NavInput(north_m=60.0, east_m=80.0, psi_rad=0.0, speed_m_s=1.0, yaw_rate_rad_s=0.0, course_rad=0.0)
+    request = {"key": "failsafe.max_distance_m", "value": 50.0, "name": "FS_MAX_DIST", "source": "mavlink 255"}
+    ok, answer = _param_set(loop, request, here, "", "link")
+    assert not ok and answer == ("FS_MAX_DIST refused: 50 m is not more than the boat's 100 m from the origin now "
+                                 "(the failsafe would take the boat at once, latched)") and not applied
+    ok, answer = _param_set(loop, {**request, "value": 150.0}, here, "", "link")
+    assert ok and applied[-1].failsafe.max_distance_m == 150.0
