@@ -85,6 +85,7 @@ class ControlCycle:
         self.last_cmd: ThrustCommand = ZERO_THRUST
         self.steered_error_rad: float | None = None  # the heading error the helm steered by last cycle
         self.failsafe_causes: list[str] = []  # every failsafe taken, in order (transient and latched)
+        self.control_started_s: float | None = None  # the first cycle the helm drove (before it: waiting)
 
     @property
     def latched_action(self) -> str | None:
@@ -135,6 +136,8 @@ class ControlCycle:
         out = self._steer(nav, now_s, events, targets) if drive else None
         if out is not None:
             mode = out.mode
+            if self.control_started_s is None:
+                self.control_started_s = now_s
         self.steered_error_rad = steps.steered_error_rad(out)
         events.extend(ap.pop_events())
         cmd = steps.command(out)

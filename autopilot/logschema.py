@@ -119,7 +119,9 @@ LATCHED_CAUSES = frozenset({"geofence", "max_mission_time", "max_distance", "bat
 # what a failsafe may do (ArduPilot's FS_ACTION); "stop" needs nothing, the others a position and a heading
 FAILSAFE_ACTIONS: tuple[str, ...] = ("stop", "hold", "rtl")
 COMMANDS: tuple[str, ...] = ("status", "hold", "pause", "resume", "rtl", "stop", "arm", "disarm", "speed")  # autopilot ctl's
-STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_time")
+# "failsafe": a campaign's replay only (autopilot campaign --replay), a run the campaign ended where a latched failsafe
+# took the boat (the daemon stays up at zero thrust there); its log said "signal", with no signal (a new user's test)
+STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_time", "failsafe")
 INFO_MESSAGES: tuple[tuple[str, str], ...] = (
     ("port_opened, port_lost, port_open_failed, nmea_garbage, mbed_garbage, nmea_old_epoch, mbed_echo_mismatch",
      "device events from the drivers, with `device` (`sc30` or `mbed`) and their context"),

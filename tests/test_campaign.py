@@ -680,8 +680,9 @@ def test_a_fault_due_after_the_run_ended_is_not_counted_for_that_fault(tmp_path)
     was due (11 of 60 in a 400-run campaign); faults at 5000 s reported gnss_lost at 100 % with no failsafe."""
     spec = tmp_path / "spec.yaml"
     conditions = {"late": {"faults": {"kinds": ["gnss_lost"], "at_s": {"uniform": [4000.0, 5000.0]}}},
-                  # and long enough to be noticed (position_stale_s, 3 s: a shorter loss is not reached either)
-                  "soon": {"faults": {"kinds": ["gnss_lost"], "at_s": {"uniform": [3.0, 5.0]},
+                  # after control starts (the boat waits for valid data first) and long enough to be noticed
+                  # (position_stale_s, 3 s: a shorter loss is not reached either)
+                  "soon": {"faults": {"kinds": ["gnss_lost"], "at_s": {"uniform": [15.0, 18.0]},
                                       "duration_s": {"uniform": [3.5, 6.0]}}}}
     spec.write_text(json.dumps({**SPEC, "runs": 16, "chunk_runs": 16, "conditions": conditions}), encoding="utf-8")
     out = tmp_path / "out"
@@ -915,3 +916,63 @@ def test_a_mission_not_found_says_where_it_was_looked_for(tmp_path, capsys, monk
     assert main(["campaign", str(spec), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "missions[0]: missions/mine.yaml: no such file" in err and f"directory, {tmp_path / 'specs'}," in err, err
+
+
+def test_a_fault_over_before_control_started_is_not_counted_and_one_the_failsafe_acted_on_is():
+    """Found by a new user's test: faults at 3-5 s hit while the daemon was still waiting for valid data (control
+    starts at 5-14 s), the failsafe never took them, and they were filed as successes under their fault (11 % of
+    the shipped spread's fault runs); a 2.3-s GNSS loss that made the failsafe stop the boat was not counted."""
+    from autopilot.campaign.draw import Fault
+    from autopilot.campaign.results import _fault_kind
+    from autopilot.daemon.config import FailsafeConfig
+
+    fs = FailsafeConfig()
+    early = Fault("compass_lost", at_s=3.0, duration_s=2.0)
+    assert _fault_kind([early], 60.0, fs, control_from_s=8.0) == "not reached"
+    assert _fault_kind([early], 60.0, fs, control_from_s=4.0) == "compass_lost"  # 1 s of it in control: at once
+    assert _fault_kind([early], 60.0, fs, control_from_s=None) == "not reached"  # control never started
+    gnss = Fault("gnss_lost", at_s=12.9, duration_s=2.3)
+    assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0) == "not reached"  # shorter than position_stale_s
+    assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0, causes=("position_stale",)) == "gnss_lost"
+    assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0, causes=("heading_stale",)) == "not reached"
+    # half of it before control: what is left (3.5 s) is long enough to notice
+    assert _fault_kind([Fault("gnss_lost", at_s=5.0, duration_s=6.5)], 60.0, fs, control_from_s=8.0) == "gnss_lost"
+
+
+def test_overwrite_never_deletes_another_commands_results(tmp_path):
+    """Found by a new user's test: --out into a review's folder was "a campaign's results already", and with
+    --overwrite the campaign deleted the review's report.html and wrote over its summary.json."""
+    review = tmp_path / "review"
+    review.mkdir()
+    (review / "summary.json").write_text('{"cycles": 600}')
+    (review / "report.html").write_text("<html>the review</html>")
+    from autopilot.campaign.run import check_out_dir
+    from autopilot.schema import ConfigError
+
+    for overwrite in (False, True):
+        with pytest.raises(ConfigError, match="holds another command's results .*not a campaign's"):
+            check_out_dir(review, overwrite=overwrite)
+    assert (review / "report.html").read_text() == "<html>the review</html>"
+    assert (review / "summary.json").read_text() == '{"cycles": 600}'
+
+
+def test_runs_csv_says_no_value_one_way(tmp_path):
+    """Found by a new user's test: the hold's columns read the text "nan" in every run without a hold, while an
+    input a run did not draw was an empty cell."""
+    from autopilot.campaign.results import read_runs_csv, write_runs_csv
+
+    rows = [{"index": 0, "hold_time_s": math.nan, "vrx_score": 0.5, "wind_speed_m_s": math.nan, "closest_max_m": math.inf}]
+    write_runs_csv(rows, tmp_path / "runs.csv", ["index", "hold_time_s", "vrx_score", "wind_speed_m_s", "closest_max_m"])
+    text = (tmp_path / "runs.csv").read_text()
+    assert text.splitlines()[1] == "0,,0.5,,inf" and "nan" not in text
+    back = read_runs_csv(tmp_path / "runs.csv")[0]
+    assert math.isnan(back["hold_time_s"]) and back["vrx_score"] == 0.5 and back["closest_max_m"] == math.inf
+
+
+def test_replay_refuses_the_options_it_has_no_use_for(tmp_path, capsys):
+    """Found by a new user's test: --seed and --runs beside --replay were taken and ignored without a word."""
+    out = tmp_path / "camp"
+    out.mkdir()
+    for extra, named in ((["--seed", "7"], "--seed has no say"), (["--runs", "5", "--jobs", "2"], "--runs, --jobs have")):
+        assert main(["campaign", "--replay", str(out), "0", *extra]) == 2
+        assert named in capsys.readouterr().err

@@ -102,8 +102,9 @@ def test_replay_of_a_run_with_a_failsafe_after_completion_is_its_row_and_its_log
         assert "identical to its row in runs.csv" in capsys.readouterr().out
         log = read_log(out / f"replay-{run['index']}.jsonl")
         stop = log.events[-1]
-        # the Mbed lost in the final pass: complete once the pass is over; battery_low's rtl flies the boat home
-        assert stop["event"] == "stop" and stop["reason"] == ("signal" if cond == "battery_tail" else "complete"), stop
+        # the Mbed lost in the final pass: complete once the pass is over; battery_low's rtl flies the boat home, and
+        # the campaign ends the run there: "failsafe" (it said "signal", with no signal: a new user's test)
+        assert stop["event"] == "stop" and stop["reason"] == ("failsafe" if cond == "battery_tail" else "complete"), stop
         assert log.n_cycles == run["cycles"]
         card = score(log)
         assert card.complete and [c for _, c in card.failsafes] == [run["failsafe_causes_after_completion"]]

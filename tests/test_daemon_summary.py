@@ -132,3 +132,11 @@ def test_a_resumed_run_counts_from_where_it_resumed_and_each_failsafe_once():
     assert "  W0: an earlier run's" in lines and "  W1: an earlier run's" in lines
     assert "  W2: reached, closest approach 0.50 m" in lines
     assert "failsafes: 52 (heading_stale x51, max_mission_time)" in lines
+
+
+def test_the_time_said_is_the_stop_lines():
+    """Under --speedup max the clock ran on through the shutdown: the console said "after 54.0 s" for a stop line
+    (and a review) of 53.11 s (a new user's test)."""
+    loop = _loop(cycles=400, skipped=0)
+    loop.state.stopped_t_s = 38.46
+    assert end_summary(loop, "x", sim=True)[1].startswith("mission complete after 38.5 s:")

@@ -114,6 +114,12 @@ def _replay(args: argparse.Namespace) -> int:
         raise ConfigError(f"--replay {out_dir} {index_text}: INDEX is a run's index (an integer)") from None
     if args.spec is not None:
         raise ConfigError("--replay re-flies a run from DIR/campaign.json: give no spec file")
+    given = [o for o, v in (("--runs", args.runs), ("--seed", args.seed), ("--jobs", args.jobs),
+                            ("--scheduler", args.scheduler)) if v is not None]
+    if given:  # taken and ignored without a word (a new user's test): the run is the campaign's own
+        raise ConfigError(f"--replay re-flies run INDEX as DIR/campaign.json flew it (its seed and runs): "
+                          f"{', '.join(given)} {'has' if len(given) == 1 else 'have'} no say; leave "
+                          f"{'it' if len(given) == 1 else 'them'} out")
     if args.out is not None:
         raise ConfigError("--replay writes the run's log to DIR/replay-INDEX.jsonl, or to --log FILE: --out is "
                           "for a new campaign")

@@ -106,8 +106,9 @@ class _LogWriter:
 
     def _stop(self, t_s: float, flight) -> None:
         end = flight.end_reason or ""
-        reason = {"finished": "complete", "time": "max_mission_time"}.get(end, "signal")
-        if reason == "signal":
+        reason = ({"finished": "complete", "time": "max_mission_time"}.get(end) or
+                  ("failsafe" if end.startswith("failsafe") else "error" if end.startswith("error") else "signal"))
+        if reason not in ("complete", "max_mission_time"):
             self.line("info", t_s, message=f"campaign run ended: {end}")
         closest = [None if not math.isfinite(v) else v for v in
                    (flight.score.closest_by_wp.get(i, math.inf) for i in range(len(flight.score.wps)))]

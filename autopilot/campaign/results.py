@@ -55,20 +55,34 @@ def notice_s(kind: str, failsafe) -> float:
     return {"gnss_lost": failsafe.position_stale_s, "battery_low": failsafe.battery_low_s}.get(kind, 0.0)
 
 
-def _fault_kind(faults, time_s: float, failsafe) -> str:
-    """The run's fault as the by-fault rates count it: only one the run flew long enough after to notice (a fault
-    due after the end counted as a success for that fault: a spec with every fault at 5000 s reported 100 %; and
-    one due less than its notice time before the end was a success the failsafe never had to earn), and that
-    lasted its notice time (a 2-s GNSS loss with position_stale_s 3 s never made the failsafe act, and counted
-    under gnss_lost: noticed beside dfa05b3's fix; one up to a fix period shorter may have, and is not counted
-    either)."""
+# the failsafe causes a fault of each kind raises (a thruster's failure raises none: the daemon cannot see it)
+CAUSES_OF_FAULT = {"gnss_lost": ("position_stale", "no_fix"), "compass_lost": ("compass_port_lost", "heading_stale"),
+                   "nmea_garbage": ("nmea_garbage",), "mbed_lost": ("mbed_port_lost", "mbed_ack_missing"),
+                   "battery_low": ("battery_low", "battery_critical"), "thruster_failure": ()}
+
+
+def _fault_kind(faults, time_s: float, failsafe, *, control_from_s: float | None = 0.0, causes=()) -> str:
+    """The run's fault as the by-fault rates count it: one that overlapped the controlled flight (from
+    ``control_from_s``, the helm's first cycle, to the run's end) for its notice time, or, overlapping it at all,
+    made the failsafe take one of its ``causes`` (the run's failsafe causes). A fault due after the end counted
+    as a success for that fault (a spec with every fault at 5000 s reported 100 %), one due less than its notice
+    time before the end was a success the failsafe never had to earn, a 2-s GNSS loss with position_stale_s 3 s
+    never made the failsafe act (noticed beside dfa05b3's fix), and one over before control started (the boat
+    waiting for its data) was filed a success under its fault (11 % of the shipped spread's, a new user's test);
+    a 2.3-s GNSS loss the failsafe acted on (the last fix older than its time) was not counted."""
     if not faults:
         return ""
     first = faults[0]
-    notice = notice_s(first.kind, failsafe)
-    if first.at_s + notice >= time_s or first.end_s - first.at_s < notice:
+    start = math.inf if control_from_s is None else max(first.at_s, control_from_s)
+    end = min(first.end_s, time_s)
+    if start >= end:
         return NOT_REACHED
-    return first.kind
+    if any(c in CAUSES_OF_FAULT.get(first.kind, ()) for c in causes):
+        return first.kind
+    notice = notice_s(first.kind, failsafe)
+    # over within the run: it lasted its notice time in control; still on at the end: noticed before the end
+    too_short = end - start < notice if first.end_s <= time_s else start + notice >= end
+    return NOT_REACHED if too_short else first.kind
 
 
 def split_failsafes(causes, by_completion: int | None) -> tuple[list[str], list[str]]:
@@ -100,7 +114,8 @@ def run_row(campaign: Campaign, setup, flight, result, *, failsafes_by_completio
         "failsafes": len(during), "failsafe_causes": ";".join(during),
         "failsafes_after_completion": len(after), "failsafe_causes_after_completion": ";".join(after),
         "faults": ";".join(f.describe() for f in setup.faults),
-        "fault_kind": _fault_kind(setup.faults, float(result.time_s), campaign.spec.failsafe),
+        "fault_kind": _fault_kind(setup.faults, float(result.time_s), campaign.spec.failsafe,
+                                  control_from_s=flight.cycle.control_started_s, causes=during),
         "position_dropouts": len(setup.position_dropouts), "heading_dropouts": len(setup.heading_dropouts),
         "hold_time_s": math.nan if hold is None else hold.time_s,
         "hold_position_error_rms_m": math.nan if hold is None else hold.position_error_rms_m,
@@ -125,13 +140,14 @@ def columns(campaign: Campaign) -> list[str]:
 def _text(v) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
-    if isinstance(v, float):
-        return repr(v)
+    if isinstance(v, float):  # no value (a run without a hold) empty, as an input not drawn: it was the text "nan"
+        return "" if math.isnan(v) else repr(v)
     return str(v)
 
 
 def write_runs_csv(rows, path, cols) -> None:
-    """``runs.csv``: one row per run, in index order; an input a run did not draw is empty."""
+    """``runs.csv``: one row per run, in index order; an input a run did not draw, and an outcome it has none of
+    (the hold's for a run without a hold), is empty."""
     with open(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f, lineterminator="\n")
         w.writerow(cols)

@@ -40,6 +40,11 @@ def check_out_dir(out_dir, *, overwrite: bool = False) -> Path:
 
     out = output_dir(out_dir)
     old = _previous(out)
+    if old and not any((out / n).exists() for n in ("campaign.json", "runs.csv", "runs.parquet")):
+        # a review's or an identification's summary.json and report.html, which --overwrite deleted as a campaign's
+        # (the sysid summary a campaign's vessel spreads pointed at, too: a new user's test)
+        raise ConfigError(f"--out {out}: holds another command's results ({', '.join(p.name for p in old[:4])}), not a "
+                          "campaign's: give a directory of its own")
     if old and not overwrite:
         raise ConfigError(f"--out {out}: holds a campaign's results already ({', '.join(p.name for p in old[:4])}"
                           f"{', ...' if len(old) > 4 else ''}): give a new directory, or --overwrite to replace them")

@@ -860,7 +860,7 @@ KEEP_UP_SKIPPED_SHARE = 0.01  # more deadlines skipped than this share: say the 
 def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
     """What the person who started the run wants to know at the end, in a few lines."""
     st = loop.state
-    t_s = loop.clock.now_s() - loop.t0_s
+    t_s = st.stopped_t_s if st.stopped_t_s is not None else loop.clock.now_s() - loop.t0_s  # the stop line's time
     n_wps = len(loop.mission.waypoints_ne_m)
     reached = st.reached
     lines = [f"log: {log_path}"]

@@ -80,6 +80,9 @@ class LoopState:
     completed_t_s: float | None = None  # mission time the route was complete (Autopilot.complete)
     finished: bool = False  # the mission's final action is to stop and it has
     passes_done: bool = False  # the last pass has ended (final_pass_s after completion)
+    # mission time of the stop line (the end summary's; under --speedup max the clock went on through the shutdown:
+    # the console said 54.0 s for a stop line's 53.11, a new user's test)
+    stopped_t_s: float | None = None
     reached: list[int] = field(default_factory=list)
     failsafe_causes: list[str] = field(default_factory=list)
     closest_m: dict[int, float] = field(default_factory=dict)  # wp -> closest approach of its ended pass
@@ -630,8 +633,9 @@ class ControlLoop:
         # start until someone with a shell passed --fresh
         if self._saved_running or self.hold_zero is None or status != "stopped" or self.failsafe.latched:
             self._save(status, saved_reason)
+        st.stopped_t_s = self.clock.now_s() - self.t0_s
         self.log.event(
-            "stop", t_s=self.clock.now_s() - self.t0_s, reason=reason, signal=st.stop_signal, ack_received=ack,
+            "stop", t_s=st.stopped_t_s, reason=reason, signal=st.stop_signal, ack_received=ack,
             cycles=st.cycles, skipped_cycles=st.skipped, late_cycles=st.late_cycles,
             speedup_held=self.speedup_held(), nmea_dropped=self.compass.lines_dropped,
             ack_missing=int(self.thrusters.ack_missing),
