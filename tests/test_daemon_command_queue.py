@@ -80,3 +80,21 @@ def test_a_distance_limit_below_where_the_boat_is_is_refused():
                                  "(the failsafe would take the boat at once, latched)") and not applied
     ok, answer = _param_set(loop, {**request, "value": 150.0}, here, "", "link")
     assert ok and applied[-1].failsafe.max_distance_m == 150.0
+
+
+def test_manual_is_chosen_while_disarmed_then_armed_at_neutral_sticks():
+    """Found by a new user's test of the link: disarmed, DO_SET_MODE MANUAL was DENIED ("arm first") while every
+    other mode was accepted: ArduPilot Rover's sequence (MANUAL, then arm) was refused, and a user armed in AUTO,
+    where the boat drove at once."""
+    from autopilot.daemon.commands import _manual
+    from autopilot.gnc import Autopilot, GncConfig
+
+    ap = Autopilot(GncConfig(), [(10.0, 0.0)], armed=False)
+    loop = SimpleNamespace(ap=ap, state=SimpleNamespace(manual_input_wall_s=None),
+                           clock=SimpleNamespace(wall_elapsed_s=lambda: 1.0))
+    ok, answer = _manual(loop, {"command": "manual", "explicit": True, "forward_nd": 0.0, "turn_nd": 0.0}, None, "", "link")
+    assert ok and ap.mode is Mode.MANUAL and not ap.armed, answer
+    _manual(loop, {"command": "manual", "forward_nd": 0.6, "turn_nd": 0.0}, None, "", "link")  # the stick forward
+    assert ap.request("arm", None, cause="link")[0] is False  # the arming check: sticks at neutral
+    _manual(loop, {"command": "manual", "forward_nd": 0.0, "turn_nd": 0.0}, None, "", "link")
+    assert ap.request("arm", None, cause="link") == (True, "armed") and ap.mode is Mode.MANUAL

@@ -118,8 +118,9 @@ def _manual(loop, request, helm_nav, unavailable, cause):
             # MANUAL_CONTROL whenever a joystick is on, sticks centred or not, and the packet after every mode change
             # (rtl, auto, a failsafe's stop) took the boat back to manual (found by fault injection and a GCS audit)
             return False, f"stick input ignored: mode {loop.ap.mode.value} (choose MANUAL to drive by stick)"
-        if not loop.ap.armed:
-            return False, "manual refused: disarmed (arm first)"
+        # disarmed, manual is chosen as ArduPilot Rover's sequence has it (MANUAL, then arm: the arming check wants
+        # the sticks at neutral); refused, a user armed in AUTO or RTL, where the boat drove at once (a new user's
+        # test of the link). Disarmed, the thrust stays zero whatever the mode
         loop.ap.request("manual", None, cause=cause)
         loop.ap.set_sticks(request.get("forward_nd", 0.0), request.get("turn_nd", 0.0))
         return True, "manual"
