@@ -85,6 +85,7 @@ class ControlCycle:
         self.last_cmd: ThrustCommand = ZERO_THRUST
         self.steered_error_rad: float | None = None  # the heading error the helm steered by last cycle
         self.failsafe_causes: list[str] = []  # every failsafe taken, in order (transient and latched)
+        self.failsafe_times_s: list[float] = []  # when each was taken (mission time)
         self.control_started_s: float | None = None  # the first cycle the helm drove (before it: waiting)
 
     @property
@@ -123,6 +124,7 @@ class ControlCycle:
                 events.append((ev.name, ev.fields))
                 if ev.name == "failsafe":
                     self.failsafe_causes.append(ev.fields.get("cause"))
+                    self.failsafe_times_s.append(now_s)
             if decision.requests:  # a latched fault's action (ControlLoop._failsafe_action)
                 helm_nav, unavailable = steps.helm_nav(nav, decision)
             for req in decision.requests:
@@ -130,6 +132,7 @@ class ControlCycle:
                 events.append(("failsafe", {"cause": req.cause, "action": action, "configured": req.configured,
                                             "fallback": fallback}))
                 self.failsafe_causes.append(req.cause)
+                self.failsafe_times_s.append(now_s)
             mode, drive = steps.arbitrate(decision, steerable=nav.steerable, manual=ap.mode is Mode.MANUAL)
             active = decision.active
         self.driving = self.driving and drive

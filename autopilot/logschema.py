@@ -119,6 +119,8 @@ LATCHED_CAUSES = frozenset({"geofence", "max_mission_time", "max_distance", "bat
 # what a failsafe may do (ArduPilot's FS_ACTION); "stop" needs nothing, the others a position and a heading
 FAILSAFE_ACTIONS: tuple[str, ...] = ("stop", "hold", "rtl")
 COMMANDS: tuple[str, ...] = ("status", "hold", "pause", "resume", "rtl", "stop", "arm", "disarm", "speed")  # autopilot ctl's
+# served and queued whatever the load (the control socket's connections, the loop's queue): each only takes thrust away
+NEVER_REFUSED: frozenset[str] = frozenset({"stop", "disarm"})
 # "failsafe": a campaign's replay only (autopilot campaign --replay), a run the campaign ended where a latched failsafe
 # took the boat (the daemon stays up at zero thrust there); its log said "signal", with no signal (a new user's test)
 STOP_REASONS: tuple[str, ...] = ("signal", "complete", "error", "max_mission_time", "failsafe")

@@ -933,8 +933,10 @@ def test_a_fault_over_before_control_started_is_not_counted_and_one_the_failsafe
     assert _fault_kind([early], 60.0, fs, control_from_s=None) == "not reached"  # control never started
     gnss = Fault("gnss_lost", at_s=12.9, duration_s=2.3)
     assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0) == "not reached"  # shorter than position_stale_s
-    assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0, causes=("position_stale",)) == "gnss_lost"
-    assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0, causes=("heading_stale",)) == "not reached"
+    assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0, causes=[(15.0, "position_stale")]) == "gnss_lost"
+    assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0, causes=[(15.0, "heading_stale")]) == "not reached"
+    # a position_stale of a dropout long before the loss is not the loss's (a review)
+    assert _fault_kind([gnss], 60.0, fs, control_from_s=8.0, causes=[(9.0, "position_stale")]) == "not reached"
     # half of it before control: what is left (3.5 s) is long enough to notice
     assert _fault_kind([Fault("gnss_lost", at_s=5.0, duration_s=6.5)], 60.0, fs, control_from_s=8.0) == "gnss_lost"
 

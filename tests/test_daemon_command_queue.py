@@ -16,38 +16,49 @@ from autopilot.logschema import Mode
 
 
 def _loop():
-    return SimpleNamespace(commands=collections.deque(), _flooded=False, log_event=lambda *a, **k: None,
-                           ap=SimpleNamespace(mode=Mode.AUTO))
+    return SimpleNamespace(commands=collections.deque(), _queued=collections.Counter(), _flooded=False,
+                           log_event=lambda *a, **k: None, ap=SimpleNamespace(mode=Mode.AUTO),
+                           _enqueue=None)
 
 
 def _submit(loop, request):
+    loop._enqueue = lambda r, a: ControlLoop._enqueue(loop, r, a)
     answers = []
     ControlLoop.submit(loop, request, answers.append)
     return answers
 
 
-def test_one_flooding_source_does_not_lock_out_the_others():
+def test_a_flood_of_one_command_does_not_lock_out_the_operator():
+    """Every station's requests come as source "mavlink" (the link's), the flood's and the operator's alike."""
     loop = _loop()
     for _ in range(5 * COMMANDS_QUEUED_PER_SOURCE_MAX):
-        _submit(loop, {"command": "speed", "speed_m_s": 1.0, "source": "mavlink 254"})
+        _submit(loop, {"command": "speed", "speed_m_s": 1.0, "source": "mavlink"})
     assert len(loop.commands) == COMMANDS_QUEUED_PER_SOURCE_MAX
-    refused = _submit(loop, {"command": "speed", "speed_m_s": 1.0, "source": "mavlink 254"})
-    assert refused and refused[0]["busy"] and "commands of mavlink 254 already waiting" in refused[0]["answer"]
-    for command in ("hold", "disarm"):
-        assert _submit(loop, {"command": command, "source": "mavlink 255"}) == []  # queued, answered in a cycle
+    refused = _submit(loop, {"command": "speed", "speed_m_s": 1.0, "source": "mavlink"})
+    assert refused and refused[0]["busy"] and "speed commands of mavlink already waiting" in refused[0]["answer"]
+    for command in ("hold", "rtl", "arm", "disarm"):
+        assert _submit(loop, {"command": command, "source": "mavlink"}) == []  # queued, answered in a cycle
     assert _submit(loop, {"command": "stop", "source": "ctl"}) == []
-    assert [r["command"] for r, _ in list(loop.commands)[-3:]] == ["hold", "disarm", "stop"]
+    assert [r["command"] for r, _ in list(loop.commands)[-5:]] == ["hold", "rtl", "arm", "disarm", "stop"]
+    while loop.commands:  # the cycles take them: the counts follow
+        ControlLoop.next_command(loop)
+    assert not +loop._queued
 
 
-def test_stop_and_disarm_are_never_refused_for_a_full_queue():
+def test_stop_disarm_and_a_failsafes_request_are_never_refused_nor_queued_twice():
     loop = _loop()
     for k in range(COMMANDS_QUEUED_MAX):
-        _submit(loop, {"command": "speed", "speed_m_s": 1.0, "source": f"station {k % 10}"})
+        _submit(loop, {"command": f"c{k % 10}", "source": "mavlink"})
     assert len(loop.commands) == COMMANDS_QUEUED_MAX
     assert _submit(loop, {"command": "hold", "source": "ctl"})[0]["busy"]
-    for command in ("stop", "disarm"):
-        assert _submit(loop, {"command": command, "source": "ctl"}) == []
-    assert [r["command"] for r, _ in list(loop.commands)[-2:]] == ["stop", "disarm"]
+    lost = {"command": "rtl", "source": "mavlink", "cause": "mavlink: ground station lost", "failsafe": True}
+    for request in ({"command": "stop", "source": "ctl"}, {"command": "disarm", "source": "mavlink"}, lost):
+        assert _submit(loop, request) == []
+    assert [r["command"] for r, _ in list(loop.commands)[-3:]] == ["stop", "disarm", "rtl"]
+    for _ in range(20_000):  # a flood of disarms is one disarm waiting
+        again = _submit(loop, {"command": "disarm", "source": "mavlink"})
+        assert again[0]["ok"] and "waiting already" in again[0]["answer"]
+    assert len(loop.commands) == COMMANDS_QUEUED_MAX + 3
 
 
 def test_a_stick_packet_replaces_a_stick_packet_not_a_choice_of_manual():
@@ -98,3 +109,26 @@ def test_manual_is_chosen_while_disarmed_then_armed_at_neutral_sticks():
     assert ap.request("arm", None, cause="link")[0] is False  # the arming check: sticks at neutral
     _manual(loop, {"command": "manual", "forward_nd": 0.0, "turn_nd": 0.0}, None, "", "link")
     assert ap.request("arm", None, cause="link") == (True, "armed") and ap.mode is Mode.MANUAL
+
+
+def test_manual_chosen_disarmed_waits_for_the_arm_before_its_silence_counts():
+    """A review: MANUAL chosen disarmed without a joystick took the manual timeout's hold half a second later, so
+    the arm ran the thrusters keeping station."""
+    from autopilot.daemon.config import DaemonConfig
+    from autopilot.gnc import Autopilot, GncConfig
+
+    ap = Autopilot(GncConfig(), [(10.0, 0.0)], armed=False)
+    ap.request("manual", None, cause="link")
+    now = [100.0]
+    loop = SimpleNamespace(ap=ap, cfg=DaemonConfig(), state=SimpleNamespace(manual_input_wall_s=100.0),
+                           clock=SimpleNamespace(wall_elapsed_s=lambda: now[0]))
+    for now[0] in (100.2, 101.0, 105.0):  # disarmed and silent for 5 s: still manual
+        ControlLoop._manual_timeout(loop, None, "no position", now[0])
+        assert ap.mode is Mode.MANUAL
+    assert ap.request("arm", None, cause="link") == (True, "armed")
+    now[0] = 105.3
+    ControlLoop._manual_timeout(loop, None, "no position", now[0])
+    assert ap.mode is Mode.MANUAL  # 0.3 s since the arm
+    now[0] = 106.0
+    ControlLoop._manual_timeout(loop, None, "no position", now[0])
+    assert ap.mode is not Mode.MANUAL  # then the silence counts: the configured action (stop without a position)

@@ -41,3 +41,25 @@ def test_udpout_reads_its_ground_station_and_nobody_else():
             stranger.close()
 
     asyncio.run(run())
+
+
+def test_udpout_to_a_name_not_known_yet_opens_and_waits_and_localhost_is_ipv4():
+    """A review of the first fix (a socket connected to HOST:PORT): a name not known at boot stopped the daemon
+    (exit 2, which systemd does not restart), and localhost resolved to ::1 first on Debian, deaf to an IPv4
+    station. The name is resolved off the event loop, IPv4 as the socket, and asked again later."""
+    async def run():
+        ep = open_endpoint(parse_endpoint("udpout:gcs-laptop.invalid:14550"), 65536)
+        await ep.open()  # no error: nothing sent or read until the name is known
+        try:
+            ep.send(b"heartbeat")
+            assert ep.station_addr is None and ep.tx_errors == 1
+        finally:
+            await ep.close()
+        ep = open_endpoint(parse_endpoint("udpout:localhost:14550"), 65536)
+        await ep.open()
+        try:
+            assert ep.station_addr == ("127.0.0.1", 14550)
+        finally:
+            await ep.close()
+
+    asyncio.run(run())

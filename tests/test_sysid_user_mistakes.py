@@ -185,3 +185,36 @@ def test_noise_bounds_with_a_steady_state_table_are_refused(tmp_path):
                    "--gps-wander-max", "2", check=False)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "--gps-wander-max: bound the trials' sensor noise; a steady-state table (--table) has none" in proc.stderr
+
+
+def _straight(heading_deg: float, course_deg: float, thrust_n: float, *, fix_lag_s: float = 0.0):
+    """60 s at 1.2 m/s along ``course_deg`` with the bow at ``heading_deg``, a fix a second, 10 rows a second."""
+    import numpy as np
+
+    from autopilot.sysid.trials import make_trial
+
+    t = np.round(np.arange(0.0, 60.0, 0.1), 3)
+    c = np.radians(course_deg)
+    fix = np.isclose(t % 1.0, 0.0) | np.isclose(t % 1.0, 1.0)
+    n = np.where(fix, 1.2 * t * np.cos(c), np.nan)
+    e = np.where(fix, 1.2 * t * np.sin(c), np.nan)
+    return make_trial("t", t, north_m=n, east_m=e, heading_deg=np.full(t.size, heading_deg),
+                      thrust_port_n=np.full(t.size, thrust_n), thrust_stbd_n=np.full(t.size, thrust_n),
+                      position_time_s=np.where(fix, t + fix_lag_s, np.nan))
+
+
+def test_a_run_astern_or_a_drift_with_the_bow_near_north_is_not_taken_for_radians():
+    """A review of the radians refusal: a run astern at 1.2 m/s with the bow steady at 3 deg (3 rad is 172 deg) and
+    a drift east with the bow at 1.5 deg were refused as radians, with no way round. The track is compared with
+    the heading only while the thrust is ahead."""
+    assert _straight(3.0, 180.0, -15.0).counts["position_fixes"] > 50  # astern
+    assert _straight(1.5, 90.0, 0.0).counts["position_fixes"] > 50  # a drift at zero thrust
+    with pytest.raises(ConfigError, match="radians"):
+        _straight(math.radians(90.0), 90.0, 15.0)  # ahead: the same values are radians
+
+
+def test_a_row_clock_a_little_behind_the_receivers_is_not_another_clock():
+    """A review: a row clock 50 ms behind the receiver's time of fix was refused as another clock (10 ms allowed)."""
+    assert _straight(90.0, 90.0, 15.0, fix_lag_s=0.05).counts["position_fixes"] > 50
+    with pytest.raises(ConfigError, match="after the row's t_s"):
+        _straight(90.0, 90.0, 15.0, fix_lag_s=2.0)

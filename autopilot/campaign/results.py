@@ -64,7 +64,8 @@ CAUSES_OF_FAULT = {"gnss_lost": ("position_stale", "no_fix"), "compass_lost": ("
 def _fault_kind(faults, time_s: float, failsafe, *, control_from_s: float | None = 0.0, causes=()) -> str:
     """The run's fault as the by-fault rates count it: one that overlapped the controlled flight (from
     ``control_from_s``, the helm's first cycle, to the run's end) for its notice time, or, overlapping it at all,
-    made the failsafe take one of its ``causes`` (the run's failsafe causes). A fault due after the end counted
+    made the failsafe take one of its causes while it lasted (``causes``: the run's (time, cause); a dropout's
+    position_stale 160 s before a short GNSS loss counted it: a review). A fault due after the end counted
     as a success for that fault (a spec with every fault at 5000 s reported 100 %), one due less than its notice
     time before the end was a success the failsafe never had to earn, a 2-s GNSS loss with position_stale_s 3 s
     never made the failsafe act (noticed beside dfa05b3's fix), and one over before control started (the boat
@@ -77,9 +78,11 @@ def _fault_kind(faults, time_s: float, failsafe, *, control_from_s: float | None
     end = min(first.end_s, time_s)
     if start >= end:
         return NOT_REACHED
-    if any(c in CAUSES_OF_FAULT.get(first.kind, ()) for c in causes):
-        return first.kind
     notice = notice_s(first.kind, failsafe)
+    # taken while it lasted, or within its notice time and a fix period after (the last fix's age decides)
+    if any(c in CAUSES_OF_FAULT.get(first.kind, ()) and first.at_s <= t <= first.end_s + notice + 1.0
+           for t, c in causes):
+        return first.kind
     # over within the run: it lasted its notice time in control; still on at the end: noticed before the end
     too_short = end - start < notice if first.end_s <= time_s else start + notice >= end
     return NOT_REACHED if too_short else first.kind
@@ -115,7 +118,8 @@ def run_row(campaign: Campaign, setup, flight, result, *, failsafes_by_completio
         "failsafes_after_completion": len(after), "failsafe_causes_after_completion": ";".join(after),
         "faults": ";".join(f.describe() for f in setup.faults),
         "fault_kind": _fault_kind(setup.faults, float(result.time_s), campaign.spec.failsafe,
-                                  control_from_s=flight.cycle.control_started_s, causes=during),
+                                  control_from_s=flight.cycle.control_started_s,
+                                  causes=list(zip(flight.cycle.failsafe_times_s, flight.cycle.failsafe_causes))[:len(during)]),
         "position_dropouts": len(setup.position_dropouts), "heading_dropouts": len(setup.heading_dropouts),
         "hold_time_s": math.nan if hold is None else hold.time_s,
         "hold_position_error_rms_m": math.nan if hold is None else hold.position_error_rms_m,

@@ -521,7 +521,7 @@ def _longer_than_allowed(cfg: DaemonConfig, mission, start_index: int, speed_m_s
     fs = cfg.failsafe
     if speed_m_s is not None:  # the operator's speed on every leg
         mission = dataclasses.replace(mission, speeds_m_s=(speed_m_s,) * len(mission.waypoints_ne_m))
-    planned_s = mission.planned_time_s(cfg.gnc.guidance.default_speed_m_s, start_index)
+    planned_s = mission.planned_time_s(speed_m_s or cfg.gnc.guidance.default_speed_m_s, start_index)  # rtl's too
     if not math.isfinite(planned_s) or planned_s <= fs.max_mission_time_s:
         return None
     return (f"the route takes at least {planned_s:.0f} s at its speeds (straight legs and holds{', the return' if mission.rtl else ''}), "

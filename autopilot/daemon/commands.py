@@ -134,6 +134,8 @@ def _set_current(loop, request, helm_nav, unavailable, cause):
                                      also="" if item is None else f"mission item {int(item)}")
     if ok:
         loop.passes_restart()
+        # a jump back before where a resumed run began makes those waypoints this run's (it said "9 of 7": a review)
+        loop.start_index = min(getattr(loop, "start_index", 0), loop.ap.wp_index)
         loop.save_progress("running")
     return ok, answer
 

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from autopilot.daemon.missionlog import json_ready
 from autopilot.gnc.speed import SPEED_RANGE, is_speed
-from autopilot.logschema import COMMANDS
+from autopilot.logschema import COMMANDS, NEVER_REFUSED
 from autopilot.schema import ConfigError
 
 __all__ = ["SOCKET_NAME", "MAX_REQUEST_BYTES", "READ_TIMEOUT_S", "SYSTEMD_RUNTIME_DIR", "daemon_runtime_dir",
@@ -42,7 +42,6 @@ READ_TIMEOUT_S = 2.0
 ANSWER_TIMEOUT_S = 5.0  # the loop answers within a cycle; this only bounds a stalled daemon
 MAX_CLIENTS = 8
 REFUSALS_LOGGED_PER_S = 10  # beyond: counted, and said in one line a second (a looping client filled the disk)
-ALWAYS_SERVED = frozenset({"stop", "disarm"})  # served however many connections are open
 SYSTEMD_RUNTIME_DIR = Path("/run/wamv-autopilot")  # RuntimeDirectory=wamv-autopilot in the unit
 FIELDS = {"command": "one of " + ", ".join(COMMANDS), "heading_deg": "hold: the heading to keep, [0, 360) deg",
           "speed_m_s": f"speed: the legs' speed, {SPEED_RANGE}, or null for the mission's planned ones"}
@@ -272,7 +271,7 @@ class ControlServer:
             return self._refuse(line[:32].decode("utf-8", "replace").strip(), problem)
         # the limit is judged on the request read, and never on stopping the boat: 8 idle connections held
         # open once refused every `ctl stop`
-        if self._clients > MAX_CLIENTS and req["command"] not in ALWAYS_SERVED:
+        if self._clients > MAX_CLIENTS and req["command"] not in NEVER_REFUSED:
             return self._refuse(req["command"], f"busy: more than {MAX_CLIENTS} requests at once")
         if req["command"] == "status":
             return {"ok": True, "answer": "status", "status": json_ready(self._status())}

@@ -39,6 +39,7 @@ from autopilot.logschema import (
     COMPASS_BACK,
     COURSE_FOR_HEADING,
     FAILSAFE_CAUSE_PREFIX,
+    NEVER_REFUSED,
     RTL_ARRIVED_CAUSE,
     TIME_STOP_CAUSE,
     Mode,
@@ -52,11 +53,10 @@ __all__ = ["LoopState", "ControlLoop", "watchdog_due", "COMMANDS_PER_CYCLE", "CO
 # skipped deadlines, with a log growing 0.5 MB/s; the loop's timing comes first, a command waits or is refused.
 COMMANDS_PER_CYCLE = 5
 COMMANDS_QUEUED_MAX = 100
-# one source's commands waiting at most: a station sending 2000 a second filled the whole queue, and the operator's
-# DISARM, HOLD and `autopilot ctl stop` were refused while the boat drove on (a new user's test of the link)
+# one command's waiting at most from one source: a station sending 2000 DO_CHANGE_SPEED a second filled the whole
+# queue, and the operator's DISARM, HOLD and `autopilot ctl stop` were refused while the boat drove on (a new
+# user's test of the link). Every station's requests come as source "mavlink": the cap is per command too
 COMMANDS_QUEUED_PER_SOURCE_MAX = 20
-# never refused for a full queue: each only takes thrust away
-COMMANDS_NEVER_REFUSED = ("stop", "disarm")
 
 
 def watchdog_due(*, ready: bool, lateness_s: float, period_s: float, since_last_s: float, interval_s: float) -> bool:
@@ -142,6 +142,7 @@ class ControlLoop:
         self._item_numbers: ItemNumbers | None = None
         self.state = LoopState()
         self.commands: collections.deque = collections.deque()  # (request, answer callback), from the socket
+        self._queued: collections.Counter = collections.Counter()  # (source, command) -> waiting in self.commands
         self._flooded = False  # commands were refused since the queue was last empty
         if hold_zero is not None:
             self.ap.request("stop", None, cause=f"start: {hold_zero}")
@@ -193,7 +194,7 @@ class ControlLoop:
         armed_before, mode_before, cause_before = self.ap.armed, self.ap.mode, self.ap.mode_cause
         speed_before = self.ap.speed_m_s
         for _ in range(min(len(self.commands), COMMANDS_PER_CYCLE)):
-            request, answer = self.commands.popleft()
+            request, answer = self.next_command()
             answer(commands.apply(self, request, helm_nav, unavailable, decision, t_s))
         if (self.ap.armed, self.ap.speed_m_s) != (armed_before, speed_before):  # remembered across a restart
             self._save_operator_settings()
@@ -281,20 +282,40 @@ class ControlLoop:
             self.commands[-1] = (request, answer)  # the newer stick position replaces the one not yet applied
             superseded({"ok": True, "answer": "manual (superseded by a newer input)", "mode": self.ap.mode.value})
             return
-        source = request.get("source")
-        mine = sum(1 for queued, _ in self.commands if queued.get("source") == source)
+        source, command = request.get("source"), request.get("command")
+        if command in NEVER_REFUSED or request.get("failsafe"):
+            # never refused for a full queue (each only takes thrust away, or is a failsafe's: the link-loss rtl
+            # was refused and never asked again); the same request waiting already is not queued twice (20,000
+            # disarms took 6.7 s of the event loop and held the queue for minutes: a review)
+            if any(queued == request for queued, _ in self.commands):
+                answer({"ok": True, "answer": f"{command}: the same request is waiting already",
+                        "mode": self.ap.mode.value})
+                return
+            self._enqueue(request, answer)
+            return
+        mine = self._queued[(source, command)]
         full = len(self.commands) >= COMMANDS_QUEUED_MAX or mine >= COMMANDS_QUEUED_PER_SOURCE_MAX
-        if full and request.get("command") not in COMMANDS_NEVER_REFUSED:
+        if full:
             if not self._flooded:  # once per flood: until the queue has drained
                 self._flooded = True
                 self.log_event("info", message="commands refused: queue full", queued=len(self.commands),
                                source=str(request.get("source")))
-            answer({"ok": False, "busy": True, "answer": f"{request.get('command')} refused: "
-                    + (f"{mine} commands of {source} already waiting" if mine >= COMMANDS_QUEUED_PER_SOURCE_MAX
+            answer({"ok": False, "busy": True, "answer": f"{command} refused: "
+                    + (f"{mine} {command} commands of {source} already waiting" if mine >= COMMANDS_QUEUED_PER_SOURCE_MAX
                        else f"{len(self.commands)} commands already waiting") + " (a flood?)",
                     "mode": self.ap.mode.value})
             return
+        self._enqueue(request, answer)
+
+    def _enqueue(self, request: dict, answer) -> None:
         self.commands.append((request, answer))
+        self._queued[(request.get("source"), request.get("command"))] += 1
+
+    def next_command(self):
+        """The oldest command waiting (request, answer), taken off the queue."""
+        request, answer = self.commands.popleft()
+        self._queued[(request.get("source"), request.get("command"))] -= 1
+        return request, answer
 
     def replace_mission(self, mission, *, source: str, cause: str) -> None:
         """A new mission (same local origin) from its first waypoint, saved so that a restart continues it."""
@@ -343,6 +364,11 @@ class ControlLoop:
         """A manual source gone quiet: the configured hold (or stop), never the last stick position."""
         st, link = self.state, self.cfg.mavlink
         if self.ap.mode is not Mode.MANUAL:
+            return
+        if not self.ap.armed:
+            # disarmed nothing drives, and the silence counts from the arm: MANUAL chosen disarmed went to the hold
+            # half a second later, and the arm then ran the thrusters keeping station (a review)
+            st.manual_input_wall_s = self.clock.wall_elapsed_s()
             return
         silent_s = self.clock.wall_elapsed_s() - st.manual_input_wall_s
         if silent_s <= link.manual_timeout_s:

@@ -1,8 +1,8 @@
 """MAVLink endpoints: UDP out, UDP in, a serial radio. Bytes in a bounded queue, bytes out without blocking.
 
     udpout:HOST:PORT   send to a ground station listening there (QGC's default 127.0.0.1:14550);
-                       its replies come back to the same socket, connected to HOST:PORT: datagrams from
-                       anywhere else are not read (on 0.0.0.0 a DISARM from any host disarmed the boat)
+                       its replies come back to the same socket, and only its: datagrams from any other
+                       address and port are dropped (read, a DISARM from any host disarmed the boat)
     udpin:ADDR:PORT    listen on that address only; reply to every peer heard in the last PEER_TIMEOUT_S
     /dev/PATH:BAUD     a telemetry radio (serial:/dev/PATH:BAUD too)
 
@@ -17,14 +17,17 @@ import asyncio
 import collections
 import contextlib
 import ipaddress
+import math
 import os
 import re
+import socket
 import time
 from dataclasses import dataclass
 
 __all__ = ["EndpointSpec", "parse_endpoint", "Endpoint", "UdpEndpoint", "SerialEndpoint", "open_endpoint"]
 
 PEER_TIMEOUT_S = 10.0
+STATION_RESOLVE_S = 10.0  # udpout: a datagram from elsewhere asks the station's name again, at most this often
 SERIAL_BAUDS = (9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600)
 
 
@@ -134,6 +137,8 @@ class _Datagrams(asyncio.DatagramProtocol):
         self.owner = owner
 
     def datagram_received(self, data: bytes, addr) -> None:
+        if not self.owner.from_station(addr):
+            return
         self.owner.peers[addr] = time.monotonic()
         self.owner._queue(data, addr)
 
@@ -148,15 +153,62 @@ class UdpEndpoint(Endpoint):
         super().__init__(spec, rx_queue_bytes)
         self.transport: asyncio.DatagramTransport | None = None
         self.peers: dict = {}
+        self.station: frozenset = frozenset()  # udpout: the ground station's addresses (_resolve_station)
+        self.station_addr: tuple | None = None  # udpout: where to send (its first IPv4 address, the port)
+        self._resolved_s = -math.inf
+        self._resolving = False
+        self.rx_foreign = 0  # udpout: datagrams dropped, not from the station
 
     async def open(self) -> None:
         loop = asyncio.get_running_loop()
         if self.spec.kind == "udpin":
             self.transport, _ = await loop.create_datagram_endpoint(
                 lambda: _Datagrams(self), local_addr=(self.spec.host, self.spec.port))
-        else:  # connected: the kernel delivers only the ground station's datagrams (a new user's test of the link)
+        else:
+            # not connected: a socket connected to HOST:PORT resolved the name once at start (a name not yet known
+            # at boot stopped the daemon), took the resolver's first address (::1 for localhost on Debian, deaf to an
+            # IPv4 station) and kept its source address across a network change (a review)
             self.transport, _ = await loop.create_datagram_endpoint(lambda: _Datagrams(self),
-                                                                    remote_addr=(self.spec.host, self.spec.port))
+                                                                    local_addr=("0.0.0.0", 0))
+            await self._resolve_station()
+
+    async def _resolve_station(self) -> None:
+        """The ground station's addresses (its name resolved off the event loop); none while it cannot be."""
+        self._resolved_s = time.monotonic()
+        try:  # IPv4, as the socket: localhost is ::1 first on Debian, which an IPv4 station never hears
+            infos = await asyncio.get_running_loop().getaddrinfo(self.spec.host, self.spec.port, family=socket.AF_INET,
+                                                                 type=socket.SOCK_DGRAM)
+        except OSError:  # not known (yet): nothing sent or read until it is, asked again in STATION_RESOLVE_S
+            self.station, self.station_addr = frozenset(), None
+            return
+        self.station = frozenset(info[4][0] for info in infos)
+        self.station_addr = (infos[0][4][0], self.spec.port) if infos else None
+
+    def _resolve_later(self) -> None:
+        """Ask the station's name again (at most every STATION_RESOLVE_S, off the event loop): it may point
+        elsewhere now (a DHCP lease), or be known at last (DNS up late at boot)."""
+        if time.monotonic() - self._resolved_s <= STATION_RESOLVE_S or self._resolving:
+            return
+        self._resolving = True
+
+        async def again():
+            try:
+                await self._resolve_station()
+            finally:
+                self._resolving = False
+
+        asyncio.get_running_loop().create_task(again())
+
+    def from_station(self, addr) -> bool:
+        """A datagram from ``addr`` is read: udpin reads everyone's on its address; udpout only its station's (a
+        DISARM from another host, or another port of this one, disarmed the boat: a new user's test of the link)."""
+        if self.spec.kind != "udpout":
+            return True
+        if addr[0] in self.station and addr[1] == self.spec.port:
+            return True
+        self.rx_foreign += 1
+        self._resolve_later()
+        return False
 
     @property
     def local_port(self) -> int:
@@ -167,7 +219,13 @@ class UdpEndpoint(Endpoint):
             return
         try:
             if self.spec.kind == "udpout":
-                self.transport.sendto(data)  # to the address it is connected to
+                # to the resolved address: sent to the name, each datagram resolved it on the event loop (seconds
+                # each while DNS did not answer: 11 cycles in a minute, a review)
+                if self.station_addr is None:
+                    self.tx_errors += 1
+                    self._resolve_later()
+                    return
+                self.transport.sendto(data, self.station_addr)
             elif to is not None and to in self.peers:
                 # a reply to one station of several on this port: a DENIED meant for a second planner went to the
                 # one uploading too, with the same ids (both 255/190), and ended that station's upload

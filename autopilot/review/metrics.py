@@ -324,7 +324,8 @@ class Scorecard:
         if self.stop_reason == "complete":
             return "complete: mission complete"
         if self.stop_reason == "failsafe":  # a campaign's replay ends a run there (logschema.STOP_REASONS)
-            return "ended where a latched failsafe took the boat (a campaign's run)"
+            return (("route complete; then " if self.complete else "")
+                    + "ended where a latched failsafe took the boat (a campaign's run)")
         if self.finished:  # stayed up after the mission's stop, for a ground station, until stopped
             return f"mission complete; then stopped by {self.stop_signal or self.stop_reason or 'a kill (no stop line)'}"
         how = self.stop_reason or "no stop line (killed?)"

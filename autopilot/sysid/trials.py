@@ -183,8 +183,9 @@ def check_times(t: np.ndarray, row_name, *, wall_clock: bool = True) -> None:
                           "each part a trial of its own")
 
 
-# a measurement dated this far after the row that carries it is on another clock (a CSV's times are to the millisecond)
-MEASURED_AFTER_ROW_S = 0.01
+# a measurement dated this far after the row that carries it (or two rows' steps, if more) is on another clock: the
+# shifts found were seconds; 10 ms refused a row clock 50 ms behind the receiver's, or t_s cut to 0.1 s (a review)
+MEASURED_AFTER_ROW_S = 0.5
 # the median age of the measurements where they first appear, beyond this: another clock, not a slow sensor (a fix
 # reaches a 10 Hz logger within ~0.2 s of its time)
 ARRIVAL_AGE_MAX_S = 3.0
@@ -201,7 +202,9 @@ def check_measurement_times(t_row_s: np.ndarray, times_s: np.ndarray | None, col
     if rows.size == 0:
         return
     age = t_row_s[rows] - times_s[rows]
-    late = np.flatnonzero(age < -MEASURED_AFTER_ROW_S)
+    steps = np.diff(t_row_s[np.isfinite(t_row_s)])
+    tolerance_s = max(MEASURED_AFTER_ROW_S, 2.0 * float(np.median(steps))) if steps.size else MEASURED_AFTER_ROW_S
+    late = np.flatnonzero(age < -tolerance_s)
     same_clock = f"{column} is when the row's measurement was taken, on t_s's clock (another clock? a column shifted?)"
     if late.size:
         i = rows[late[0]]
@@ -423,8 +426,13 @@ def make_trial(
         raise ConfigError(f"trial {name}: {int(fix_new.sum())} position fixes and {int(hdg_new.sum())} headings "
                           f"usable (need {MIN_FIXES} and {MIN_HEADINGS})")
     try:
+        forward = tp + ts >= AHEAD_MIN_N
+
+        def ahead(times_s):
+            return forward[np.clip(np.searchsorted(t_sel, times_s, side="right") - 1, 0, t_sel.size - 1)]
+
         track_note = check_heading_units(np.where(fix_new, fix_t, np.nan), n, e, np.where(hdg_new, hdg_t, np.nan),
-                                         heading)
+                                         heading, ahead)
     except ConfigError as exc:
         raise ConfigError(f"trial {name}: {exc}") from None
     return Trial(
@@ -453,12 +461,15 @@ TRACK_SPAN_S, TRACK_MIN_M, TRACK_MIN_SPEED_M_S = 5.0, 5.0, 0.5
 TRACK_MIN_STRETCHES = 5
 HEADING_AGREES_DEG, HEADING_DISAGREES_DEG = 30.0, 60.0  # median |course - heading| for a heading that follows or not
 RADIANS_CLOSER = 0.5  # a heading read as radians this much closer to the course than read as degrees is in radians
+AHEAD_MIN_N = 10.0  # the two thrusters' sum at least this ahead: the boat moves along its bow (no drift, no astern)
 
 
-def heading_against_track(fix_t_s, north_m, east_m, heading_t_s, heading_deg) -> tuple[float, float, int] | None:
+def heading_against_track(fix_t_s, north_m, east_m, heading_t_s, heading_deg, ahead=None) -> tuple[float, float, int] | None:
     """(median |course over ground - heading| with the heading read as degrees, the same read as radians (deg;
     NaN when a value lies outside -pi..2*pi), stretches compared) over the stretches where the fixes show the
-    boat moving; None with fewer than TRACK_MIN_STRETCHES. A WAM-V moves along its bow: a heading that does not
+    boat moving and ``ahead(t_s) -> bool`` (the thrust ahead, None: always) holds at their ends and middle (a
+    boat astern, or drifting with its bow steady near 3 deg, matched 3 rad: a review); None with fewer than
+    TRACK_MIN_STRETCHES. A WAM-V moves along its bow: a heading that does not
     follow its track is in other units or the track's columns are crossed."""
     from autopilot.geo import wrap_pi
 
@@ -474,6 +485,8 @@ def heading_against_track(fix_t_s, north_m, east_m, heading_t_s, heading_deg) ->
     dn, de, dt = nf[j] - nf[i], ef[j] - ef[i], tf[j] - tf[i]
     dist = np.hypot(dn, de)
     moving = (dist >= TRACK_MIN_M) & (dist >= TRACK_MIN_SPEED_M_S * dt)
+    if ahead is not None:
+        moving &= ahead(tf[i]) & ahead(tf[j]) & ahead(0.5 * (tf[i] + tf[j]))
     if moving.sum() < TRACK_MIN_STRETCHES:
         return None
     course = np.arctan2(de[moving], dn[moving])
@@ -488,11 +501,11 @@ def heading_against_track(fix_t_s, north_m, east_m, heading_t_s, heading_deg) ->
     return median_deg(np.radians(near)), as_rad, int(moving.sum())
 
 
-def check_heading_units(fix_t_s, north_m, east_m, heading_t_s, heading_deg) -> tuple:
+def check_heading_units(fix_t_s, north_m, east_m, heading_t_s, heading_deg, ahead=None) -> tuple:
     """ConfigError when heading_deg is in radians (every value within -pi..2*pi, and read as radians it follows the
     track's course while read as degrees it does not); a note when the heading does not follow the track at all.
     A heading in radians was fitted as a yaw damping 500 times the boat's, 'adequate' (a new user's test)."""
-    found = heading_against_track(fix_t_s, north_m, east_m, heading_t_s, heading_deg)
+    found = heading_against_track(fix_t_s, north_m, east_m, heading_t_s, heading_deg, ahead)
     if found is None:
         return ()
     as_deg, as_rad, stretches = found
