@@ -21,6 +21,7 @@ import math
 import os
 import re
 import socket
+import threading
 import time
 from dataclasses import dataclass
 
@@ -170,34 +171,44 @@ class UdpEndpoint(Endpoint):
             # IPv4 station) and kept its source address across a network change (a review)
             self.transport, _ = await loop.create_datagram_endpoint(lambda: _Datagrams(self),
                                                                     local_addr=("0.0.0.0", 0))
-            await self._resolve_station()
+            try:
+                ipaddress.IPv4Address(self.spec.host)
+                self._resolve_station()  # an address: at once
+            except ValueError:
+                self._resolve_later(now=True)  # a name: in its thread
 
-    async def _resolve_station(self) -> None:
-        """The ground station's addresses (its name resolved off the event loop); none while it cannot be."""
+    def _resolve_station(self) -> None:
+        """The ground station's addresses (IPv4, as the socket: localhost is ::1 first on Debian, which an IPv4
+        station never hears); none while its name cannot be resolved. Runs in a thread of its own for a name: on
+        the event loop a resolver that does not answer stalls the control loop, and through asyncio's executor the
+        lockstep bench (--speedup max) stalled after a few cycles."""
         self._resolved_s = time.monotonic()
-        try:  # IPv4, as the socket: localhost is ::1 first on Debian, which an IPv4 station never hears
-            infos = await asyncio.get_running_loop().getaddrinfo(self.spec.host, self.spec.port, family=socket.AF_INET,
-                                                                 type=socket.SOCK_DGRAM)
+        with contextlib.suppress(ValueError):  # an address already: nothing to ask
+            self.station = frozenset({str(ipaddress.IPv4Address(self.spec.host))})
+            self.station_addr = (self.spec.host, self.spec.port)
+            return
+        try:
+            infos = socket.getaddrinfo(self.spec.host, self.spec.port, family=socket.AF_INET, type=socket.SOCK_DGRAM)
         except OSError:  # not known (yet): nothing sent or read until it is, asked again in STATION_RESOLVE_S
             self.station, self.station_addr = frozenset(), None
             return
         self.station = frozenset(info[4][0] for info in infos)
         self.station_addr = (infos[0][4][0], self.spec.port) if infos else None
 
-    def _resolve_later(self) -> None:
-        """Ask the station's name again (at most every STATION_RESOLVE_S, off the event loop): it may point
-        elsewhere now (a DHCP lease), or be known at last (DNS up late at boot)."""
-        if time.monotonic() - self._resolved_s <= STATION_RESOLVE_S or self._resolving:
+    def _resolve_later(self, *, now: bool = False) -> None:
+        """Ask the station's name again (at most every STATION_RESOLVE_S, in a thread): it may point elsewhere now
+        (a DHCP lease), or be known at last (DNS up late at boot)."""
+        if self._resolving or (not now and time.monotonic() - self._resolved_s <= STATION_RESOLVE_S):
             return
         self._resolving = True
 
-        async def again():
+        def work():
             try:
-                await self._resolve_station()
+                self._resolve_station()
             finally:
                 self._resolving = False
 
-        asyncio.get_running_loop().create_task(again())
+        threading.Thread(target=work, name="mavlink-resolve", daemon=True).start()
 
     def from_station(self, addr) -> bool:
         """A datagram from ``addr`` is read: udpin reads everyone's on its address; udpout only its station's (a
