@@ -19,7 +19,7 @@ __all__ = [
     "Mode",
     "MODES",
     "TIME_STOP_CAUSE",
-    "time_stop_words",
+    "time_stop_words", "started_at_words",
     "HEADING_SOURCES",
     "COG_HEADING_SOURCE",
     "COURSE_FOR_HEADING",
@@ -91,6 +91,15 @@ def time_stop_words(mode: str | None, held_s: float) -> str:
     held = ("an unknown time" if held_s is None or not math.isfinite(held_s)
             else f"{held_s:.0f} s" if held_s >= 10.0 else f"{held_s:.1f} s")
     return f"then in {mode or 'an unknown mode'} for {held} until {TIME_STOP_CAUSE} stopped it"
+
+
+def started_at_words(start_index: int) -> str:
+    """How a run carried on from an earlier one is said, in the daemon's end summary and the review's alike:
+    " (this run started at W2: W0-W1 were an earlier run's)"; "" for a run from its first waypoint."""
+    if not start_index:
+        return ""
+    before = "W0 was" if start_index == 1 else f"W0-W{start_index - 1} were"
+    return f" (this run started at W{start_index}: {before} an earlier run's)"
 
 
 MISSION_RTL_CAUSE = "mission: return to launch"  # a mission's own rtl, after its route (a restart resumes it)

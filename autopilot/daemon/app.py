@@ -31,7 +31,7 @@ from autopilot.daemon.missionlog import MissionLog, log_path
 from autopilot.daemon.sd_notify import Notifier
 from autopilot.daemon.state import RESUME_REFUSED, StateStore, file_sha256
 from autopilot.geo import latlon_to_local, local_to_latlon
-from autopilot.logschema import Mode, time_stop_words
+from autopilot.logschema import Mode, started_at_words, time_stop_words
 from autopilot.resources import package_version
 from autopilot.schema import ConfigError, to_dict
 
@@ -896,9 +896,8 @@ def end_summary(loop: ControlLoop, log_path: str, *, sim: bool) -> list[str]:
         stopped = f"; stopped by {st.stop_signal}"
     # a run resumed at W2 said "0 of 9 reached; W0: not reached": the run before had reached them (a new user's test)
     start = int(getattr(loop, "start_index", 0) or 0)
-    resumed = (f" (this run started at W{start}: " + ("W0 was" if start == 1 else f"W0-W{start - 1} were")
-               + " an earlier run's)") if start else ""  # as the review says it
-    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps - start} waypoint(s) reached{resumed}" + stopped
+    lines.append(f"{done} after {t_s:.1f} s: {len(reached)} of {n_wps - start} waypoint(s) reached"
+                 + started_at_words(start) + stopped
                  + ("; zero thrust acknowledged by the Mbed" if st.stop_acknowledged else ""))
     for i in range(n_wps):
         ca = st.closest_m.get(i)

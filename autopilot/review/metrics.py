@@ -36,7 +36,14 @@ import numpy as np
 
 from autopilot.gnc.encounter import EncounterConfig
 from autopilot.gnc.passes import closest_per_pass
-from autopilot.logschema import FAILSAFE_CAUSE_PREFIX, RTL_ARRIVED_CAUSE, TIME_STOP_CAUSE, Mode, time_stop_words
+from autopilot.logschema import (
+    FAILSAFE_CAUSE_PREFIX,
+    RTL_ARRIVED_CAUSE,
+    TIME_STOP_CAUSE,
+    Mode,
+    started_at_words,
+    time_stop_words,
+)
 from autopilot.review.reader import MODES, SITUATIONS, UNKNOWN_CODE, MissionLog, Plan, TargetTrack, _is_number
 from autopilot.traffic.score import score_target
 
@@ -272,9 +279,7 @@ class Scorecard:
             ("waypoints reached", f"{wp_reached} of {len(self.waypoints)}" + (
                 # a restart that carried a run on: the waypoints before it were the earlier run's (it read "6 of 9"
                 # beside "complete" for a run that flew its 6: a review audit)
-                f" (this run started at W{self.start_index}: "
-                + ("W0 was" if self.start_index == 1 else f"W0-W{self.start_index - 1} were") + " an earlier run's)"
-                if self.start_index else "") + (
+                started_at_words(self.start_index)) + (
                 f"; {len(in_hole)} passed in a hole in the log ({', '.join(in_hole[:5])}"
                 + (", ..." if len(in_hole) > 5 else "") + "): not known" if in_hole else "")),
             ("closest approach of the waypoints reached, mean / max", ca_text),
